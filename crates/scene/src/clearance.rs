@@ -1,0 +1,1 @@
+//! Clearance (distance to the mesh) with parry3d.

@@ -1,0 +1,1 @@
+//! COLMAP sparse models (text and binary) and dense depth maps.

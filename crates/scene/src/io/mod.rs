@@ -1,0 +1,1 @@
+//! Mesh file formats: PLY (ascii, binary little and big endian) and OBJ.

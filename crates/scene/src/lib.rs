@@ -1,0 +1,31 @@
+//! `vp-scene`: the shared ground of vpctl.
+//!
+//! Everything the other crates exchange lives here: the [`Mesh`] with
+//! per-face [`Material`]s, posed pinhole [`Camera`]s, file formats
+//! ([`io`] for PLY/OBJ, [`colmap`] for COLMAP models and depth maps), ray
+//! casting for visibility ([`raycast`], obvhs CWBVH), clearance to obstacles
+//! ([`clearance`], parry3d), the mesh operations of the paper
+//! ([`mesh_ops`]), raster types ([`raster`]), the plan file ([`plan`]) and
+//! deterministic procedural scenes ([`procedural`]) that feed every crate's
+//! tests and the simulator.
+//!
+//! World frame: local ENU, metres, z up. Poses are named by what they map
+//! (`world_from_cam`).
+#![warn(missing_docs)]
+
+pub mod camera;
+pub mod clearance;
+pub mod colmap;
+pub mod error;
+pub mod fsio;
+pub mod io;
+pub mod mesh;
+pub mod mesh_ops;
+pub mod plan;
+pub mod procedural;
+pub mod raster;
+pub mod raycast;
+
+pub use camera::{Camera, Intrinsics};
+pub use error::{Location, Result, SceneError};
+pub use mesh::{Aabb, Material, Mesh};

@@ -1,0 +1,1 @@
+//! Mesh operations of the paper: face splitting, shrink/expand, region of interest.

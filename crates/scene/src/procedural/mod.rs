@@ -1,0 +1,1 @@
+//! Procedural scenes: test shapes and aerial sites with materials, deterministic by seed.

@@ -1,0 +1,1 @@
+//! Ray casting over a mesh with a CWBVH (obvhs).

@@ -1,0 +1,1 @@
+pub use vp_scene as scene;
