@@ -1,0 +1,235 @@
+use nalgebra::{Point3, Vector3};
+use proptest::prelude::*;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use super::*;
+use crate::camera::Intrinsics;
+
+/// Random triangle soup in a 20 m cube offset far from the origin (so the
+/// local-frame shift matters), with triangles of 0.5..4 m.
+fn random_soup(seed: u64, n: usize) -> Mesh {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let base = Vector3::new(5_000.0, -3_000.0, 200.0);
+    let mut vertices = Vec::with_capacity(3 * n);
+    let mut faces = Vec::with_capacity(n);
+    while faces.len() < n {
+        let c = Point3::new(
+            rng.random_range(0.0..20.0),
+            rng.random_range(0.0..20.0),
+            rng.random_range(0.0..20.0),
+        ) + base;
+        let s = rng.random_range(0.5..4.0);
+        let tri: Vec<Point3<f64>> = (0..3)
+            .map(|_| {
+                c + Vector3::new(
+                    rng.random_range(-s..s),
+                    rng.random_range(-s..s),
+                    rng.random_range(-s..s),
+                )
+            })
+            .collect();
+        if (tri[1] - tri[0]).cross(&(tri[2] - tri[0])).norm() < 0.05 {
+            continue;
+        }
+        let i = vertices.len() as u32;
+        vertices.extend(tri);
+        faces.push([i, i + 1, i + 2]);
+    }
+    Mesh::new(vertices, faces, None).unwrap()
+}
+
+fn random_ray(rng: &mut ChaCha8Rng) -> (Point3<f64>, Vector3<f64>) {
+    let base = Vector3::new(5_000.0, -3_000.0, 200.0);
+    let o = Point3::new(
+        rng.random_range(-10.0..30.0),
+        rng.random_range(-10.0..30.0),
+        rng.random_range(-10.0..30.0),
+    ) + base;
+    let target = Point3::new(
+        rng.random_range(0.0..20.0),
+        rng.random_range(0.0..20.0),
+        rng.random_range(0.0..20.0),
+    ) + base;
+    (o, (target - o).normalize())
+}
+
+/// Plain f64 Möller-Trumbore: distance and barycentric margin (how far the
+/// hit is from the triangle's edges, in barycentric units).
+fn brute_force(mesh: &Mesh, o: &Point3<f64>, d: &Vector3<f64>) -> Option<(f64, usize, f64)> {
+    let mut best: Option<(f64, usize, f64)> = None;
+    for f in 0..mesh.n_faces() {
+        let [a, b, c] = mesh.triangle(f);
+        let (e1, e2) = (b - a, c - a);
+        let p = d.cross(&e2);
+        let det = e1.dot(&p);
+        if det.abs() < 1e-12 {
+            continue;
+        }
+        let s = o - a;
+        let u = s.dot(&p) / det;
+        let q = s.cross(&e1);
+        let v = d.dot(&q) / det;
+        let t = e2.dot(&q) / det;
+        let margin = u.min(v).min(1.0 - u - v);
+        if margin >= 0.0 && t > 0.0 && best.is_none_or(|(bt, _, _)| t < bt) {
+            best = Some((t, f, margin));
+        }
+    }
+    best
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    /// The BVH finds exactly the triangle and distance that testing every
+    /// triangle finds (rays grazing an edge within f32 round-off excepted).
+    #[test]
+    fn closest_hit_equals_brute_force(seed in any::<u64>(), n in 1usize..400) {
+        let mesh = random_soup(seed, n);
+        let caster = RayCaster::new(&mesh);
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed);
+        for _ in 0..200 {
+            let (o, d) = random_ray(&mut rng);
+            let bvh = caster.closest_hit(&o, &d, f64::INFINITY);
+            match brute_force(&mesh, &o, &d) {
+                Some((t, f, margin)) if margin > 1e-4 => {
+                    let hit = bvh.expect("brute force hits, BVH must hit");
+                    prop_assert!((hit.t - t).abs() < 1e-3 * t.max(1.0), "t {} vs {}", hit.t, t);
+                    if hit.face as usize != f {
+                        // Only a tie of two faces at the same distance may differ.
+                        let other = brute_force(&Mesh::new(mesh.triangle(hit.face as usize).to_vec(), vec![[0, 1, 2]], None).unwrap(), &o, &d);
+                        prop_assert!(other.is_some_and(|(t2, _, _)| (t2 - t).abs() < 1e-3));
+                    }
+                    let sum: f64 = hit.bary.iter().sum();
+                    prop_assert!((sum - 1.0).abs() < 1e-9 && hit.bary.iter().all(|&b| b > -1e-3));
+                }
+                None => {
+                    // A miss by brute force may be a graze the f32 BVH hits; it
+                    // must then be very close to an edge of the face it hits.
+                    if let Some(hit) = bvh {
+                        prop_assert!(hit.bary.iter().any(|&b| b.abs() < 1e-3), "BVH hit {hit:?} that brute force misses");
+                    }
+                }
+                Some(_) => {} // grazing an edge: either answer is right
+            }
+            // Occlusion agrees with the closest hit.
+            let far = o + d * 100.0;
+            prop_assert_eq!(caster.occluded(&o, &far), bvh.is_some_and(|h| h.t < 100.0 * (1.0 - 1e-5)));
+        }
+    }
+}
+
+#[test]
+fn batch_results_equal_single_queries() {
+    let mesh = random_soup(7, 2000);
+    let caster = RayCaster::new(&mesh);
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let rays: Vec<_> = (0..5000).map(|_| random_ray(&mut rng)).collect();
+    let batch = caster.closest_hits(&rays, f64::INFINITY);
+    for (r, b) in rays.iter().zip(&batch) {
+        assert_eq!(*b, caster.closest_hit(&r.0, &r.1, f64::INFINITY));
+    }
+    assert!(batch.iter().filter(|h| h.is_some()).count() > 1000);
+    let segments: Vec<_> = rays.iter().map(|(o, d)| (*o, o + d * 15.0)).collect();
+    let occ = caster.occluded_batch(&segments);
+    for (s, o) in segments.iter().zip(&occ) {
+        assert_eq!(*o, caster.occluded(&s.0, &s.1));
+    }
+}
+
+fn ground_with_wall() -> Mesh {
+    // Ground square 0..10 x 0..10 at z = 0 (two faces, normal up) and a wall
+    // at x = 5 from y = 0..10, z = 0..3 (facing -x).
+    let v = vec![
+        Point3::new(0.0, 0.0, 0.0),
+        Point3::new(10.0, 0.0, 0.0),
+        Point3::new(10.0, 10.0, 0.0),
+        Point3::new(0.0, 10.0, 0.0),
+        Point3::new(5.0, 0.0, 0.0),
+        Point3::new(5.0, 10.0, 0.0),
+        Point3::new(5.0, 10.0, 3.0),
+        Point3::new(5.0, 0.0, 3.0),
+    ];
+    Mesh::new(v, vec![[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]], None).unwrap()
+}
+
+#[test]
+fn wall_occludes_the_ground_behind_it() {
+    let mesh = ground_with_wall();
+    let caster = RayCaster::new(&mesh);
+    let eye = Point3::new(1.0, 5.0, 1.0);
+    assert!(caster.occluded(&eye, &Point3::new(9.0, 5.0, 0.5)));
+    assert!(!caster.occluded(&eye, &Point3::new(4.0, 5.0, 0.5)));
+    // Over the wall.
+    assert!(!caster.occluded(&Point3::new(1.0, 5.0, 10.0), &Point3::new(9.0, 5.0, 10.0)));
+    // A target exactly on the ground does not occlude itself.
+    assert!(!caster.occluded(&eye, &Point3::new(2.0, 5.0, 0.0)));
+    let hit = caster
+        .closest_hit(&eye, &Vector3::x(), f64::INFINITY)
+        .unwrap();
+    assert!((hit.t - 4.0).abs() < 1e-5 && hit.face >= 2);
+}
+
+#[test]
+fn visible_faces_follow_the_m1_definition() {
+    let mesh = ground_with_wall();
+    let caster = RayCaster::new(&mesh);
+    let k = Intrinsics::from_hfov(400, 300, 120.0).unwrap();
+    // High above, looking down: both ground faces are visible (the wall is
+    // seen edge-on and not checked).
+    let nadir = Camera::from_yaw_pitch(
+        k,
+        Point3::new(5.0, 5.0, 40.0),
+        0.0,
+        -std::f64::consts::FRAC_PI_2,
+    );
+    let vis = caster.visible_faces(&nadir, &mesh);
+    assert!(vis[0] && vis[1]);
+    // From below the ground: ground faces are back-facing.
+    let below = Camera::from_yaw_pitch(
+        k,
+        Point3::new(5.0, 5.0, -40.0),
+        0.0,
+        std::f64::consts::FRAC_PI_2,
+    );
+    let vis = caster.visible_faces(&below, &mesh);
+    assert!(!vis[0] && !vis[1]);
+    // Looking away: nothing in the frustum.
+    let away = Camera::from_yaw_pitch(k, Point3::new(5.0, 5.0, 40.0), 0.0, 1.2);
+    assert!(caster.visible_faces(&away, &mesh).iter().all(|v| !v));
+}
+
+#[test]
+fn rendered_depth_of_a_plane_is_the_height() {
+    let mesh = ground_with_wall();
+    let caster = RayCaster::new(&mesh);
+    let k = Intrinsics::from_hfov(64, 48, 30.0).unwrap();
+    let cam = Camera::from_yaw_pitch(
+        k,
+        Point3::new(2.0, 5.0, 20.0),
+        0.0,
+        -std::f64::consts::FRAC_PI_2,
+    );
+    let (depth, faces) = caster.render_depth(&cam);
+    // Pixels that see the ground (faces 0/1) have depth 20 (nadir, flat ground).
+    let ground: Vec<f32> = depth
+        .iter()
+        .zip(&faces)
+        .filter(|(_, &f)| f < 2)
+        .map(|(d, _)| *d)
+        .collect();
+    assert!(ground.len() > 1000);
+    assert!(ground.iter().all(|d| (d - 20.0).abs() < 1e-3));
+    // The wall top edge at z = 3 is seen by some pixels at depth 17..20.
+    assert!(depth.iter().zip(&faces).any(|(d, &f)| f >= 2 && *d < 20.0));
+}
+
+#[test]
+fn empty_mesh_never_hits() {
+    let caster = RayCaster::new(&Mesh::default());
+    assert!(caster
+        .closest_hit(&Point3::origin(), &Vector3::z(), f64::INFINITY)
+        .is_none());
+    assert!(!caster.occluded(&Point3::origin(), &Point3::new(0.0, 0.0, 5.0)));
+}
