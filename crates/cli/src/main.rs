@@ -1,1 +1,73 @@
-fn main() {}
+//! `vpctl`: plan UAV image acquisition for dense multi-view stereo.
+//!
+//! The binary is thin: it parses arguments, calls a library crate and maps
+//! errors to exit codes (2 for bad usage or bad input, 1 for failures, 0 on a
+//! closed pipe).
+
+use std::io::{self, Write};
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+mod cmd;
+
+/// Plan UAV image acquisition for dense multi-view stereo (MVS).
+///
+/// vpctl predicts where an MVS algorithm will succeed in each acquired image,
+/// plans the camera triplets that most improve coverage, resolution and 3D
+/// accuracy while keeping a safety distance, and uploads the mission over
+/// MAVLink.
+#[derive(Debug, Parser)]
+#[command(name = "vpctl", version, about, long_about)]
+struct Args {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Procedural scenes: generate a site with materials.
+    #[command(subcommand)]
+    Scene(cmd::scene::SceneCommand),
+    /// Inspect meshes (PLY, OBJ).
+    #[command(subcommand)]
+    Mesh(cmd::mesh::MeshCommand),
+    /// Inspect COLMAP sparse models (text or binary).
+    #[command(subcommand)]
+    Colmap(cmd::colmap::ColmapCommand),
+    /// Inspect COLMAP dense depth maps.
+    #[command(subcommand)]
+    Depth(cmd::depth::DepthCommand),
+}
+
+fn run(args: Args, out: &mut dyn Write) -> anyhow::Result<()> {
+    match args.command {
+        Command::Scene(c) => cmd::scene::run(c, out),
+        Command::Mesh(c) => cmd::mesh::run(c, out),
+        Command::Colmap(c) => cmd::colmap::run(c, out),
+        Command::Depth(c) => cmd::depth::run(c, out),
+    }
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    let stdout = io::stdout();
+    let mut out = stdout.lock();
+    match run(args, &mut out).and_then(|()| out.flush().map_err(Into::into)) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            for cause in e.chain().skip(1) {
+                eprintln!("  caused by: {cause}");
+            }
+            ExitCode::from(cmd::exit_code(&e))
+        }
+    }
+}
+
+fn is_broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain()
+        .filter_map(|c| c.downcast_ref::<io::Error>())
+        .any(|io| io.kind() == io::ErrorKind::BrokenPipe)
+}

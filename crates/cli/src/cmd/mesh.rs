@@ -1,0 +1,92 @@
+//! `vpctl mesh ...`: inspect meshes.
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use anyhow::Result;
+use clap::Subcommand;
+use vp_scene::{io, Material};
+
+/// Mesh subcommands.
+#[derive(Debug, Subcommand)]
+pub enum MeshCommand {
+    /// Print faces, vertices, bounds, materials and the problems found in a
+    /// PLY or OBJ mesh (non-finite coordinates, bad indices, degenerate faces).
+    ///
+    /// Exits with 0 when the mesh is usable as it is, 2 when it has problems.
+    Info {
+        /// The mesh file (.ply or .obj).
+        file: PathBuf,
+    },
+}
+
+pub fn run(cmd: MeshCommand, out: &mut dyn Write) -> Result<()> {
+    match cmd {
+        MeshCommand::Info { file } => info(&file, out),
+    }
+}
+
+fn info(file: &std::path::Path, out: &mut dyn Write) -> Result<()> {
+    let mesh = io::load_mesh_raw(file)?;
+    let (_, report) = mesh.cleaned();
+    let non_finite_vertices = mesh
+        .vertices
+        .iter()
+        .filter(|p| !p.iter().all(|c| c.is_finite()))
+        .count();
+    writeln!(out, "file: {}", file.display())?;
+    writeln!(out, "vertices: {}", mesh.n_vertices())?;
+    writeln!(out, "faces: {}", mesh.n_faces())?;
+    let b = mesh.bounds();
+    if mesh.n_vertices() > 0 && non_finite_vertices == 0 {
+        writeln!(out, "bounds min: {:.4} {:.4} {:.4}", b.min.x, b.min.y, b.min.z)?;
+        writeln!(out, "bounds max: {:.4} {:.4} {:.4}", b.max.x, b.max.y, b.max.z)?;
+        let e = b.extent();
+        writeln!(out, "extent: {:.4} {:.4} {:.4}", e.x, e.y, e.z)?;
+    }
+    if report.dropped_faces() == 0 {
+        writeln!(out, "area: {:.4}", mesh.face_areas().iter().sum::<f64>())?;
+        writeln!(out, "mean edge length: {:.4}", mesh.mean_edge_length())?;
+    }
+    match mesh.material_counts() {
+        None => writeln!(out, "materials: none")?,
+        Some(counts) => {
+            let parts: Vec<String> = Material::ALL
+                .iter()
+                .zip(counts)
+                .filter(|(_, n)| *n > 0)
+                .map(|(m, n)| format!("{} {n}", m.name()))
+                .collect();
+            writeln!(out, "materials: {}", parts.join(", "))?;
+        }
+    }
+    let problems = [
+        ("vertices with non-finite coordinates", non_finite_vertices),
+        ("faces with an index out of range", report.bad_index_faces),
+        ("faces using a non-finite vertex", report.non_finite_faces),
+        ("degenerate faces", report.degenerate_faces),
+        ("unused vertices", report.unused_vertices),
+    ];
+    let found: Vec<String> = problems
+        .iter()
+        .filter(|(_, n)| *n > 0)
+        .map(|(what, n)| format!("{n} {what}"))
+        .collect();
+    if found.is_empty() {
+        writeln!(out, "problems: none")?;
+        Ok(())
+    } else {
+        writeln!(out, "problems: {}", found.join("; "))?;
+        // Unused vertices alone do not make a mesh unusable.
+        if report.dropped_faces() > 0 || non_finite_vertices > 0 {
+            Err(vp_scene::SceneError::InvalidMesh(format!(
+                "{}: {}",
+                file.display(),
+                found.join("; ")
+            ))
+            .into())
+        } else {
+            Ok(())
+        }
+    }
+}
