@@ -128,7 +128,9 @@ impl Builder {
         mut indices: impl FnMut(usize) -> std::result::Result<i64, String>,
     ) -> std::result::Result<(), String> {
         if n < 3 {
-            return Err(format!("face has {n} vertices; a face needs at least 3"));
+            return Err(format!(
+                "the list has {n} vertex indices; a face needs at least 3"
+            ));
         }
         let vertex = |raw: i64| {
             u32::try_from(raw).map_err(|_| format!("vertex index {raw} is not a valid index"))
