@@ -1,1 +1,152 @@
 //! COLMAP sparse models (text and binary) and dense depth maps.
+//!
+//! - [`read_model`] loads a sparse model folder (`cameras`, `images`,
+//!   `points3D`, as `.bin` or `.txt`) into a [`Reconstruction`] and checks
+//!   its cross-references; [`write_text`] and [`write_binary`] write one.
+//! - [`Reconstruction::camera_of`] gives the posed pinhole [`Camera`] of an
+//!   image: every COLMAP camera model ([`CameraModel`]) is reduced to its
+//!   pinhole approximation ([`ColmapCamera::pinhole`]), distortion dropped.
+//! - [`read_depth_map`] / [`write_depth_map`] handle COLMAP's dense depth
+//!   maps ([`DepthMap`]).
+//!
+//! Every error names the file and the place: the line for text files, the
+//! element and byte offset for binary files.
+//!
+//! [`Camera`]: crate::Camera
+
+mod binary;
+mod depth;
+mod model;
+mod text;
+
+use std::path::{Path, PathBuf};
+
+pub use binary::{
+    cameras_to_bytes, images_to_bytes, parse_cameras_binary, parse_images_binary,
+    parse_points3d_binary, points3d_to_bytes, read_cameras_binary, read_images_binary,
+    read_points3d_binary,
+};
+pub use depth::{parse_depth_map, read_depth_map, write_depth_map, DepthMap, DepthStats};
+pub use model::{CameraModel, ColmapCamera, ColmapImage, Point2D, Point3D, Reconstruction};
+pub use text::{
+    cameras_to_string, images_to_string, parse_cameras, parse_images, parse_points3d,
+    points3d_to_string, read_cameras_text, read_images_text, read_points3d_text,
+};
+
+use crate::error::{Location, Result, SceneError};
+use model::ModelFile;
+
+/// The two on-disk forms of a sparse model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ModelFormat {
+    /// `cameras.bin`, `images.bin`, `points3D.bin`.
+    Binary,
+    /// `cameras.txt`, `images.txt`, `points3D.txt`.
+    Text,
+}
+
+impl ModelFormat {
+    fn extension(self) -> &'static str {
+        match self {
+            ModelFormat::Binary => "bin",
+            ModelFormat::Text => "txt",
+        }
+    }
+
+    /// Paths of the three files of a model in `dir`, in the order cameras,
+    /// images, points.
+    pub fn files(self, dir: &Path) -> [PathBuf; 3] {
+        [ModelFile::Cameras, ModelFile::Images, ModelFile::Points]
+            .map(|f| dir.join(format!("{}.{}", f.stem(), self.extension())))
+    }
+}
+
+/// Which form of model `dir` holds. Binary wins when both are complete:
+/// it is what COLMAP's mapper writes and it is lossless, while a text copy
+/// beside it is usually an export made from it.
+pub fn detect_format(dir: &Path) -> Result<ModelFormat> {
+    let complete = |f: ModelFormat| f.files(dir).iter().all(|p| p.is_file());
+    if complete(ModelFormat::Binary) {
+        return Ok(ModelFormat::Binary);
+    }
+    if complete(ModelFormat::Text) {
+        return Ok(ModelFormat::Text);
+    }
+    if !dir.is_dir() {
+        return Err(SceneError::io(
+            dir,
+            std::io::Error::new(std::io::ErrorKind::NotFound, "no such directory"),
+        ));
+    }
+    let mut message = String::from(
+        "no COLMAP model: expected cameras, images and points3D as .bin or .txt files",
+    );
+    for f in [ModelFormat::Binary, ModelFormat::Text] {
+        let [cams, ims, pts] = f.files(dir);
+        let present = [&cams, &ims, &pts].iter().filter(|p| p.is_file()).count();
+        if present > 0 {
+            let missing: Vec<String> = [cams, ims, pts]
+                .iter()
+                .filter(|p| !p.is_file())
+                .map(|p| p.file_name().unwrap_or_default().to_string_lossy().into_owned())
+                .collect();
+            message = format!("incomplete COLMAP model: missing {}", missing.join(", "));
+        }
+    }
+    // The mapper writes numbered sub-models (sparse/0, sparse/1, ...).
+    if ModelFormat::Binary.files(&dir.join("0")).iter().all(|p| p.is_file())
+        || ModelFormat::Text.files(&dir.join("0")).iter().all(|p| p.is_file())
+    {
+        message.push_str(&format!(" (a model exists in {})", dir.join("0").display()));
+    }
+    Err(SceneError::parse(dir, Location::Header, message))
+}
+
+/// Reads a sparse model from `dir` (format from [`detect_format`]) and
+/// checks it: unknown camera or image references, track elements pointing
+/// at missing 2D points, etc. are errors naming the file at fault.
+pub fn read_model(dir: &Path) -> Result<Reconstruction> {
+    let format = detect_format(dir)?;
+    read_model_as(dir, format)
+}
+
+/// Reads a sparse model of the given format from `dir` and checks it.
+pub fn read_model_as(dir: &Path, format: ModelFormat) -> Result<Reconstruction> {
+    let files = format.files(dir);
+    let (rec, places) = match format {
+        ModelFormat::Binary => binary::read_located(&files)?,
+        ModelFormat::Text => text::read_located(&files)?,
+    };
+    if let Some(bad) = rec.check() {
+        let k = match bad.file {
+            ModelFile::Cameras => 0,
+            ModelFile::Images => 1,
+            ModelFile::Points => 2,
+        };
+        let location = places[k].get(&bad.id).cloned().unwrap_or(Location::Header);
+        return Err(SceneError::parse(
+            &files[k],
+            location,
+            format!("{}: {}", bad.element, bad.message),
+        ));
+    }
+    Ok(rec)
+}
+
+/// Writes `rec` as `cameras.txt`, `images.txt`, `points3D.txt` into `dir`
+/// (created if missing), after [`Reconstruction::validate`]. Each file is
+/// written atomically.
+pub fn write_text(dir: &Path, rec: &Reconstruction) -> Result<()> {
+    rec.validate()?;
+    std::fs::create_dir_all(dir).map_err(|e| SceneError::io(dir, e))?;
+    text::write_text_files(dir, rec)
+}
+
+/// Writes `rec` as `cameras.bin`, `images.bin`, `points3D.bin` into `dir`
+/// (created if missing), after [`Reconstruction::validate`]. Each file is
+/// written atomically.
+pub fn write_binary(dir: &Path, rec: &Reconstruction) -> Result<()> {
+    rec.validate()?;
+    std::fs::create_dir_all(dir).map_err(|e| SceneError::io(dir, e))?;
+    binary::write_binary_files(dir, rec)
+}

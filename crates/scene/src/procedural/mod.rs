@@ -1,1 +1,184 @@
 //! Procedural scenes: test shapes and aerial sites with materials, deterministic by seed.
+//!
+//! - [`shapes`]: small meshes for unit tests ([`plane`], [`box_mesh`],
+//!   [`sphere`], [`heightfield`], [`cylinder`]).
+//! - [`generate_site`]: a rock-art site like the paper's Val Camonica
+//!   experiments: terrain, one large smooth rock (the object of interest),
+//!   trees with see-through canopies, grass tufts and flat markers on posts,
+//!   every face tagged with its [`Material`](crate::Material).
+//!
+//! Determinism: every part draws from its own ChaCha8 stream derived from the
+//! seed and a part constant ([`part_rng`]), so changing the number of trees
+//! does not move the terrain; parallel work (rayon) only evaluates pure
+//! functions per vertex or per tree and collects in order, so the output is
+//! bit-identical for any thread count.
+
+pub mod noise;
+pub mod shapes;
+
+mod grass;
+mod markers;
+mod rock;
+mod site;
+mod terrain;
+mod vegetation;
+
+#[cfg(test)]
+mod site_tests;
+
+pub use markers::{MarkerInfo, MARKER_SIZE};
+pub use noise::{Fbm, GradientNoise};
+pub use rock::Rock;
+pub use shapes::{box_mesh, cylinder, heightfield, plane, sphere, with_material};
+pub use site::{generate_site, Site, SiteParams, SiteSummary};
+pub use terrain::{Terrain, TerrainGrid};
+pub use vegetation::TreeInfo;
+
+use nalgebra::Point3;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+use crate::mesh::{Material, Mesh};
+
+/// WGS84 position of the local ENU origin (world (0, 0, 0)) of a scene.
+///
+/// Carried by the scene and used by `mission` to turn local waypoints into
+/// latitude/longitude/altitude.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct GeodeticOrigin {
+    /// Latitude in degrees, north positive.
+    pub lat_deg: f64,
+    /// Longitude in degrees, east positive.
+    pub lon_deg: f64,
+    /// Height of world z = 0 in metres above the WGS84 ellipsoid.
+    pub alt_m: f64,
+}
+
+impl Default for GeodeticOrigin {
+    /// Near the Seradina rock-art sites in Val Camonica (Capo di Ponte, Italy),
+    /// where the paper's experiments were flown.
+    fn default() -> Self {
+        GeodeticOrigin {
+            lat_deg: 46.03,
+            lon_deg: 10.35,
+            alt_m: 400.0,
+        }
+    }
+}
+
+/// Seed constants of the site's parts: one independent random stream each.
+pub(crate) mod part {
+    pub const TERRAIN: u64 = 0x7465_7272_6169_6e00;
+    pub const ROCK: u64 = 0x726f_636b_0000_0000;
+    pub const TREES: u64 = 0x7472_6565_7300_0000;
+    pub const GRASS: u64 = 0x6772_6173_7300_0000;
+    pub const MARKERS: u64 = 0x6d61_726b_6572_7300;
+}
+
+/// SplitMix64 finaliser: spreads nearby seeds over the whole u64 range.
+fn mix64(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// The seed of stream `index` of `part` for a site seed. Hashing (rather than
+/// `seed ^ part ^ index`) keeps streams of different parts and indices apart.
+pub(crate) fn part_seed(seed: u64, part: u64, index: u64) -> u64 {
+    mix64(seed ^ mix64(part ^ mix64(index)))
+}
+
+/// A ChaCha8 stream for `index` of `part` (see [`part_seed`]).
+pub(crate) fn part_rng(seed: u64, part: u64, index: u64) -> ChaCha8Rng {
+    ChaCha8Rng::seed_from_u64(part_seed(seed, part, index))
+}
+
+/// Accumulates vertices and faces with materials; cheaper than repeated
+/// [`Mesh::append`] and keeps materials always present.
+#[derive(Debug, Default)]
+pub(crate) struct Builder {
+    pub vertices: Vec<Point3<f64>>,
+    pub faces: Vec<[u32; 3]>,
+    pub materials: Vec<Material>,
+}
+
+impl Builder {
+    /// Adds a vertex and returns its index.
+    pub fn vertex(&mut self, p: Point3<f64>) -> u32 {
+        self.vertices.push(p);
+        (self.vertices.len() - 1) as u32
+    }
+
+    /// Adds a face over existing vertex indices.
+    pub fn face(&mut self, f: [u32; 3], m: Material) {
+        self.faces.push(f);
+        self.materials.push(m);
+    }
+
+    /// Adds a free triangle (three new vertices).
+    pub fn triangle(&mut self, t: [Point3<f64>; 3], m: Material) {
+        let a = self.vertex(t[0]);
+        let b = self.vertex(t[1]);
+        let c = self.vertex(t[2]);
+        self.face([a, b, c], m);
+    }
+
+    /// Appends a mesh, giving all its faces material `m`.
+    pub fn append(&mut self, mesh: &Mesh, m: Material) {
+        let base = self.vertices.len() as u32;
+        self.vertices.extend_from_slice(&mesh.vertices);
+        self.faces
+            .extend(mesh.faces.iter().map(|f| f.map(|i| i + base)));
+        self.materials
+            .extend(std::iter::repeat_n(m, mesh.faces.len()));
+    }
+
+    /// Appends another builder's geometry (indices shifted).
+    pub fn extend(&mut self, other: Builder) {
+        let base = self.vertices.len() as u32;
+        self.vertices.extend(other.vertices);
+        self.faces
+            .extend(other.faces.into_iter().map(|f| f.map(|i| i + base)));
+        self.materials.extend(other.materials);
+    }
+
+    /// Number of faces so far.
+    #[cfg(test)]
+    pub fn n_faces(&self) -> usize {
+        self.faces.len()
+    }
+
+    /// The finished mesh (not validated: callers validate once at the end).
+    pub fn finish(self) -> Mesh {
+        Mesh {
+            vertices: self.vertices,
+            faces: self.faces,
+            materials: Some(self.materials),
+        }
+    }
+}
+
+/// Keeps only the faces for which `keep` is true and drops the vertices no
+/// kept face uses, preserving order (deterministic).
+pub(crate) fn filter_faces(
+    vertices: &[Point3<f64>],
+    faces: &[[u32; 3]],
+    keep: impl Fn(&[u32; 3]) -> bool,
+) -> (Vec<Point3<f64>>, Vec<[u32; 3]>) {
+    let mut remap = vec![u32::MAX; vertices.len()];
+    let mut out_v = Vec::new();
+    let mut out_f = Vec::new();
+    for f in faces.iter().filter(|f| keep(f)) {
+        out_f.push(f.map(|i| {
+            let slot = &mut remap[i as usize];
+            if *slot == u32::MAX {
+                *slot = out_v.len() as u32;
+                out_v.push(vertices[i as usize]);
+            }
+            *slot
+        }));
+    }
+    (out_v, out_f)
+}

@@ -1,0 +1,621 @@
+//! The in-memory COLMAP sparse model: cameras, images, 3D points, and the
+//! cross-references between them.
+
+use std::collections::BTreeMap;
+use std::fmt;
+
+use nalgebra::{Isometry3, Point2, Point3, Quaternion, Translation3, UnitQuaternion};
+
+use crate::camera::{Camera, Intrinsics};
+use crate::error::{Result, SceneError};
+
+/// Every camera model COLMAP knows, with its numeric id (as stored in
+/// `cameras.bin`) and its name (as written in `cameras.txt`).
+///
+/// Ids 0–10 exist since COLMAP 3.0, 11 since 3.11, 12–17 since 4.x.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum CameraModel {
+    /// `f, cx, cy`.
+    SimplePinhole,
+    /// `fx, fy, cx, cy`.
+    Pinhole,
+    /// `f, cx, cy, k`.
+    SimpleRadial,
+    /// `f, cx, cy, k1, k2`.
+    Radial,
+    /// `fx, fy, cx, cy, k1, k2, p1, p2`.
+    OpenCv,
+    /// `fx, fy, cx, cy, k1, k2, k3, k4`.
+    OpenCvFisheye,
+    /// `fx, fy, cx, cy, k1, k2, p1, p2, k3, k4, k5, k6`.
+    FullOpenCv,
+    /// `fx, fy, cx, cy, omega`.
+    Fov,
+    /// `f, cx, cy, k`.
+    SimpleRadialFisheye,
+    /// `f, cx, cy, k1, k2`.
+    RadialFisheye,
+    /// `fx, fy, cx, cy, k1, k2, p1, p2, k3, k4, sx1, sy1`.
+    ThinPrismFisheye,
+    /// `fx, fy, cx, cy, k0..k5, p0, p1, s0..s3` (Project Aria's Fisheye624).
+    RadTanThinPrismFisheye,
+    /// `f, cx, cy, k` (Fitzgibbon's one-parameter division model).
+    SimpleDivision,
+    /// `fx, fy, cx, cy, k`.
+    Division,
+    /// `f, cx, cy` (equidistant fisheye without distortion).
+    SimpleFisheye,
+    /// `fx, fy, cx, cy` (equidistant fisheye without distortion).
+    Fisheye,
+    /// `fx, fy, cx, cy, alpha, beta` (enhanced unified camera model).
+    Eucm,
+    /// `w, h` (full-sphere panorama; has no pinhole approximation).
+    Equirectangular,
+}
+
+impl CameraModel {
+    /// All models in id order.
+    pub const ALL: [CameraModel; 18] = [
+        CameraModel::SimplePinhole,
+        CameraModel::Pinhole,
+        CameraModel::SimpleRadial,
+        CameraModel::Radial,
+        CameraModel::OpenCv,
+        CameraModel::OpenCvFisheye,
+        CameraModel::FullOpenCv,
+        CameraModel::Fov,
+        CameraModel::SimpleRadialFisheye,
+        CameraModel::RadialFisheye,
+        CameraModel::ThinPrismFisheye,
+        CameraModel::RadTanThinPrismFisheye,
+        CameraModel::SimpleDivision,
+        CameraModel::Division,
+        CameraModel::SimpleFisheye,
+        CameraModel::Fisheye,
+        CameraModel::Eucm,
+        CameraModel::Equirectangular,
+    ];
+
+    /// COLMAP's numeric model id.
+    pub fn id(self) -> i32 {
+        self as i32
+    }
+
+    /// The model with COLMAP id `id`, if there is one.
+    pub fn from_id(id: i32) -> Option<Self> {
+        usize::try_from(id)
+            .ok()
+            .and_then(|i| Self::ALL.get(i).copied())
+    }
+
+    /// COLMAP's name of the model, as in `cameras.txt`.
+    pub fn name(self) -> &'static str {
+        match self {
+            CameraModel::SimplePinhole => "SIMPLE_PINHOLE",
+            CameraModel::Pinhole => "PINHOLE",
+            CameraModel::SimpleRadial => "SIMPLE_RADIAL",
+            CameraModel::Radial => "RADIAL",
+            CameraModel::OpenCv => "OPENCV",
+            CameraModel::OpenCvFisheye => "OPENCV_FISHEYE",
+            CameraModel::FullOpenCv => "FULL_OPENCV",
+            CameraModel::Fov => "FOV",
+            CameraModel::SimpleRadialFisheye => "SIMPLE_RADIAL_FISHEYE",
+            CameraModel::RadialFisheye => "RADIAL_FISHEYE",
+            CameraModel::ThinPrismFisheye => "THIN_PRISM_FISHEYE",
+            CameraModel::RadTanThinPrismFisheye => "RAD_TAN_THIN_PRISM_FISHEYE",
+            CameraModel::SimpleDivision => "SIMPLE_DIVISION",
+            CameraModel::Division => "DIVISION",
+            CameraModel::SimpleFisheye => "SIMPLE_FISHEYE",
+            CameraModel::Fisheye => "FISHEYE",
+            CameraModel::Eucm => "EUCM",
+            CameraModel::Equirectangular => "EQUIRECTANGULAR",
+        }
+    }
+
+    /// The model named `name` (COLMAP spelling, exact case).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.name() == name)
+    }
+
+    /// Number of parameters COLMAP stores for the model.
+    pub fn num_params(self) -> usize {
+        match self {
+            CameraModel::Equirectangular => 2,
+            CameraModel::SimplePinhole | CameraModel::SimpleFisheye => 3,
+            CameraModel::Pinhole
+            | CameraModel::SimpleRadial
+            | CameraModel::SimpleRadialFisheye
+            | CameraModel::SimpleDivision
+            | CameraModel::Fisheye => 4,
+            CameraModel::Radial
+            | CameraModel::RadialFisheye
+            | CameraModel::Fov
+            | CameraModel::Division => 5,
+            CameraModel::Eucm => 6,
+            CameraModel::OpenCv | CameraModel::OpenCvFisheye => 8,
+            CameraModel::FullOpenCv | CameraModel::ThinPrismFisheye => 12,
+            CameraModel::RadTanThinPrismFisheye => 16,
+        }
+    }
+
+    /// Whether the model has a single focal length `f` (then the parameters
+    /// start `f, cx, cy`) rather than `fx, fy, cx, cy`.
+    fn single_focal(self) -> bool {
+        matches!(
+            self,
+            CameraModel::SimplePinhole
+                | CameraModel::SimpleRadial
+                | CameraModel::Radial
+                | CameraModel::SimpleRadialFisheye
+                | CameraModel::RadialFisheye
+                | CameraModel::SimpleDivision
+                | CameraModel::SimpleFisheye
+        )
+    }
+}
+
+impl fmt::Display for CameraModel {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// One COLMAP camera (a set of intrinsics shared by one or more images).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ColmapCamera {
+    /// Camera id.
+    pub id: u32,
+    /// Camera model.
+    pub model: CameraModel,
+    /// Image width in pixels.
+    pub width: u64,
+    /// Image height in pixels.
+    pub height: u64,
+    /// Model parameters in COLMAP's order; length `model.num_params()`.
+    pub params: Vec<f64>,
+}
+
+impl ColmapCamera {
+    /// The pinhole approximation of the camera: focal lengths and principal
+    /// point taken from the model's parameters, distortion dropped. For every
+    /// perspective and fisheye model this is the model's first-order
+    /// behaviour at the principal point, which is what planning needs (ground
+    /// resolution, field of view). Fails for `EQUIRECTANGULAR` (no pinhole
+    /// exists), for a wrong parameter count, a size that does not fit `u32`,
+    /// or a non-positive or non-finite focal length.
+    pub fn pinhole(&self) -> Result<Intrinsics> {
+        let what = || format!("camera {} ({})", self.id, self.model);
+        if self.model == CameraModel::Equirectangular {
+            return Err(SceneError::InvalidArgument(format!(
+                "{}: an equirectangular panorama has no pinhole approximation",
+                what()
+            )));
+        }
+        if self.params.len() != self.model.num_params() {
+            return Err(SceneError::InvalidArgument(format!(
+                "{}: expected {} parameters, found {}",
+                what(),
+                self.model.num_params(),
+                self.params.len()
+            )));
+        }
+        let (Ok(width), Ok(height)) = (u32::try_from(self.width), u32::try_from(self.height))
+        else {
+            return Err(SceneError::InvalidArgument(format!(
+                "{}: image size {}x{} is too large",
+                what(),
+                self.width,
+                self.height
+            )));
+        };
+        let p = &self.params;
+        let (fx, fy, cx, cy) = if self.model.single_focal() {
+            (p[0], p[0], p[1], p[2])
+        } else {
+            (p[0], p[1], p[2], p[3])
+        };
+        if !(fx > 0.0 && fy > 0.0 && fx.is_finite() && fy.is_finite()) {
+            return Err(SceneError::InvalidArgument(format!(
+                "{}: focal length ({fx}, {fy}) is not positive and finite",
+                what()
+            )));
+        }
+        if !(cx.is_finite() && cy.is_finite()) {
+            return Err(SceneError::InvalidArgument(format!(
+                "{}: principal point ({cx}, {cy}) is not finite",
+                what()
+            )));
+        }
+        Ok(Intrinsics {
+            width,
+            height,
+            fx,
+            fy,
+            cx,
+            cy,
+        })
+    }
+}
+
+/// One 2D feature of an image, possibly observing a 3D point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Point2D {
+    /// Pixel position (COLMAP convention: top-left image corner at (0, 0)).
+    pub xy: Point2<f64>,
+    /// The 3D point it observes; `None` is COLMAP's `-1`.
+    pub point3d_id: Option<u64>,
+}
+
+/// One registered image.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ColmapImage {
+    /// Image id.
+    pub id: u32,
+    /// Id of the camera (intrinsics) the image was taken with.
+    pub camera_id: u32,
+    /// File name relative to the image folder.
+    pub name: String,
+    /// Pose: maps world coordinates to camera coordinates (COLMAP's qvec, tvec).
+    pub cam_from_world: Isometry3<f64>,
+    /// 2D features; a 3D point's track refers to them by index.
+    pub points2d: Vec<Point2D>,
+}
+
+impl ColmapImage {
+    /// Projection centre in the world frame.
+    pub fn center(&self) -> Point3<f64> {
+        Point3::from(self.cam_from_world.inverse().translation.vector)
+    }
+}
+
+/// One triangulated 3D point.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Point3D {
+    /// Point id.
+    pub id: u64,
+    /// Position in the world frame.
+    pub xyz: Point3<f64>,
+    /// Colour.
+    pub rgb: [u8; 3],
+    /// Mean reprojection error in pixels (COLMAP writes -1 when unknown).
+    pub error: f64,
+    /// Observations: (image id, index into that image's `points2d`).
+    pub track: Vec<(u32, u32)>,
+}
+
+/// A COLMAP sparse model.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Reconstruction {
+    /// Cameras by id.
+    pub cameras: BTreeMap<u32, ColmapCamera>,
+    /// Registered images by id.
+    pub images: BTreeMap<u32, ColmapImage>,
+    /// 3D points by id.
+    pub points: BTreeMap<u64, Point3D>,
+}
+
+/// The three files of a sparse model, to say which one a problem lies in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum ModelFile {
+    Cameras,
+    Images,
+    Points,
+}
+
+impl ModelFile {
+    pub(crate) fn stem(self) -> &'static str {
+        match self {
+            ModelFile::Cameras => "cameras",
+            ModelFile::Images => "images",
+            ModelFile::Points => "points3D",
+        }
+    }
+}
+
+/// A broken cross-reference or invariant, found by [`Reconstruction::check`].
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Inconsistency {
+    /// The file holding the element at fault.
+    pub file: ModelFile,
+    /// Id of the element at fault (camera, image or point id).
+    pub id: u64,
+    /// The element at fault in words (e.g. "image 3").
+    pub element: String,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl Reconstruction {
+    /// The posed pinhole camera of image `image_id` (pinhole approximation of
+    /// its COLMAP camera, `world_from_cam` the inverse of its pose).
+    pub fn camera_of(&self, image_id: u32) -> Result<Camera> {
+        let image = self.images.get(&image_id).ok_or_else(|| {
+            SceneError::InvalidArgument(format!("no image with id {image_id} in the model"))
+        })?;
+        let cam = self.cameras.get(&image.camera_id).ok_or_else(|| {
+            SceneError::InvalidArgument(format!(
+                "image {image_id} refers to camera {}, which is not in the model",
+                image.camera_id
+            ))
+        })?;
+        Ok(Camera::new(cam.pinhole()?, image.cam_from_world.inverse()))
+    }
+
+    /// Mean number of observations per 3D point (0 without points).
+    pub fn mean_track_length(&self) -> f64 {
+        if self.points.is_empty() {
+            return 0.0;
+        }
+        let total: usize = self.points.values().map(|p| p.track.len()).sum();
+        total as f64 / self.points.len() as f64
+    }
+
+    /// Mean number of 2D features that observe a 3D point, per image (0
+    /// without images).
+    pub fn mean_observations_per_image(&self) -> f64 {
+        if self.images.is_empty() {
+            return 0.0;
+        }
+        let total: usize = self
+            .images
+            .values()
+            .map(|im| im.points2d.iter().filter(|p| p.point3d_id.is_some()).count())
+            .sum();
+        total as f64 / self.images.len() as f64
+    }
+
+    /// Mean reprojection error over the points that carry one (COLMAP writes
+    /// a negative error when it is unknown); `None` when no point has one.
+    pub fn mean_reprojection_error(&self) -> Option<f64> {
+        let errs: Vec<f64> = self
+            .points
+            .values()
+            .map(|p| p.error)
+            .filter(|e| *e >= 0.0 && e.is_finite())
+            .collect();
+        (!errs.is_empty()).then(|| errs.iter().sum::<f64>() / errs.len() as f64)
+    }
+
+    /// Checks the model's invariants: each camera has its model's parameter
+    /// count; each image's camera exists; each 2D point's 3D point exists and
+    /// lists that observation in its track; each track element names an
+    /// existing image and 2D point that observes the 3D point.
+    pub fn validate(&self) -> Result<()> {
+        match self.check() {
+            None => Ok(()),
+            Some(e) => Err(SceneError::InvalidArgument(format!(
+                "COLMAP model: {}: {}: {}",
+                e.file.stem(),
+                e.element,
+                e.message
+            ))),
+        }
+    }
+
+    /// The first broken invariant, if any (see [`Reconstruction::validate`]).
+    pub(crate) fn check(&self) -> Option<Inconsistency> {
+        let bad = |file: ModelFile, id: u64, message: String| {
+            let kind = match file {
+                ModelFile::Cameras => "camera",
+                ModelFile::Images => "image",
+                ModelFile::Points => "point",
+            };
+            Some(Inconsistency {
+                file,
+                id,
+                element: format!("{kind} {id}"),
+                message,
+            })
+        };
+        for cam in self.cameras.values() {
+            if cam.params.len() != cam.model.num_params() {
+                return bad(
+                    ModelFile::Cameras,
+                    u64::from(cam.id),
+                    format!(
+                        "{} expects {} parameters, found {}",
+                        cam.model,
+                        cam.model.num_params(),
+                        cam.params.len()
+                    ),
+                );
+            }
+        }
+        for image in self.images.values() {
+            if !self.cameras.contains_key(&image.camera_id) {
+                return bad(
+                    ModelFile::Images,
+                    u64::from(image.id),
+                    format!("refers to unknown camera {}", image.camera_id),
+                );
+            }
+            for (idx, p2) in image.points2d.iter().enumerate() {
+                let Some(pid) = p2.point3d_id else { continue };
+                let listed = self.points.get(&pid).map(|p| {
+                    p.track
+                        .iter()
+                        .any(|&(im, i)| im == image.id && i as usize == idx)
+                });
+                match listed {
+                    Some(true) => {}
+                    Some(false) => {
+                        return bad(
+                            ModelFile::Images,
+                            u64::from(image.id),
+                            format!(
+                                "2D point {idx} observes 3D point {pid}, whose track does not list it"
+                            ),
+                        )
+                    }
+                    None => {
+                        return bad(
+                            ModelFile::Images,
+                            u64::from(image.id),
+                            format!("2D point {idx} refers to unknown 3D point {pid}"),
+                        )
+                    }
+                }
+            }
+        }
+        for point in self.points.values() {
+            for &(image_id, idx) in &point.track {
+                let Some(image) = self.images.get(&image_id) else {
+                    return bad(
+                        ModelFile::Points,
+                        point.id,
+                        format!("track refers to unknown image {image_id}"),
+                    );
+                };
+                let Some(p2) = image.points2d.get(idx as usize) else {
+                    return bad(
+                        ModelFile::Points,
+                        point.id,
+                        format!(
+                            "track refers to 2D point {idx} of image {image_id}, which has only {}",
+                            image.points2d.len()
+                        ),
+                    );
+                };
+                if p2.point3d_id != Some(point.id) {
+                    return bad(
+                        ModelFile::Points,
+                        point.id,
+                        format!(
+                            "track lists 2D point {idx} of image {image_id}, which observes {}",
+                            p2.point3d_id
+                                .map_or_else(|| "no 3D point".to_string(), |p| format!("3D point {p}"))
+                        ),
+                    );
+                }
+            }
+        }
+        None
+    }
+}
+
+/// Builds `cam_from_world` from COLMAP's `qvec` (w, x, y, z) and `tvec`.
+/// A quaternion that is unit to rounding is kept bit for bit, so that reading
+/// and writing a model loses nothing; others are normalised. A zero or
+/// non-finite quaternion is an error (the message is returned).
+pub(crate) fn pose_from_qt(q: [f64; 4], t: [f64; 3]) -> std::result::Result<Isometry3<f64>, String> {
+    if q.iter().chain(t.iter()).any(|v| !v.is_finite()) {
+        return Err(format!("pose qvec {q:?} tvec {t:?} is not finite"));
+    }
+    let quat = Quaternion::new(q[0], q[1], q[2], q[3]);
+    let n2 = quat.norm_squared();
+    if n2 < 1e-20 {
+        return Err(format!("quaternion {q:?} is zero and has no rotation"));
+    }
+    let rot = if (n2 - 1.0).abs() < 1e-12 {
+        UnitQuaternion::new_unchecked(quat)
+    } else {
+        UnitQuaternion::new_normalize(quat)
+    };
+    Ok(Isometry3::from_parts(Translation3::new(t[0], t[1], t[2]), rot))
+}
+
+/// COLMAP's `qvec` (w, x, y, z) and `tvec` of a pose.
+pub(crate) fn qt_from_pose(pose: &Isometry3<f64>) -> ([f64; 4], [f64; 3]) {
+    let q = pose.rotation.quaternion();
+    let t = pose.translation.vector;
+    ([q.w, q.i, q.j, q.k], [t.x, t.y, t.z])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn model_ids_names_and_param_counts_match_colmap() {
+        let expected = [
+            ("SIMPLE_PINHOLE", 3),
+            ("PINHOLE", 4),
+            ("SIMPLE_RADIAL", 4),
+            ("RADIAL", 5),
+            ("OPENCV", 8),
+            ("OPENCV_FISHEYE", 8),
+            ("FULL_OPENCV", 12),
+            ("FOV", 5),
+            ("SIMPLE_RADIAL_FISHEYE", 4),
+            ("RADIAL_FISHEYE", 5),
+            ("THIN_PRISM_FISHEYE", 12),
+            ("RAD_TAN_THIN_PRISM_FISHEYE", 16),
+            ("SIMPLE_DIVISION", 4),
+            ("DIVISION", 5),
+            ("SIMPLE_FISHEYE", 3),
+            ("FISHEYE", 4),
+            ("EUCM", 6),
+            ("EQUIRECTANGULAR", 2),
+        ];
+        for (id, (name, n)) in expected.iter().enumerate() {
+            let m = CameraModel::from_id(id as i32).unwrap();
+            assert_eq!(m.id(), id as i32);
+            assert_eq!(m.name(), *name);
+            assert_eq!(m.num_params(), *n, "{name}");
+            assert_eq!(CameraModel::from_name(name), Some(m));
+        }
+        assert_eq!(CameraModel::from_id(18), None);
+        assert_eq!(CameraModel::from_id(-1), None);
+        assert_eq!(CameraModel::from_name("pinhole"), None);
+    }
+
+    fn cam(model: CameraModel, params: Vec<f64>) -> ColmapCamera {
+        ColmapCamera {
+            id: 1,
+            model,
+            width: 640,
+            height: 480,
+            params,
+        }
+    }
+
+    #[test]
+    fn pinhole_reads_focal_and_principal_point_of_every_model() {
+        for model in CameraModel::ALL {
+            // Parameters 100, 101, 102, ...: the mapping is visible in the result.
+            let params: Vec<f64> = (0..model.num_params()).map(|i| 100.0 + i as f64).collect();
+            let c = cam(model, params);
+            if model == CameraModel::Equirectangular {
+                assert!(c.pinhole().is_err());
+                continue;
+            }
+            let k = c.pinhole().unwrap();
+            let (fx, fy, cx, cy) = if model.single_focal() {
+                (100.0, 100.0, 101.0, 102.0)
+            } else {
+                (100.0, 101.0, 102.0, 103.0)
+            };
+            assert_eq!((k.fx, k.fy, k.cx, k.cy), (fx, fy, cx, cy), "{model}");
+            assert_eq!((k.width, k.height), (640, 480));
+        }
+    }
+
+    #[test]
+    fn pinhole_of_known_cameras() {
+        let k = cam(CameraModel::SimpleRadial, vec![500.0, 320.0, 240.0, -0.1])
+            .pinhole()
+            .unwrap();
+        assert_eq!((k.fx, k.fy, k.cx, k.cy), (500.0, 500.0, 320.0, 240.0));
+        let opencv = vec![510.0, 505.0, 321.0, 239.0, 0.1, -0.02, 0.001, 0.002];
+        let k = cam(CameraModel::OpenCv, opencv).pinhole().unwrap();
+        assert_eq!((k.fx, k.fy, k.cx, k.cy), (510.0, 505.0, 321.0, 239.0));
+        let err = cam(CameraModel::Pinhole, vec![500.0, 320.0, 240.0])
+            .pinhole()
+            .unwrap_err();
+        assert!(err.to_string().contains("expected 4 parameters, found 3"), "{err}");
+        let err = cam(CameraModel::SimplePinhole, vec![0.0, 320.0, 240.0])
+            .pinhole()
+            .unwrap_err();
+        assert!(err.to_string().contains("focal length"), "{err}");
+    }
+
+    #[test]
+    fn zero_quaternion_is_rejected_and_others_normalised() {
+        assert!(pose_from_qt([0.0; 4], [0.0; 3]).unwrap_err().contains("zero"));
+        let p = pose_from_qt([2.0, 0.0, 0.0, 0.0], [1.0, 2.0, 3.0]).unwrap();
+        assert!((p.rotation.angle()).abs() < 1e-15);
+        let q = [0.5f64.sqrt(), 0.5f64.sqrt(), 0.0, 0.0];
+        let p = pose_from_qt(q, [0.0; 3]).unwrap();
+        assert_eq!(qt_from_pose(&p).0, q, "unit quaternion kept bit for bit");
+    }
+}

@@ -1,0 +1,329 @@
+//! Tests of the site generator: determinism, budget, content, geometry.
+
+use nalgebra::Point3;
+
+use super::rock::SINK;
+use super::*;
+use crate::error::SceneError;
+use crate::mesh::{Material, Mesh};
+
+fn site(seed: u64, target: usize) -> Site {
+    generate_site(&SiteParams {
+        seed,
+        target_faces: target,
+        ..SiteParams::default()
+    })
+    .unwrap()
+}
+
+fn same_bits(a: &Mesh, b: &Mesh) -> bool {
+    a.faces == b.faces
+        && a.materials == b.materials
+        && a.vertices.len() == b.vertices.len()
+        && a.vertices.iter().zip(&b.vertices).all(|(p, q)| {
+            p.iter()
+                .zip(q.iter())
+                .all(|(x, y)| x.to_bits() == y.to_bits())
+        })
+}
+
+fn faces_of(m: &Mesh, mat: Material) -> impl Iterator<Item = usize> + '_ {
+    (0..m.n_faces()).filter(move |&f| m.material(f) == Some(mat))
+}
+
+#[test]
+fn same_seed_same_bits_whatever_the_thread_count() {
+    let a = site(42, 20_000);
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let b = one.install(|| site(42, 20_000));
+    assert!(same_bits(&a.mesh, &b.mesh));
+    let c = site(43, 20_000);
+    assert!(!same_bits(&a.mesh, &c.mesh));
+    assert_ne!(a.rock.center, c.rock.center);
+}
+
+#[test]
+fn face_count_is_within_ten_percent_of_target() {
+    for target in [10_000, 100_000] {
+        let s = site(7, target);
+        let ratio = s.mesh.n_faces() as f64 / target as f64;
+        assert!((ratio - 1.0).abs() < 0.10, "{target}: {}", s.summary());
+    }
+}
+
+#[test]
+#[ignore = "slow in debug builds: a million faces"]
+fn face_count_is_within_ten_percent_of_a_million() {
+    let s = site(7, 1_000_000);
+    let ratio = s.mesh.n_faces() as f64 / 1e6;
+    assert!((ratio - 1.0).abs() < 0.10, "{}", s.summary());
+    s.mesh.validate().unwrap();
+}
+
+#[test]
+fn every_material_present_with_plausible_shares_and_rock_size() {
+    let s = site(1, 50_000);
+    s.mesh.validate().unwrap();
+    let sum = s.summary();
+    let share = |m: Material| sum.faces_per_material[m as usize] as f64 / sum.n_faces as f64;
+    assert!((0.2..0.6).contains(&share(Material::Ground)), "{sum}");
+    assert!((0.15..0.35).contains(&share(Material::Rock)), "{sum}");
+    assert!((0.05..0.25).contains(&share(Material::Grass)), "{sum}");
+    assert!((0.15..0.35).contains(&share(Material::Tree)), "{sum}");
+    assert_eq!(sum.faces_per_material[Material::Marker as usize], 12 * 6);
+    let [x, y, z] = sum.rock_extent;
+    assert!((x / 17.0 - 1.0).abs() < 0.12, "rock length {x}");
+    assert!((y / 13.0 - 1.0).abs() < 0.12, "rock width {y}");
+    // Crest a few metres above its base; the base follows the slope.
+    let c = s.rock.center;
+    let crest = s.surface_height(c.x, c.y) - s.ground.height(c.x, c.y);
+    assert!((2.0..4.0).contains(&crest), "rock crest {crest} m");
+    assert!(z > 2.0 && z < 8.0, "rock z extent {z}");
+    let text = sum.to_string();
+    assert!(
+        Material::ALL.iter().all(|m| text.contains(m.name())),
+        "{text}"
+    );
+}
+
+#[test]
+fn terrain_stays_within_its_bounds_and_has_no_faces_under_the_rock() {
+    let s = site(3, 20_000);
+    let (lo, hi) = s.terrain.height_bounds(0.5 * s.params.size);
+    let m = &s.mesh;
+    for f in faces_of(m, Material::Ground) {
+        for p in m.triangle(f) {
+            assert!(p.z >= lo && p.z <= hi, "ground at {p} outside [{lo}, {hi}]");
+            assert!(p.x.abs() <= 30.0 && p.y.abs() <= 30.0);
+        }
+        // Kept faces reach out from under the rock with at least one corner.
+        let hidden = m
+            .triangle(f)
+            .iter()
+            .all(|p| s.rock.bump(p.x, p.y) > SINK + 0.1);
+        assert!(!hidden, "ground face {f} hidden under the rock");
+    }
+}
+
+#[test]
+fn rock_sits_on_the_ground_and_nothing_grows_on_it() {
+    let s = site(5, 20_000);
+    let m = &s.mesh;
+    let mut hidden_ground = 0;
+    for f in faces_of(m, Material::Ground) {
+        let c = m.face_centroid(f);
+        hidden_ground += usize::from(s.rock.bump(c.x, c.y) > 1.0);
+    }
+    assert_eq!(hidden_ground, 0, "ground faces left deep under the rock");
+    for f in faces_of(m, Material::Rock) {
+        for p in m.triangle(f) {
+            // Only the cut edge dips below the ground, and not far.
+            assert!(p.z >= s.ground.height(p.x, p.y) - 0.5);
+        }
+    }
+    for mat in [Material::Grass, Material::Tree, Material::Marker] {
+        for f in faces_of(m, mat) {
+            let c = m.face_centroid(f);
+            assert!(
+                s.rock.bump(c.x, c.y) < 0.0,
+                "{} face {f} on the rock",
+                mat.name()
+            );
+        }
+    }
+    // Grass roots are just below the meshed ground: blades join it.
+    for f in faces_of(m, Material::Grass) {
+        let [a, b, _] = m.triangle(f);
+        for p in [a, b] {
+            let d = s.ground.height(p.x, p.y) - p.z;
+            assert!(d > 0.0 && d < 0.05, "grass root {d} m below ground");
+        }
+    }
+}
+
+/// Share of vertical rays through the inner canopy footprint that hit no
+/// tree face: the canopies must be see-through, not closed blobs.
+fn gap_fraction(m: &Mesh, tree: &TreeInfo, tree_faces: &[usize]) -> f64 {
+    let [cx, cy] = tree.position;
+    let [rx, ry, _] = tree.canopy_radii;
+    let tris: Vec<[Point3<f64>; 3]> = tree_faces
+        .iter()
+        .map(|&f| m.triangle(f))
+        .filter(|t| {
+            let c = (t[0].coords + t[1].coords + t[2].coords) / 3.0;
+            (c.x - cx).hypot(c.y - cy) < 1.3 * rx.max(ry)
+        })
+        .collect();
+    let covered = |x: f64, y: f64| {
+        tris.iter().any(|[a, b, c]| {
+            let side = |p: &Point3<f64>, q: &Point3<f64>| {
+                (q.x - p.x) * (y - p.y) - (q.y - p.y) * (x - p.x)
+            };
+            let (d1, d2, d3) = (side(a, b), side(b, c), side(c, a));
+            (d1 >= 0.0 && d2 >= 0.0 && d3 >= 0.0) || (d1 <= 0.0 && d2 <= 0.0 && d3 <= 0.0)
+        })
+    };
+    let (mut n, mut open) = (0, 0);
+    for i in 0..40 {
+        for j in 0..40 {
+            let (u, v) = (i as f64 / 19.5 - 1.0, j as f64 / 19.5 - 1.0);
+            if u * u + v * v > 0.6 {
+                continue; // inner part of the footprint only
+            }
+            n += 1;
+            open += usize::from(!covered(cx + u * rx, cy + v * ry));
+        }
+    }
+    open as f64 / n as f64
+}
+
+#[test]
+fn canopies_have_gaps_you_can_see_through() {
+    for target in [10_000, 100_000] {
+        let s = site(9, target);
+        let tree_faces: Vec<usize> = faces_of(&s.mesh, Material::Tree).collect();
+        for t in &s.trees {
+            let g = gap_fraction(&s.mesh, t, &tree_faces);
+            assert!((0.1..0.8).contains(&g), "{target} faces: gap fraction {g}");
+        }
+    }
+}
+
+#[test]
+fn trees_and_markers_stand_clear_and_markers_face_up() {
+    let s = generate_site(&SiteParams {
+        seed: 11,
+        target_faces: 20_000,
+        n_trees: 10,
+        n_markers: 8,
+        ..SiteParams::default()
+    })
+    .unwrap();
+    assert_eq!(s.trees.len(), 10);
+    assert_eq!(s.markers.len(), 8);
+    for t in &s.trees {
+        let [x, y] = t.position;
+        assert!(s.rock.bump(x, y) < -1.0);
+        for mk in &s.markers {
+            assert!((mk.center[0] - x).hypot(mk.center[1] - y) > t.reach());
+        }
+    }
+    for mk in &s.markers {
+        let above = mk.center[2] - s.ground.height(mk.center[0], mk.center[1]);
+        assert!((0.4..0.8).contains(&above));
+    }
+    let m = &s.mesh;
+    let up: f64 = faces_of(m, Material::Marker)
+        .filter(|&f| m.face_normal(f).z > 0.999)
+        .map(|f| m.face_area(f))
+        .sum();
+    assert!((up - 8.0 * MARKER_SIZE * MARKER_SIZE).abs() < 1e-9);
+}
+
+#[test]
+fn flight_volume_is_above_the_ground_and_covers_the_site() {
+    let s = site(2, 10_000);
+    let v = s.flight_volume;
+    let m = &s.mesh;
+    let mut low = f64::INFINITY;
+    for f in faces_of(m, Material::Ground).chain(faces_of(m, Material::Rock)) {
+        for p in m.triangle(f) {
+            assert!(p.z + 2.0 <= v.min.z + 1e-9);
+            low = low.min(p.z);
+        }
+    }
+    assert!(v.max.z >= low + 60.0 - 1e-9);
+    assert_eq!((v.min.x, v.max.y), (-30.0, 30.0));
+    assert!(v.contains(&Point3::new(0.0, 0.0, low + 50.0)));
+}
+
+#[test]
+fn more_trees_leave_terrain_rock_and_first_trees_unchanged() {
+    let a = site(4, 20_000);
+    let b = generate_site(&SiteParams {
+        seed: 4,
+        target_faces: 20_000,
+        n_trees: 8,
+        ..SiteParams::default()
+    })
+    .unwrap();
+    assert_eq!(a.rock.center, b.rock.center);
+    assert_eq!(a.terrain.slope, b.terrain.slope);
+    assert_eq!(a.terrain.height(3.0, -7.0), b.terrain.height(3.0, -7.0));
+    assert_eq!(a.trees[..], b.trees[..6]);
+    // Marker heights follow the ground mesh, whose resolution shares the
+    // face budget with the trees; positions do not move.
+    for (p, q) in a.markers.iter().zip(&b.markers) {
+        assert_eq!(
+            (p.center[0], p.center[1], p.yaw),
+            (q.center[0], q.center[1], q.yaw)
+        );
+    }
+}
+
+#[test]
+fn params_read_partially_from_json_with_defaults() {
+    let p: SiteParams = serde_json::from_str(r#"{"seed": 5, "n_trees": 2}"#).unwrap();
+    assert_eq!((p.seed, p.n_trees, p.target_faces), (5, 2, 200_000));
+    let back: SiteParams = serde_json::from_str(&serde_json::to_string(&p).unwrap()).unwrap();
+    assert_eq!(back, p);
+}
+
+#[test]
+fn bad_params_are_refused_with_the_field_named() {
+    let cases = [
+        (
+            SiteParams {
+                target_faces: 100,
+                ..SiteParams::default()
+            },
+            "target_faces",
+        ),
+        (
+            SiteParams {
+                size: 20.0,
+                ..SiteParams::default()
+            },
+            "size",
+        ),
+        (
+            SiteParams {
+                rock_height: f64::NAN,
+                ..SiteParams::default()
+            },
+            "rock_height",
+        ),
+        (
+            SiteParams {
+                rock_width: 20.0,
+                ..SiteParams::default()
+            },
+            "rock_width",
+        ),
+        (
+            SiteParams {
+                target_faces: 10_000,
+                n_grass_tufts: Some(5_000),
+                ..SiteParams::default()
+            },
+            "raise target_faces",
+        ),
+        (
+            SiteParams {
+                n_trees: 500,
+                target_faces: 200_000,
+                ..SiteParams::default()
+            },
+            "trees",
+        ),
+    ];
+    for (p, want) in cases {
+        match generate_site(&p) {
+            Err(SceneError::InvalidArgument(msg)) => assert!(msg.contains(want), "{msg}"),
+            other => panic!("expected an invalid-argument error about {want}, got {other:?}"),
+        }
+    }
+}
