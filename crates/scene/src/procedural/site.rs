@@ -29,6 +29,10 @@ const GRASS_SHARE: f64 = 0.12;
 const MIN_TERRAIN_SHARE: f64 = 0.1;
 /// Smallest and largest supported face budgets.
 const TARGET_RANGE: (usize, usize) = (5_000, 20_000_000);
+/// Largest tree count accepted (placement is quadratic in it).
+const MAX_TREES: usize = 2000;
+/// Largest marker count accepted.
+const MAX_MARKERS: usize = 500;
 /// The flight volume's floor is this far above the highest point of ground
 /// and rock (metres): nothing underground passes a distance-only clearance test.
 pub const FLIGHT_FLOOR_CLEARANCE: f64 = 2.0;
@@ -118,6 +122,25 @@ impl SiteParams {
                 "size = {} m: must be between rock_length + 20 = {min_size} m and 5000 m",
                 self.size
             ));
+        }
+        if self.n_trees > MAX_TREES {
+            return bad(format!("n_trees = {} exceeds {MAX_TREES}", self.n_trees));
+        }
+        if self.n_markers > MAX_MARKERS {
+            return bad(format!(
+                "n_markers = {} exceeds {MAX_MARKERS}",
+                self.n_markers
+            ));
+        }
+        if let Some(n) = self.n_grass_tufts {
+            // Each tuft has at least 5 blades: more cannot fit the budget.
+            if n.saturating_mul(5) > self.target_faces {
+                return bad(format!(
+                    "n_grass_tufts = {n} needs more faces than target_faces = {}: raise \
+                     target_faces or lower the counts",
+                    self.target_faces
+                ));
+            }
         }
         if !self.rock_yaw_deg.is_finite() {
             return bad(format!(
