@@ -323,6 +323,27 @@ fn bad_params_are_refused_with_the_field_named() {
             },
             "trees",
         ),
+        (
+            SiteParams {
+                n_trees: 1_000_000,
+                ..SiteParams::default()
+            },
+            "n_trees",
+        ),
+        (
+            SiteParams {
+                n_markers: 100,
+                ..SiteParams::default()
+            },
+            "markers do not fit",
+        ),
+        (
+            SiteParams {
+                n_grass_tufts: Some(usize::MAX),
+                ..SiteParams::default()
+            },
+            "n_grass_tufts",
+        ),
     ];
     for (p, want) in cases {
         match generate_site(&p) {
