@@ -128,7 +128,7 @@ mod tests {
         assert!(m.face_normals().iter().all(|n| n.z > 0.0));
         // Patchiness: tuft counts per 6 m cell vary a lot.
         let mut cells = [0usize; 100];
-        for b in blades.iter() {
+        for b in &blades {
             let i = ((b.base[0][0] + 30.0) / 6.0).clamp(0.0, 9.0) as usize;
             let j = ((b.base[0][1] + 30.0) / 6.0).clamp(0.0, 9.0) as usize;
             cells[j * 10 + i] += 1;

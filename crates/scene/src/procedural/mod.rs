@@ -5,10 +5,10 @@
 //! - [`generate_site`]: a rock-art site like the paper's Val Camonica
 //!   experiments: terrain, one large smooth rock (the object of interest),
 //!   trees with see-through canopies, grass tufts and flat markers on posts,
-//!   every face tagged with its [`Material`](crate::Material).
+//!   every face tagged with its [`Material`].
 //!
 //! Determinism: every part draws from its own ChaCha8 stream derived from the
-//! seed and a part constant ([`part_rng`]), so changing the number of trees
+//! seed and a part constant (hashed, not XORed), so changing the number of trees
 //! does not move the terrain; parallel work (rayon) only evaluates pure
 //! functions per vertex or per tree and collects in order, so the output is
 //! bit-identical for any thread count.
@@ -30,7 +30,9 @@ pub use markers::{MarkerInfo, MARKER_SIZE};
 pub use noise::{Fbm, GradientNoise};
 pub use rock::Rock;
 pub use shapes::{box_mesh, cylinder, heightfield, plane, sphere, with_material};
-pub use site::{generate_site, Site, SiteParams, SiteSummary};
+pub use site::{
+    generate_site, Site, SiteParams, SiteSummary, FLIGHT_CEILING, FLIGHT_FLOOR_CLEARANCE,
+};
 pub use terrain::{Terrain, TerrainGrid};
 pub use vegetation::TreeInfo;
 

@@ -154,7 +154,7 @@ pub fn box_mesh(min: Point3<f64>, max: Point3<f64>) -> Mesh {
 /// If `radius` is not a positive finite number.
 pub fn sphere(center: Point3<f64>, radius: f64, subdivisions: u32) -> Mesh {
     check_size("radius", radius);
-    let t = (1.0 + 5f64.sqrt()) / 2.0;
+    let t = f64::midpoint(1.0, 5f64.sqrt()); // golden ratio
     let mut dirs: Vec<Vector3<f64>> = [
         [-1.0, t, 0.0],
         [1.0, t, 0.0],

@@ -251,8 +251,12 @@ fn more_trees_leave_terrain_rock_and_first_trees_unchanged() {
     })
     .unwrap();
     assert_eq!(a.rock.center, b.rock.center);
-    assert_eq!(a.terrain.slope, b.terrain.slope);
-    assert_eq!(a.terrain.height(3.0, -7.0), b.terrain.height(3.0, -7.0));
+    assert_eq!(
+        a.terrain.slope.map(f64::to_bits),
+        b.terrain.slope.map(f64::to_bits)
+    );
+    let (ha, hb) = (a.terrain.height(3.0, -7.0), b.terrain.height(3.0, -7.0));
+    assert_eq!(ha.to_bits(), hb.to_bits());
     assert_eq!(a.trees[..], b.trees[..6]);
     // Marker heights follow the ground mesh, whose resolution shares the
     // face budget with the trees; positions do not move.
@@ -319,11 +323,65 @@ fn bad_params_are_refused_with_the_field_named() {
             },
             "trees",
         ),
+        (
+            SiteParams {
+                n_trees: 1_000_000,
+                ..SiteParams::default()
+            },
+            "n_trees",
+        ),
+        (
+            SiteParams {
+                n_markers: 100,
+                ..SiteParams::default()
+            },
+            "markers do not fit",
+        ),
+        (
+            SiteParams {
+                n_grass_tufts: Some(usize::MAX),
+                ..SiteParams::default()
+            },
+            "n_grass_tufts",
+        ),
     ];
     for (p, want) in cases {
         match generate_site(&p) {
             Err(SceneError::InvalidArgument(msg)) => assert!(msg.contains(want), "{msg}"),
             other => panic!("expected an invalid-argument error about {want}, got {other:?}"),
         }
+    }
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(16))]
+
+    /// Any seed and mix of counts gives a valid mesh within 10 % of the budget.
+    #[test]
+    fn any_seed_and_counts_give_a_valid_site_on_budget(
+        seed in proptest::prelude::any::<u64>(),
+        target in 5_000usize..60_000,
+        n_trees in 0usize..12,
+        n_markers in 0usize..16,
+        tufts in proptest::option::of(0usize..300),
+        yaw in -180.0f64..180.0,
+    ) {
+        let p = SiteParams {
+            seed,
+            target_faces: target,
+            n_trees,
+            n_markers,
+            n_grass_tufts: tufts,
+            rock_yaw_deg: yaw,
+            ..SiteParams::default()
+        };
+        let s = generate_site(&p).unwrap();
+        s.mesh.validate().unwrap();
+        let ratio = s.mesh.n_faces() as f64 / target as f64;
+        proptest::prop_assert!((ratio - 1.0).abs() < 0.10, "{}", s.summary());
+        proptest::prop_assert_eq!(s.trees.len(), n_trees);
+        proptest::prop_assert_eq!(s.markers.len(), n_markers);
+        let rock = s.summary().faces_per_material[Material::Rock as usize];
+        proptest::prop_assert!(rock > target / 5);
     }
 }

@@ -83,7 +83,7 @@ pub(crate) fn place_trees(
     markers: &[(f64, f64)],
 ) -> Result<Vec<TreeInfo>> {
     let mut trees: Vec<TreeInfo> = Vec::with_capacity(n);
-    let max_attempts = 2000 * n + 1000;
+    let max_attempts = 500 * n + 1000;
     let mut attempts = 0;
     while trees.len() < n {
         attempts += 1;
