@@ -66,6 +66,15 @@ impl MeshFormat {
         }
     }
 
+    /// The usual format for a path's extension: binary little-endian PLY
+    /// for `.ply` (compact, and what MeshLab writes), OBJ for `.obj`.
+    pub fn for_path(path: &Path) -> Result<MeshFormat> {
+        Ok(match FileType::from_path(path)? {
+            FileType::Ply => MeshFormat::PlyBinaryLittleEndian,
+            FileType::Obj => MeshFormat::Obj,
+        })
+    }
+
     /// The file type, which decides the extension.
     pub fn file_type(self) -> FileType {
         match self {
@@ -142,7 +151,7 @@ pub enum Precision {
     #[default]
     Auto,
     /// Single precision: half the size of double for vertices, at about 7
-    /// significant digits (4 µm at 60 m from the origin).
+    /// significant digits (steps of 4 µm at 60 m from the origin).
     Single,
     /// Double precision.
     Double,
