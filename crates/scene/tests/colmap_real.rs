@@ -8,8 +8,8 @@ use std::path::Path;
 use colmap_common::{assert_same_model, data_dir, hand_model};
 use nalgebra::Point3;
 use vp_scene::colmap::{
-    read_depth_map, read_model, read_model_as, write_binary, write_text, CameraModel,
-    ModelFormat, Reconstruction,
+    read_depth_map, read_model, read_model_as, write_binary, write_text, CameraModel, ModelFormat,
+    Reconstruction,
 };
 
 /// Writes the hand model with our text writer into the test data. Run once
@@ -164,7 +164,11 @@ fn depth_map_in_colmap_layout_reads_row_major() {
     assert_eq!((d.width, d.height), (5, 3));
     for y in 0..3 {
         for x in 0..5 {
-            let want = if x == y { 0.0 } else { 1.0 + x as f32 + 10.0 * y as f32 };
+            let want = if x == y {
+                0.0
+            } else {
+                1.0 + x as f32 + 10.0 * y as f32
+            };
             assert_eq!(d.get(x, y), Some(want), "({x}, {y})");
         }
     }

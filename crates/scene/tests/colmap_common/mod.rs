@@ -1,4 +1,6 @@
 //! Shared fixtures of the COLMAP integration tests.
+// Each test binary includes this module and uses only part of it.
+#![allow(dead_code)]
 
 use std::path::PathBuf;
 
@@ -16,10 +18,22 @@ pub fn data_dir() -> PathBuf {
 /// `data/colmap/hand/vpctl_txt` and was converted by COLMAP itself.
 pub fn hand_model() -> Reconstruction {
     let mut rec = Reconstruction::default();
+    add_hand_cameras(&mut rec);
+    add_hand_images(&mut rec);
+    add_hand_points(&mut rec);
+    rec.validate().unwrap();
+    rec
+}
+
+fn add_hand_cameras(rec: &mut Reconstruction) {
     for id in 0..=10 {
         let model = CameraModel::from_id(id).unwrap();
         // Focal length(s), principal point, then small distortion terms.
-        let nf = if matches!(id, 0 | 2 | 3 | 8 | 9) { 1 } else { 2 };
+        let nf = if matches!(id, 0 | 2 | 3 | 8 | 9) {
+            1
+        } else {
+            2
+        };
         let params = (0..model.num_params())
             .map(|k| {
                 let id = f64::from(id);
@@ -43,6 +57,9 @@ pub fn hand_model() -> Reconstruction {
         };
         rec.cameras.insert(cam.id, cam);
     }
+}
+
+fn add_hand_images(rec: &mut Reconstruction) {
     let pose = |axis: Vector3<f64>, angle: f64, t: [f64; 3]| {
         Isometry3::from_parts(
             Translation3::new(t[0], t[1], t[2]),
@@ -51,8 +68,18 @@ pub fn hand_model() -> Reconstruction {
     };
     let images = [
         (1, 1, "a.jpg", pose(Vector3::x(), 0.3, [0.1, -0.2, 4.0])),
-        (2, 2, "b.jpg", pose(Vector3::new(1.0, 2.0, 0.5), -0.7, [1.0, 0.5, 3.0])),
-        (5, 5, "sub/c.png", pose(Vector3::z(), 1.2, [-2.0, 0.25, 6.5])),
+        (
+            2,
+            2,
+            "b.jpg",
+            pose(Vector3::new(1.0, 2.0, 0.5), -0.7, [1.0, 0.5, 3.0]),
+        ),
+        (
+            5,
+            5,
+            "sub/c.png",
+            pose(Vector3::z(), 1.2, [-2.0, 0.25, 6.5]),
+        ),
         (7, 11, "d.jpg", pose(Vector3::y(), 0.05, [0.0, 0.0, 1.0])),
     ];
     for (id, camera_id, name, cam_from_world) in images {
@@ -67,14 +94,6 @@ pub fn hand_model() -> Reconstruction {
             },
         );
     }
-    // (point id, xyz, rgb, error, track)
-    let points: [(u64, [f64; 3], [u8; 3], f64, &[(u32, u32)]); 5] = [
-        (1, [0.5, 0.25, 1.0], [255, 0, 10], 0.5, &[(1, 0), (2, 1)]),
-        (2, [-1.0, 2.0, 0.125], [1, 2, 3], 0.25, &[(1, 2), (2, 0), (5, 0)]),
-        (3, [1e-3, -7.5, 3.0], [0, 0, 0], 1.5, &[(5, 2), (1, 3)]),
-        (10, [4.0, 4.0, -1.0], [9, 99, 199], 0.75, &[(2, 2), (5, 1)]),
-        (11, [0.0, 0.0, 0.0], [128, 128, 128], 2.0, &[(1, 4), (2, 3), (5, 3)]),
-    ];
     let n2d = [(1u32, 6usize), (2, 4), (5, 5)];
     for (image_id, n) in n2d {
         let im = rec.images.get_mut(&image_id).unwrap();
@@ -85,6 +104,31 @@ pub fn hand_model() -> Reconstruction {
             })
             .collect();
     }
+}
+
+/// Point id, xyz, rgb, error, track.
+type HandPoint = (u64, [f64; 3], [u8; 3], f64, &'static [(u32, u32)]);
+
+fn add_hand_points(rec: &mut Reconstruction) {
+    let points: [HandPoint; 5] = [
+        (1, [0.5, 0.25, 1.0], [255, 0, 10], 0.5, &[(1, 0), (2, 1)]),
+        (
+            2,
+            [-1.0, 2.0, 0.125],
+            [1, 2, 3],
+            0.25,
+            &[(1, 2), (2, 0), (5, 0)],
+        ),
+        (3, [1e-3, -7.5, 3.0], [0, 0, 0], 1.5, &[(5, 2), (1, 3)]),
+        (10, [4.0, 4.0, -1.0], [9, 99, 199], 0.75, &[(2, 2), (5, 1)]),
+        (
+            11,
+            [0.0, 0.0, 0.0],
+            [128, 128, 128],
+            2.0,
+            &[(1, 4), (2, 3), (5, 3)],
+        ),
+    ];
     for (id, xyz, rgb, error, track) in points {
         for &(im, idx) in track {
             rec.images.get_mut(&im).unwrap().points2d[idx as usize].point3d_id = Some(id);
@@ -100,8 +144,6 @@ pub fn hand_model() -> Reconstruction {
             },
         );
     }
-    rec.validate().unwrap();
-    rec
 }
 
 /// Whether two models are equal, poses up to `tol` (COLMAP renormalises
