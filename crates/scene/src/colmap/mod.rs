@@ -67,11 +67,11 @@ impl ModelFormat {
 /// it is what COLMAP's mapper writes and it is lossless, while a text copy
 /// beside it is usually an export made from it.
 pub fn detect_format(dir: &Path) -> Result<ModelFormat> {
-    let complete = |f: ModelFormat| f.files(dir).iter().all(|p| p.is_file());
-    if complete(ModelFormat::Binary) {
+    let complete = |f: ModelFormat, d: &Path| f.files(d).iter().all(|p| p.is_file());
+    if complete(ModelFormat::Binary, dir) {
         return Ok(ModelFormat::Binary);
     }
-    if complete(ModelFormat::Text) {
+    if complete(ModelFormat::Text, dir) {
         return Ok(ModelFormat::Text);
     }
     if !dir.exists() {
@@ -108,16 +108,9 @@ pub fn detect_format(dir: &Path) -> Result<ModelFormat> {
         }
     }
     // The mapper writes numbered sub-models (sparse/0, sparse/1, ...).
-    if ModelFormat::Binary
-        .files(&dir.join("0"))
-        .iter()
-        .all(|p| p.is_file())
-        || ModelFormat::Text
-            .files(&dir.join("0"))
-            .iter()
-            .all(|p| p.is_file())
-    {
-        message = format!("{message} (a model exists in {})", dir.join("0").display());
+    let sub = dir.join("0");
+    if complete(ModelFormat::Binary, &sub) || complete(ModelFormat::Text, &sub) {
+        message = format!("{message} (a model exists in {})", sub.display());
     }
     Err(SceneError::parse(dir, Location::Header, message))
 }
@@ -155,7 +148,8 @@ pub fn read_model_as(dir: &Path, format: ModelFormat) -> Result<Reconstruction> 
 
 /// Writes `rec` as `cameras.txt`, `images.txt`, `points3D.txt` into `dir`
 /// (created if missing), after [`Reconstruction::validate`]. Each file is
-/// written atomically.
+/// written atomically (the three together are not: a failure part way can
+/// leave new and old files side by side, never a partial file).
 pub fn write_text(dir: &Path, rec: &Reconstruction) -> Result<()> {
     rec.validate()?;
     std::fs::create_dir_all(dir).map_err(|e| SceneError::io(dir, e))?;
