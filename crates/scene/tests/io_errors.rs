@@ -40,7 +40,10 @@ fn header_len() -> usize {
 }
 
 fn ascii_triangle() -> String {
-    format!("{}0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n", ply_header("ascii", 3, 1))
+    format!(
+        "{}0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+        ply_header("ascii", 3, 1)
+    )
 }
 
 struct Dir(TempDir);
@@ -60,12 +63,18 @@ impl Dir {
 /// The error of reading `path`, checked to start with the file's name.
 fn read_error(path: &Path) -> String {
     let e = read_mesh(path).unwrap_err().to_string();
-    assert!(e.starts_with(&path.display().to_string()), "error does not name the file: {e}");
+    assert!(
+        e.starts_with(&path.display().to_string()),
+        "error does not name the file: {e}"
+    );
     e
 }
 
 fn assert_has(e: &str, expected: &str) {
-    assert!(e.contains(expected), "{e}\n  expected to contain: {expected}");
+    assert!(
+        e.contains(expected),
+        "{e}\n  expected to contain: {expected}"
+    );
 }
 
 #[test]
@@ -107,7 +116,11 @@ fn truncated_binary_body_gives_the_byte_offset() {
     let e = read_error(&dir.file("t.ply", &full[..h + 20]));
     assert_has(
         &e,
-        &format!("t.ply: vertex 1 (byte {}): file truncated: it ends at byte {}", h + 12, h + 20),
+        &format!(
+            "t.ply: vertex 1 (byte {}): file truncated: it ends at byte {}",
+            h + 12,
+            h + 20
+        ),
     );
     let e = read_error(&dir.file("u.ply", &full[..full.len() - 1]));
     assert_has(&e, &format!("face 0 (byte {})", h + 36));
@@ -119,7 +132,10 @@ fn truncated_ascii_gives_the_line() {
     let text = ascii_triangle();
     let cut = &text[..text.find("0 1 0\n").unwrap()];
     let e = read_error(&dir.file("t.ply", cut));
-    assert_has(&e, "t.ply: line 12: file ends before vertex 2: the header declares 3 of them");
+    assert_has(
+        &e,
+        "t.ply: line 12: file ends before vertex 2: the header declares 3 of them",
+    );
 }
 
 #[test]
@@ -138,7 +154,10 @@ fn fewer_vertices_than_declared() {
     let e = read_error(&dir.file("b.ply", bytes));
     assert_has(
         &e,
-        &format!("b.ply: face 0 (byte {}): the list has 0 vertex indices", header_len() + 36),
+        &format!(
+            "b.ply: face 0 (byte {}): the list has 0 vertex indices",
+            header_len() + 36
+        ),
     );
 }
 
@@ -161,7 +180,10 @@ fn face_index_out_of_range_is_named_by_read_but_loaded_raw() {
 
     let text = ascii_triangle().replace("3 0 1 2", "3 0 1 5");
     let e = read_error(&dir.file("a.ply", text));
-    assert_has(&e, "a.ply: line 13: face 0: refers to vertex 5, but the file has only 3 vertices");
+    assert_has(
+        &e,
+        "a.ply: line 13: face 0: refers to vertex 5, but the file has only 3 vertices",
+    );
 }
 
 #[test]
@@ -172,13 +194,22 @@ fn nan_coordinate_is_rejected_naming_the_vertex() {
     let e = read_error(&dir.file("t.ply", binary_ply(&vertices, &[[0, 1, 2]])));
     assert_has(
         &e,
-        &format!("t.ply: vertex 1 (byte {}): non-finite coordinate (1, 0, NaN)", header_len() + 12),
+        &format!(
+            "t.ply: vertex 1 (byte {}): non-finite coordinate (1, 0, NaN)",
+            header_len() + 12
+        ),
     );
     let text = ascii_triangle().replace("1 0 0\n", "1 nan 0\n");
     let e = read_error(&dir.file("a.ply", text));
-    assert_has(&e, "a.ply: line 11: vertex 1: non-finite coordinate (1, NaN, 0)");
+    assert_has(
+        &e,
+        "a.ply: line 11: vertex 1: non-finite coordinate (1, NaN, 0)",
+    );
     let e = read_error(&dir.file("o.obj", "v 0 0 0\nv inf 0 0\nv 0 1 0\nf 1 2 3\n"));
-    assert_has(&e, "o.obj: line 2: vertex 2: non-finite coordinate (inf, 0, 0)");
+    assert_has(
+        &e,
+        "o.obj: line 2: vertex 2: non-finite coordinate (inf, 0, 0)",
+    );
 }
 
 #[test]
@@ -196,7 +227,10 @@ fn degenerate_polygon_names_the_file_face_not_the_triangle() {
         "t.obj",
         "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 4\nf 1 2 3\n",
     ));
-    assert_has(&e, "t.obj: line 6: face 2: triangle (1, 2, 3) has zero area");
+    assert_has(
+        &e,
+        "t.obj: line 6: face 2: triangle (1, 2, 3) has zero area",
+    );
 }
 
 #[test]
@@ -217,7 +251,10 @@ fn bad_number_on_a_line() {
     let dir = Dir::new();
     let text = ascii_triangle().replace("1 0 0\n", "1 0 0,5\n");
     let e = read_error(&dir.file("t.ply", text));
-    assert_has(&e, "t.ply: line 11: vertex 1: '0,5' is not a valid float for property 'z'");
+    assert_has(
+        &e,
+        "t.ply: line 11: vertex 1: '0,5' is not a valid float for property 'z'",
+    );
     let e = read_error(&dir.file("t.obj", "v 0 0 0\nv 1 O 0\n"));
     assert_has(&e, "t.obj: line 2: vertex 2: 'O' is not a number");
 }
@@ -227,11 +264,20 @@ fn obj_bad_and_zero_index() {
     let dir = Dir::new();
     let square = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n";
     let e = read_error(&dir.file("z.obj", format!("{square}f 1 2 3\nf 0 1 2\n")));
-    assert_has(&e, "z.obj: line 6: face 2: vertex index 0 is invalid (OBJ indices start at 1)");
+    assert_has(
+        &e,
+        "z.obj: line 6: face 2: vertex index 0 is invalid (OBJ indices start at 1)",
+    );
     let e = read_error(&dir.file("b.obj", format!("{square}f 1 2 3\nf 1 3 9\n")));
-    assert_has(&e, "b.obj: line 6: face 2: refers to vertex 9, but the file has only 4 vertices");
+    assert_has(
+        &e,
+        "b.obj: line 6: face 2: refers to vertex 9, but the file has only 4 vertices",
+    );
     let e = read_error(&dir.file("r.obj", format!("{square}f -1 -2 -7\n")));
-    assert_has(&e, "r.obj: line 5: face 1: relative vertex index -7 points before the first vertex");
+    assert_has(
+        &e,
+        "r.obj: line 5: face 1: relative vertex index -7 points before the first vertex",
+    );
     let e = read_error(&dir.file("s.obj", format!("{square}f 1/2/3/4 2 3\n")));
     assert_has(&e, "s.obj: line 5: face 1: '1/2/3/4' is not a face vertex");
 }

@@ -46,7 +46,7 @@ fn random_mesh(seed: u64, n_vertices: usize, n_faces: usize, materials: bool) ->
     Mesh::new(vertices, faces, materials).expect("random triangles are not degenerate")
 }
 
-fn round_trip(mesh: &Mesh, options: &WriteOptions) -> (Mesh, Vec<u8>) {
+fn round_trip(mesh: &Mesh, options: WriteOptions) -> (Mesh, Vec<u8>) {
     let mut bytes = Vec::new();
     encode_mesh(&mut bytes, mesh, options).unwrap();
     let origin = Path::new("memory");
@@ -72,10 +72,10 @@ proptest! {
         for format in MeshFormat::ALL {
             for precision in [Precision::Auto, Precision::Double] {
                 let options = WriteOptions::new(format).precision(precision);
-                prop_assert_eq!(&round_trip(&mesh, &options).0, &mesh, "{:?}", options);
+                prop_assert_eq!(&round_trip(&mesh, options).0, &mesh, "{:?}", options);
             }
             let options = WriteOptions::new(format).precision(Precision::Single);
-            let (back, _) = round_trip(&mesh, &options);
+            let (back, _) = round_trip(&mesh, options);
             if format == MeshFormat::Obj {
                 // Text holds the f32 value's shortest decimal, which reads
                 // back as a nearby f64, not the f32 itself.
@@ -100,11 +100,11 @@ fn auto_precision_writes_float_only_when_nothing_is_lost() {
         MeshFormat::PlyBinaryLittleEndian,
         MeshFormat::PlyBinaryBigEndian,
     ] {
-        let (back, bytes) = round_trip(&exact, &WriteOptions::new(format));
+        let (back, bytes) = round_trip(&exact, WriteOptions::new(format));
         assert_eq!(back, exact);
         let text = String::from_utf8_lossy(&bytes);
         assert!(text.contains("property float x\n"), "{format}");
-        let (back, bytes) = round_trip(&inexact, &WriteOptions::new(format));
+        let (back, bytes) = round_trip(&inexact, WriteOptions::new(format));
         assert_eq!(back, inexact);
         assert!(String::from_utf8_lossy(&bytes).contains("property double x\n"));
     }
@@ -114,7 +114,7 @@ fn auto_precision_writes_float_only_when_nothing_is_lost() {
 fn binary_files_have_the_size_the_layout_implies() {
     let mesh = random_mesh(3, 50, 90, true);
     let size = |format, precision| {
-        let (_, bytes) = round_trip(&mesh, &WriteOptions::new(format).precision(precision));
+        let (_, bytes) = round_trip(&mesh, WriteOptions::new(format).precision(precision));
         bytes.len()
     };
     // uchar count + 3 int indices + uchar material per face.
@@ -122,8 +122,16 @@ fn binary_files_have_the_size_the_layout_implies() {
     let le_single = size(MeshFormat::PlyBinaryLittleEndian, Precision::Single);
     let be_double = size(MeshFormat::PlyBinaryBigEndian, Precision::Double);
     let le_double = size(MeshFormat::PlyBinaryLittleEndian, Precision::Double);
-    assert_eq!(le_double - le_single, 50 * 12 + 3, "float -> double: 3 header bytes");
-    assert_eq!(be_double + 3, le_double, "'big' is 3 letters shorter than 'little'");
+    assert_eq!(
+        le_double - le_single,
+        50 * 12 + 3,
+        "float -> double: 3 header bytes"
+    );
+    assert_eq!(
+        be_double + 3,
+        le_double,
+        "'big' is 3 letters shorter than 'little'"
+    );
     assert!(le_single > 50 * 12 + faces);
 }
 
@@ -146,7 +154,12 @@ fn files_round_trip_through_disk_and_obj_groups_materials() {
     write_mesh(&path, &sorted, MeshFormat::Obj).unwrap();
     let text = std::fs::read_to_string(&path).unwrap();
     let groups = text.lines().filter(|l| l.starts_with("usemtl ")).count();
-    let distinct = sorted.material_counts().unwrap().iter().filter(|&&c| c > 0).count();
+    let distinct = sorted
+        .material_counts()
+        .unwrap()
+        .iter()
+        .filter(|&&c| c > 0)
+        .count();
     assert_eq!(groups, distinct);
     assert_eq!(read_mesh(&path).unwrap(), sorted);
 }
@@ -155,10 +168,13 @@ fn files_round_trip_through_disk_and_obj_groups_materials() {
 fn a_mesh_without_materials_writes_no_material_property() {
     let mesh = random_mesh(5, 10, 8, false);
     for format in MeshFormat::ALL {
-        let (back, bytes) = round_trip(&mesh, &WriteOptions::new(format));
+        let (back, bytes) = round_trip(&mesh, WriteOptions::new(format));
         assert_eq!(back.materials, None);
         let text = String::from_utf8_lossy(&bytes);
-        assert!(!text.contains("material") && !text.contains("usemtl"), "{format}");
+        assert!(
+            !text.contains("material") && !text.contains("usemtl"),
+            "{format}"
+        );
     }
 }
 
@@ -167,13 +183,20 @@ fn writing_refuses_a_mismatched_extension_and_leaves_no_file() {
     let dir = tempfile::tempdir().unwrap();
     let mesh = random_mesh(1, 5, 3, false);
     let path = dir.path().join("mesh.obj");
-    let e = write_mesh(&path, &mesh, MeshFormat::PlyAscii).unwrap_err().to_string();
-    assert!(e.contains("mesh.obj: a ply-ascii file needs the extension .ply"), "{e}");
+    let e = write_mesh(&path, &mesh, MeshFormat::PlyAscii)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("mesh.obj: a ply-ascii file needs the extension .ply"),
+        "{e}"
+    );
     let mut bad = mesh.clone();
     bad.materials = Some(vec![Material::Rock]);
     let path = dir.path().join("mesh.ply");
     let options = WriteOptions::new(MeshFormat::PlyBinaryLittleEndian);
-    let e = write_mesh_with(&path, &bad, &options).unwrap_err().to_string();
+    let e = write_mesh_with(&path, &bad, options)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("1 materials for 3 faces"), "{e}");
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
@@ -184,6 +207,12 @@ fn format_names_parse_back() {
         assert_eq!(format.name().parse::<MeshFormat>().unwrap(), format);
     }
     let e = "stl".parse::<MeshFormat>().unwrap_err().to_string();
-    assert!(e.contains("unknown mesh format 'stl'") && e.contains("ply-binary-le"), "{e}");
-    assert_eq!(FileType::from_path(Path::new("a/B.Ply")).unwrap(), FileType::Ply);
+    assert!(
+        e.contains("unknown mesh format 'stl'") && e.contains("ply-binary-le"),
+        "{e}"
+    );
+    assert_eq!(
+        FileType::from_path(Path::new("a/B.Ply")).unwrap(),
+        FileType::Ply
+    );
 }

@@ -19,11 +19,11 @@ use std::path::Path;
 
 use nalgebra::{Point2, Point3};
 
-use super::text::Located;
 use super::model::{
     pose_from_qt, qt_from_pose, CameraModel, ColmapCamera, ColmapImage, Point2D, Point3D,
-    Reconstruction,
 };
+use super::reconstruction::Reconstruction;
+use super::text::Located;
 use crate::error::{Location, Result, SceneError};
 use crate::fsio;
 
@@ -178,7 +178,8 @@ pub(crate) fn read_located(
     let (cameras, cp) = parse_cameras_located(cams, &fsio::read_file(cams)?)?;
     let (images, ip) = parse_images_located(ims, &fsio::read_file(ims)?)?;
     let (points, pp) = parse_points3d_located(pts, &fsio::read_file(pts)?)?;
-    let widen = |m: BTreeMap<u32, Location>| m.into_iter().map(|(k, v)| (u64::from(k), v)).collect();
+    let widen =
+        |m: BTreeMap<u32, Location>| m.into_iter().map(|(k, v)| (u64::from(k), v)).collect();
     Ok((
         Reconstruction {
             cameras,
@@ -261,7 +262,10 @@ fn parse_images_located(path: &Path, data: &[u8]) -> Result<Located<u32, ColmapI
         let id = r.u32("image id")?;
         let pose_at = r.pos;
         let mut qt = [0.0; 7];
-        for (v, what) in qt.iter_mut().zip(["qw", "qx", "qy", "qz", "tx", "ty", "tz"]) {
+        for (v, what) in qt
+            .iter_mut()
+            .zip(["qw", "qx", "qy", "qz", "tx", "ty", "tz"])
+        {
             *v = r.finite(what)?;
         }
         let cam_from_world = pose_from_qt([qt[0], qt[1], qt[2], qt[3]], [qt[4], qt[5], qt[6]])
@@ -483,7 +487,10 @@ mod tests {
     fn truncation_and_trailing_bytes_are_errors() {
         let b = one_camera(1, 4);
         let e = parse_cameras_binary(p(), &b[..b.len() - 3]).unwrap_err();
-        assert!(e.to_string().contains("camera 0 (byte 56): file truncated"), "{e}");
+        assert!(
+            e.to_string().contains("camera 0 (byte 56): file truncated"),
+            "{e}"
+        );
         let e = parse_cameras_binary(p(), &b[..5]).unwrap_err();
         assert!(e.to_string().contains("byte 0: file truncated"), "{e}");
         let mut long = b.clone();

@@ -207,7 +207,10 @@ mod tests {
             data: vec![0.0],
         }
         .stats();
-        assert_eq!((empty.valid_share, empty.min, empty.mean), (0.0, None, None));
+        assert_eq!(
+            (empty.valid_share, empty.min, empty.mean),
+            (0.0, None, None)
+        );
     }
 
     #[test]

@@ -17,6 +17,7 @@
 mod binary;
 mod depth;
 mod model;
+mod reconstruction;
 mod text;
 
 use std::path::{Path, PathBuf};
@@ -27,14 +28,15 @@ pub use binary::{
     read_points3d_binary,
 };
 pub use depth::{parse_depth_map, read_depth_map, write_depth_map, DepthMap, DepthStats};
-pub use model::{CameraModel, ColmapCamera, ColmapImage, Point2D, Point3D, Reconstruction};
+pub use model::{CameraModel, ColmapCamera, ColmapImage, Point2D, Point3D};
+pub use reconstruction::Reconstruction;
 pub use text::{
     cameras_to_string, images_to_string, parse_cameras, parse_images, parse_points3d,
     points3d_to_string, read_cameras_text, read_images_text, read_points3d_text,
 };
 
 use crate::error::{Location, Result, SceneError};
-use model::ModelFile;
+use reconstruction::ModelFile;
 
 /// The two on-disk forms of a sparse model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -65,17 +67,24 @@ impl ModelFormat {
 /// it is what COLMAP's mapper writes and it is lossless, while a text copy
 /// beside it is usually an export made from it.
 pub fn detect_format(dir: &Path) -> Result<ModelFormat> {
-    let complete = |f: ModelFormat| f.files(dir).iter().all(|p| p.is_file());
-    if complete(ModelFormat::Binary) {
+    let complete = |f: ModelFormat, d: &Path| f.files(d).iter().all(|p| p.is_file());
+    if complete(ModelFormat::Binary, dir) {
         return Ok(ModelFormat::Binary);
     }
-    if complete(ModelFormat::Text) {
+    if complete(ModelFormat::Text, dir) {
         return Ok(ModelFormat::Text);
     }
-    if !dir.is_dir() {
+    if !dir.exists() {
         return Err(SceneError::io(
             dir,
             std::io::Error::new(std::io::ErrorKind::NotFound, "no such directory"),
+        ));
+    }
+    if !dir.is_dir() {
+        return Err(SceneError::parse(
+            dir,
+            Location::Header,
+            "not a directory: a COLMAP model is a folder with cameras, images and points3D files",
         ));
     }
     let mut message = String::from(
@@ -88,16 +97,20 @@ pub fn detect_format(dir: &Path) -> Result<ModelFormat> {
             let missing: Vec<String> = [cams, ims, pts]
                 .iter()
                 .filter(|p| !p.is_file())
-                .map(|p| p.file_name().unwrap_or_default().to_string_lossy().into_owned())
+                .map(|p| {
+                    p.file_name()
+                        .unwrap_or_default()
+                        .to_string_lossy()
+                        .into_owned()
+                })
                 .collect();
             message = format!("incomplete COLMAP model: missing {}", missing.join(", "));
         }
     }
     // The mapper writes numbered sub-models (sparse/0, sparse/1, ...).
-    if ModelFormat::Binary.files(&dir.join("0")).iter().all(|p| p.is_file())
-        || ModelFormat::Text.files(&dir.join("0")).iter().all(|p| p.is_file())
-    {
-        message.push_str(&format!(" (a model exists in {})", dir.join("0").display()));
+    let sub = dir.join("0");
+    if complete(ModelFormat::Binary, &sub) || complete(ModelFormat::Text, &sub) {
+        message = format!("{message} (a model exists in {})", sub.display());
     }
     Err(SceneError::parse(dir, Location::Header, message))
 }
@@ -135,7 +148,8 @@ pub fn read_model_as(dir: &Path, format: ModelFormat) -> Result<Reconstruction> 
 
 /// Writes `rec` as `cameras.txt`, `images.txt`, `points3D.txt` into `dir`
 /// (created if missing), after [`Reconstruction::validate`]. Each file is
-/// written atomically.
+/// written atomically (the three together are not: a failure part way can
+/// leave new and old files side by side, never a partial file).
 pub fn write_text(dir: &Path, rec: &Reconstruction) -> Result<()> {
     rec.validate()?;
     std::fs::create_dir_all(dir).map_err(|e| SceneError::io(dir, e))?;

@@ -20,8 +20,8 @@ use nalgebra::{Point2, Point3};
 
 use super::model::{
     pose_from_qt, qt_from_pose, CameraModel, ColmapCamera, ColmapImage, Point2D, Point3D,
-    Reconstruction,
 };
+use super::reconstruction::Reconstruction;
 use crate::error::{Location, Result, SceneError};
 use crate::fsio;
 
@@ -130,7 +130,8 @@ pub(crate) fn read_located(
     let (cameras, cp) = parse_cameras_located(cams, &read_text_file(cams)?)?;
     let (images, ip) = parse_images_located(ims, &read_text_file(ims)?)?;
     let (points, pp) = parse_points3d_located(pts, &read_text_file(pts)?)?;
-    let widen = |m: BTreeMap<u32, Location>| m.into_iter().map(|(k, v)| (u64::from(k), v)).collect();
+    let widen =
+        |m: BTreeMap<u32, Location>| m.into_iter().map(|(k, v)| (u64::from(k), v)).collect();
     Ok((
         Reconstruction {
             cameras,
@@ -237,9 +238,9 @@ pub(crate) fn parse_images_located(path: &Path, text: &str) -> Result<Located<u3
             let mut g = Fields::new(path, n2, line2);
             while let Some(tok) = g.token() {
                 let idx = points2d.len();
-                let x: f64 = tok.parse().map_err(|_| {
-                    g.err(format!("image {id}: bad X of 2D point {idx} '{tok}'"))
-                })?;
+                let x: f64 = tok
+                    .parse()
+                    .map_err(|_| g.err(format!("image {id}: bad X of 2D point {idx} '{tok}'")))?;
                 let y: f64 = g.next(&format!("Y of 2D point {idx}"))?;
                 let pid: i64 = g.next(&format!("POINT3D_ID of 2D point {idx}"))?;
                 let point3d_id = match pid {
@@ -247,8 +248,8 @@ pub(crate) fn parse_images_located(path: &Path, text: &str) -> Result<Located<u3
                     p if p >= 0 => Some(p as u64),
                     p => {
                         return Err(g.err(format!(
-                            "image {id}: 2D point {idx} has POINT3D_ID {p} (only -1 may be negative)"
-                        )))
+                        "image {id}: 2D point {idx} has POINT3D_ID {p} (only -1 may be negative)"
+                    )))
                     }
                 };
                 if !(x.is_finite() && y.is_finite()) {
@@ -455,7 +456,8 @@ mod tests {
 
     #[test]
     fn cameras_parse_with_comments_and_errors_name_the_line() {
-        let text = "# c\n\n1 PINHOLE 640 480 500 501 320 240\n2 SIMPLE_RADIAL 100 80 90 50 40 -0.01\n";
+        let text =
+            "# c\n\n1 PINHOLE 640 480 500 501 320 240\n2 SIMPLE_RADIAL 100 80 90 50 40 -0.01\n";
         let cams = parse_cameras(p(), text).unwrap();
         assert_eq!(cams[&1].params, vec![500.0, 501.0, 320.0, 240.0]);
         assert_eq!(cams[&2].model, CameraModel::SimpleRadial);
@@ -466,11 +468,16 @@ mod tests {
             "m/x.txt: line 2: camera 1: PINHOLE expects 4 parameters, found 3"
         );
         let e = parse_cameras(p(), "1 BROWN 640 480 500\n").unwrap_err();
-        assert!(e.to_string().starts_with("m/x.txt: line 1: unknown camera model 'BROWN'"));
+        assert!(e
+            .to_string()
+            .starts_with("m/x.txt: line 1: unknown camera model 'BROWN'"));
         let e = parse_cameras(p(), "1 PINHOLE 640 4x0 1 1 1 1\n").unwrap_err();
         assert!(e.to_string().contains("line 1: bad HEIGHT '4x0'"), "{e}");
         let e = parse_cameras(p(), "1 PINHOLE 6 4 1 1 1 1\n1 PINHOLE 6 4 1 1 1 1\n").unwrap_err();
-        assert!(e.to_string().contains("line 2: duplicate camera id 1"), "{e}");
+        assert!(
+            e.to_string().contains("line 2: duplicate camera id 1"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -489,13 +496,23 @@ mod tests {
         let e = parse_images(p(), "1 0 0 0 0 0 0 0 1 a.jpg\n\n").unwrap_err();
         assert!(e.to_string().contains("line 1: image 1: quaternion"), "{e}");
         let e = parse_images(p(), "1 1 0 0 0 0 0 0 1 a.jpg\n1 2 -1 3\n").unwrap_err();
-        assert!(e.to_string().contains("line 2: missing Y of 2D point 1"), "{e}");
+        assert!(
+            e.to_string().contains("line 2: missing Y of 2D point 1"),
+            "{e}"
+        );
         let e = parse_images(p(), "1 1 0 0 0 0 0 0 1 a.jpg\n1 2 -2\n").unwrap_err();
-        assert!(e.to_string().contains("line 2: image 1: 2D point 0 has POINT3D_ID -2"), "{e}");
+        assert!(
+            e.to_string()
+                .contains("line 2: image 1: 2D point 0 has POINT3D_ID -2"),
+            "{e}"
+        );
         let e = parse_images(p(), "1 1 0 0 0 0 0 nan 1 a.jpg\n\n").unwrap_err();
         assert!(e.to_string().contains("line 1: TZ is NaN"), "{e}");
         let e = parse_images(p(), "1 1 0 0 0 0 0 0 1\n\n").unwrap_err();
-        assert!(e.to_string().contains("line 1: image 1: missing NAME"), "{e}");
+        assert!(
+            e.to_string().contains("line 1: image 1: missing NAME"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -506,12 +523,25 @@ mod tests {
         let e = parse_points3d(p(), "5 1 2 3 256 0 7 0.5\n").unwrap_err();
         assert!(e.to_string().contains("line 1: bad R '256'"), "{e}");
         let e = parse_points3d(p(), "\n5 1 2 3 2 0 7 0.5 1\n").unwrap_err();
-        assert!(e.to_string().contains("line 2: missing POINT2D_IDX of track element 0"), "{e}");
+        assert!(
+            e.to_string()
+                .contains("line 2: missing POINT2D_IDX of track element 0"),
+            "{e}"
+        );
     }
 
     #[test]
     fn numbers_round_trip_exactly() {
-        for v in [0.1, 1e-20, -3.5e300, 123_456.789, 1.0 / 3.0, 0.0, -0.0, 5e-324] {
+        for v in [
+            0.1,
+            1e-20,
+            -3.5e300,
+            123_456.789,
+            1.0 / 3.0,
+            0.0,
+            -0.0,
+            5e-324,
+        ] {
             let mut s = String::new();
             num(&mut s, v);
             assert_eq!(s.parse::<f64>().unwrap().to_bits(), v.to_bits(), "{s}");

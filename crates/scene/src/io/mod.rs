@@ -66,6 +66,15 @@ impl MeshFormat {
         }
     }
 
+    /// The usual format for a path's extension: binary little-endian PLY
+    /// for `.ply` (compact, and what MeshLab writes), OBJ for `.obj`.
+    pub fn for_path(path: &Path) -> Result<MeshFormat> {
+        Ok(match FileType::from_path(path)? {
+            FileType::Ply => MeshFormat::PlyBinaryLittleEndian,
+            FileType::Obj => MeshFormat::Obj,
+        })
+    }
+
     /// The file type, which decides the extension.
     pub fn file_type(self) -> FileType {
         match self {
@@ -142,7 +151,7 @@ pub enum Precision {
     #[default]
     Auto,
     /// Single precision: half the size of double for vertices, at about 7
-    /// significant digits (4 µm at 60 m from the origin).
+    /// significant digits (steps of 4 µm at 60 m from the origin).
     Single,
     /// Double precision.
     Double,
@@ -227,12 +236,12 @@ pub fn read_mesh(path: &Path) -> Result<Mesh> {
 /// Writes a mesh atomically with [`Precision::Auto`]. The extension of
 /// `path` must match the format.
 pub fn write_mesh(path: &Path, mesh: &Mesh, format: MeshFormat) -> Result<()> {
-    write_mesh_with(path, mesh, &WriteOptions::new(format))
+    write_mesh_with(path, mesh, WriteOptions::new(format))
 }
 
 /// Writes a mesh atomically (no partial file on failure). The extension of
 /// `path` must match the format, so that the file reads back.
-pub fn write_mesh_with(path: &Path, mesh: &Mesh, options: &WriteOptions) -> Result<()> {
+pub fn write_mesh_with(path: &Path, mesh: &Mesh, options: WriteOptions) -> Result<()> {
     let expected = options.format.file_type();
     if FileType::from_path(path).ok() != Some(expected) {
         return Err(SceneError::InvalidArgument(format!(
@@ -248,7 +257,7 @@ pub fn write_mesh_with(path: &Path, mesh: &Mesh, options: &WriteOptions) -> Resu
 
 /// Encodes a mesh into any writer (staged in 64 KiB chunks, so an
 /// unbuffered writer is fine).
-pub fn encode_mesh(w: &mut dyn Write, mesh: &Mesh, options: &WriteOptions) -> std::io::Result<()> {
+pub fn encode_mesh(w: &mut dyn Write, mesh: &Mesh, options: WriteOptions) -> std::io::Result<()> {
     check_materials(mesh).map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidInput, e))?;
     let single = match options.precision {
         Precision::Single => true,

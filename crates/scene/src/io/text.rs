@@ -53,7 +53,8 @@ impl<'a> Iterator for Lines<'a> {
 
 /// Whitespace-separated tokens of one line.
 pub(crate) fn tokens(line: &[u8]) -> impl Iterator<Item = &[u8]> {
-    line.split(u8::is_ascii_whitespace).filter(|t| !t.is_empty())
+    line.split(u8::is_ascii_whitespace)
+        .filter(|t| !t.is_empty())
 }
 
 /// Whether a line holds nothing but whitespace.
@@ -118,7 +119,12 @@ mod tests {
         let v: Vec<_> = Lines::new(b"a\r\nb\n\nc", 5).collect();
         assert_eq!(
             v,
-            vec![(5, &b"a"[..]), (6, &b"b"[..]), (7, &b""[..]), (8, &b"c"[..])]
+            vec![
+                (5, &b"a"[..]),
+                (6, &b"b"[..]),
+                (7, &b""[..]),
+                (8, &b"c"[..])
+            ]
         );
         assert_eq!(Lines::new(b"a\n", 1).count(), 1);
         assert_eq!(Lines::new(b"", 1).count(), 0);

@@ -84,7 +84,10 @@ fn read(bytes: &[u8], path: &Path, target: Option<Target>) -> Result<(Mesh, Opti
                 let mut xyz = [0.0f64; 3];
                 for (k, c) in xyz.iter_mut().enumerate() {
                     let token = tokens.next().ok_or_else(|| {
-                        at(format!("vertex {} has {k} coordinates; it needs 3", vertices.len() + 1))
+                        at(format!(
+                            "vertex {} has {k} coordinates; it needs 3",
+                            vertices.len() + 1
+                        ))
                     })?;
                     *c = text::parse_f64(token).ok_or_else(|| {
                         at(format!(
@@ -138,7 +141,10 @@ fn read(bytes: &[u8], path: &Path, target: Option<Target>) -> Result<(Mesh, Opti
                     _ => None,
                 };
             }
-            other if other.iter().all(|&b| b.is_ascii_alphanumeric() || b == b'_') => {}
+            other
+                if other
+                    .iter()
+                    .all(|&b| b.is_ascii_alphanumeric() || b == b'_') => {}
             other => {
                 return Err(at(format!(
                     "'{}' is not an OBJ statement",

@@ -80,19 +80,46 @@ fn materials_are_dropped_unless_every_face_has_a_known_one() {
 #[test]
 fn errors_name_the_line() {
     let cases = [
-        (format!("{SQUARE}f 1 0 3\n"), "t.obj: line 5: face 1: vertex index 0 is invalid"),
-        (format!("{SQUARE}f 1 2 x\n"), "line 5: face 1: 'x' is not a face vertex"),
-        (format!("{SQUARE}f 1 2/a 3\n"), "line 5: face 1: '2/a' is not a face vertex"),
-        (format!("{SQUARE}f 1 2/1/1/1 3\n"), "'2/1/1/1' is not a face vertex"),
+        (
+            format!("{SQUARE}f 1 0 3\n"),
+            "t.obj: line 5: face 1: vertex index 0 is invalid",
+        ),
+        (
+            format!("{SQUARE}f 1 2 x\n"),
+            "line 5: face 1: 'x' is not a face vertex",
+        ),
+        (
+            format!("{SQUARE}f 1 2/a 3\n"),
+            "line 5: face 1: '2/a' is not a face vertex",
+        ),
+        (
+            format!("{SQUARE}f 1 2/1/1/1 3\n"),
+            "'2/1/1/1' is not a face vertex",
+        ),
         (
             format!("{SQUARE}f 1 2 3\nf -5 1 2\n"),
             "line 6: face 2: relative vertex index -5 points before the first vertex (4 vertices",
         ),
-        (format!("{SQUARE}f 1 2 9999999999\n"), "line 5: face 1: vertex index 9999999999 is too large"),
-        (format!("{SQUARE}f 1 2\n"), "line 5: face 1 has 2 vertices; a face needs at least 3"),
-        ("v 0 0 0\nv 1 0\n".to_string(), "line 2: vertex 2 has 2 coordinates; it needs 3"),
-        ("v 0 0 0\nv 1 0 zero\n".to_string(), "line 2: vertex 2: 'zero' is not a number"),
-        ("v 0 0 0\n\u{1}\u{2} 1 2\n".to_string(), "line 2: '\u{1}\u{2}' is not an OBJ statement"),
+        (
+            format!("{SQUARE}f 1 2 9999999999\n"),
+            "line 5: face 1: vertex index 9999999999 is too large",
+        ),
+        (
+            format!("{SQUARE}f 1 2\n"),
+            "line 5: face 1 has 2 vertices; a face needs at least 3",
+        ),
+        (
+            "v 0 0 0\nv 1 0\n".to_string(),
+            "line 2: vertex 2 has 2 coordinates; it needs 3",
+        ),
+        (
+            "v 0 0 0\nv 1 0 zero\n".to_string(),
+            "line 2: vertex 2: 'zero' is not a number",
+        ),
+        (
+            "v 0 0 0\n\u{1}\u{2} 1 2\n".to_string(),
+            "line 2: '\u{1}\u{2}' is not an OBJ statement",
+        ),
     ];
     for (text, expected) in cases {
         let e = error(&text);

@@ -90,7 +90,8 @@ pub(super) fn read(
                                 let token = tokens
                                     .next()
                                     .ok_or_else(|| ends_before(&prop.name, Some(k)))?;
-                                integer(item, token).ok_or_else(|| bad_value(token, item, &prop.name))
+                                integer(item, token)
+                                    .ok_or_else(|| bad_value(token, item, &prop.name))
                             })
                             .map_err(at)?;
                         } else {

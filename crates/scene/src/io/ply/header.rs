@@ -162,7 +162,11 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Header> {
         // body starts after the full line ending.
         consumed = next_line_start(bytes, consumed);
         let line = std::str::from_utf8(raw).map_err(|_| {
-            SceneError::parse(path, Location::Line(n), "the header contains bytes that are not text")
+            SceneError::parse(
+                path,
+                Location::Line(n),
+                "the header contains bytes that are not text",
+            )
         })?;
         if state
             .line(line)
@@ -289,7 +293,9 @@ fn parse_property<'a>(
         let count = scalar(words.next())?;
         let item = scalar(words.next())?;
         if !count.is_integer() {
-            return Err(format!("list count type must be an integer type in '{line}'"));
+            return Err(format!(
+                "list count type must be an integer type in '{line}'"
+            ));
         }
         Kind::List { count, item }
     } else {
@@ -334,10 +340,14 @@ mod tests {
         assert_eq!(h.elements[0].fixed_size(), None);
         assert_eq!(h.elements[0].min_size(), 4 + 8 + 8 + 1 + 2 + 1);
         assert_eq!(h.body_line, 15);
-        assert_eq!(&b"ply\r\nformat binary_big_endian 1.0\r\ncomment hi\r\nobj_info x\r\n\
+        assert_eq!(
+            &b"ply\r\nformat binary_big_endian 1.0\r\ncomment hi\r\nobj_info x\r\n\
              element vertex 2\r\nproperty float32 x\r\nproperty float64 y\r\nproperty double z\r\n\
              property int8 a\r\nproperty uint16 b\r\nproperty list uint8 int32 c\r\n\
-             element face 0\r\nproperty list uchar uint vertex_index\r\nend_header\r\nBODY"[h.body_start..], b"BODY");
+             element face 0\r\nproperty list uchar uint vertex_index\r\nend_header\r\nBODY"
+                [h.body_start..],
+            b"BODY"
+        );
     }
 
     #[test]
@@ -359,7 +369,10 @@ mod tests {
         let e = parse_str("ply\nformat ascii 1.0\nelement vertex -3\nend_header\n")
             .unwrap_err()
             .to_string();
-        assert!(e.contains("line 3: element 'vertex' has an invalid count '-3'"), "{e}");
+        assert!(
+            e.contains("line 3: element 'vertex' has an invalid count '-3'"),
+            "{e}"
+        );
         let e = parse_str("ply\nformat ascii 1.0\nelement vertex 3\n")
             .unwrap_err()
             .to_string();
@@ -373,6 +386,9 @@ mod tests {
         )
         .unwrap_err()
         .to_string();
-        assert!(e.contains("line 4: list count type must be an integer"), "{e}");
+        assert!(
+            e.contains("line 4: list count type must be an integer"),
+            "{e}"
+        );
     }
 }

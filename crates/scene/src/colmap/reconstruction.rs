@@ -1,0 +1,225 @@
+//! The sparse model as a whole: lookups, statistics and the consistency
+//! checks that tie cameras, images and 3D points together.
+
+use std::collections::BTreeMap;
+
+use super::model::{ColmapCamera, ColmapImage, Point3D};
+use crate::camera::Camera;
+use crate::error::{Result, SceneError};
+
+/// A COLMAP sparse model.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Reconstruction {
+    /// Cameras by id.
+    pub cameras: BTreeMap<u32, ColmapCamera>,
+    /// Registered images by id.
+    pub images: BTreeMap<u32, ColmapImage>,
+    /// 3D points by id.
+    pub points: BTreeMap<u64, Point3D>,
+}
+
+/// The three files of a sparse model, to say which one a problem lies in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum ModelFile {
+    Cameras,
+    Images,
+    Points,
+}
+
+impl ModelFile {
+    pub(crate) fn stem(self) -> &'static str {
+        match self {
+            ModelFile::Cameras => "cameras",
+            ModelFile::Images => "images",
+            ModelFile::Points => "points3D",
+        }
+    }
+}
+
+/// A broken cross-reference or invariant, found by [`Reconstruction::check`].
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Inconsistency {
+    /// The file holding the element at fault.
+    pub file: ModelFile,
+    /// Id of the element at fault (camera, image or point id).
+    pub id: u64,
+    /// The element at fault in words (e.g. "image 3").
+    pub element: String,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl Reconstruction {
+    /// The posed pinhole camera of image `image_id` (pinhole approximation of
+    /// its COLMAP camera, `world_from_cam` the inverse of its pose).
+    pub fn camera_of(&self, image_id: u32) -> Result<Camera> {
+        let image = self.images.get(&image_id).ok_or_else(|| {
+            SceneError::InvalidArgument(format!("no image with id {image_id} in the model"))
+        })?;
+        let cam = self.cameras.get(&image.camera_id).ok_or_else(|| {
+            SceneError::InvalidArgument(format!(
+                "image {image_id} refers to camera {}, which is not in the model",
+                image.camera_id
+            ))
+        })?;
+        Ok(Camera::new(cam.pinhole()?, image.cam_from_world.inverse()))
+    }
+
+    /// Mean number of observations per 3D point (0 without points).
+    pub fn mean_track_length(&self) -> f64 {
+        if self.points.is_empty() {
+            return 0.0;
+        }
+        let total: usize = self.points.values().map(|p| p.track.len()).sum();
+        total as f64 / self.points.len() as f64
+    }
+
+    /// Mean number of 2D features that observe a 3D point, per image (0
+    /// without images).
+    pub fn mean_observations_per_image(&self) -> f64 {
+        if self.images.is_empty() {
+            return 0.0;
+        }
+        let total: usize = self
+            .images
+            .values()
+            .map(|im| {
+                im.points2d
+                    .iter()
+                    .filter(|p| p.point3d_id.is_some())
+                    .count()
+            })
+            .sum();
+        total as f64 / self.images.len() as f64
+    }
+
+    /// Mean reprojection error over the points that carry one (COLMAP writes
+    /// a negative error when it is unknown); `None` when no point has one.
+    pub fn mean_reprojection_error(&self) -> Option<f64> {
+        let errs: Vec<f64> = self
+            .points
+            .values()
+            .map(|p| p.error)
+            .filter(|e| *e >= 0.0 && e.is_finite())
+            .collect();
+        (!errs.is_empty()).then(|| errs.iter().sum::<f64>() / errs.len() as f64)
+    }
+
+    /// Checks the model's invariants: each camera has its model's parameter
+    /// count; each image's camera exists; each 2D point's 3D point exists and
+    /// lists that observation in its track; each track element names an
+    /// existing image and 2D point that observes the 3D point.
+    pub fn validate(&self) -> Result<()> {
+        match self.check() {
+            None => Ok(()),
+            Some(e) => Err(SceneError::InvalidArgument(format!(
+                "COLMAP model: {}: {}: {}",
+                e.file.stem(),
+                e.element,
+                e.message
+            ))),
+        }
+    }
+
+    /// The first broken invariant, if any (see [`Reconstruction::validate`]).
+    pub(crate) fn check(&self) -> Option<Inconsistency> {
+        let bad = |file: ModelFile, id: u64, message: String| {
+            let kind = match file {
+                ModelFile::Cameras => "camera",
+                ModelFile::Images => "image",
+                ModelFile::Points => "point",
+            };
+            Some(Inconsistency {
+                file,
+                id,
+                element: format!("{kind} {id}"),
+                message,
+            })
+        };
+        for cam in self.cameras.values() {
+            if cam.params.len() != cam.model.num_params() {
+                return bad(
+                    ModelFile::Cameras,
+                    u64::from(cam.id),
+                    format!(
+                        "{} expects {} parameters, found {}",
+                        cam.model,
+                        cam.model.num_params(),
+                        cam.params.len()
+                    ),
+                );
+            }
+        }
+        for image in self.images.values() {
+            if !self.cameras.contains_key(&image.camera_id) {
+                return bad(
+                    ModelFile::Images,
+                    u64::from(image.id),
+                    format!("refers to unknown camera {}", image.camera_id),
+                );
+            }
+            for (idx, p2) in image.points2d.iter().enumerate() {
+                let Some(pid) = p2.point3d_id else { continue };
+                let listed = self.points.get(&pid).map(|p| {
+                    p.track
+                        .iter()
+                        .any(|&(im, i)| im == image.id && i as usize == idx)
+                });
+                match listed {
+                    Some(true) => {}
+                    Some(false) => {
+                        return bad(
+                            ModelFile::Images,
+                            u64::from(image.id),
+                            format!(
+                            "2D point {idx} observes 3D point {pid}, whose track does not list it"
+                        ),
+                        )
+                    }
+                    None => {
+                        return bad(
+                            ModelFile::Images,
+                            u64::from(image.id),
+                            format!("2D point {idx} refers to unknown 3D point {pid}"),
+                        )
+                    }
+                }
+            }
+        }
+        for point in self.points.values() {
+            for &(image_id, idx) in &point.track {
+                let Some(image) = self.images.get(&image_id) else {
+                    return bad(
+                        ModelFile::Points,
+                        point.id,
+                        format!("track refers to unknown image {image_id}"),
+                    );
+                };
+                let Some(p2) = image.points2d.get(idx as usize) else {
+                    return bad(
+                        ModelFile::Points,
+                        point.id,
+                        format!(
+                            "track refers to 2D point {idx} of image {image_id}, which has only {}",
+                            image.points2d.len()
+                        ),
+                    );
+                };
+                if p2.point3d_id != Some(point.id) {
+                    return bad(
+                        ModelFile::Points,
+                        point.id,
+                        format!(
+                            "track lists 2D point {idx} of image {image_id}, which observes {}",
+                            p2.point3d_id.map_or_else(
+                                || "no 3D point".to_string(),
+                                |p| format!("3D point {p}")
+                            )
+                        ),
+                    );
+                }
+            }
+        }
+        None
+    }
+}
