@@ -18,7 +18,11 @@ const N_RAYS: usize = 1_000_000;
 
 /// Rays as a UAV camera casts them: from 10-50 m above the site towards
 /// random points of its footprint.
-fn aerial_rays(site_min: Point3<f64>, site_max: Point3<f64>, seed: u64) -> Vec<(Point3<f64>, Vector3<f64>)> {
+fn aerial_rays(
+    site_min: Point3<f64>,
+    site_max: Point3<f64>,
+    seed: u64,
+) -> Vec<(Point3<f64>, Vector3<f64>)> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     (0..N_RAYS)
         .map(|_| {
@@ -49,13 +53,16 @@ fn raycast(c: &mut Criterion) {
     eprintln!("site: {} faces", mesh.n_faces());
 
     let mut group = c.benchmark_group("bvh");
-    group.sample_size(10).measurement_time(Duration::from_secs(5));
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(5));
     group.bench_function("build_200k", |b| b.iter(|| black_box(RayCaster::new(mesh))));
     group.finish();
 
     let caster = RayCaster::new(mesh);
     let rays = aerial_rays(bounds.min, bounds.max, 7);
-    let segments: Vec<(Point3<f64>, Point3<f64>)> = rays.iter().map(|(o, d)| (*o, o + d * 40.0)).collect();
+    let segments: Vec<(Point3<f64>, Point3<f64>)> =
+        rays.iter().map(|(o, d)| (*o, o + d * 40.0)).collect();
 
     for threads in [1, 2] {
         let pool = rayon::ThreadPoolBuilder::new()

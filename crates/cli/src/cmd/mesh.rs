@@ -39,8 +39,16 @@ fn info(file: &std::path::Path, out: &mut dyn Write) -> Result<()> {
     writeln!(out, "faces: {}", mesh.n_faces())?;
     let b = mesh.bounds();
     if mesh.n_vertices() > 0 && non_finite_vertices == 0 {
-        writeln!(out, "bounds min: {:.4} {:.4} {:.4}", b.min.x, b.min.y, b.min.z)?;
-        writeln!(out, "bounds max: {:.4} {:.4} {:.4}", b.max.x, b.max.y, b.max.z)?;
+        writeln!(
+            out,
+            "bounds min: {:.4} {:.4} {:.4}",
+            b.min.x, b.min.y, b.min.z
+        )?;
+        writeln!(
+            out,
+            "bounds max: {:.4} {:.4} {:.4}",
+            b.max.x, b.max.y, b.max.z
+        )?;
         let e = b.extent();
         writeln!(out, "extent: {:.4} {:.4} {:.4}", e.x, e.y, e.z)?;
     }
