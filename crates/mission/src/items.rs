@@ -504,6 +504,7 @@ mod tests {
     }
 
     #[test]
+    #[allow(deprecated)] // DO_MOUNT_CONTROL is the ArduPilot fallback on purpose.
     fn ardupilot_puts_home_at_seq_0() {
         let m = build_mission(&plan(), &MissionOptions::for_autopilot(Autopilot::ArduPilot)).unwrap();
         assert_eq!(m.items[0].command, MavCmd::MAV_CMD_NAV_WAYPOINT);
