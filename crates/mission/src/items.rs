@@ -123,7 +123,10 @@ impl MissionOptions {
 ///
 /// `x`/`y` are lat/lon * 1e7 for positional commands and the raw param5/param6
 /// otherwise; `z` is param7 (altitude for positional commands).
-#[derive(Debug, Clone, Copy, PartialEq)]
+///
+/// `==` compares floats bit for bit, so NaN params (meaning "unchanged")
+/// compare equal to themselves; [`compare_items`] is the tolerant check.
+#[derive(Debug, Clone, Copy)]
 pub struct MissionItem {
     /// The MAV_CMD.
     pub command: MavCmd,
@@ -139,6 +142,18 @@ pub struct MissionItem {
     pub z: f32,
     /// Continue to the next item when done.
     pub autocontinue: bool,
+}
+
+impl PartialEq for MissionItem {
+    fn eq(&self, o: &Self) -> bool {
+        self.command == o.command
+            && self.frame == o.frame
+            && self.params.map(f32::to_bits) == o.params.map(f32::to_bits)
+            && self.x == o.x
+            && self.y == o.y
+            && self.z.to_bits() == o.z.to_bits()
+            && self.autocontinue == o.autocontinue
+    }
 }
 
 impl MissionItem {

@@ -20,7 +20,7 @@ use crate::items::Autopilot;
 use crate::protocol::{Link, Target, GCS_COMPONENT_ID, GCS_SYSTEM_ID};
 
 /// Granularity of receive timeouts.
-const POLL: Duration = Duration::from_millis(10);
+const POLL: Duration = Duration::from_millis(5);
 
 /// A ground-station MAVLink connection.
 pub struct MavLink {
