@@ -25,7 +25,7 @@
 use mavlink::dialects::common::{
     MavCmd, MavFrame, MavMissionType, MISSION_ITEM_DATA, MISSION_ITEM_INT_DATA,
 };
-use vp_scene::plan::{GeodeticOrigin, Plan};
+use vp_scene::plan::{GeodeticOrigin, Plan, PlannedView};
 
 use crate::error::{MissionError, Result};
 use crate::geodesy::{deg_to_e7, LocalFrame};
@@ -101,7 +101,10 @@ impl MissionOptions {
     /// DIGICAM_CONTROL. 2 s hold, 1 m acceptance, takeoff to 20 m, RTL at the end.
     pub fn for_autopilot(autopilot: Autopilot) -> Self {
         let (gimbal, trigger) = match autopilot {
-            Autopilot::Px4 => (GimbalCommand::GimbalManager, CameraTrigger::ImageStartCapture),
+            Autopilot::Px4 => (
+                GimbalCommand::GimbalManager,
+                CameraTrigger::ImageStartCapture,
+            ),
             Autopilot::ArduPilot => (GimbalCommand::MountControl, CameraTrigger::DigicamControl),
         };
         MissionOptions {
@@ -278,7 +281,9 @@ pub fn build_mission(plan: &Plan, opts: &MissionOptions) -> Result<Mission> {
         if v.is_finite() && v >= 0.0 {
             Ok(())
         } else {
-            Err(MissionError::InvalidInput(format!("{name} {v} must be finite and >= 0")))
+            Err(MissionError::InvalidInput(format!(
+                "{name} {v} must be finite and >= 0"
+            )))
         }
     };
     check("hold time", opts.hold_time_s)?;
@@ -321,7 +326,9 @@ pub fn build_mission(plan: &Plan, opts: &MissionOptions) -> Result<Mission> {
     }
     if let Some(speed) = opts.speed_m_s {
         if !(speed.is_finite() && speed > 0.0) {
-            return Err(MissionError::InvalidInput(format!("speed {speed} m/s must be > 0")));
+            return Err(MissionError::InvalidInput(format!(
+                "speed {speed} m/s must be > 0"
+            )));
         }
         // Speed type 1 = ground speed; throttle -1 = unchanged.
         items.push(MissionItem::command(
@@ -332,59 +339,8 @@ pub fn build_mission(plan: &Plan, opts: &MissionOptions) -> Result<Mission> {
             0.0,
         ));
     }
-    let mut capture_seq = opts.first_capture_seq;
-    for view in &plan.waypoints {
-        let geo = frame.to_geodetic(view.position);
-        let rel_alt = (geo.alt_m - home.alt_m) as f32;
-        let heading = frame.compass_heading_deg(view.position, view.yaw_deg) as f32;
-        let pitch = view.pitch_deg as f32;
-        items.push(match opts.gimbal {
-            // Flags: roll and pitch locked to the horizon (12), yaw in the
-            // vehicle frame (32) with yaw 0 = straight ahead.
-            GimbalCommand::GimbalManager => MissionItem::command(
-                MavCmd::MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW,
-                [pitch, 0.0, f32::NAN, f32::NAN],
-                4 | 8 | 32,
-                0,
-                0.0,
-            ),
-            // Mode 2 = MAV_MOUNT_MODE_MAVLINK_TARGETING.
-            GimbalCommand::MountControl => MissionItem::command(
-                MavCmd::MAV_CMD_DO_MOUNT_CONTROL,
-                [pitch, view.roll_deg as f32, 0.0, 0.0],
-                0,
-                0,
-                2.0,
-            ),
-        });
-        items.push(MissionItem {
-            command: MavCmd::MAV_CMD_NAV_WAYPOINT,
-            frame: rel,
-            params: [hold, opts.acceptance_radius_m, 0.0, heading],
-            x: deg_to_e7(geo.lat_deg)?,
-            y: deg_to_e7(geo.lon_deg)?,
-            z: rel_alt,
-            autocontinue: true,
-        });
-        items.push(match opts.trigger {
-            CameraTrigger::ImageStartCapture => MissionItem::command(
-                MavCmd::MAV_CMD_IMAGE_START_CAPTURE,
-                [0.0, 0.0, 1.0, capture_seq as f32],
-                0,
-                0,
-                f32::NAN,
-            ),
-            // param5 = 1: shoot; param6: command identity, increasing so a
-            // repeated command is not executed twice.
-            CameraTrigger::DigicamControl => MissionItem::command(
-                MavCmd::MAV_CMD_DO_DIGICAM_CONTROL,
-                [0.0; 4],
-                1,
-                capture_seq as i32,
-                0.0,
-            ),
-        });
-        capture_seq += 1;
+    for (capture_seq, view) in (opts.first_capture_seq..).zip(&plan.waypoints) {
+        items.extend(view_items(&frame, &home, view, opts, hold, capture_seq)?);
     }
     if opts.return_to_launch {
         items.push(MissionItem::command(
@@ -409,6 +365,69 @@ pub fn build_mission(plan: &Plan, opts: &MissionOptions) -> Result<Mission> {
     })
 }
 
+/// The gimbal, waypoint and photo items of one view.
+#[allow(deprecated)] // MAV_FRAME_GLOBAL_RELATIVE_ALT_INT and DIGICAM_CONTROL: see module docs.
+fn view_items(
+    frame: &LocalFrame,
+    home: &GeodeticOrigin,
+    view: &PlannedView,
+    opts: &MissionOptions,
+    hold: f32,
+    capture_seq: u32,
+) -> Result<[MissionItem; 3]> {
+    let geo = frame.to_geodetic(view.position);
+    let rel_alt = (geo.alt_m - home.alt_m) as f32;
+    let heading = frame.compass_heading_deg(view.position, view.yaw_deg) as f32;
+    let pitch = view.pitch_deg as f32;
+    let gimbal = match opts.gimbal {
+        // Flags: roll and pitch locked to the horizon (4 | 8), yaw in the
+        // vehicle frame (32) with yaw 0 = straight ahead.
+        GimbalCommand::GimbalManager => MissionItem::command(
+            MavCmd::MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW,
+            [pitch, 0.0, f32::NAN, f32::NAN],
+            4 | 8 | 32,
+            0,
+            0.0,
+        ),
+        // Mode 2 = MAV_MOUNT_MODE_MAVLINK_TARGETING.
+        GimbalCommand::MountControl => MissionItem::command(
+            MavCmd::MAV_CMD_DO_MOUNT_CONTROL,
+            [pitch, view.roll_deg as f32, 0.0, 0.0],
+            0,
+            0,
+            2.0,
+        ),
+    };
+    let waypoint = MissionItem {
+        command: MavCmd::MAV_CMD_NAV_WAYPOINT,
+        frame: MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+        params: [hold, opts.acceptance_radius_m, 0.0, heading],
+        x: deg_to_e7(geo.lat_deg)?,
+        y: deg_to_e7(geo.lon_deg)?,
+        z: rel_alt,
+        autocontinue: true,
+    };
+    let photo = match opts.trigger {
+        CameraTrigger::ImageStartCapture => MissionItem::command(
+            MavCmd::MAV_CMD_IMAGE_START_CAPTURE,
+            [0.0, 0.0, 1.0, capture_seq as f32],
+            0,
+            0,
+            f32::NAN,
+        ),
+        // param5 = 1: shoot; param6: command identity, increasing so a
+        // repeated command is not executed twice.
+        CameraTrigger::DigicamControl => MissionItem::command(
+            MavCmd::MAV_CMD_DO_DIGICAM_CONTROL,
+            [0.0; 4],
+            1,
+            capture_seq as i32,
+            0.0,
+        ),
+    };
+    Ok([gimbal, waypoint, photo])
+}
+
 /// Compares an uploaded mission with the one read back, item by item.
 ///
 /// Integers (command, lat/lon, raw param5/6) must match exactly; floats
@@ -426,7 +445,11 @@ pub fn compare_items(
     if sent.len() != got.len() {
         return Err(MissionError::VerifyMismatch {
             seq: sent.len().min(got.len()),
-            detail: format!("vehicle holds {} items, {} were uploaded", got.len(), sent.len()),
+            detail: format!(
+                "vehicle holds {} items, {} were uploaded",
+                got.len(),
+                sent.len()
+            ),
         });
     }
     let skip = usize::from(autopilot == Autopilot::ArduPilot);
@@ -453,12 +476,7 @@ pub fn compare_items(
         if check_params {
             for k in 0..4 {
                 if !same_f32(a.params[k], b.params[k]) {
-                    return mismatch(format!(
-                        "param{} {} vs {}",
-                        k + 1,
-                        a.params[k],
-                        b.params[k]
-                    ));
+                    return mismatch(format!("param{} {} vs {}", k + 1, a.params[k], b.params[k]));
                 }
             }
         }
@@ -467,7 +485,7 @@ pub fn compare_items(
 }
 
 fn same_f32(a: f32, b: f32) -> bool {
-    (a.is_nan() && b.is_nan()) || a == b || (a - b).abs() <= 1e-4 * a.abs().max(1.0)
+    (a.is_nan() && b.is_nan()) || (a - b).abs() <= 1e-4 * a.abs().max(1.0)
 }
 
 #[cfg(test)]
@@ -507,21 +525,36 @@ mod tests {
         assert_eq!(cmds[3], MavCmd::MAV_CMD_IMAGE_START_CAPTURE);
         assert_eq!(cmds[10], MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH);
         // ENU yaw 0 (east) is compass 90; yaw 90 (north) is compass 0; 225 -> 225.
-        let headings: Vec<f32> = m.items.iter().filter(|i| i.command == MavCmd::MAV_CMD_NAV_WAYPOINT).map(|i| i.params[3]).collect();
+        let headings: Vec<f32> = m
+            .items
+            .iter()
+            .filter(|i| i.command == MavCmd::MAV_CMD_NAV_WAYPOINT)
+            .map(|i| i.params[3])
+            .collect();
         assert!((headings[0] - 90.0).abs() < 0.01 && (headings[2] - 225.0).abs() < 0.01);
         assert!(headings[1] < 0.01 || headings[1] > 359.99, "{headings:?}");
         // 40 m above the origin = home: relative altitude 40 m (+ curvature, < 1 mm here).
         assert!((m.items[2].z - 40.0).abs() < 1e-3);
         // Capture sequence numbers increase from 1, total is 1.
-        let seqs: Vec<f32> = m.items.iter().filter(|i| i.command == MavCmd::MAV_CMD_IMAGE_START_CAPTURE).map(|i| i.params[3]).collect();
+        let seqs: Vec<f32> = m
+            .items
+            .iter()
+            .filter(|i| i.command == MavCmd::MAV_CMD_IMAGE_START_CAPTURE)
+            .map(|i| i.params[3])
+            .collect();
         assert_eq!(seqs, vec![1.0, 2.0, 3.0]);
-        assert!(m.items[3].params[2] == 1.0 && m.items[1].params[0] == -30.0);
+        assert_eq!(m.items[3].params[2].to_bits(), 1f32.to_bits());
+        assert_eq!(m.items[1].params[0].to_bits(), (-30f32).to_bits());
     }
 
     #[test]
     #[allow(deprecated)] // DO_MOUNT_CONTROL is the ArduPilot fallback on purpose.
     fn ardupilot_puts_home_at_seq_0() {
-        let m = build_mission(&plan(), &MissionOptions::for_autopilot(Autopilot::ArduPilot)).unwrap();
+        let m = build_mission(
+            &plan(),
+            &MissionOptions::for_autopilot(Autopilot::ArduPilot),
+        )
+        .unwrap();
         assert_eq!(m.items[0].command, MavCmd::MAV_CMD_NAV_WAYPOINT);
         assert_eq!(m.items[0].frame, MavFrame::MAV_FRAME_GLOBAL);
         assert_eq!((m.items[0].x, m.items[0].y), (460_000_000, 103_000_000));
@@ -538,7 +571,10 @@ mod tests {
     #[test]
     fn items_round_trip_through_mavlink_messages() {
         let m = build_mission(&plan(), &MissionOptions::for_autopilot(Autopilot::Px4)).unwrap();
-        let back: Vec<MissionItem> = m.items.iter().enumerate()
+        let back: Vec<MissionItem> = m
+            .items
+            .iter()
+            .enumerate()
             .map(|(s, i)| MissionItem::from_mavlink(&i.to_mavlink(s as u16, (1, 1))))
             .collect();
         compare_items(&m.items, &back, Autopilot::Px4).unwrap();
@@ -549,7 +585,9 @@ mod tests {
         let m = build_mission(&plan(), &MissionOptions::for_autopilot(Autopilot::Px4)).unwrap();
         let mut got = m.items.clone();
         got[5].params[3] = 12.0;
-        let err = compare_items(&m.items, &got, Autopilot::Px4).unwrap_err().to_string();
+        let err = compare_items(&m.items, &got, Autopilot::Px4)
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("item 5") && err.contains("param4"), "{err}");
     }
 

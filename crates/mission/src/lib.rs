@@ -119,7 +119,14 @@ pub fn upload(
     progress: &mut dyn FnMut(Progress),
 ) -> Result<(TransferReport, VehicleInfo)> {
     let (mut link, info) = connect(url, opts)?;
-    let report = upload_over(&mut link, info.target, mission, &opts.protocol, true, progress)?;
+    let report = upload_over(
+        &mut link,
+        info.target,
+        mission,
+        &opts.protocol,
+        true,
+        progress,
+    )?;
     Ok((report, info))
 }
 

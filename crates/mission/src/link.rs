@@ -82,7 +82,11 @@ impl MavLink {
         let conn: Box<dyn MavConnection<MavMessage> + Send + Sync> = match scheme {
             "udpin" | "udpout" => {
                 check_host_port(url, rest)?;
-                let mode = if scheme == "udpin" { UdpMode::Udpin } else { UdpMode::Udpout };
+                let mode = if scheme == "udpin" {
+                    UdpMode::Udpin
+                } else {
+                    UdpMode::Udpout
+                };
                 Box::new(
                     UdpConfig::new(rest.to_string(), mode)
                         .read_timeout(POLL)
@@ -92,7 +96,8 @@ impl MavLink {
             }
             "tcpout" => {
                 let addr = check_host_port(url, rest)?;
-                let stream = TcpStream::connect_timeout(&addr, Duration::from_secs(5)).map_err(io)?;
+                let stream =
+                    TcpStream::connect_timeout(&addr, Duration::from_secs(5)).map_err(io)?;
                 stream.set_read_timeout(Some(POLL)).map_err(io)?;
                 Box::new(
                     TcpConfig::from_stream(stream)
@@ -166,7 +171,9 @@ impl MavLink {
                 self.heartbeat()?;
                 next_hb = now + Duration::from_millis(500);
             }
-            let wait = (start + timeout).min(next_hb).saturating_duration_since(now);
+            let wait = (start + timeout)
+                .min(next_hb)
+                .saturating_duration_since(now);
             if let Some((h, MavMessage::HEARTBEAT(hb))) = self.recv(wait)? {
                 let is_autopilot = hb.autopilot != MavAutopilot::MAV_AUTOPILOT_INVALID
                     && hb.mavtype != MavType::MAV_TYPE_GCS;
@@ -214,7 +221,10 @@ impl Link for MavLink {
                         std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
                     ) => {}
                 Err(MessageReadError::Io(e)) => {
-                    return Err(MissionError::Link(format!("{}: receive failed: {e}", self.url)))
+                    return Err(MissionError::Link(format!(
+                        "{}: receive failed: {e}",
+                        self.url
+                    )))
                 }
                 // A corrupt frame or a message outside the common dialect: skip it.
                 Err(MessageReadError::Parse(_)) => {}

@@ -159,13 +159,23 @@ mod tests {
                 angle_bin_deg: None,
             });
         }
-        p.geofence = Some(vec![[-100.0, -100.0], [100.0, -100.0], [100.0, 100.0], [-100.0, 100.0]]);
+        p.geofence = Some(vec![
+            [-100.0, -100.0],
+            [100.0, -100.0],
+            [100.0, 100.0],
+            [-100.0, 100.0],
+        ]);
         p
     }
 
     #[test]
     fn plan_file_has_the_structure_qgc_reads() {
-        let text = export_qgc(&plan(), &MissionOptions::for_autopilot(Autopilot::Px4), &QgcOptions::default()).unwrap();
+        let text = export_qgc(
+            &plan(),
+            &MissionOptions::for_autopilot(Autopilot::Px4),
+            &QgcOptions::default(),
+        )
+        .unwrap();
         let v: Value = serde_json::from_str(&text).unwrap();
         assert_eq!(v["fileType"], "Plan");
         assert_eq!(v["version"], 1);
@@ -198,11 +208,19 @@ mod tests {
 
     #[test]
     fn ardupilot_home_goes_to_planned_home_not_items() {
-        let text = export_qgc(&plan(), &MissionOptions::for_autopilot(Autopilot::ArduPilot), &QgcOptions::default()).unwrap();
+        let text = export_qgc(
+            &plan(),
+            &MissionOptions::for_autopilot(Autopilot::ArduPilot),
+            &QgcOptions::default(),
+        )
+        .unwrap();
         let v: Value = serde_json::from_str(&text).unwrap();
         assert_eq!(v["mission"]["firmwareType"], 3);
         let items = v["mission"]["items"].as_array().unwrap();
-        assert_eq!(items[0]["command"], 22, "first item is the takeoff, not home");
+        assert_eq!(
+            items[0]["command"], 22,
+            "first item is the takeoff, not home"
+        );
         assert_eq!(items.len(), 8);
     }
 }

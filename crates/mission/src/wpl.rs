@@ -73,7 +73,10 @@ pub fn parse_wpl(text: &str, path: &Path) -> Result<(MissionItem, Vec<MissionIte
     let err = |line: usize, msg: String| -> MissionError {
         SceneError::parse(path, Location::Line(line), msg).into()
     };
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
     match lines.next() {
         Some((_, l)) if l.trim() == WPL_HEADER => {}
         _ => return Err(err(1, format!("missing header {WPL_HEADER:?}"))),
@@ -94,16 +97,28 @@ pub fn parse_wpl(text: &str, path: &Path) -> Result<(MissionItem, Vec<MissionIte
                 .map_err(|_| err(n, format!("field {}: {:?} is not a number", k + 1, f[k])))
         };
         if usize::try_from(int(0)?).ok() != Some(items.len()) {
-            return Err(err(n, format!("index {} out of sequence (expected {})", f[0], items.len())));
+            return Err(err(
+                n,
+                format!("index {} out of sequence (expected {})", f[0], items.len()),
+            ));
         }
-        let frame = u32::try_from(int(2)?).ok().and_then(MavFrame::from_u32)
+        let frame = u32::try_from(int(2)?)
+            .ok()
+            .and_then(MavFrame::from_u32)
             .ok_or_else(|| err(n, format!("unknown frame {}", f[2])))?;
-        let command = u32::try_from(int(3)?).ok().and_then(MavCmd::from_u32)
+        let command = u32::try_from(int(3)?)
+            .ok()
+            .and_then(MavCmd::from_u32)
             .ok_or_else(|| err(n, format!("unknown command {}", f[3])))?;
         let mut item = MissionItem {
             command,
             frame,
-            params: [float(4)? as f32, float(5)? as f32, float(6)? as f32, float(7)? as f32],
+            params: [
+                float(4)? as f32,
+                float(5)? as f32,
+                float(6)? as f32,
+                float(7)? as f32,
+            ],
             x: 0,
             y: 0,
             z: float(10)? as f32,
@@ -156,7 +171,7 @@ mod tests {
         let text = export_wpl(&m).unwrap();
         assert!(text.starts_with("QGC WPL 110\n0\t1\t0\t16\t"));
         let (home, items) = parse_wpl(&text, Path::new("m.waypoints")).unwrap();
-        assert_eq!(home.x, 338_600_000 * -1);
+        assert_eq!(home.x, -338_600_000);
         compare_items(&m.items, &items, Autopilot::Px4).unwrap();
     }
 
@@ -171,7 +186,12 @@ mod tests {
     #[test]
     fn bad_line_is_named() {
         let text = "QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t1\t2\t3\t1\n1\t0\t3\t16\t0\t0\n";
-        let e = parse_wpl(text, Path::new("m.waypoints")).unwrap_err().to_string();
-        assert!(e.contains("m.waypoints: line 3") && e.contains("12 fields"), "{e}");
+        let e = parse_wpl(text, Path::new("m.waypoints"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("m.waypoints: line 3") && e.contains("12 fields"),
+            "{e}"
+        );
     }
 }

@@ -6,7 +6,9 @@ use std::time::Duration;
 use mavlink::dialects::common::MavMissionResult;
 use vp_mission::protocol::{self, ProtocolConfig, Target};
 use vp_mission::testing::{Impairment, MissionServer, SimLink, VehicleConfig};
-use vp_mission::{build_mission, upload_over, Link, Autopilot, Mission, MissionError, MissionOptions};
+use vp_mission::{
+    build_mission, upload_over, Autopilot, Link, Mission, MissionError, MissionOptions,
+};
 use vp_scene::plan::{GeodeticOrigin, Plan, PlannedView, Role};
 
 const TARGET: Target = Target {
@@ -23,7 +25,11 @@ fn mission(n_views: usize, autopilot: Autopilot, seed: u64) -> Mission {
     for i in 0..n_views {
         let k = (i as u64 + seed) as f64;
         p.waypoints.push(PlannedView {
-            position: [k * 7.3 % 400.0 - 200.0, k * 13.1 % 300.0 - 150.0, 30.0 + k % 20.0],
+            position: [
+                k * 7.3 % 400.0 - 200.0,
+                k * 13.1 % 300.0 - 150.0,
+                30.0 + k % 20.0,
+            ],
             yaw_deg: k * 37.0 % 360.0,
             pitch_deg: -(k * 11.0 % 90.0),
             roll_deg: 0.0,
@@ -56,7 +62,11 @@ fn upload_download_identical_without_loss() {
     assert!(r.verified && r.upload.ack_received);
     assert_eq!(r.upload.attempts, 1);
     assert_eq!(r.upload.resends, 0);
-    assert_eq!(link.vehicle.mission(), &m.items[..], "bit-identical on the vehicle");
+    assert_eq!(
+        link.vehicle.mission(),
+        &m.items[..],
+        "bit-identical on the vehicle"
+    );
     assert_eq!(events, 2 * m.items.len());
     let (got, _) = protocol::download(&mut link, TARGET, &cfg, &mut |_| {}).unwrap();
     assert_eq!(got, m.items);
@@ -79,7 +89,7 @@ fn lossy_link_100_of_100_uploads_verified() {
         let t0 = link.now();
         let r = upload_over(&mut link, TARGET, &m, &cfg, true, &mut |_| {})
             .unwrap_or_else(|e| panic!("upload {k}: {e}"));
-        let dt = link.now() - t0;
+        let dt = link.now().saturating_sub(t0);
         assert!(r.verified);
         assert!(
             dt <= cfg.deadline(m.items.len()) * 2,
@@ -99,7 +109,9 @@ fn lossy_link_100_of_100_uploads_verified() {
          link {:?}",
         link.counts
     );
-    assert!(link.counts.dropped > 1000 && link.counts.duplicated > 300 && link.counts.reordered > 300);
+    assert!(
+        link.counts.dropped > 1000 && link.counts.duplicated > 300 && link.counts.reordered > 300
+    );
 }
 
 #[test]
@@ -112,7 +124,15 @@ fn same_seed_same_run() {
     let run = || {
         let m = mission(10, Autopilot::Px4, 3);
         let mut link = SimLink::new(vehicle(Autopilot::Px4), imp, 7);
-        let r = upload_over(&mut link, TARGET, &m, &ProtocolConfig::default(), true, &mut |_| {}).unwrap();
+        let r = upload_over(
+            &mut link,
+            TARGET,
+            &m,
+            &ProtocolConfig::default(),
+            true,
+            &mut |_| {},
+        )
+        .unwrap();
         (r, link.counts, link.now())
     };
     assert_eq!(run(), run());
@@ -122,10 +142,21 @@ fn same_seed_same_run() {
 fn ardupilot_home_at_seq_0_is_rewritten_and_verify_passes() {
     let m = mission(5, Autopilot::ArduPilot, 0);
     let mut link = SimLink::new(vehicle(Autopilot::ArduPilot), Impairment::default(), 1);
-    let r = upload_over(&mut link, TARGET, &m, &ProtocolConfig::default(), true, &mut |_| {}).unwrap();
+    let r = upload_over(
+        &mut link,
+        TARGET,
+        &m,
+        &ProtocolConfig::default(),
+        true,
+        &mut |_| {},
+    )
+    .unwrap();
     assert!(r.verified);
     let stored = link.vehicle.mission();
-    assert_ne!(stored[0], m.items[0], "the vehicle keeps its own home at seq 0");
+    assert_ne!(
+        stored[0], m.items[0],
+        "the vehicle keeps its own home at seq 0"
+    );
     assert_eq!(&stored[1..], &m.items[1..]);
 }
 
@@ -138,7 +169,15 @@ fn rejection_is_reported_by_name() {
         ..VehicleConfig::default()
     });
     let mut link = SimLink::new(v, Impairment::default(), 1);
-    let e = upload_over(&mut link, TARGET, &m, &ProtocolConfig::default(), true, &mut |_| {}).unwrap_err();
+    let e = upload_over(
+        &mut link,
+        TARGET,
+        &m,
+        &ProtocolConfig::default(),
+        true,
+        &mut |_| {},
+    )
+    .unwrap_err();
     assert!(matches!(e, MissionError::Rejected { .. }));
     assert!(e.to_string().contains("MAV_MISSION_NO_SPACE"), "{e}");
     // Permanent: not retried, answered at once.
@@ -150,7 +189,15 @@ fn rejection_is_reported_by_name() {
         ..VehicleConfig::default()
     });
     let mut link = SimLink::new(v, Impairment::default(), 1);
-    let e = upload_over(&mut link, TARGET, &m, &ProtocolConfig::default(), true, &mut |_| {}).unwrap_err();
+    let e = upload_over(
+        &mut link,
+        TARGET,
+        &m,
+        &ProtocolConfig::default(),
+        true,
+        &mut |_| {},
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("MAV_MISSION_DENIED"), "{e}");
 }
 
@@ -168,7 +215,10 @@ fn silent_vehicle_times_out_within_the_bound() {
     assert!(e.to_string().contains("MISSION_COUNT"), "{e}");
     // 3 attempts x 6 sends x 1.5 s = 27 s, within the deadline.
     let t = link.now();
-    assert!(t >= Duration::from_secs(27) && t <= cfg.deadline(m.items.len()), "{t:?}");
+    assert!(
+        t >= Duration::from_secs(27) && t <= cfg.deadline(m.items.len()),
+        "{t:?}"
+    );
 }
 
 #[test]
@@ -180,7 +230,15 @@ fn legacy_mission_request_is_answered_with_item_int() {
         ..VehicleConfig::default()
     });
     let mut link = SimLink::new(v, Impairment::default(), 1);
-    let r = upload_over(&mut link, TARGET, &m, &ProtocolConfig::default(), true, &mut |_| {}).unwrap();
+    let r = upload_over(
+        &mut link,
+        TARGET,
+        &m,
+        &ProtocolConfig::default(),
+        true,
+        &mut |_| {},
+    )
+    .unwrap();
     assert!(r.verified);
     assert_eq!(link.vehicle.mission(), &m.items[..]);
 }
@@ -189,9 +247,18 @@ fn legacy_mission_request_is_answered_with_item_int() {
 fn clear_empties_the_vehicle() {
     let m = mission(4, Autopilot::Px4, 0);
     let mut link = SimLink::new(vehicle(Autopilot::Px4), Impairment::default(), 1);
-    upload_over(&mut link, TARGET, &m, &ProtocolConfig::default(), false, &mut |_| {}).unwrap();
+    upload_over(
+        &mut link,
+        TARGET,
+        &m,
+        &ProtocolConfig::default(),
+        false,
+        &mut |_| {},
+    )
+    .unwrap();
     protocol::clear(&mut link, TARGET, &ProtocolConfig::default()).unwrap();
     assert!(link.vehicle.mission().is_empty());
-    let (got, _) = protocol::download(&mut link, TARGET, &ProtocolConfig::default(), &mut |_| {}).unwrap();
+    let (got, _) =
+        protocol::download(&mut link, TARGET, &ProtocolConfig::default(), &mut |_| {}).unwrap();
     assert!(got.is_empty());
 }

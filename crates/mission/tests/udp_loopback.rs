@@ -23,7 +23,11 @@ fn mission(n_views: usize, seed: u64) -> Mission {
     for i in 0..n_views {
         let k = (i as u64 * 7 + seed) as f64;
         p.waypoints.push(PlannedView {
-            position: [k * 7.3 % 400.0 - 200.0, k * 13.1 % 300.0 - 150.0, 30.0 + k % 20.0],
+            position: [
+                k * 7.3 % 400.0 - 200.0,
+                k * 13.1 % 300.0 - 150.0,
+                30.0 + k % 20.0,
+            ],
             yaw_deg: k * 37.0 % 360.0,
             pitch_deg: -(k * 11.0 % 90.0),
             roll_deg: 0.0,
@@ -127,7 +131,10 @@ fn no_vehicle_is_a_clear_timeout() {
     let e = upload(&url, &mission(2, 0), &opts, &mut |_| {}).unwrap_err();
     assert!(matches!(e, MissionError::NoVehicle { .. }), "{e}");
     let msg = e.to_string();
-    assert!(msg.contains(&url) && msg.contains("no vehicle answered"), "{msg}");
+    assert!(
+        msg.contains(&url) && msg.contains("no vehicle answered"),
+        "{msg}"
+    );
     assert!(t0.elapsed() < Duration::from_secs(5));
 }
 
@@ -141,14 +148,25 @@ fn rejecting_vehicle_is_reported_by_name_over_udp() {
         },
     )
     .unwrap();
-    let e = upload(&format!("udpout:{}", v.addr()), &mission(3, 0), &fast_opts(), &mut |_| {})
-        .unwrap_err();
+    let e = upload(
+        &format!("udpout:{}", v.addr()),
+        &mission(3, 0),
+        &fast_opts(),
+        &mut |_| {},
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("MAV_MISSION_NO_SPACE"), "{e}");
 }
 
 #[test]
 fn bad_url_names_the_problem() {
-    let e = upload("carrier-pigeon:1", &mission(1, 0), &fast_opts(), &mut |_| {}).unwrap_err();
+    let e = upload(
+        "carrier-pigeon:1",
+        &mission(1, 0),
+        &fast_opts(),
+        &mut |_| {},
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("unknown transport"), "{e}");
     let e = upload("udpout:nohost", &mission(1, 0), &fast_opts(), &mut |_| {}).unwrap_err();
     assert!(matches!(e, MissionError::BadUrl { .. }), "{e}");

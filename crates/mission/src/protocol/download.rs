@@ -4,8 +4,8 @@
 use std::time::Duration;
 
 use mavlink::dialects::common::{
-    MavMessage, MavMissionResult, MavMissionType, MISSION_CLEAR_ALL_DATA,
-    MISSION_REQUEST_INT_DATA, MISSION_REQUEST_LIST_DATA,
+    MavMessage, MavMissionResult, MavMissionType, MISSION_CLEAR_ALL_DATA, MISSION_REQUEST_INT_DATA,
+    MISSION_REQUEST_LIST_DATA,
 };
 
 use super::upload::send_ack;
@@ -94,48 +94,7 @@ fn download_attempt(
         attempts,
         elapsed: link.now().saturating_sub(start),
     };
-    let request_list = MavMessage::MISSION_REQUEST_LIST(MISSION_REQUEST_LIST_DATA {
-        target_system: target.system,
-        target_component: target.component,
-        mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
-    });
-    // Phase 1: the count.
-    let mut sends = 0u32;
-    let count = 'count: loop {
-        if sends > cfg.retries {
-            return Err(timeout(link, "waiting for MISSION_COUNT".into(), sends));
-        }
-        link.send(&request_list)?;
-        if sends > 0 {
-            report.resends += 1;
-        }
-        sends += 1;
-        let until = (link.now() + cfg.timeout).min(*deadline);
-        while let Some((h, msg)) = recv_until(link, until)? {
-            match msg {
-                MavMessage::MISSION_COUNT(c)
-                    if target.is_source(&h) && is_mission(c.mission_type) =>
-                {
-                    break 'count usize::from(c.count);
-                }
-                MavMessage::MISSION_ACK(a)
-                    if target.is_source(&h)
-                        && is_mission(a.mission_type)
-                        && a.mavtype != MavMissionResult::MAV_MISSION_ACCEPTED =>
-                {
-                    return Err(MissionError::Rejected {
-                        operation: OP,
-                        result: result_name(a.mavtype),
-                        seq: None,
-                    });
-                }
-                _ => report.ignored += 1,
-            }
-        }
-        if link.now() >= *deadline {
-            return Err(timeout(link, "before the overall deadline".into(), attempt));
-        }
-    };
+    let count = request_count(link, target, cfg, deadline, attempt, report, &timeout)?;
     if got.len() != count {
         // First attempt, or the mission changed under us: start afresh.
         *got = vec![None; count];
@@ -216,6 +175,59 @@ fn download_attempt(
     Ok(())
 }
 
+/// Phase 1 of a download: MISSION_REQUEST_LIST until MISSION_COUNT.
+fn request_count(
+    link: &mut dyn Link,
+    target: Target,
+    cfg: &ProtocolConfig,
+    deadline: &Duration,
+    attempt: u32,
+    report: &mut DownloadReport,
+    timeout: &dyn Fn(&dyn Link, String, u32) -> MissionError,
+) -> Result<usize> {
+    let request_list = MavMessage::MISSION_REQUEST_LIST(MISSION_REQUEST_LIST_DATA {
+        target_system: target.system,
+        target_component: target.component,
+        mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+    });
+    let mut sends = 0u32;
+    Ok('count: loop {
+        if sends > cfg.retries {
+            return Err(timeout(link, "waiting for MISSION_COUNT".into(), sends));
+        }
+        link.send(&request_list)?;
+        if sends > 0 {
+            report.resends += 1;
+        }
+        sends += 1;
+        let until = (link.now() + cfg.timeout).min(*deadline);
+        while let Some((h, msg)) = recv_until(link, until)? {
+            match msg {
+                MavMessage::MISSION_COUNT(c)
+                    if target.is_source(&h) && is_mission(c.mission_type) =>
+                {
+                    break 'count usize::from(c.count);
+                }
+                MavMessage::MISSION_ACK(a)
+                    if target.is_source(&h)
+                        && is_mission(a.mission_type)
+                        && a.mavtype != MavMissionResult::MAV_MISSION_ACCEPTED =>
+                {
+                    return Err(MissionError::Rejected {
+                        operation: OP,
+                        result: result_name(a.mavtype),
+                        seq: None,
+                    });
+                }
+                _ => report.ignored += 1,
+            }
+        }
+        if link.now() >= *deadline {
+            return Err(timeout(link, "before the overall deadline".into(), attempt));
+        }
+    })
+}
+
 /// Receives until the absolute time `until`; `None` once it has passed.
 fn recv_until(
     link: &mut dyn Link,
@@ -226,7 +238,7 @@ fn recv_until(
         if now >= until {
             return Ok(None);
         }
-        if let Some(m) = link.recv(until - now)? {
+        if let Some(m) = link.recv(until.saturating_sub(now))? {
             return Ok(Some(m));
         }
     }

@@ -72,7 +72,13 @@ pub fn upload(
             deadline,
             start,
             report: &mut report,
-            attempt,
+            number: attempt,
+            count_sends: 0,
+            highest: None,
+            served: vec![false; n],
+            n_served: 0,
+            end_waits: 0,
+            last_progress: Duration::ZERO,
         };
         let result = run.run(progress);
         report.elapsed = link.now().saturating_sub(start);
@@ -80,7 +86,11 @@ pub fn upload(
             Ok(()) => return Ok(report),
             Err(e) if is_transient(&e) && attempt < cfg.attempts && link.now() < deadline => {
                 // Tell the vehicle to drop the half transfer before starting over.
-                send_ack(link, target, MavMissionResult::MAV_MISSION_OPERATION_CANCELLED)?;
+                send_ack(
+                    link,
+                    target,
+                    MavMissionResult::MAV_MISSION_OPERATION_CANCELLED,
+                )?;
             }
             Err(e) => return Err(e),
         }
@@ -118,18 +128,34 @@ struct Attempt<'a> {
     deadline: Duration,
     start: Duration,
     report: &'a mut UploadReport,
-    attempt: u32,
+    number: u32,
+    // Progress of this attempt.
+    count_sends: u32,
+    highest: Option<u16>,
+    served: Vec<bool>,
+    n_served: usize,
+    end_waits: u32,
+    last_progress: Duration,
+}
+
+/// What a timeout led to.
+enum AfterTimeout {
+    /// Keep waiting.
+    Continue,
+    /// Everything was served and the ACK never came: done, unconfirmed.
+    Unconfirmed,
 }
 
 impl Attempt<'_> {
     fn send_count(&mut self) -> Result<()> {
-        self.link.send(&MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
-            count: self.count,
-            target_system: self.target.system,
-            target_component: self.target.component,
-            mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
-            opaque_id: 0,
-        }))
+        self.link
+            .send(&MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
+                count: self.count,
+                target_system: self.target.system,
+                target_component: self.target.component,
+                mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+                opaque_id: 0,
+            }))
     }
 
     /// Sends item `seq` as MISSION_ITEM_INT, also in answer to the legacy
@@ -150,56 +176,83 @@ impl Attempt<'_> {
         }
     }
 
+    fn all_served(&self) -> bool {
+        self.n_served == self.served.len()
+    }
+
+    fn on_timeout(&mut self) -> Result<AfterTimeout> {
+        let n = self.served.len();
+        if self.highest.is_none() {
+            if self.count_sends > self.cfg.retries {
+                return Err(self.timeout(
+                    format!("waiting for the vehicle to answer MISSION_COUNT ({n} items)"),
+                    self.count_sends,
+                ));
+            }
+            self.send_count()?;
+            self.count_sends += 1;
+            self.report.resends += 1;
+        } else if self.all_served() {
+            self.end_waits += 1;
+            if self.end_waits > self.cfg.retries {
+                // Every item went out but no ACK came back: report it and
+                // let the caller verify by reading back.
+                return Ok(AfterTimeout::Unconfirmed);
+            }
+            // Resending the last item makes a vehicle that lost it ask
+            // again, and one that already finished repeat its ACK.
+            self.send_item(self.count - 1)?;
+            self.report.resends += 1;
+        } else if self.link.now().saturating_sub(self.last_progress) >= self.cfg.stall_limit() {
+            return Err(self.timeout(
+                format!(
+                    "the vehicle stopped requesting items ({} of {n} served)",
+                    self.n_served
+                ),
+                self.number,
+            ));
+        }
+        Ok(AfterTimeout::Continue)
+    }
+
+    fn on_request(&mut self, seq: u16, progress: &mut dyn FnMut(Progress)) -> Result<()> {
+        self.send_item(seq)?;
+        let idx = usize::from(seq);
+        if self.served[idx] {
+            self.report.repeated_requests += 1;
+        } else {
+            self.served[idx] = true;
+            self.n_served += 1;
+            self.last_progress = self.link.now();
+            progress(Progress {
+                phase: Phase::Upload,
+                done: self.n_served,
+                total: self.served.len(),
+                attempt: self.number,
+            });
+        }
+        if self.highest.is_none_or(|s| seq > s) {
+            self.highest = Some(seq);
+            self.end_waits = 0;
+        }
+        Ok(())
+    }
+
     #[allow(deprecated)] // MISSION_REQUEST: older vehicles still ask with it.
     fn run(&mut self, progress: &mut dyn FnMut(Progress)) -> Result<()> {
-        let n = usize::from(self.count);
         self.send_count()?;
-        let mut count_sends = 1u32;
-        // Highest seq served so far (None: no request yet).
-        let mut served: Option<u16> = None;
-        let mut served_set = vec![false; n];
-        let mut n_served = 0usize;
-        let mut end_waits = 0u32;
-        let mut last_progress = self.link.now();
+        self.count_sends = 1;
+        self.last_progress = self.link.now();
         let mut wait_until = self.link.now() + self.cfg.timeout;
         loop {
             let now = self.link.now();
             if now >= self.deadline {
-                return Err(self.timeout("before the overall deadline".into(), self.attempt));
+                return Err(self.timeout("before the overall deadline".into(), self.number));
             }
-            let all_served = n_served == n;
             if now >= wait_until {
-                if served.is_none() {
-                    if count_sends > self.cfg.retries {
-                        return Err(self.timeout(
-                            format!("waiting for the vehicle to answer MISSION_COUNT ({n} items)"),
-                            count_sends,
-                        ));
-                    }
-                    self.send_count()?;
-                    count_sends += 1;
-                    self.report.resends += 1;
-                } else if all_served {
-                    end_waits += 1;
-                    if end_waits > self.cfg.retries {
-                        // Every item went out but no ACK came back: report it
-                        // and let the caller verify by reading back.
-                        self.report.ack_received = false;
-                        return Ok(());
-                    }
-                    // Resending the last item makes a vehicle that lost it ask
-                    // again, and one that already finished repeat its ACK.
-                    self.send_item(self.count - 1)?;
-                    self.report.resends += 1;
-                } else if now.saturating_sub(last_progress) >= self.cfg.stall_limit() {
-                    let next = served.map_or(0, |s| s);
-                    return Err(self.timeout(
-                        format!(
-                            "the vehicle stopped requesting items ({n_served} of {n} served, \
-                             highest seq {next})"
-                        ),
-                        self.attempt,
-                    ));
+                if let AfterTimeout::Unconfirmed = self.on_timeout()? {
+                    self.report.ack_received = false;
+                    return Ok(());
                 }
                 wait_until = self.link.now() + self.cfg.timeout;
                 continue;
@@ -216,20 +269,20 @@ impl Attempt<'_> {
                 MavMessage::MISSION_REQUEST_INT(r) if is_mission(r.mission_type) => r.seq,
                 MavMessage::MISSION_REQUEST(r) if is_mission(r.mission_type) => r.seq,
                 MavMessage::MISSION_ACK(a) if is_mission(a.mission_type) => {
-                    if a.mavtype == MavMissionResult::MAV_MISSION_ACCEPTED {
-                        if all_served {
-                            self.report.ack_received = true;
-                            return Ok(());
-                        }
-                        // An ACK from an earlier transfer, delayed.
-                        self.report.ignored += 1;
-                        continue;
+                    if a.mavtype != MavMissionResult::MAV_MISSION_ACCEPTED {
+                        return Err(MissionError::Rejected {
+                            operation: OP,
+                            result: result_name(a.mavtype),
+                            seq: self.highest,
+                        });
                     }
-                    return Err(MissionError::Rejected {
-                        operation: OP,
-                        result: result_name(a.mavtype),
-                        seq: served,
-                    });
+                    if self.all_served() {
+                        self.report.ack_received = true;
+                        return Ok(());
+                    }
+                    // An ACK from an earlier transfer, delayed.
+                    self.report.ignored += 1;
+                    continue;
                 }
                 _ => {
                     self.report.ignored += 1;
@@ -241,25 +294,7 @@ impl Attempt<'_> {
                 self.report.ignored += 1;
                 continue;
             }
-            self.send_item(seq)?;
-            let idx = usize::from(seq);
-            if served_set[idx] {
-                self.report.repeated_requests += 1;
-            } else {
-                served_set[idx] = true;
-                n_served += 1;
-                last_progress = self.link.now();
-                progress(Progress {
-                    phase: Phase::Upload,
-                    done: n_served,
-                    total: n,
-                    attempt: self.attempt,
-                });
-            }
-            if served.is_none_or(|s| seq > s) {
-                served = Some(seq);
-                end_waits = 0;
-            }
+            self.on_request(seq, progress)?;
             // A request is the vehicle's sign of life: restart the wait.
             wait_until = self.link.now() + self.cfg.timeout;
         }

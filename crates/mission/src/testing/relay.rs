@@ -70,7 +70,8 @@ impl UdpRelay {
         let back = UdpSocket::bind("127.0.0.1:0").map_err(io)?;
         back.connect(vehicle).map_err(io)?;
         for s in [&front, &back] {
-            s.set_read_timeout(Some(Duration::from_millis(1))).map_err(io)?;
+            s.set_read_timeout(Some(Duration::from_millis(1)))
+                .map_err(io)?;
         }
         let addr = front.local_addr().map_err(io)?;
         let counters = Arc::new(Counters::default());
@@ -79,29 +80,48 @@ impl UdpRelay {
         let mut threads = Vec::new();
         // Ground -> vehicle.
         {
-            let (rx, tx) = (front.try_clone().map_err(io)?, back.try_clone().map_err(io)?);
-            let (c, s, g) = (Arc::clone(&counters), Arc::clone(&stop), Arc::clone(&ground));
+            let (rx, tx) = (
+                front.try_clone().map_err(io)?,
+                back.try_clone().map_err(io)?,
+            );
+            let (c, s, g) = (
+                Arc::clone(&counters),
+                Arc::clone(&stop),
+                Arc::clone(&ground),
+            );
             threads.push(std::thread::spawn(move || {
                 let mut pipe = Pipe::new(impairment, seed, c);
-                pipe.run(&s, |buf| {
-                    let (n, from) = rx.recv_from(buf)?;
-                    *g.lock().unwrap_or_else(PoisonError::into_inner) = Some(from);
-                    Ok(n)
-                }, |data| {
-                    let _ = tx.send(data);
-                });
+                pipe.run(
+                    &s,
+                    |buf| {
+                        let (n, from) = rx.recv_from(buf)?;
+                        *g.lock().unwrap_or_else(PoisonError::into_inner) = Some(from);
+                        Ok(n)
+                    },
+                    |data| {
+                        let _ = tx.send(data);
+                    },
+                );
             }));
         }
         // Vehicle -> ground.
         {
-            let (c, s, g) = (Arc::clone(&counters), Arc::clone(&stop), Arc::clone(&ground));
+            let (c, s, g) = (
+                Arc::clone(&counters),
+                Arc::clone(&stop),
+                Arc::clone(&ground),
+            );
             threads.push(std::thread::spawn(move || {
                 let mut pipe = Pipe::new(impairment, seed ^ 0x9e37_79b9_7f4a_7c15, c);
-                pipe.run(&s, |buf| back.recv(buf), |data| {
-                    if let Some(to) = *g.lock().unwrap_or_else(PoisonError::into_inner) {
-                        let _ = front.send_to(data, to);
-                    }
-                });
+                pipe.run(
+                    &s,
+                    |buf| back.recv(buf),
+                    |data| {
+                        if let Some(to) = *g.lock().unwrap_or_else(PoisonError::into_inner) {
+                            let _ = front.send_to(data, to);
+                        }
+                    },
+                );
             }));
         }
         Ok(UdpRelay {
@@ -163,11 +183,15 @@ impl Pipe {
     ) {
         let mut buf = vec![0u8; 65_536];
         while !stop.load(Ordering::Relaxed) {
-            match recv(&mut buf) {
-                Ok(n) => self.forward(&buf[..n], &mut send),
-                Err(_) => {} // read timeout: fall through to release held data
+            // A read timeout falls through to release held data.
+            if let Ok(n) = recv(&mut buf) {
+                self.forward(&buf[..n], &mut send);
             }
-            if self.held.as_ref().is_some_and(|(_, t)| t.elapsed() >= MAX_HOLD) {
+            if self
+                .held
+                .as_ref()
+                .is_some_and(|(_, t)| t.elapsed() >= MAX_HOLD)
+            {
                 if let Some((data, _)) = self.held.take() {
                     self.counters.passed.fetch_add(1, Ordering::Relaxed);
                     send(&data);

@@ -55,7 +55,7 @@ impl SimLink {
         }
     }
 
-    fn schedule(&mut self, msg: MavMessage, to_vehicle: bool) {
+    fn schedule(&mut self, msg: &MavMessage, to_vehicle: bool) {
         if self.rng.random::<f64>() < self.impairment.drop {
             self.counts.dropped += 1;
             return;
@@ -98,7 +98,7 @@ impl SimLink {
 
 impl Link for SimLink {
     fn send(&mut self, msg: &MavMessage) -> Result<()> {
-        self.schedule(msg.clone(), true);
+        self.schedule(msg, true);
         Ok(())
     }
 
@@ -113,7 +113,10 @@ impl Link for SimLink {
             let g = Self::earliest(&self.to_ground);
             let v = Self::earliest(&self.to_vehicle);
             let w = self.vehicle.next_wakeup();
-            let next = [g.map(|x| x.1), v.map(|x| x.1), w].into_iter().flatten().min();
+            let next = [g.map(|x| x.1), v.map(|x| x.1), w]
+                .into_iter()
+                .flatten()
+                .min();
             let Some(t) = next.filter(|&t| t <= end) else {
                 self.now = end;
                 return Ok(None);
@@ -131,7 +134,7 @@ impl Link for SimLink {
                 self.vehicle.poll(self.now)
             };
             for m in out {
-                self.schedule(m, false);
+                self.schedule(&m, false);
             }
         }
     }

@@ -183,21 +183,34 @@ impl MissionServer {
 
     /// Handles one message from the ground station.
     #[allow(deprecated)] // MISSION_ITEM and MISSION_REQUEST: legacy peers send them.
-    pub fn handle(&mut self, now: Duration, header: &MavHeader, msg: &MavMessage) -> Vec<MavMessage> {
+    pub fn handle(
+        &mut self,
+        now: Duration,
+        header: &MavHeader,
+        msg: &MavMessage,
+    ) -> Vec<MavMessage> {
         let for_us = |t: u8| t == 0 || t == self.cfg.system;
         let mission_type = |t: MavMissionType| t == MavMissionType::MAV_MISSION_TYPE_MISSION;
         match msg {
-            MavMessage::MISSION_COUNT(c) if for_us(c.target_system) && mission_type(c.mission_type) => {
+            MavMessage::MISSION_COUNT(c)
+                if for_us(c.target_system) && mission_type(c.mission_type) =>
+            {
                 self.gcs = (header.system_id as u8, header.component_id);
                 self.on_count(now, c.count)
             }
-            MavMessage::MISSION_ITEM_INT(m) if for_us(m.target_system) && mission_type(m.mission_type) => {
+            MavMessage::MISSION_ITEM_INT(m)
+                if for_us(m.target_system) && mission_type(m.mission_type) =>
+            {
                 self.on_item(now, m.seq, MissionItem::from_mavlink(m))
             }
-            MavMessage::MISSION_ITEM(m) if for_us(m.target_system) && mission_type(m.mission_type) => {
+            MavMessage::MISSION_ITEM(m)
+                if for_us(m.target_system) && mission_type(m.mission_type) =>
+            {
                 self.on_item(now, m.seq, MissionItem::from_mavlink_float(m))
             }
-            MavMessage::MISSION_REQUEST_LIST(r) if for_us(r.target_system) && mission_type(r.mission_type) => {
+            MavMessage::MISSION_REQUEST_LIST(r)
+                if for_us(r.target_system) && mission_type(r.mission_type) =>
+            {
                 self.gcs = (header.system_id as u8, header.component_id);
                 vec![MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
                     count: self.mission.len() as u16,
@@ -207,13 +220,19 @@ impl MissionServer {
                     opaque_id: 0,
                 })]
             }
-            MavMessage::MISSION_REQUEST_INT(r) if for_us(r.target_system) && mission_type(r.mission_type) => {
+            MavMessage::MISSION_REQUEST_INT(r)
+                if for_us(r.target_system) && mission_type(r.mission_type) =>
+            {
                 self.serve(r.seq)
             }
-            MavMessage::MISSION_REQUEST(r) if for_us(r.target_system) && mission_type(r.mission_type) => {
+            MavMessage::MISSION_REQUEST(r)
+                if for_us(r.target_system) && mission_type(r.mission_type) =>
+            {
                 self.serve(r.seq)
             }
-            MavMessage::MISSION_CLEAR_ALL(c) if for_us(c.target_system) && mission_type(c.mission_type) => {
+            MavMessage::MISSION_CLEAR_ALL(c)
+                if for_us(c.target_system) && mission_type(c.mission_type) =>
+            {
                 self.gcs = (header.system_id as u8, header.component_id);
                 self.mission.clear();
                 self.state = State::Idle;
