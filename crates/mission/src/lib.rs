@@ -119,6 +119,17 @@ pub fn upload(
     progress: &mut dyn FnMut(Progress),
 ) -> Result<(TransferReport, VehicleInfo)> {
     let (mut link, info) = connect(url, opts)?;
+    if let Some(family) = info.autopilot_family() {
+        if family != mission.autopilot {
+            // ArduPilot would overwrite a PX4 mission's first item with its
+            // home: refuse before touching the vehicle's mission.
+            return Err(MissionError::InvalidInput(format!(
+                "the mission was built for {:?} but the vehicle on {url} reports {:?}; \
+                 rebuild it for that autopilot",
+                mission.autopilot, family
+            )));
+        }
+    }
     let report = upload_over(
         &mut link,
         info.target,

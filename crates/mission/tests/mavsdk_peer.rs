@@ -135,7 +135,10 @@ fn upload_to_mavsdk_mission_raw_server() {
     let (mut link, info) = connect(&format!("udpout:127.0.0.1:{port}"), &opts).unwrap();
     let cfg = ProtocolConfig::default();
     let report = upload_over(&mut link, info.target, &m, &cfg, true, &mut |_| {}).unwrap();
-    assert!(report.upload.ack_received && report.verified, "read back from MAVSDK and compared");
+    assert!(
+        report.upload.ack_received && report.verified,
+        "read back from MAVSDK and compared"
+    );
     let line = out.next().unwrap().unwrap();
     let v: Value = serde_json::from_str(&line).unwrap();
     assert_eq!(v["result"], "SUCCESS", "{line}");

@@ -159,6 +159,27 @@ fn rejecting_vehicle_is_reported_by_name_over_udp() {
 }
 
 #[test]
+fn mission_for_the_wrong_autopilot_is_refused() {
+    let v = spawn_udp_vehicle(
+        "127.0.0.1:0",
+        VehicleConfig {
+            autopilot: Autopilot::ArduPilot,
+            ..fast_vehicle()
+        },
+    )
+    .unwrap();
+    let e = upload(
+        &format!("udpout:{}", v.addr()),
+        &mission(2, 0),
+        &fast_opts(),
+        &mut |_| {},
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("built for Px4"), "{e}");
+    assert!(v.mission().is_empty(), "nothing was uploaded");
+}
+
+#[test]
 fn bad_url_names_the_problem() {
     let e = upload(
         "carrier-pigeon:1",
