@@ -82,8 +82,13 @@ def import_plan(path):
     # autopilot in this process, over loopback.
     ap = Mavsdk(Configuration.create_with_component_type(ComponentType.AUTOPILOT))
     gcs = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
-    gcs.add_any_connection("udpin://127.0.0.1:14999")
-    ap.add_any_connection("udpout://127.0.0.1:14999")
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    gcs.add_any_connection(f"udpin://127.0.0.1:{port}")
+    ap.add_any_connection(f"udpout://127.0.0.1:{port}")
     system = gcs.first_autopilot(10.0)
     if system is None:
         print(json.dumps({"error": "no autopilot system for the importer"}), flush=True)
