@@ -1,0 +1,94 @@
+//! The one error type of `vp-mission`.
+
+use std::time::Duration;
+
+/// Errors of `vp-mission`.
+#[derive(Debug, thiserror::Error)]
+pub enum MissionError {
+    /// A scene-level error: reading or writing a file, a malformed plan.
+    #[error(transparent)]
+    Scene(#[from] vp_scene::SceneError),
+    /// The plan or the options cannot be turned into a mission.
+    #[error("invalid mission input: {0}")]
+    InvalidInput(String),
+    /// The connection URL is malformed or names an unknown transport.
+    #[error("connection URL {url:?}: {message} (expected udpin:HOST:PORT, udpout:HOST:PORT, tcpout:HOST:PORT or serial:DEVICE:BAUD)")]
+    BadUrl {
+        /// The URL as given.
+        url: String,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// Opening the connection failed at the operating-system level.
+    #[error("cannot open {url}: {source}")]
+    Connect {
+        /// The URL as given.
+        url: String,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Sending or receiving on an open link failed.
+    #[error("link error: {0}")]
+    Link(String),
+    /// No vehicle heartbeat arrived in time.
+    #[error(
+        "no vehicle answered on {url} within {:.1} s (no HEARTBEAT from an autopilot{}); \
+         check the URL, that the autopilot is powered and that its MAVLink output reaches this port",
+        timeout.as_secs_f64(),
+        match target_system { Some(s) => format!(" with system id {s}"), None => String::new() }
+    )]
+    NoVehicle {
+        /// The URL listened on.
+        url: String,
+        /// How long we waited.
+        timeout: Duration,
+        /// The system id asked for, if any.
+        target_system: Option<u8>,
+    },
+    /// A protocol step got no answer after all retries.
+    #[error("{operation}: timed out {stage} after {attempts} attempt(s) ({} s)", format_secs(*elapsed))]
+    Timeout {
+        /// Upload, download or clear.
+        operation: &'static str,
+        /// What we were waiting for, in words.
+        stage: String,
+        /// How many times the step was tried.
+        attempts: u32,
+        /// Time spent in the operation.
+        elapsed: Duration,
+    },
+    /// The vehicle answered with a MISSION_ACK other than MAV_MISSION_ACCEPTED.
+    #[error("{operation}: vehicle rejected the mission with {result}{}", match seq { Some(s) => format!(" (after item {s})"), None => String::new() })]
+    Rejected {
+        /// Upload, download or clear.
+        operation: &'static str,
+        /// The MAV_MISSION_RESULT name, e.g. `MAV_MISSION_NO_SPACE`.
+        result: String,
+        /// The last item sent before the rejection, if any.
+        seq: Option<u16>,
+    },
+    /// The mission read back from the vehicle differs from the one uploaded.
+    #[error("verify: item {seq} differs after upload: {detail}")]
+    VerifyMismatch {
+        /// Sequence number of the first differing item.
+        seq: usize,
+        /// Which field differs, with both values.
+        detail: String,
+    },
+    /// The vehicle sent something the protocol does not allow.
+    #[error("{operation}: protocol error: {message}")]
+    Protocol {
+        /// Upload, download or clear.
+        operation: &'static str,
+        /// What happened.
+        message: String,
+    },
+}
+
+fn format_secs(d: Duration) -> String {
+    format!("{:.2}", d.as_secs_f64())
+}
+
+/// Result alias of `vp-mission`.
+pub type Result<T, E = MissionError> = std::result::Result<T, E>;

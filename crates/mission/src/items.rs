@@ -1,0 +1,601 @@
+//! Plan -> mission items (MISSION_ITEM_INT content), and back for comparison.
+//!
+//! Each planned view becomes three items, in this order:
+//! 1. the gimbal command (`MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW`, or
+//!    `MAV_CMD_DO_MOUNT_CONTROL` as a fallback): placed *before* the
+//!    waypoint, so that it runs when the previous waypoint is done and the
+//!    gimbal slews during the transit;
+//! 2. `MAV_CMD_NAV_WAYPOINT` with hold time (param1), acceptance radius
+//!    (param2) and the vehicle's compass heading (param4, degrees clockwise
+//!    from true north), frame `MAV_FRAME_GLOBAL_RELATIVE_ALT_INT` (lat/lon
+//!    deg * 1e7, altitude relative to home);
+//! 3. the photo (`MAV_CMD_IMAGE_START_CAPTURE` with total 1 and an
+//!    increasing capture sequence number, or `MAV_CMD_DO_DIGICAM_CONTROL`
+//!    with an increasing command identity): DO items after a waypoint run
+//!    once the waypoint and its hold time are done, on PX4 and ArduPilot alike.
+//!
+//! The gimbal yaw is 0 in the vehicle frame: the vehicle itself turns to the
+//! view heading, which also works with 2-axis gimbals. Gimbal pitch is
+//! relative to the horizon (pitch lock).
+//!
+//! ArduPilot keeps the home position at seq 0: with [`Autopilot::ArduPilot`]
+//! the mission starts with a home placeholder that the vehicle overwrites.
+
+#[allow(deprecated)] // MISSION_ITEM: see from_mavlink_float.
+use mavlink::dialects::common::{
+    MavCmd, MavFrame, MavMissionType, MISSION_ITEM_DATA, MISSION_ITEM_INT_DATA,
+};
+use vp_scene::plan::{GeodeticOrigin, Plan, PlannedView};
+
+use crate::error::{MissionError, Result};
+use crate::geodesy::{deg_to_e7, LocalFrame};
+
+/// Autopilot family: decides mission conventions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Autopilot {
+    /// PX4: the mission starts at seq 0 with the first real item.
+    Px4,
+    /// ArduPilot: seq 0 is the home position, written by the vehicle.
+    ArduPilot,
+}
+
+impl std::str::FromStr for Autopilot {
+    type Err = MissionError;
+    fn from_str(s: &str) -> Result<Self> {
+        match s.to_ascii_lowercase().as_str() {
+            "px4" => Ok(Autopilot::Px4),
+            "ardupilot" | "apm" | "ardupilotmega" => Ok(Autopilot::ArduPilot),
+            _ => Err(MissionError::InvalidInput(format!(
+                "unknown autopilot {s:?} (expected px4 or ardupilot)"
+            ))),
+        }
+    }
+}
+
+/// How the gimbal is pointed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GimbalCommand {
+    /// `MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW` (gimbal protocol v2).
+    GimbalManager,
+    /// `MAV_CMD_DO_MOUNT_CONTROL` (legacy mounts).
+    MountControl,
+}
+
+/// How the photo is triggered.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CameraTrigger {
+    /// `MAV_CMD_IMAGE_START_CAPTURE`, total 1, increasing sequence number.
+    ImageStartCapture,
+    /// `MAV_CMD_DO_DIGICAM_CONTROL`, shoot, increasing command identity.
+    DigicamControl,
+}
+
+/// How a plan becomes a mission.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MissionOptions {
+    /// Mission conventions (home at seq 0 for ArduPilot).
+    pub autopilot: Autopilot,
+    /// Gimbal command kind.
+    pub gimbal: GimbalCommand,
+    /// Camera trigger kind.
+    pub trigger: CameraTrigger,
+    /// Seconds to hold at each waypoint before the photo (ArduPilot stores whole seconds).
+    pub hold_time_s: f32,
+    /// Waypoint acceptance radius, metres.
+    pub acceptance_radius_m: f32,
+    /// Ground speed set at the mission start (`MAV_CMD_DO_CHANGE_SPEED`), m/s.
+    pub speed_m_s: Option<f32>,
+    /// Take off to this altitude above home first (`MAV_CMD_NAV_TAKEOFF`), metres.
+    pub takeoff_alt_m: Option<f32>,
+    /// End with `MAV_CMD_NAV_RETURN_TO_LAUNCH`.
+    pub return_to_launch: bool,
+    /// Home (launch) position; relative altitudes refer to it. `None`: the plan's origin.
+    pub home: Option<GeodeticOrigin>,
+    /// Capture sequence number of the first photo (>= 1).
+    pub first_capture_seq: u32,
+}
+
+impl MissionOptions {
+    /// Defaults for an autopilot: PX4 gets the gimbal manager and
+    /// IMAGE_START_CAPTURE; ArduPilot the longer-supported MOUNT_CONTROL and
+    /// DIGICAM_CONTROL. 2 s hold, 1 m acceptance, takeoff to 20 m, RTL at the end.
+    pub fn for_autopilot(autopilot: Autopilot) -> Self {
+        let (gimbal, trigger) = match autopilot {
+            Autopilot::Px4 => (
+                GimbalCommand::GimbalManager,
+                CameraTrigger::ImageStartCapture,
+            ),
+            Autopilot::ArduPilot => (GimbalCommand::MountControl, CameraTrigger::DigicamControl),
+        };
+        MissionOptions {
+            autopilot,
+            gimbal,
+            trigger,
+            hold_time_s: 2.0,
+            acceptance_radius_m: 1.0,
+            speed_m_s: None,
+            takeoff_alt_m: Some(20.0),
+            return_to_launch: true,
+            home: None,
+            first_capture_seq: 1,
+        }
+    }
+}
+
+/// One mission item: the content of a MISSION_ITEM_INT without addressing.
+///
+/// `x`/`y` are lat/lon * 1e7 for positional commands and the raw param5/param6
+/// otherwise; `z` is param7 (altitude for positional commands).
+///
+/// `==` compares floats bit for bit, so NaN params (meaning "unchanged")
+/// compare equal to themselves; [`compare_items`] is the tolerant check.
+#[derive(Debug, Clone, Copy)]
+pub struct MissionItem {
+    /// The MAV_CMD.
+    pub command: MavCmd,
+    /// Coordinate frame.
+    pub frame: MavFrame,
+    /// param1..param4.
+    pub params: [f32; 4],
+    /// param5: latitude * 1e7 or raw integer.
+    pub x: i32,
+    /// param6: longitude * 1e7 or raw integer.
+    pub y: i32,
+    /// param7: altitude (m) or raw value.
+    pub z: f32,
+    /// Continue to the next item when done.
+    pub autocontinue: bool,
+}
+
+impl PartialEq for MissionItem {
+    fn eq(&self, o: &Self) -> bool {
+        self.command == o.command
+            && self.frame == o.frame
+            && self.params.map(f32::to_bits) == o.params.map(f32::to_bits)
+            && self.x == o.x
+            && self.y == o.y
+            && self.z.to_bits() == o.z.to_bits()
+            && self.autocontinue == o.autocontinue
+    }
+}
+
+impl MissionItem {
+    /// A non-positional (DO/CONDITION) item in `MAV_FRAME_MISSION`.
+    pub fn command(command: MavCmd, params: [f32; 4], x: i32, y: i32, z: f32) -> Self {
+        MissionItem {
+            command,
+            frame: MavFrame::MAV_FRAME_MISSION,
+            params,
+            x,
+            y,
+            z,
+            autocontinue: true,
+        }
+    }
+
+    /// True when x/y/z are a global position (lat, lon, alt).
+    pub fn is_positional(&self) -> bool {
+        matches!(
+            self.command,
+            MavCmd::MAV_CMD_NAV_WAYPOINT | MavCmd::MAV_CMD_NAV_TAKEOFF | MavCmd::MAV_CMD_NAV_LAND
+        )
+    }
+
+    /// The MISSION_ITEM_INT message for this item at `seq`.
+    pub fn to_mavlink(&self, seq: u16, target: (u8, u8)) -> MISSION_ITEM_INT_DATA {
+        MISSION_ITEM_INT_DATA {
+            param1: self.params[0],
+            param2: self.params[1],
+            param3: self.params[2],
+            param4: self.params[3],
+            x: self.x,
+            y: self.y,
+            z: self.z,
+            seq,
+            command: self.command,
+            target_system: target.0,
+            target_component: target.1,
+            frame: self.frame,
+            current: 0,
+            autocontinue: u8::from(self.autocontinue),
+            mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+        }
+    }
+
+    /// The item carried by a MISSION_ITEM_INT message.
+    pub fn from_mavlink(m: &MISSION_ITEM_INT_DATA) -> Self {
+        MissionItem {
+            command: m.command,
+            frame: m.frame,
+            params: [m.param1, m.param2, m.param3, m.param4],
+            x: m.x,
+            y: m.y,
+            z: m.z,
+            autocontinue: m.autocontinue != 0,
+        }
+    }
+
+    /// The item carried by a legacy float MISSION_ITEM (lat/lon as f32
+    /// degrees, about 1 m resolution), which old vehicles still send.
+    #[allow(deprecated)] // Reading the deprecated message is the point.
+    pub fn from_mavlink_float(m: &MISSION_ITEM_DATA) -> Self {
+        let mut item = MissionItem {
+            command: m.command,
+            frame: m.frame,
+            params: [m.param1, m.param2, m.param3, m.param4],
+            x: m.x as i32,
+            y: m.y as i32,
+            z: m.z,
+            autocontinue: m.autocontinue != 0,
+        };
+        if item.is_positional() {
+            item.x = (f64::from(m.x) * 1e7).round() as i32;
+            item.y = (f64::from(m.y) * 1e7).round() as i32;
+        }
+        item
+    }
+}
+
+/// The float-frame synonym of an `_INT` frame (frames 5/6/11 are the
+/// deprecated integer names of 0/3/10; vehicles echo either).
+#[allow(deprecated)] // The deprecated names are exactly what we map away from.
+pub fn float_frame(f: MavFrame) -> MavFrame {
+    match f {
+        MavFrame::MAV_FRAME_GLOBAL_INT => MavFrame::MAV_FRAME_GLOBAL,
+        MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT => MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+        MavFrame::MAV_FRAME_GLOBAL_TERRAIN_ALT_INT => MavFrame::MAV_FRAME_GLOBAL_TERRAIN_ALT,
+        other => other,
+    }
+}
+
+/// A mission ready to upload or export.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Mission {
+    /// Items in sequence order (seq = index).
+    pub items: Vec<MissionItem>,
+    /// Home (launch) position; altitudes of positional items are relative to it.
+    pub home: GeodeticOrigin,
+    /// Conventions the items follow.
+    pub autopilot: Autopilot,
+    /// Number of photo items.
+    pub photos: usize,
+}
+
+/// Builds the mission of a plan.
+#[allow(deprecated)] // MAV_FRAME_GLOBAL_RELATIVE_ALT_INT and DIGICAM_CONTROL: see module docs.
+pub fn build_mission(plan: &Plan, opts: &MissionOptions) -> Result<Mission> {
+    plan.validate()?;
+    let origin = plan.origin.ok_or_else(|| {
+        MissionError::InvalidInput(
+            "the plan has no geodetic origin (\"origin\": {lat_deg, lon_deg, alt_m}); \
+             it is needed to place waypoints on the earth"
+                .into(),
+        )
+    })?;
+    if opts.first_capture_seq == 0 {
+        return Err(MissionError::InvalidInput(
+            "first capture sequence number must be >= 1".into(),
+        ));
+    }
+    let check = |name: &str, v: f32| {
+        if v.is_finite() && v >= 0.0 {
+            Ok(())
+        } else {
+            Err(MissionError::InvalidInput(format!(
+                "{name} {v} must be finite and >= 0"
+            )))
+        }
+    };
+    check("hold time", opts.hold_time_s)?;
+    check("acceptance radius", opts.acceptance_radius_m)?;
+    let frame = LocalFrame::new(origin)?;
+    let home = opts.home.unwrap_or(origin);
+    home.validate()?;
+    let (home_x, home_y) = (deg_to_e7(home.lat_deg)?, deg_to_e7(home.lon_deg)?);
+    let rel = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT;
+    let hold = match opts.autopilot {
+        // ArduPilot stores the delay in whole seconds; round here so that
+        // verify compares what the vehicle can keep.
+        Autopilot::ArduPilot => opts.hold_time_s.round(),
+        Autopilot::Px4 => opts.hold_time_s,
+    };
+
+    let mut items = Vec::with_capacity(plan.waypoints.len() * 3 + 4);
+    if opts.autopilot == Autopilot::ArduPilot {
+        items.push(MissionItem {
+            command: MavCmd::MAV_CMD_NAV_WAYPOINT,
+            frame: MavFrame::MAV_FRAME_GLOBAL,
+            params: [0.0; 4],
+            x: home_x,
+            y: home_y,
+            z: home.alt_m as f32,
+            autocontinue: true,
+        });
+    }
+    if let Some(alt) = opts.takeoff_alt_m {
+        check("takeoff altitude", alt)?;
+        items.push(MissionItem {
+            command: MavCmd::MAV_CMD_NAV_TAKEOFF,
+            frame: rel,
+            params: [0.0, 0.0, 0.0, f32::NAN],
+            x: home_x,
+            y: home_y,
+            z: alt,
+            autocontinue: true,
+        });
+    }
+    if let Some(speed) = opts.speed_m_s {
+        if !(speed.is_finite() && speed > 0.0) {
+            return Err(MissionError::InvalidInput(format!(
+                "speed {speed} m/s must be > 0"
+            )));
+        }
+        // Speed type 1 = ground speed; throttle -1 = unchanged.
+        items.push(MissionItem::command(
+            MavCmd::MAV_CMD_DO_CHANGE_SPEED,
+            [1.0, speed, -1.0, 0.0],
+            0,
+            0,
+            0.0,
+        ));
+    }
+    for (capture_seq, view) in (opts.first_capture_seq..).zip(&plan.waypoints) {
+        items.extend(view_items(&frame, &home, view, opts, hold, capture_seq)?);
+    }
+    if opts.return_to_launch {
+        items.push(MissionItem::command(
+            MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH,
+            [0.0; 4],
+            0,
+            0,
+            0.0,
+        ));
+    }
+    if items.len() > usize::from(u16::MAX) {
+        return Err(MissionError::InvalidInput(format!(
+            "{} items exceed the MAVLink limit of 65535",
+            items.len()
+        )));
+    }
+    Ok(Mission {
+        items,
+        home,
+        autopilot: opts.autopilot,
+        photos: plan.waypoints.len(),
+    })
+}
+
+/// The gimbal, waypoint and photo items of one view.
+#[allow(deprecated)] // MAV_FRAME_GLOBAL_RELATIVE_ALT_INT and DIGICAM_CONTROL: see module docs.
+fn view_items(
+    frame: &LocalFrame,
+    home: &GeodeticOrigin,
+    view: &PlannedView,
+    opts: &MissionOptions,
+    hold: f32,
+    capture_seq: u32,
+) -> Result<[MissionItem; 3]> {
+    let geo = frame.to_geodetic(view.position);
+    let rel_alt = (geo.alt_m - home.alt_m) as f32;
+    let heading = frame.compass_heading_deg(view.position, view.yaw_deg) as f32;
+    let pitch = view.pitch_deg as f32;
+    let gimbal = match opts.gimbal {
+        // Flags: roll and pitch locked to the horizon (4 | 8), yaw in the
+        // vehicle frame (32) with yaw 0 = straight ahead.
+        GimbalCommand::GimbalManager => MissionItem::command(
+            MavCmd::MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW,
+            [pitch, 0.0, f32::NAN, f32::NAN],
+            4 | 8 | 32,
+            0,
+            0.0,
+        ),
+        // Mode 2 = MAV_MOUNT_MODE_MAVLINK_TARGETING.
+        GimbalCommand::MountControl => MissionItem::command(
+            MavCmd::MAV_CMD_DO_MOUNT_CONTROL,
+            [pitch, view.roll_deg as f32, 0.0, 0.0],
+            0,
+            0,
+            2.0,
+        ),
+    };
+    let waypoint = MissionItem {
+        command: MavCmd::MAV_CMD_NAV_WAYPOINT,
+        frame: MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+        params: [hold, opts.acceptance_radius_m, 0.0, heading],
+        x: deg_to_e7(geo.lat_deg)?,
+        y: deg_to_e7(geo.lon_deg)?,
+        z: rel_alt,
+        autocontinue: true,
+    };
+    let photo = match opts.trigger {
+        CameraTrigger::ImageStartCapture => MissionItem::command(
+            MavCmd::MAV_CMD_IMAGE_START_CAPTURE,
+            [0.0, 0.0, 1.0, capture_seq as f32],
+            0,
+            0,
+            f32::NAN,
+        ),
+        // param5 = 1: shoot; param6: command identity, increasing so a
+        // repeated command is not executed twice.
+        CameraTrigger::DigicamControl => MissionItem::command(
+            MavCmd::MAV_CMD_DO_DIGICAM_CONTROL,
+            [0.0; 4],
+            1,
+            capture_seq as i32,
+            0.0,
+        ),
+    };
+    Ok([gimbal, waypoint, photo])
+}
+
+/// Compares an uploaded mission with the one read back, item by item.
+///
+/// Integers (command, lat/lon, raw param5/6) must match exactly; floats
+/// match bit for bit or within 1e-4 relative (NaN equals NaN); altitudes
+/// within 1 cm (ArduPilot stores centimetres). Frames compare by their float
+/// synonym, and only for positional items (vehicles report DO items in
+/// various frames). With ArduPilot, seq 0 (home, rewritten by the vehicle)
+/// is skipped and params of positional items are not compared (ArduCopter
+/// does not store waypoint params 2-4).
+pub fn compare_items(
+    sent: &[MissionItem],
+    got: &[MissionItem],
+    autopilot: Autopilot,
+) -> Result<()> {
+    if sent.len() != got.len() {
+        return Err(MissionError::VerifyMismatch {
+            seq: sent.len().min(got.len()),
+            detail: format!(
+                "vehicle holds {} items, {} were uploaded",
+                got.len(),
+                sent.len()
+            ),
+        });
+    }
+    let skip = usize::from(autopilot == Autopilot::ArduPilot);
+    for (seq, (a, b)) in sent.iter().zip(got).enumerate().skip(skip) {
+        let mismatch = |detail: String| Err(MissionError::VerifyMismatch { seq, detail });
+        if a.command != b.command {
+            return mismatch(format!("command {:?} vs {:?}", a.command, b.command));
+        }
+        if a.is_positional() && float_frame(a.frame) != float_frame(b.frame) {
+            return mismatch(format!("frame {:?} vs {:?}", a.frame, b.frame));
+        }
+        if a.x != b.x || a.y != b.y {
+            return mismatch(format!("x/y ({}, {}) vs ({}, {})", a.x, a.y, b.x, b.y));
+        }
+        let z_ok = if a.is_positional() {
+            (a.z - b.z).abs() <= 0.01
+        } else {
+            same_f32(a.z, b.z)
+        };
+        if !z_ok {
+            return mismatch(format!("z {} vs {}", a.z, b.z));
+        }
+        let check_params = !(autopilot == Autopilot::ArduPilot && a.is_positional());
+        if check_params {
+            for k in 0..4 {
+                if !same_f32(a.params[k], b.params[k]) {
+                    return mismatch(format!("param{} {} vs {}", k + 1, a.params[k], b.params[k]));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+fn same_f32(a: f32, b: f32) -> bool {
+    (a.is_nan() && b.is_nan()) || (a - b).abs() <= 1e-4 * a.abs().max(1.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vp_scene::plan::{PlannedView, Role};
+
+    fn plan() -> Plan {
+        let mut p = Plan::new(Some(GeodeticOrigin {
+            lat_deg: 46.0,
+            lon_deg: 10.3,
+            alt_m: 500.0,
+        }));
+        for (i, yaw) in [0.0, 90.0, 225.0].into_iter().enumerate() {
+            p.waypoints.push(PlannedView {
+                position: [i as f64 * 10.0, 5.0, 40.0],
+                yaw_deg: yaw,
+                pitch_deg: -30.0,
+                roll_deg: 0.0,
+                role: Role::TripletMember,
+                triplet_id: Some(0),
+                expected_gain: None,
+                angle_bin_deg: None,
+            });
+        }
+        p
+    }
+
+    #[test]
+    fn px4_mission_layout_and_values() {
+        let m = build_mission(&plan(), &MissionOptions::for_autopilot(Autopilot::Px4)).unwrap();
+        let cmds: Vec<_> = m.items.iter().map(|i| i.command).collect();
+        assert_eq!(cmds.len(), 1 + 3 * 3 + 1);
+        assert_eq!(cmds[0], MavCmd::MAV_CMD_NAV_TAKEOFF);
+        assert_eq!(cmds[1], MavCmd::MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW);
+        assert_eq!(cmds[2], MavCmd::MAV_CMD_NAV_WAYPOINT);
+        assert_eq!(cmds[3], MavCmd::MAV_CMD_IMAGE_START_CAPTURE);
+        assert_eq!(cmds[10], MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH);
+        // ENU yaw 0 (east) is compass 90; yaw 90 (north) is compass 0; 225 -> 225.
+        let headings: Vec<f32> = m
+            .items
+            .iter()
+            .filter(|i| i.command == MavCmd::MAV_CMD_NAV_WAYPOINT)
+            .map(|i| i.params[3])
+            .collect();
+        assert!((headings[0] - 90.0).abs() < 0.01 && (headings[2] - 225.0).abs() < 0.01);
+        assert!(headings[1] < 0.01 || headings[1] > 359.99, "{headings:?}");
+        // 40 m above the origin = home: relative altitude 40 m (+ curvature, < 1 mm here).
+        assert!((m.items[2].z - 40.0).abs() < 1e-3);
+        // Capture sequence numbers increase from 1, total is 1.
+        let seqs: Vec<f32> = m
+            .items
+            .iter()
+            .filter(|i| i.command == MavCmd::MAV_CMD_IMAGE_START_CAPTURE)
+            .map(|i| i.params[3])
+            .collect();
+        assert_eq!(seqs, vec![1.0, 2.0, 3.0]);
+        assert_eq!(m.items[3].params[2].to_bits(), 1f32.to_bits());
+        assert_eq!(m.items[1].params[0].to_bits(), (-30f32).to_bits());
+    }
+
+    #[test]
+    #[allow(deprecated)] // DO_MOUNT_CONTROL is the ArduPilot fallback on purpose.
+    fn ardupilot_puts_home_at_seq_0() {
+        let m = build_mission(
+            &plan(),
+            &MissionOptions::for_autopilot(Autopilot::ArduPilot),
+        )
+        .unwrap();
+        assert_eq!(m.items[0].command, MavCmd::MAV_CMD_NAV_WAYPOINT);
+        assert_eq!(m.items[0].frame, MavFrame::MAV_FRAME_GLOBAL);
+        assert_eq!((m.items[0].x, m.items[0].y), (460_000_000, 103_000_000));
+        assert_eq!(m.items[1].command, MavCmd::MAV_CMD_NAV_TAKEOFF);
+        assert_eq!(m.items[2].command, MavCmd::MAV_CMD_DO_MOUNT_CONTROL);
+        assert_eq!(m.items[4].command, MavCmd::MAV_CMD_DO_DIGICAM_CONTROL);
+        // Home differs after the vehicle rewrites it: verify still passes.
+        let mut got = m.items.clone();
+        got[0].x += 1234;
+        compare_items(&m.items, &got, Autopilot::ArduPilot).unwrap();
+        assert!(compare_items(&m.items, &got, Autopilot::Px4).is_err());
+    }
+
+    #[test]
+    fn items_round_trip_through_mavlink_messages() {
+        let m = build_mission(&plan(), &MissionOptions::for_autopilot(Autopilot::Px4)).unwrap();
+        let back: Vec<MissionItem> = m
+            .items
+            .iter()
+            .enumerate()
+            .map(|(s, i)| MissionItem::from_mavlink(&i.to_mavlink(s as u16, (1, 1))))
+            .collect();
+        compare_items(&m.items, &back, Autopilot::Px4).unwrap();
+    }
+
+    #[test]
+    fn compare_reports_the_differing_item() {
+        let m = build_mission(&plan(), &MissionOptions::for_autopilot(Autopilot::Px4)).unwrap();
+        let mut got = m.items.clone();
+        got[5].params[3] = 12.0;
+        let err = compare_items(&m.items, &got, Autopilot::Px4)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("item 5") && err.contains("param4"), "{err}");
+    }
+
+    #[test]
+    fn missing_origin_is_a_clear_error() {
+        let mut p = plan();
+        p.origin = None;
+        let err = build_mission(&p, &MissionOptions::for_autopilot(Autopilot::Px4)).unwrap_err();
+        assert!(err.to_string().contains("no geodetic origin"));
+    }
+}

@@ -1,0 +1,160 @@
+//! `vp-mission`: from a plan to a mission on the autopilot.
+//!
+//! - [`geodesy`]: local ENU <-> WGS84 on the ellipsoid.
+//! - [`items`]: plan -> MISSION_ITEM_INT content ([`build_mission`]), with
+//!   PX4 and ArduPilot conventions, and item-by-item comparison.
+//! - [`protocol`]: the MAVLink mission protocol, ground side (upload,
+//!   download, clear) over the [`protocol::Link`] trait.
+//! - [`link`]: real connections (`udpin`, `udpout`, `tcpout`, `serial`) and
+//!   the heartbeat handshake.
+//! - [`qgc`] and [`wpl`]: QGroundControl `.plan` and `QGC WPL 110` export.
+//! - [`testing`]: a vehicle-side mission server, a virtual-time link and a
+//!   lossy UDP relay, for tests and the simulator.
+//!
+//! Entry points for a command line: [`export_qgc`], [`export_wpl`],
+//! [`upload`], [`download`], [`clear`].
+#![warn(missing_docs)]
+
+pub mod error;
+pub mod geodesy;
+pub mod items;
+pub mod link;
+pub mod protocol;
+pub mod qgc;
+pub mod testing;
+pub mod wpl;
+
+use std::time::Duration;
+
+pub use error::{MissionError, Result};
+pub use items::{
+    build_mission, compare_items, Autopilot, CameraTrigger, GimbalCommand, Mission, MissionItem,
+    MissionOptions,
+};
+pub use link::{MavLink, VehicleInfo};
+pub use protocol::{DownloadReport, Link, Progress, ProtocolConfig, Target, UploadReport};
+pub use qgc::{export_qgc, QgcOptions};
+pub use wpl::{export_wpl, parse_wpl};
+
+/// How to reach the vehicle.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ConnectOptions {
+    /// How long to wait for the vehicle's first HEARTBEAT (default 5 s).
+    pub heartbeat_timeout: Duration,
+    /// Only talk to this system id (default: the first autopilot heard).
+    pub target_system: Option<u8>,
+    /// Protocol timing.
+    pub protocol: ProtocolConfig,
+}
+
+impl Default for ConnectOptions {
+    fn default() -> Self {
+        ConnectOptions {
+            heartbeat_timeout: Duration::from_secs(5),
+            target_system: None,
+            protocol: ProtocolConfig::default(),
+        }
+    }
+}
+
+/// Result of an upload with read-back.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TransferReport {
+    /// The upload itself.
+    pub upload: UploadReport,
+    /// The read-back, when verification ran.
+    pub verify: Option<DownloadReport>,
+    /// True when the read-back matched item by item.
+    pub verified: bool,
+}
+
+/// Uploads `mission` over an open link, then (if `verify`) reads it back and
+/// compares item by item. A lost final ACK is accepted only when the
+/// read-back matches.
+pub fn upload_over(
+    link: &mut dyn Link,
+    target: Target,
+    mission: &Mission,
+    cfg: &ProtocolConfig,
+    verify: bool,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<TransferReport> {
+    let up = protocol::upload(link, target, &mission.items, cfg, progress)?;
+    if !verify {
+        if !up.ack_received {
+            return Err(MissionError::Timeout {
+                operation: "mission upload",
+                stage: "waiting for MISSION_ACK after the last item (verify to check)".into(),
+                attempts: cfg.retries + 1,
+                elapsed: up.elapsed,
+            });
+        }
+        return Ok(TransferReport {
+            upload: up,
+            verify: None,
+            verified: false,
+        });
+    }
+    let (got, down) = protocol::download(link, target, cfg, progress)?;
+    compare_items(&mission.items, &got, mission.autopilot)?;
+    Ok(TransferReport {
+        upload: up,
+        verify: Some(down),
+        verified: true,
+    })
+}
+
+/// Opens `url`, waits for the vehicle's heartbeat and returns the link.
+pub fn connect(url: &str, opts: &ConnectOptions) -> Result<(MavLink, VehicleInfo)> {
+    let mut link = MavLink::open(url)?;
+    let info = link.wait_vehicle(opts.heartbeat_timeout, opts.target_system)?;
+    Ok((link, info))
+}
+
+/// Connects to `url`, uploads `mission` and verifies it by reading it back.
+pub fn upload(
+    url: &str,
+    mission: &Mission,
+    opts: &ConnectOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<(TransferReport, VehicleInfo)> {
+    let (mut link, info) = connect(url, opts)?;
+    if let Some(family) = info.autopilot_family() {
+        if family != mission.autopilot {
+            // ArduPilot would overwrite a PX4 mission's first item with its
+            // home: refuse before touching the vehicle's mission.
+            return Err(MissionError::InvalidInput(format!(
+                "the mission was built for {:?} but the vehicle on {url} reports {:?}; \
+                 rebuild it for that autopilot",
+                mission.autopilot, family
+            )));
+        }
+    }
+    let report = upload_over(
+        &mut link,
+        info.target,
+        mission,
+        &opts.protocol,
+        true,
+        progress,
+    )?;
+    Ok((report, info))
+}
+
+/// Connects to `url` and reads the vehicle's mission.
+pub fn download(
+    url: &str,
+    opts: &ConnectOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<(Vec<MissionItem>, DownloadReport, VehicleInfo)> {
+    let (mut link, info) = connect(url, opts)?;
+    let (items, report) = protocol::download(&mut link, info.target, &opts.protocol, progress)?;
+    Ok((items, report, info))
+}
+
+/// Connects to `url` and deletes the vehicle's mission.
+pub fn clear(url: &str, opts: &ConnectOptions) -> Result<VehicleInfo> {
+    let (mut link, info) = connect(url, opts)?;
+    protocol::clear(&mut link, info.target, &opts.protocol)?;
+    Ok(info)
+}

@@ -1,0 +1,264 @@
+//! The mission protocol against the simulated vehicle in virtual time:
+//! exact, seeded and fast (no sleeping, no sockets).
+
+use std::time::Duration;
+
+use mavlink::dialects::common::MavMissionResult;
+use vp_mission::protocol::{self, ProtocolConfig, Target};
+use vp_mission::testing::{Impairment, MissionServer, SimLink, VehicleConfig};
+use vp_mission::{
+    build_mission, upload_over, Autopilot, Link, Mission, MissionError, MissionOptions,
+};
+use vp_scene::plan::{GeodeticOrigin, Plan, PlannedView, Role};
+
+const TARGET: Target = Target {
+    system: 1,
+    component: 1,
+};
+
+fn mission(n_views: usize, autopilot: Autopilot, seed: u64) -> Mission {
+    let mut p = Plan::new(Some(GeodeticOrigin {
+        lat_deg: 46.05,
+        lon_deg: 10.32,
+        alt_m: 450.0,
+    }));
+    for i in 0..n_views {
+        let k = (i as u64 + seed) as f64;
+        p.waypoints.push(PlannedView {
+            position: [
+                k * 7.3 % 400.0 - 200.0,
+                k * 13.1 % 300.0 - 150.0,
+                30.0 + k % 20.0,
+            ],
+            yaw_deg: k * 37.0 % 360.0,
+            pitch_deg: -(k * 11.0 % 90.0),
+            roll_deg: 0.0,
+            role: Role::TripletMember,
+            triplet_id: Some((i / 3) as u32),
+            expected_gain: None,
+            angle_bin_deg: None,
+        });
+    }
+    let mut opts = MissionOptions::for_autopilot(autopilot);
+    opts.speed_m_s = Some(4.0);
+    build_mission(&p, &opts).unwrap()
+}
+
+fn vehicle(autopilot: Autopilot) -> MissionServer {
+    MissionServer::new(VehicleConfig {
+        autopilot,
+        heartbeat: None,
+        ..VehicleConfig::default()
+    })
+}
+
+#[test]
+fn upload_download_identical_without_loss() {
+    let m = mission(12, Autopilot::Px4, 0);
+    let mut link = SimLink::new(vehicle(Autopilot::Px4), Impairment::default(), 1);
+    let cfg = ProtocolConfig::default();
+    let mut events = 0;
+    let r = upload_over(&mut link, TARGET, &m, &cfg, true, &mut |_| events += 1).unwrap();
+    assert!(r.verified && r.upload.ack_received);
+    assert_eq!(r.upload.attempts, 1);
+    assert_eq!(r.upload.resends, 0);
+    assert_eq!(
+        link.vehicle.mission(),
+        &m.items[..],
+        "bit-identical on the vehicle"
+    );
+    assert_eq!(events, 2 * m.items.len());
+    let (got, _) = protocol::download(&mut link, TARGET, &cfg, &mut |_| {}).unwrap();
+    assert_eq!(got, m.items);
+}
+
+#[test]
+fn lossy_link_100_of_100_uploads_verified() {
+    // 20 % loss in each direction, 10 % duplicates, 10 % reordered.
+    let imp = Impairment {
+        drop: 0.2,
+        duplicate: 0.1,
+        reorder: 0.1,
+    };
+    let cfg = ProtocolConfig::default();
+    let mut link = SimLink::new(vehicle(Autopilot::Px4), imp, 42);
+    let mut times = Vec::new();
+    let (mut resends, mut attempts_over_1, mut repeated) = (0, 0, 0);
+    for k in 0..100 {
+        let m = mission(8 + k % 8, Autopilot::Px4, k as u64);
+        let t0 = link.now();
+        let r = upload_over(&mut link, TARGET, &m, &cfg, true, &mut |_| {})
+            .unwrap_or_else(|e| panic!("upload {k}: {e}"));
+        let dt = link.now().saturating_sub(t0);
+        assert!(r.verified);
+        assert!(
+            dt <= cfg.deadline(m.items.len()) * 2,
+            "upload {k} took {dt:?}, beyond the bound"
+        );
+        assert_eq!(link.vehicle.mission(), &m.items[..]);
+        times.push(dt.as_secs_f64());
+        resends += r.upload.resends + r.verify.as_ref().map_or(0, |v| v.resends);
+        repeated += r.upload.repeated_requests;
+        attempts_over_1 += u32::from(r.upload.attempts > 1);
+    }
+    let mean = times.iter().sum::<f64>() / times.len() as f64;
+    let max = times.iter().copied().fold(0.0, f64::max);
+    println!(
+        "virtual time, 100 uploads+verify of 27-48 items at 20% drop: mean {mean:.2} s, max {max:.2} s, \
+         ground resends {resends}, repeated vehicle requests {repeated}, restarted uploads {attempts_over_1}, \
+         link {:?}",
+        link.counts
+    );
+    assert!(
+        link.counts.dropped > 1000 && link.counts.duplicated > 300 && link.counts.reordered > 300
+    );
+}
+
+#[test]
+fn same_seed_same_run() {
+    let imp = Impairment {
+        drop: 0.2,
+        duplicate: 0.1,
+        reorder: 0.1,
+    };
+    let run = || {
+        let m = mission(10, Autopilot::Px4, 3);
+        let mut link = SimLink::new(vehicle(Autopilot::Px4), imp, 7);
+        let r = upload_over(
+            &mut link,
+            TARGET,
+            &m,
+            &ProtocolConfig::default(),
+            true,
+            &mut |_| {},
+        )
+        .unwrap();
+        (r, link.counts, link.now())
+    };
+    assert_eq!(run(), run());
+}
+
+#[test]
+fn ardupilot_home_at_seq_0_is_rewritten_and_verify_passes() {
+    let m = mission(5, Autopilot::ArduPilot, 0);
+    let mut link = SimLink::new(vehicle(Autopilot::ArduPilot), Impairment::default(), 1);
+    let r = upload_over(
+        &mut link,
+        TARGET,
+        &m,
+        &ProtocolConfig::default(),
+        true,
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(r.verified);
+    let stored = link.vehicle.mission();
+    assert_ne!(
+        stored[0], m.items[0],
+        "the vehicle keeps its own home at seq 0"
+    );
+    assert_eq!(&stored[1..], &m.items[1..]);
+}
+
+#[test]
+fn rejection_is_reported_by_name() {
+    let m = mission(5, Autopilot::Px4, 0);
+    let v = MissionServer::new(VehicleConfig {
+        capacity: 4,
+        heartbeat: None,
+        ..VehicleConfig::default()
+    });
+    let mut link = SimLink::new(v, Impairment::default(), 1);
+    let e = upload_over(
+        &mut link,
+        TARGET,
+        &m,
+        &ProtocolConfig::default(),
+        true,
+        &mut |_| {},
+    )
+    .unwrap_err();
+    assert!(matches!(e, MissionError::Rejected { .. }));
+    assert!(e.to_string().contains("MAV_MISSION_NO_SPACE"), "{e}");
+    // Permanent: not retried, answered at once.
+    assert!(link.now() < Duration::from_millis(10));
+
+    let v = MissionServer::new(VehicleConfig {
+        reject_with: Some(MavMissionResult::MAV_MISSION_DENIED),
+        heartbeat: None,
+        ..VehicleConfig::default()
+    });
+    let mut link = SimLink::new(v, Impairment::default(), 1);
+    let e = upload_over(
+        &mut link,
+        TARGET,
+        &m,
+        &ProtocolConfig::default(),
+        true,
+        &mut |_| {},
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("MAV_MISSION_DENIED"), "{e}");
+}
+
+#[test]
+fn silent_vehicle_times_out_within_the_bound() {
+    let m = mission(3, Autopilot::Px4, 0);
+    let imp = Impairment {
+        drop: 1.0,
+        ..Impairment::default()
+    };
+    let cfg = ProtocolConfig::default();
+    let mut link = SimLink::new(vehicle(Autopilot::Px4), imp, 1);
+    let e = upload_over(&mut link, TARGET, &m, &cfg, true, &mut |_| {}).unwrap_err();
+    assert!(matches!(e, MissionError::Timeout { .. }), "{e}");
+    assert!(e.to_string().contains("MISSION_COUNT"), "{e}");
+    // 3 attempts x 6 sends x 1.5 s = 27 s, within the deadline.
+    let t = link.now();
+    assert!(
+        t >= Duration::from_secs(27) && t <= cfg.deadline(m.items.len()),
+        "{t:?}"
+    );
+}
+
+#[test]
+fn legacy_mission_request_is_answered_with_item_int() {
+    let m = mission(4, Autopilot::Px4, 0);
+    let v = MissionServer::new(VehicleConfig {
+        legacy_requests: true,
+        heartbeat: None,
+        ..VehicleConfig::default()
+    });
+    let mut link = SimLink::new(v, Impairment::default(), 1);
+    let r = upload_over(
+        &mut link,
+        TARGET,
+        &m,
+        &ProtocolConfig::default(),
+        true,
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(r.verified);
+    assert_eq!(link.vehicle.mission(), &m.items[..]);
+}
+
+#[test]
+fn clear_empties_the_vehicle() {
+    let m = mission(4, Autopilot::Px4, 0);
+    let mut link = SimLink::new(vehicle(Autopilot::Px4), Impairment::default(), 1);
+    upload_over(
+        &mut link,
+        TARGET,
+        &m,
+        &ProtocolConfig::default(),
+        false,
+        &mut |_| {},
+    )
+    .unwrap();
+    protocol::clear(&mut link, TARGET, &ProtocolConfig::default()).unwrap();
+    assert!(link.vehicle.mission().is_empty());
+    let (got, _) =
+        protocol::download(&mut link, TARGET, &ProtocolConfig::default(), &mut |_| {}).unwrap();
+    assert!(got.is_empty());
+}
