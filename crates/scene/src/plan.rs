@@ -48,6 +48,18 @@ pub struct GeodeticOrigin {
     pub alt_m: f64,
 }
 
+impl Default for GeodeticOrigin {
+    /// Near the Seradina rock-art sites in Val Camonica (Capo di Ponte, Italy),
+    /// where the paper's experiments were flown.
+    fn default() -> Self {
+        GeodeticOrigin {
+            lat_deg: 46.03,
+            lon_deg: 10.35,
+            alt_m: 400.0,
+        }
+    }
+}
+
 impl GeodeticOrigin {
     /// Checks that the coordinates are finite and in range.
     pub fn validate(&self) -> Result<()> {

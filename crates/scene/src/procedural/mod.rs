@@ -39,35 +39,10 @@ pub use vegetation::TreeInfo;
 use nalgebra::Point3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use serde::{Deserialize, Serialize};
 
 use crate::mesh::{Material, Mesh};
 
-/// WGS84 position of the local ENU origin (world (0, 0, 0)) of a scene.
-///
-/// Carried by the scene and used by `mission` to turn local waypoints into
-/// latitude/longitude/altitude.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct GeodeticOrigin {
-    /// Latitude in degrees, north positive.
-    pub lat_deg: f64,
-    /// Longitude in degrees, east positive.
-    pub lon_deg: f64,
-    /// Height of world z = 0 in metres above the WGS84 ellipsoid.
-    pub alt_m: f64,
-}
-
-impl Default for GeodeticOrigin {
-    /// Near the Seradina rock-art sites in Val Camonica (Capo di Ponte, Italy),
-    /// where the paper's experiments were flown.
-    fn default() -> Self {
-        GeodeticOrigin {
-            lat_deg: 46.03,
-            lon_deg: 10.35,
-            alt_m: 400.0,
-        }
-    }
-}
+pub use crate::plan::GeodeticOrigin;
 
 /// Seed constants of the site's parts: one independent random stream each.
 pub(crate) mod part {
