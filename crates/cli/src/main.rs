@@ -38,6 +38,9 @@ enum Command {
     /// Inspect COLMAP dense depth maps.
     #[command(subcommand)]
     Depth(cmd::depth::DepthCommand),
+    /// Turn a plan into a MAVLink mission: export, upload, download.
+    #[command(subcommand)]
+    Mission(cmd::mission::MissionCommand),
 }
 
 fn run(args: Args, out: &mut dyn Write) -> anyhow::Result<()> {
@@ -46,6 +49,7 @@ fn run(args: Args, out: &mut dyn Write) -> anyhow::Result<()> {
         Command::Mesh(c) => cmd::mesh::run(c, out),
         Command::Colmap(c) => cmd::colmap::run(c, out),
         Command::Depth(c) => cmd::depth::run(c, out),
+        Command::Mission(c) => cmd::mission::run(c, out),
     }
 }
 
@@ -57,9 +61,14 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e}");
+            let top = e.to_string();
+            eprintln!("error: {top}");
+            // Library errors often print their source inline already.
             for cause in e.chain().skip(1) {
-                eprintln!("  caused by: {cause}");
+                let cause = cause.to_string();
+                if !top.contains(&cause) {
+                    eprintln!("  caused by: {cause}");
+                }
             }
             ExitCode::from(cmd::exit_code(&e))
         }

@@ -3,20 +3,34 @@
 pub mod colmap;
 pub mod depth;
 pub mod mesh;
+pub mod mission;
 pub mod scene;
 
+use vp_mission::MissionError;
 use vp_scene::SceneError;
 
 /// Exit code for an error: 2 when the user's input is at fault (bad file,
-/// bad argument, refusing to overwrite, missing file), 1 otherwise.
+/// bad argument, refusing to overwrite, missing file, bad URL), 1 otherwise
+/// (I/O failures, a vehicle that does not answer or rejects the mission).
 pub fn exit_code(e: &anyhow::Error) -> u8 {
     for cause in e.chain() {
         if let Some(se) = cause.downcast_ref::<SceneError>() {
-            return match se {
-                SceneError::Io { source, .. } if source.kind() != std::io::ErrorKind::NotFound => 1,
-                _ => 2,
+            return scene_exit_code(se);
+        }
+        if let Some(me) = cause.downcast_ref::<MissionError>() {
+            return match me {
+                MissionError::Scene(se) => scene_exit_code(se),
+                MissionError::InvalidInput(_) | MissionError::BadUrl { .. } => 2,
+                _ => 1,
             };
         }
     }
     1
+}
+
+fn scene_exit_code(e: &SceneError) -> u8 {
+    match e {
+        SceneError::Io { source, .. } if source.kind() != std::io::ErrorKind::NotFound => 1,
+        _ => 2,
+    }
 }

@@ -1,0 +1,310 @@
+//! `vpctl mission ...`: plan -> MAVLink mission; export, upload, download.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use anyhow::{Context, Result};
+use clap::{Args, Subcommand, ValueEnum};
+use vp_mission::testing::{spawn_udp_vehicle, VehicleConfig};
+use vp_mission::{
+    build_mission, export_qgc, export_wpl, Autopilot, ConnectOptions, MissionItem, MissionOptions,
+    Progress, QgcOptions,
+};
+use vp_scene::fsio;
+use vp_scene::plan::Plan;
+
+/// Mission subcommands.
+#[derive(Debug, Subcommand)]
+pub enum MissionCommand {
+    /// Export a plan as a QGroundControl `.plan` file or as `QGC WPL 110` text.
+    Export {
+        /// The plan (JSON written by `vpctl plan`).
+        plan: PathBuf,
+        /// Output format.
+        #[arg(long, value_enum, default_value_t = ExportFormat::Qgc)]
+        format: ExportFormat,
+        /// Output file; prints to standard output when absent.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Overwrite the output file if it exists.
+        #[arg(long)]
+        force: bool,
+        #[command(flatten)]
+        mission: MissionArgs,
+    },
+    /// Upload a plan to the vehicle with the MAVLink mission protocol, then read
+    /// it back and compare item by item.
+    Upload {
+        /// The plan (JSON written by `vpctl plan`).
+        plan: PathBuf,
+        #[command(flatten)]
+        link: LinkArgs,
+        #[command(flatten)]
+        mission: MissionArgs,
+    },
+    /// Download the vehicle's mission and print its items, one per line
+    /// (seq, command, frame, param1-4, x, y, z).
+    Download {
+        #[command(flatten)]
+        link: LinkArgs,
+    },
+    /// Run a simulated vehicle (a MAVLink mission server) until interrupted,
+    /// to try `upload` and `download` without a drone.
+    Vehicle {
+        /// Address to listen on; give the ground side `--url udpout:ADDR`.
+        #[arg(long, default_value = "127.0.0.1:14550")]
+        bind: String,
+        /// Autopilot conventions to mimic.
+        #[arg(long, value_enum, default_value_t = AutopilotArg::Px4)]
+        autopilot: AutopilotArg,
+        /// Stop after this many seconds (default: run until interrupted).
+        #[arg(long)]
+        seconds: Option<u64>,
+    },
+}
+
+/// Export formats.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum ExportFormat {
+    /// QGroundControl `.plan` JSON (SimpleItems only).
+    Qgc,
+    /// `QGC WPL 110` waypoint text.
+    Wpl,
+}
+
+/// Autopilot conventions.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum AutopilotArg {
+    /// PX4: the mission starts at seq 0.
+    Px4,
+    /// ArduPilot: seq 0 is home.
+    Ardupilot,
+}
+
+impl From<AutopilotArg> for Autopilot {
+    fn from(a: AutopilotArg) -> Self {
+        match a {
+            AutopilotArg::Px4 => Autopilot::Px4,
+            AutopilotArg::Ardupilot => Autopilot::ArduPilot,
+        }
+    }
+}
+
+/// How the plan becomes mission items.
+#[derive(Debug, Args)]
+pub struct MissionArgs {
+    /// Autopilot conventions (ArduPilot keeps home at seq 0).
+    #[arg(long, value_enum, default_value_t = AutopilotArg::Px4)]
+    autopilot: AutopilotArg,
+    /// Seconds to hold at each waypoint before the photo.
+    #[arg(long, default_value_t = 2.0)]
+    hold: f32,
+    /// Mission speed, m/s.
+    #[arg(long)]
+    speed: Option<f32>,
+    /// Take off to this height above home first, metres (0: no takeoff item).
+    #[arg(long, default_value_t = 20.0)]
+    takeoff: f32,
+    /// Do not end the mission with return-to-launch.
+    #[arg(long)]
+    no_rtl: bool,
+}
+
+impl MissionArgs {
+    fn options(&self) -> MissionOptions {
+        let mut o = MissionOptions::for_autopilot(self.autopilot.into());
+        o.hold_time_s = self.hold;
+        o.speed_m_s = self.speed;
+        o.takeoff_alt_m = (self.takeoff > 0.0).then_some(self.takeoff);
+        o.return_to_launch = !self.no_rtl;
+        o
+    }
+}
+
+/// Where the vehicle is.
+#[derive(Debug, Args)]
+pub struct LinkArgs {
+    /// MAVLink connection: `udpout:HOST:PORT`, `udpin:HOST:PORT`,
+    /// `tcpout:HOST:PORT` or `serial:/dev/ttyUSB0:57600`.
+    #[arg(long, default_value = "udpout:127.0.0.1:14550")]
+    url: String,
+    /// Seconds to wait for the vehicle's heartbeat.
+    #[arg(long, default_value_t = 5.0)]
+    heartbeat_timeout: f64,
+}
+
+impl LinkArgs {
+    fn options(&self) -> Result<ConnectOptions> {
+        anyhow::ensure!(
+            self.heartbeat_timeout.is_finite() && self.heartbeat_timeout > 0.0,
+            vp_scene::SceneError::InvalidArgument(format!(
+                "--heartbeat-timeout must be positive, got {}",
+                self.heartbeat_timeout
+            ))
+        );
+        Ok(ConnectOptions {
+            heartbeat_timeout: Duration::from_secs_f64(self.heartbeat_timeout),
+            ..ConnectOptions::default()
+        })
+    }
+}
+
+pub fn run(cmd: MissionCommand, out: &mut dyn Write) -> Result<()> {
+    match cmd {
+        MissionCommand::Export {
+            plan,
+            format,
+            out: path,
+            force,
+            mission,
+        } => {
+            if let Some(p) = &path {
+                fsio::check_overwrite(p, force)?;
+            }
+            let plan = Plan::load(&plan)?;
+            let opts = mission.options();
+            let text = match format {
+                ExportFormat::Qgc => export_qgc(&plan, &opts, &QgcOptions::default())?,
+                ExportFormat::Wpl => export_wpl(&build_mission(&plan, &opts)?)?,
+            };
+            write_or_print(path.as_deref(), &text, out)
+        }
+        MissionCommand::Upload {
+            plan,
+            link,
+            mission,
+        } => upload(&plan, &link, &mission, out),
+        MissionCommand::Download { link } => download(&link, out),
+        MissionCommand::Vehicle {
+            bind,
+            autopilot,
+            seconds,
+        } => vehicle(&bind, autopilot, seconds, out),
+    }
+}
+
+fn upload(
+    plan_path: &Path,
+    link: &LinkArgs,
+    mission: &MissionArgs,
+    out: &mut dyn Write,
+) -> Result<()> {
+    let plan = Plan::load(plan_path)?;
+    let m = build_mission(&plan, &mission.options())?;
+    writeln!(
+        out,
+        "mission: {} items ({} photos) for {:?}",
+        m.items.len(),
+        m.photos,
+        m.autopilot
+    )?;
+    let (report, info) = vp_mission::upload(&link.url, &m, &link.options()?, &mut progress)?;
+    eprintln!();
+    writeln!(
+        out,
+        "vehicle: system {} component {} ({:?})",
+        info.target.system, info.target.component, info.autopilot
+    )?;
+    writeln!(
+        out,
+        "uploaded {} items in {:.2} s ({} resends); verified: {}",
+        m.items.len(),
+        report.upload.elapsed.as_secs_f64(),
+        report.upload.resends,
+        if report.verified {
+            "yes, item by item"
+        } else {
+            "no"
+        }
+    )?;
+    Ok(())
+}
+
+fn download(link: &LinkArgs, out: &mut dyn Write) -> Result<()> {
+    let (items, report, info) = vp_mission::download(&link.url, &link.options()?, &mut progress)?;
+    eprintln!();
+    writeln!(
+        out,
+        "vehicle: system {} component {}; {} items in {:.2} s",
+        info.target.system,
+        info.target.component,
+        items.len(),
+        report.elapsed.as_secs_f64()
+    )?;
+    for (seq, item) in items.iter().enumerate() {
+        print_item(seq, item, out)?;
+    }
+    Ok(())
+}
+
+fn vehicle(
+    bind: &str,
+    autopilot: AutopilotArg,
+    seconds: Option<u64>,
+    out: &mut dyn Write,
+) -> Result<()> {
+    let cfg = VehicleConfig {
+        autopilot: autopilot.into(),
+        ..VehicleConfig::default()
+    };
+    let vehicle = spawn_udp_vehicle(bind, cfg)?;
+    writeln!(
+        out,
+        "simulated {:?} vehicle listening on {} (connect with --url udpout:{})",
+        Autopilot::from(autopilot),
+        vehicle.addr(),
+        vehicle.addr()
+    )?;
+    out.flush()?;
+    let deadline = seconds.map(|s| std::time::Instant::now() + Duration::from_secs(s));
+    let mut last = (0, 0);
+    while deadline.is_none_or(|d| std::time::Instant::now() < d) {
+        std::thread::sleep(Duration::from_millis(100));
+        let counts = vehicle.upload_counts();
+        if counts != last {
+            writeln!(
+                out,
+                "uploads completed: {}, abandoned: {}; stored items: {}",
+                counts.0,
+                counts.1,
+                vehicle.mission().len()
+            )?;
+            out.flush()?;
+            last = counts;
+        }
+    }
+    Ok(())
+}
+
+fn progress(p: Progress) {
+    eprint!(
+        "\r{:?}: {}/{} items (attempt {})   ",
+        p.phase, p.done, p.total, p.attempt
+    );
+}
+
+fn print_item(seq: usize, item: &MissionItem, out: &mut dyn Write) -> Result<()> {
+    let p = item.params;
+    writeln!(
+        out,
+        "{seq:4} {:?} {:?} [{}, {}, {}, {}] x={} y={} z={}",
+        item.command, item.frame, p[0], p[1], p[2], p[3], item.x, item.y, item.z
+    )?;
+    Ok(())
+}
+
+fn write_or_print(path: Option<&Path>, text: &str, out: &mut dyn Write) -> Result<()> {
+    match path {
+        None => {
+            out.write_all(text.as_bytes())?;
+            Ok(())
+        }
+        Some(p) => {
+            fsio::write_atomic(p, |w| w.write_all(text.as_bytes()))
+                .with_context(|| format!("writing {}", p.display()))?;
+            writeln!(out, "wrote {}", p.display())?;
+            Ok(())
+        }
+    }
+}

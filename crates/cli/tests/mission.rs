@@ -1,0 +1,142 @@
+//! `vpctl mission ...` against a simulated vehicle on loopback.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use vp_mission::testing::{spawn_udp_vehicle, VehicleConfig};
+use vp_scene::plan::{GeodeticOrigin, Plan, PlannedView, Role};
+
+fn vpctl(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_vpctl"))
+        .args(args)
+        .output()
+        .expect("vpctl runs")
+}
+
+/// A plan of one triplet around a point 20 m above the origin.
+fn write_plan(path: &Path) {
+    let mut plan = Plan::new(Some(GeodeticOrigin::default()));
+    for (i, (x, y)) in [(10.0, 0.0), (-5.0, 8.66), (-5.0, -8.66)]
+        .into_iter()
+        .enumerate()
+    {
+        plan.waypoints.push(PlannedView {
+            position: [x, y, 25.0],
+            yaw_deg: 30.0 * i as f64,
+            pitch_deg: -60.0,
+            roll_deg: 0.0,
+            role: Role::TripletMember,
+            triplet_id: Some(0),
+            expected_gain: Some(1.5),
+            angle_bin_deg: Some(12.5),
+        });
+    }
+    plan.save(path, false).unwrap();
+}
+
+#[test]
+fn export_writes_a_qgc_plan_and_wpl_text() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = dir.path().join("plan.json");
+    write_plan(&plan);
+    let qgc = dir.path().join("m.plan");
+    let o = vpctl(&[
+        "mission",
+        "export",
+        plan.to_str().unwrap(),
+        "--out",
+        qgc.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&qgc).unwrap()).unwrap();
+    assert_eq!(v["fileType"], "Plan");
+    let items = v["mission"]["items"].as_array().unwrap();
+    // Three views of (gimbal, waypoint, photo), plus takeoff and RTL.
+    assert_eq!(items.len(), 11);
+    assert!(items.iter().all(|i| i["type"] == "SimpleItem"));
+    assert_eq!(items.iter().filter(|i| i["command"] == 16).count(), 3);
+
+    // WPL to standard output.
+    let o = vpctl(&[
+        "mission",
+        "export",
+        plan.to_str().unwrap(),
+        "--format",
+        "wpl",
+    ]);
+    assert!(o.status.success());
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.starts_with("QGC WPL 110"));
+    assert_eq!(text.lines().count(), 1 + 1 + 11);
+
+    // Refuses to overwrite without --force.
+    let o = vpctl(&[
+        "mission",
+        "export",
+        plan.to_str().unwrap(),
+        "--out",
+        qgc.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn upload_then_download_round_trips_through_a_simulated_vehicle() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = dir.path().join("plan.json");
+    write_plan(&plan);
+    let vehicle = spawn_udp_vehicle("127.0.0.1:0", VehicleConfig::default()).unwrap();
+    let url = format!("udpout:{}", vehicle.addr());
+    let o = vpctl(&["mission", "upload", plan.to_str().unwrap(), "--url", &url]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(stdout.contains("verified: yes"), "{stdout}");
+    assert_eq!(vehicle.mission().len(), 11);
+
+    let o = vpctl(&["mission", "download", "--url", &url]);
+    assert!(o.status.success());
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("11 items"), "{stdout}");
+    assert_eq!(
+        stdout
+            .lines()
+            .filter(|l| l.contains("MAV_CMD_NAV_WAYPOINT"))
+            .count(),
+        3
+    );
+}
+
+#[test]
+fn no_vehicle_and_bad_inputs_fail_clearly() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = dir.path().join("plan.json");
+    write_plan(&plan);
+    // Nothing listens on this port: a timeout naming the URL, exit 1.
+    let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let url = format!("udpout:{}", socket.local_addr().unwrap());
+    let o = vpctl(&[
+        "mission",
+        "download",
+        "--url",
+        &url,
+        "--heartbeat-timeout",
+        "0.5",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("127.0.0.1"), "{err}");
+
+    let o = vpctl(&["mission", "download", "--url", "carrier-pigeon:1"]);
+    assert_eq!(o.status.code(), Some(2));
+
+    let bad = dir.path().join("bad.json");
+    std::fs::write(&bad, "{ \"format_version\": 1, \"waypoints\": [ }").unwrap();
+    let o = vpctl(&["mission", "export", bad.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("bad.json"));
+}
