@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# The one test command (README): formatting, lints, every test of the workspace.
-# CI (.ci/run) runs exactly this after installing the toolchain.
+# The one test command (README): formatting, lints, every test of the workspace,
+# the peer tests against independent implementations, and a smoke run of the
+# benchmarks. CI (.ci/run) runs exactly this after installing the toolchain.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -10,8 +11,19 @@ cargo fmt --all -- --check
 echo "== cargo clippy (warnings denied)"
 cargo clippy --workspace --all-targets --locked -- -D warnings
 
+# A virtualenv for the Python-side peers (MAVSDK as an independent MAVLink
+# vehicle). Created once; pip is a no-op when the pins are already installed.
+if [ ! -x .venv/bin/python ]; then
+  python3 -m venv .venv
+fi
+.venv/bin/python -m pip install --quiet --disable-pip-version-check -r crates/mission/tests/mavsdk/requirements.txt
+export VP_MAVSDK_PYTHON="$PWD/.venv/bin/python" VP_REQUIRE_MAVSDK=1
+
 echo "== cargo test"
 cargo test --workspace --locked
 
-echo "== benchmarks, smoke run (fast tier)"
+echo "== long runs: 100 uploads through a lossy UDP relay"
+cargo test --locked -p vp-mission --test udp_loopback -- --ignored --nocapture
+
+echo "== benchmarks, smoke run (each benchmark once)"
 cargo bench --workspace --locked -- --test
