@@ -179,11 +179,55 @@ fn depth_info_summarises_a_depth_map() {
 }
 
 #[test]
+fn mesh_build_meshes_colmap_points_and_refuses_too_few() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.ply");
+    let model = scene_data("colmap/sfm/txt");
+    let o = vpctl(&[
+        "mesh",
+        "build",
+        "--colmap",
+        model.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--max-edge",
+        "10",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("points: 140"), "{}", stdout(&o));
+    let info = stdout(&vpctl(&["mesh", "info", out.to_str().unwrap()]));
+    let faces: usize = info
+        .lines()
+        .find_map(|l| l.strip_prefix("faces: "))
+        .and_then(|n| n.trim().parse().ok())
+        .unwrap();
+    assert!(faces > 100, "{info}");
+    assert!(info.contains("problems: none"), "{info}");
+
+    // Two points make no surface: exit 2 and no output file.
+    let pts = dir.path().join("two.obj");
+    std::fs::write(&pts, "v 0 0 0\nv 1 0 0\n").unwrap();
+    let out2 = dir.path().join("none.ply");
+    let o = vpctl(&[
+        "mesh",
+        "build",
+        "--points",
+        pts.to_str().unwrap(),
+        "--out",
+        out2.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(!out2.exists());
+}
+
+#[test]
 fn every_subcommand_has_help() {
     for args in [
         vec!["--help"],
         vec!["scene", "generate", "--help"],
         vec!["mesh", "info", "--help"],
+        vec!["mesh", "build", "--help"],
+        vec!["mission", "upload", "--help"],
         vec!["colmap", "info", "--help"],
         vec!["depth", "info", "--help"],
     ] {

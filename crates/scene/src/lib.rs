@@ -21,6 +21,7 @@ pub mod fsio;
 pub mod io;
 pub mod mesh;
 pub mod mesh_ops;
+pub mod meshing;
 pub mod plan;
 pub mod procedural;
 pub mod raster;
