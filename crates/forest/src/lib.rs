@@ -35,6 +35,7 @@ mod params;
 pub mod patch;
 mod predict;
 mod split;
+pub mod synthetic;
 mod train;
 pub mod tree;
 
