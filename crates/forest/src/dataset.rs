@@ -91,8 +91,11 @@ impl TrainingSet {
             for class in &mut pixels {
                 if let Some((cap, seed)) = self.cap {
                     if class.len() > cap {
-                        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ (self.n_label_images as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
-                        let mut keep = rand::seq::index::sample(&mut rng, class.len(), cap).into_vec();
+                        let mut rng = ChaCha8Rng::seed_from_u64(
+                            seed ^ (self.n_label_images as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15),
+                        );
+                        let mut keep =
+                            rand::seq::index::sample(&mut rng, class.len(), cap).into_vec();
                         keep.sort_unstable();
                         *class = keep.into_iter().map(|i| class[i]).collect();
                     }

@@ -108,7 +108,13 @@ impl LabPlanes {
         let plane_len = stride * (h + 2 * PAD);
         let mut data = vec![0u8; 3 * plane_len];
         if w == 0 || h == 0 {
-            return LabPlanes { width, height, stride, plane_len, data };
+            return LabPlanes {
+                width,
+                height,
+                stride,
+                plane_len,
+                data,
+            };
         }
         // Convert the image rows once, interleaved, then scatter into padded planes.
         let raw = image.as_raw();
@@ -135,7 +141,13 @@ impl LabPlanes {
                     }
                 });
         }
-        LabPlanes { width, height, stride, plane_len, data }
+        LabPlanes {
+            width,
+            height,
+            stride,
+            plane_len,
+            data,
+        }
     }
 
     /// Image width in pixels (without padding).
@@ -196,7 +208,9 @@ mod tests {
 
     #[test]
     fn padding_replicates_the_border() {
-        let img = RgbImage::from_fn(4, 3, |x, y| image::Rgb([(x * 60) as u8, (y * 100) as u8, 0]));
+        let img = RgbImage::from_fn(4, 3, |x, y| {
+            image::Rgb([(x * 60) as u8, (y * 100) as u8, 0])
+        });
         let lab = LabPlanes::from_rgb(&img);
         for c in 0..3 {
             let p = &lab.data()[c * lab.plane_len()..(c + 1) * lab.plane_len()];

@@ -57,8 +57,16 @@ pub struct Forest {
 }
 
 impl Forest {
-    pub(crate) fn from_parts(params: TrainParams, summary: TrainingSummary, trees: Vec<Tree>) -> Self {
-        Forest { params, summary, trees }
+    pub(crate) fn from_parts(
+        params: TrainParams,
+        summary: TrainingSummary,
+        trees: Vec<Tree>,
+    ) -> Self {
+        Forest {
+            params,
+            summary,
+            trees,
+        }
     }
 
     /// The parameters it was trained with.

@@ -39,7 +39,9 @@ pub fn accuracy(samples: &[Scored], threshold: f32) -> Result<f64> {
 
 fn check(samples: &[Scored]) -> Result<()> {
     if samples.is_empty() {
-        return Err(ForestError::InvalidInput("no labelled samples to evaluate".into()));
+        return Err(ForestError::InvalidInput(
+            "no labelled samples to evaluate".into(),
+        ));
     }
     if let Some(i) = samples.iter().position(|s| !s.confidence.is_finite()) {
         return Err(ForestError::InvalidInput(format!(
@@ -110,9 +112,16 @@ pub fn sparsification(samples: &[Scored], curve_points: usize) -> Result<Sparsif
     let mut start = 0;
     while start < n {
         let c = samples[order[start]].confidence;
-        let end = start + order[start..].iter().take_while(|&&i| samples[i].confidence == c).count();
+        let end = start
+            + order[start..]
+                .iter()
+                .take_while(|&&i| samples[i].confidence.total_cmp(&c).is_eq())
+                .count();
         let g = (end - start) as f64;
-        let q = order[start..end].iter().filter(|&&i| !samples[i].positive).count() as f64;
+        let q = order[start..end]
+            .iter()
+            .filter(|&&i| !samples[i].positive)
+            .count() as f64;
         for j in 1..=end - start {
             removed[start + j] = removed[start] + q * j as f64 / g;
         }
@@ -174,7 +183,10 @@ mod tests {
     fn random_set(n: usize, e: f64, seed: u64) -> Vec<Scored> {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         (0..n)
-            .map(|_| Scored { confidence: rng.random(), positive: rng.random::<f64>() >= e })
+            .map(|_| Scored {
+                confidence: rng.random(),
+                positive: rng.random::<f64>() >= e,
+            })
             .collect()
     }
 
@@ -182,27 +194,40 @@ mod tests {
     fn perfect_ranking_reaches_the_optimum() {
         let mut s = random_set(5000, 0.3, 1);
         for x in &mut s {
-            x.confidence = if x.positive { 0.5 + x.confidence / 2.0 } else { x.confidence / 2.0 };
+            x.confidence = if x.positive {
+                0.5 + x.confidence / 2.0
+            } else {
+                x.confidence / 2.0
+            };
         }
         let sp = sparsification(&s, 20).unwrap();
         assert!((sp.ausc - sp.optimal_ausc).abs() < 1e-12);
         assert!((sp.relative_ausc - 1.0).abs() < 1e-9);
-        assert_eq!(accuracy(&s, 0.5).unwrap(), 1.0);
+        assert!((accuracy(&s, 0.5).unwrap() - 1.0).abs() < 1e-12);
         // Closed form of the continuous optimum: e + (1 - e) ln(1 - e).
         let e = sp.error_rate;
         assert!((sp.optimal_ausc - (e + (1.0 - e) * (1.0 - e).ln())).abs() < 1e-3);
         assert_eq!(sp.curve.len(), 20);
-        assert_eq!(sp.curve[0].1, e);
+        assert!((sp.curve[0].1 - e).abs() < 1e-12);
     }
 
     #[test]
     fn random_ranking_matches_the_random_figure() {
         let s = random_set(200_000, 0.35, 2);
         let sp = sparsification(&s, 10).unwrap();
-        assert!((sp.ausc - sp.random_ausc).abs() < 0.01, "{} vs {}", sp.ausc, sp.random_ausc);
+        assert!(
+            (sp.ausc - sp.random_ausc).abs() < 0.01,
+            "{} vs {}",
+            sp.ausc,
+            sp.random_ausc
+        );
         assert!((sp.relative_ausc / sp.random_relative_ausc - 1.0).abs() < 0.03);
         // With e = 0.35 the random figure is near the paper's KITTI 5.15.
-        assert!((sp.random_relative_ausc - 5.0).abs() < 0.3, "{}", sp.random_relative_ausc);
+        assert!(
+            (sp.random_relative_ausc - 5.0).abs() < 0.3,
+            "{}",
+            sp.random_relative_ausc
+        );
         assert!((accuracy(&s, 0.5).unwrap() - 0.5).abs() < 0.01);
     }
 
@@ -225,8 +250,21 @@ mod tests {
         let sp = sparsification(&s, 4).unwrap();
         assert!(sp.relative_ausc > sp.random_relative_ausc);
         assert!(sparsification(&[], 4).is_err());
-        assert!(accuracy(&[Scored { confidence: f32::NAN, positive: true }], 0.5).is_err());
-        let none_wrong = vec![Scored { confidence: 0.2, positive: true }; 10];
-        assert_eq!(sparsification(&none_wrong, 4).unwrap().relative_ausc, 1.0);
+        assert!(accuracy(
+            &[Scored {
+                confidence: f32::NAN,
+                positive: true
+            }],
+            0.5
+        )
+        .is_err());
+        let none_wrong = vec![
+            Scored {
+                confidence: 0.2,
+                positive: true
+            };
+            10
+        ];
+        assert!((sparsification(&none_wrong, 4).unwrap().relative_ausc - 1.0).abs() < 1e-12);
     }
 }

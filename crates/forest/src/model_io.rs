@@ -47,7 +47,10 @@ struct Header {
 impl Forest {
     /// Serialises the model (see the module docs for the layout).
     pub fn to_bytes(&self) -> Vec<u8> {
-        let header = Header { params: self.params().clone(), summary: self.summary().clone() };
+        let header = Header {
+            params: self.params().clone(),
+            summary: self.summary().clone(),
+        };
         // Serialising plain numbers and strings cannot fail.
         let json = serde_json::to_vec(&header).unwrap_or_default();
         let mut out = Vec::new();
@@ -95,7 +98,11 @@ impl Forest {
 
     /// Parses a model; `path` only names the source in errors.
     pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Forest> {
-        let mut r = Reader { bytes, pos: 0, path: path.to_path_buf() };
+        let mut r = Reader {
+            bytes,
+            pos: 0,
+            path: path.to_path_buf(),
+        };
         if bytes.is_empty() {
             return Err(r.error(0, "empty file, not a vp-forest model"));
         }
@@ -103,20 +110,34 @@ impl Forest {
             return Err(r.error(0, "not a vp-forest model (bad magic number)"));
         }
         if bytes.len() < 12 {
-            return Err(r.error(bytes.len(), "truncated model: the file ends inside the header"));
+            return Err(r.error(
+                bytes.len(),
+                "truncated model: the file ends inside the header",
+            ));
         }
         let version = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
         if version != FORMAT_VERSION {
-            return Err(r.error(8, &format!("model format version {version}; this build reads version {FORMAT_VERSION}")));
+            return Err(r.error(
+                8,
+                &format!(
+                    "model format version {version}; this build reads version {FORMAT_VERSION}"
+                ),
+            ));
         }
         if bytes.len() < 12 + 8 {
-            return Err(r.error(bytes.len(), "truncated model: the file ends inside the header"));
+            return Err(r.error(
+                bytes.len(),
+                "truncated model: the file ends inside the header",
+            ));
         }
         let body = bytes.len() - 8;
         let mut stored = [0u8; 8];
         stored.copy_from_slice(&bytes[body..]);
         if u64::from_le_bytes(stored) != fnv1a64(&bytes[..body]) {
-            return Err(r.error(body, "checksum mismatch: the model is truncated or corrupted"));
+            return Err(r.error(
+                body,
+                "checksum mismatch: the model is truncated or corrupted",
+            ));
         }
         r.bytes = &bytes[..body];
         r.pos = 12;
@@ -124,7 +145,10 @@ impl Forest {
         let at = r.pos;
         let header: Header = serde_json::from_slice(r.take(header_len, "header")?)
             .map_err(|e| r.error(at, &format!("model header: {e}")))?;
-        header.params.validate().map_err(|e| r.error(at, &e.to_string()))?;
+        header
+            .params
+            .validate()
+            .map_err(|e| r.error(at, &e.to_string()))?;
         let params = header.params;
         let weights = header.summary.class_weights;
         if !weights.iter().all(|w| w.is_finite() && *w > 0.0) {
@@ -133,7 +157,10 @@ impl Forest {
         let at = r.pos;
         let n_trees = r.u32("tree count")? as usize;
         if n_trees != params.n_trees {
-            return Err(r.error(at, &format!("{n_trees} trees, the header says {}", params.n_trees)));
+            return Err(r.error(
+                at,
+                &format!("{n_trees} trees, the header says {}", params.n_trees),
+            ));
         }
         let b = params.bins.len();
         let mut trees = Vec::with_capacity(n_trees);
@@ -145,9 +172,17 @@ impl Forest {
             let mut nodes = Vec::with_capacity(n_nodes);
             for (i, c) in raw.chunks_exact(NODE_BYTES).enumerate() {
                 let node_at = at + 8 + i * NODE_BYTES;
-                let op = TestOp::from_code(c[2]).ok_or_else(|| r.error(node_at, &format!("tree {t} node {i}: unknown test type {}", c[2])))?;
+                let op = TestOp::from_code(c[2]).ok_or_else(|| {
+                    r.error(
+                        node_at,
+                        &format!("tree {t} node {i}: unknown test type {}", c[2]),
+                    )
+                })?;
                 if c[0] > 1 {
-                    return Err(r.error(node_at, &format!("tree {t} node {i}: unknown node kind {}", c[0])));
+                    return Err(r.error(
+                        node_at,
+                        &format!("tree {t} node {i}: unknown node kind {}", c[0]),
+                    ));
                 }
                 nodes.push(Node {
                     test: SplitTest {
@@ -162,17 +197,29 @@ impl Forest {
                 });
             }
             let raw = r.take(n_leaves.saturating_mul(4 * (2 + 2 * b)), "leaf counts")?;
-            let counts = raw.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+            let counts = raw
+                .chunks_exact(4)
+                .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+                .collect();
             let tree = Tree::from_parts(nodes, counts, b, weights, params.pseudo_count)
                 .map_err(|e| r.error(at, &format!("tree {t}: {e}")))?;
             let depth = tree.node_depths().into_iter().max().unwrap_or(0) as usize;
             if depth > MAX_DEPTH_LIMIT {
-                return Err(r.error(at, &format!("tree {t} is {depth} levels deep (at most {MAX_DEPTH_LIMIT})")));
+                return Err(r.error(
+                    at,
+                    &format!("tree {t} is {depth} levels deep (at most {MAX_DEPTH_LIMIT})"),
+                ));
             }
             trees.push(tree);
         }
         if r.pos != r.bytes.len() {
-            return Err(r.error(r.pos, &format!("{} unexpected bytes after the last tree", r.bytes.len() - r.pos)));
+            return Err(r.error(
+                r.pos,
+                &format!(
+                    "{} unexpected bytes after the last tree",
+                    r.bytes.len() - r.pos
+                ),
+            ));
         }
         Ok(Forest::from_parts(params, header.summary, trees))
     }
@@ -187,7 +234,11 @@ struct Reader<'a> {
 
 impl<'a> Reader<'a> {
     fn error(&self, offset: usize, message: &str) -> ForestError {
-        ForestError::Model { path: self.path.clone(), offset: offset as u64, message: message.to_string() }
+        ForestError::Model {
+            path: self.path.clone(),
+            offset: offset as u64,
+            message: message.to_string(),
+        }
     }
 
     fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8]> {

@@ -82,11 +82,16 @@ impl SplitTest {
         if op == TestOp::Value {
             offset2 = (0, 0);
         }
-        SplitTest { channel, op, offset1, offset2 }
+        SplitTest {
+            channel,
+            op,
+            offset1,
+            offset2,
+        }
     }
 
     /// Whether channel and offsets are in range (checked when loading models).
-    pub fn is_valid(&self) -> bool {
+    pub fn is_valid(self) -> bool {
         let r = RADIUS as i8;
         let ok = |o: (i8, i8)| (-r..=r).contains(&o.0) && (-r..=r).contains(&o.1);
         self.channel < 3 && ok(self.offset1) && ok(self.offset2)
@@ -94,7 +99,7 @@ impl SplitTest {
 
     /// Index of an offset inside a gathered patch.
     #[inline]
-    fn patch_index(&self, o: (i8, i8)) -> usize {
+    fn patch_index(self, o: (i8, i8)) -> usize {
         let c = self.channel as usize * PATCH * PATCH;
         c + (o.1 as isize + RADIUS as isize) as usize * PATCH
             + (o.0 as isize + RADIUS as isize) as usize
@@ -102,14 +107,17 @@ impl SplitTest {
 
     /// Indices of the two values inside a gathered patch.
     #[inline]
-    pub fn patch_indices(&self) -> (usize, usize) {
-        (self.patch_index(self.offset1), self.patch_index(self.offset2))
+    pub fn patch_indices(self) -> (usize, usize) {
+        (
+            self.patch_index(self.offset1),
+            self.patch_index(self.offset2),
+        )
     }
 
     /// Offsets of the two values in `planes`' data relative to a sample's
     /// base index (see [`LabPlanes::base`]).
     #[inline]
-    pub fn plane_offsets(&self, planes: &LabPlanes) -> (isize, isize) {
+    pub fn plane_offsets(self, planes: &LabPlanes) -> (isize, isize) {
         let c = (self.channel as usize * planes.plane_len()) as isize;
         let s = planes.stride() as isize;
         let at = |o: (i8, i8)| c + o.1 as isize * s + o.0 as isize;
@@ -118,7 +126,7 @@ impl SplitTest {
 
     /// Response at the sample with base index `base` in `planes`.
     #[inline]
-    pub fn response(&self, planes: &LabPlanes, base: usize) -> i32 {
+    pub fn response(self, planes: &LabPlanes, base: usize) -> i32 {
         let (o1, o2) = self.plane_offsets(planes);
         let d = planes.data();
         self.op.apply(
@@ -165,8 +173,16 @@ mod tests {
                 assert!(t.is_valid());
                 let (i1, i2) = t.patch_indices();
                 let expect = t.op.apply(
-                    planes.at(i64::from(x) + i64::from(t.offset1.0), i64::from(y) + i64::from(t.offset1.1), t.channel as usize),
-                    planes.at(i64::from(x) + i64::from(t.offset2.0), i64::from(y) + i64::from(t.offset2.1), t.channel as usize),
+                    planes.at(
+                        i64::from(x) + i64::from(t.offset1.0),
+                        i64::from(y) + i64::from(t.offset1.1),
+                        t.channel as usize,
+                    ),
+                    planes.at(
+                        i64::from(x) + i64::from(t.offset2.0),
+                        i64::from(y) + i64::from(t.offset2.1),
+                        t.channel as usize,
+                    ),
                 );
                 assert_eq!(t.op.apply(patch[i1], patch[i2]), expect);
                 assert_eq!(t.response(&planes, base), expect);
@@ -176,7 +192,12 @@ mod tests {
 
     #[test]
     fn responses_stay_in_the_histogram_range() {
-        for op in [TestOp::Value, TestOp::Sum, TestOp::Difference, TestOp::AbsDifference] {
+        for op in [
+            TestOp::Value,
+            TestOp::Sum,
+            TestOp::Difference,
+            TestOp::AbsDifference,
+        ] {
             for (a, b) in [(0, 0), (0, 255), (255, 0), (255, 255)] {
                 let r = op.apply(a, b) - RESPONSE_MIN;
                 assert!((0..RESPONSE_RANGE as i32).contains(&r));

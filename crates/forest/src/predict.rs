@@ -15,6 +15,9 @@ use crate::lab::LabPlanes;
 use crate::patch::TestOp;
 use crate::Forest;
 
+/// Pixels per parallel task of [`Forest::predict_pixels`].
+const BATCH: usize = 512;
+
 /// A node compiled for one plane stride.
 #[derive(Debug, Clone, Copy)]
 struct CNode {
@@ -47,7 +50,14 @@ fn compile(forest: &Forest, planes: &LabPlanes) -> Vec<Compiled> {
                 .enumerate()
                 .map(|(i, n)| {
                     if n.is_leaf {
-                        return CNode { off1: 0, off2: 0, child: i as u32, threshold: i16::MAX, sign: 0, abs: 0 };
+                        return CNode {
+                            off1: 0,
+                            off2: 0,
+                            child: i as u32,
+                            threshold: i16::MAX,
+                            sign: 0,
+                            abs: 0,
+                        };
                     }
                     let (o1, o2) = n.test.plane_offsets(planes);
                     let (sign, abs) = match n.test.op {
@@ -56,10 +66,21 @@ fn compile(forest: &Forest, planes: &LabPlanes) -> Vec<Compiled> {
                         TestOp::Difference => (-1, 0),
                         TestOp::AbsDifference => (-1, 1),
                     };
-                    CNode { off1: o1 as i32, off2: o2 as i32, child: n.child, threshold: n.threshold, sign, abs }
+                    CNode {
+                        off1: o1 as i32,
+                        off2: o2 as i32,
+                        child: n.child,
+                        threshold: n.threshold,
+                        sign,
+                        abs,
+                    }
                 })
                 .collect();
-            let leaf = tree.nodes().iter().map(|n| if n.is_leaf { n.child } else { 0 }).collect();
+            let leaf = tree
+                .nodes()
+                .iter()
+                .map(|n| if n.is_leaf { n.child } else { 0 })
+                .collect();
             let depth = tree.node_depths().into_iter().max().unwrap_or(0) as usize;
             Compiled { nodes, leaf, depth }
         })
@@ -68,7 +89,14 @@ fn compile(forest: &Forest, planes: &LabPlanes) -> Vec<Compiled> {
 
 /// Walks `bases` through every tree and adds the mean leaf confidences to
 /// `acc` (`bases.len()` x b). `cur` is scratch of `bases.len()`.
-fn accumulate(forest: &Forest, compiled: &[Compiled], data: &[u8], bases: &[usize], cur: &mut [u32], acc: &mut [f32]) {
+fn accumulate(
+    forest: &Forest,
+    compiled: &[Compiled],
+    data: &[u8],
+    bases: &[usize],
+    cur: &mut [u32],
+    acc: &mut [f32],
+) {
     let b = forest.bins().len();
     let scale = 1.0 / forest.trees().len() as f32;
     acc.fill(0.0);
@@ -110,14 +138,17 @@ impl Forest {
     /// plus the Lab conversion of every pixel.
     pub fn predict_image(&self, image: &RgbImage, step: u32) -> Result<ConfidenceImage> {
         if image.width() == 0 || image.height() == 0 {
-            return Err(ForestError::InvalidInput("cannot predict on an empty image".into()));
+            return Err(ForestError::InvalidInput(
+                "cannot predict on an empty image".into(),
+            ));
         }
         self.predict_lab(&LabPlanes::from_rgb(image), step)
     }
 
     /// [`Forest::predict_image`] on an image already converted to Lab.
     pub fn predict_lab(&self, planes: &LabPlanes, step: u32) -> Result<ConfidenceImage> {
-        let mut out = ConfidenceImage::zeros(planes.width(), planes.height(), step, self.bins().clone())?;
+        let mut out =
+            ConfidenceImage::zeros(planes.width(), planes.height(), step, self.bins().clone())?;
         let b = self.bins().len();
         let compiled = compile(self, planes);
         let (gw, gh) = out.grid_size();
@@ -137,7 +168,10 @@ impl Forest {
     /// Mean leaf confidences (b per pixel, pixel-major) at the given pixels.
     /// Pixels outside the image are an error.
     pub fn predict_pixels(&self, planes: &LabPlanes, pixels: &[(u32, u32)]) -> Result<Vec<f32>> {
-        if let Some(p) = pixels.iter().find(|p| p.0 >= planes.width() || p.1 >= planes.height()) {
+        if let Some(p) = pixels
+            .iter()
+            .find(|p| p.0 >= planes.width() || p.1 >= planes.height())
+        {
             return Err(ForestError::InvalidInput(format!(
                 "pixel {p:?} outside the {}x{} image",
                 planes.width(),
@@ -147,7 +181,6 @@ impl Forest {
         let b = self.bins().len();
         let compiled = compile(self, planes);
         let mut out = vec![0.0f32; pixels.len() * b];
-        const BATCH: usize = 512;
         out.par_chunks_mut(BATCH * b)
             .zip(pixels.par_chunks(BATCH))
             .for_each(|(acc, chunk)| {
@@ -170,18 +203,34 @@ mod tests {
     #[test]
     fn compiled_prediction_equals_plain_traversal() {
         let img = RgbImage::from_fn(48, 40, |x, y| {
-            image::Rgb([((x * 37 + y * 11) % 256) as u8, ((x * y) % 256) as u8, (x * 5) as u8])
+            image::Rgb([
+                ((x * 37 + y * 11) % 256) as u8,
+                ((x * y) % 256) as u8,
+                (x * 5) as u8,
+            ])
         });
         let mut labels = LabelImage::new(48, 40);
         for y in 0..40 {
             for x in 0..48 {
-                let label = if (x * 37 + y * 11) % 256 > 128 { Label::Positive } else { Label::Negative };
+                let label = if (x * 37 + y * 11) % 256 > 128 {
+                    Label::Positive
+                } else {
+                    Label::Negative
+                };
                 labels.set(x, y, label, (x % 45) as f32).unwrap();
             }
         }
         let mut set = TrainingSet::new();
         set.add_image(&img, &[labels]).unwrap();
-        let params = TrainParams { n_trees: 3, max_depth: 7, min_samples_split: 4, n_tests: 40, n_thresholds: 10, n_node_samples: 64, ..TrainParams::default() };
+        let params = TrainParams {
+            n_trees: 3,
+            max_depth: 7,
+            min_samples_split: 4,
+            n_tests: 40,
+            n_thresholds: 10,
+            n_node_samples: 64,
+            ..TrainParams::default()
+        };
         let forest = crate::train(&set, &params, 5).unwrap();
         let planes = LabPlanes::from_rgb(&img);
         let pixels: Vec<(u32, u32)> = (0..40).flat_map(|y| (0..48).map(move |x| (x, y))).collect();
@@ -191,12 +240,19 @@ mod tests {
             let base = planes.base(p.0, p.1);
             let mut want = vec![0.0f32; b];
             for t in forest.trees() {
-                for (w, v) in want.iter_mut().zip(t.leaf_confidence(t.leaf_of(&planes, base))) {
+                for (w, v) in want
+                    .iter_mut()
+                    .zip(t.leaf_confidence(t.leaf_of(&planes, base)))
+                {
                     *w += v;
                 }
             }
             for (g, w) in got.iter().zip(&want) {
-                assert!((g - w / 3.0).abs() < 1e-6, "pixel {p:?}: {g} vs {}", w / 3.0);
+                assert!(
+                    (g - w / 3.0).abs() < 1e-6,
+                    "pixel {p:?}: {g} vs {}",
+                    w / 3.0
+                );
             }
         }
         // The grid prediction reads the same values at its nodes.

@@ -22,10 +22,10 @@ impl Split {
     /// Higher gain wins; equal gains go to the earlier test, so the choice
     /// never depends on how the tests were split among threads.
     fn better(self, other: Split) -> Split {
-        if other.gain > self.gain || (other.gain == self.gain && other.index < self.index) {
-            other
-        } else {
-            self
+        match other.gain.total_cmp(&self.gain) {
+            std::cmp::Ordering::Greater => other,
+            std::cmp::Ordering::Equal if other.index < self.index => other,
+            _ => self,
         }
     }
 }
@@ -58,7 +58,7 @@ fn xlnx(x: f64) -> f64 {
 impl Entropy {
     fn new(weights: [f64; 2], m: usize) -> Self {
         let table = |w: f64| (0..=m).map(|k| xlnx(w * k as f64)).collect::<Vec<_>>();
-        let equal_term = (weights[0] == weights[1]).then(|| table(weights[0]));
+        let equal_term = (weights[0].to_bits() == weights[1].to_bits()).then(|| table(weights[0]));
         Entropy {
             weights,
             class_term: [table(weights[0]), table(weights[1])],
@@ -104,20 +104,20 @@ impl Scratch {
 }
 
 /// Fills the class histograms of one test; returns the shifted response range.
-fn histogram(data: &NodeData, test: &SplitTest, hist: &mut [u32]) -> (usize, usize) {
+fn histogram(data: &NodeData, test: SplitTest, hist: &mut [u32]) -> (usize, usize) {
     let (i1, i2) = test.patch_indices();
     // One loop per op so the combination is inlined, not matched per sample.
     match test.op {
         TestOp::Value => fill(data, i1, i2, hist, |a, _| i32::from(a)),
         TestOp::Sum => fill(data, i1, i2, hist, |a, b| i32::from(a) + i32::from(b)),
         TestOp::Difference => fill(data, i1, i2, hist, |a, b| i32::from(a) - i32::from(b)),
-        TestOp::AbsDifference => {
-            fill(data, i1, i2, hist, |a, b| (i32::from(a) - i32::from(b)).abs())
-        }
+        TestOp::AbsDifference => fill(data, i1, i2, hist, |a, b| {
+            (i32::from(a) - i32::from(b)).abs()
+        }),
     }
 }
 
-#[inline(always)]
+#[inline]
 fn fill<F: Fn(u8, u8) -> i32>(
     data: &NodeData,
     i1: usize,
@@ -139,7 +139,7 @@ fn fill<F: Fn(u8, u8) -> i32>(
 /// when all responses are equal.
 fn score_test(
     data: &NodeData,
-    test: &SplitTest,
+    test: SplitTest,
     seed: u64,
     n_thresholds: usize,
     entropy: &Entropy,
@@ -206,15 +206,17 @@ pub(crate) fn best_split(
 ) -> Option<Split> {
     let m = data.labels.len();
     let entropy = Entropy::new(data.weights, m);
-    let neg = data.labels.iter().filter(|&&l| l == 0).count() as u32;
+    let pos: usize = data.labels.iter().map(|&l| usize::from(l)).sum();
+    let neg = (m - pos) as u32;
     let parent = entropy.weighted(neg, m as u32 - neg);
-    let total_weight = data.weights[0] * f64::from(neg) + data.weights[1] * f64::from(m as u32 - neg);
+    let total_weight =
+        data.weights[0] * f64::from(neg) + data.weights[1] * f64::from(m as u32 - neg);
     let run_chunk = |(c, chunk): (usize, &[(SplitTest, u64)])| {
         let mut scratch = Scratch::new();
         let mut best: Option<Split> = None;
         for (i, (test, seed)) in chunk.iter().enumerate() {
             if let Some((threshold, children)) =
-                score_test(data, test, *seed, n_thresholds, &entropy, &mut scratch)
+                score_test(data, *test, *seed, n_thresholds, &entropy, &mut scratch)
             {
                 let split = Split {
                     test: *test,
@@ -238,7 +240,11 @@ pub(crate) fn best_split(
             .map(run_chunk)
             .reduce(|| None, reduce)
     } else {
-        tests.chunks(CHUNK).enumerate().map(run_chunk).fold(None, reduce)
+        tests
+            .chunks(CHUNK)
+            .enumerate()
+            .map(run_chunk)
+            .fold(None, reduce)
     };
     // Rounding can leave a useless split a gain of +1e-16; demand a real one.
     best.filter(|s| s.gain > 1e-12)
@@ -247,7 +253,7 @@ pub(crate) fn best_split(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::patch::{RADIUS, PATCH};
+    use crate::patch::{PATCH, RADIUS};
     use rand::SeedableRng;
 
     /// Patches whose centre L value is the sample index; label = index >= 30.
@@ -264,9 +270,23 @@ mod tests {
     #[test]
     fn finds_the_separating_threshold_with_full_gain() {
         let (patches, labels) = ramp(100);
-        let data = NodeData { patches: &patches, labels: &labels, weights: [1.0, 1.0] };
-        let centre = SplitTest { channel: 0, op: TestOp::Value, offset1: (0, 0), offset2: (0, 0) };
-        let corner = SplitTest { channel: 1, op: TestOp::Value, offset1: (3, 3), offset2: (0, 0) };
+        let data = NodeData {
+            patches: &patches,
+            labels: &labels,
+            weights: [1.0, 1.0],
+        };
+        let centre = SplitTest {
+            channel: 0,
+            op: TestOp::Value,
+            offset1: (0, 0),
+            offset2: (0, 0),
+        };
+        let corner = SplitTest {
+            channel: 1,
+            op: TestOp::Value,
+            offset1: (3, 3),
+            offset2: (0, 0),
+        };
         let s = best_split(&data, &[(corner, 1), (centre, 2)], 100, false).unwrap();
         assert_eq!(s.test, centre);
         assert_eq!(s.threshold, 29);
@@ -279,11 +299,24 @@ mod tests {
     #[test]
     fn weights_and_sampled_thresholds_keep_the_best_split_close() {
         let (patches, labels) = ramp(200);
-        let data = NodeData { patches: &patches, labels: &labels, weights: [3.0, 0.5] };
-        let centre = SplitTest { channel: 0, op: TestOp::Value, offset1: (0, 0), offset2: (0, 0) };
+        let data = NodeData {
+            patches: &patches,
+            labels: &labels,
+            weights: [3.0, 0.5],
+        };
+        let centre = SplitTest {
+            channel: 0,
+            op: TestOp::Value,
+            offset1: (0, 0),
+            offset2: (0, 0),
+        };
         // 199 candidate thresholds, 20 sampled: the best lies in the stratum holding 29.
         let s = best_split(&data, &[(centre, 7)], 20, false).unwrap();
-        assert!((19..=39).contains(&s.threshold), "threshold {}", s.threshold);
+        assert!(
+            (19..=39).contains(&s.threshold),
+            "threshold {}",
+            s.threshold
+        );
     }
 
     #[test]
@@ -293,7 +326,11 @@ mod tests {
         let patches: Vec<u8> = (0..m * PATCH_LEN).map(|i| (i * 31 % 251) as u8).collect();
         let labels: Vec<u8> = (0..m).map(|i| u8::from(i % 3 == 0)).collect();
         let tests: Vec<_> = (0..500).map(|i| (SplitTest::random(&mut rng), i)).collect();
-        let data = NodeData { patches: &patches, labels: &labels, weights: [1.0, 2.0] };
+        let data = NodeData {
+            patches: &patches,
+            labels: &labels,
+            weights: [1.0, 2.0],
+        };
         let a = best_split(&data, &tests, 30, false);
         let b = best_split(&data, &tests, 30, true);
         assert_eq!(a, b);

@@ -42,7 +42,11 @@ pub fn texture_image(width: u32, height: u32, block: u32, seed: u64) -> TextureI
     let blocks: Vec<(bool, [f32; 3], f32)> = (0..bw * bh)
         .map(|_| {
             let colour = [0, 1, 2].map(|_| rng.random_range(60.0..196.0));
-            (rng.random_bool(0.5), colour, rng.random_range(0.0..6.28))
+            (
+                rng.random_bool(0.5),
+                colour,
+                rng.random_range(0.0..std::f32::consts::TAU),
+            )
         })
         .collect();
     let mut noisy = Vec::with_capacity((width * height) as usize);
@@ -63,7 +67,11 @@ pub fn texture_image(width: u32, height: u32, block: u32, seed: u64) -> TextureI
             noisy.push(is_noisy);
         }
     }
-    TextureImage { image, noisy, block }
+    TextureImage {
+        image,
+        noisy,
+        block,
+    }
 }
 
 /// Labels every `stride`-th pixel in x and y with a random angle, uniform

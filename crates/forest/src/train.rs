@@ -23,7 +23,9 @@ use crate::Forest;
 
 /// Mixes two numbers into a seed (SplitMix64 finaliser).
 pub(crate) fn mix(a: u64, b: u64) -> u64 {
-    let mut z = a ^ b.wrapping_add(0x9e37_79b9_7f4a_7c15).wrapping_mul(0xd6e8_feb8_6659_fd93);
+    let mut z = a ^ b
+        .wrapping_add(0x9e37_79b9_7f4a_7c15)
+        .wrapping_mul(0xd6e8_feb8_6659_fd93);
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
     z ^ (z >> 31)
@@ -60,7 +62,9 @@ pub fn train_with_progress(
     let mut rng = ChaCha8Rng::seed_from_u64(mix(seed, 0x5e1e_c7ed));
     for class in &mut classes {
         if class.len() > params.samples_per_class {
-            let mut keep = rand::seq::index::sample(&mut rng, class.len(), params.samples_per_class).into_vec();
+            let mut keep =
+                rand::seq::index::sample(&mut rng, class.len(), params.samples_per_class)
+                    .into_vec();
             keep.sort_unstable();
             *class = keep.into_iter().map(|i| class[i]).collect();
         }
@@ -87,7 +91,15 @@ pub fn train_with_progress(
         .iter()
         .filter(|&&i| params.bins.bin_of(set.samples[i as usize].angle).is_none())
         .count() as u64;
-    let summary = summarise(&grown, set, seed, [counts[0] as u64, counts[1] as u64], available, n_beyond, weights);
+    let summary = summarise(
+        &grown,
+        set,
+        seed,
+        [counts[0] as u64, counts[1] as u64],
+        available,
+        n_beyond,
+        weights,
+    );
     let trees = grown.into_iter().map(|(t, _)| t).collect();
     Ok(Forest::from_parts(params.clone(), summary, trees))
 }
@@ -125,8 +137,16 @@ fn summarise(
         n_nodes: grown.iter().map(|(t, _)| t.nodes().len() as u64).sum(),
         n_leaves: grown.iter().map(|(t, _)| t.n_leaves() as u64).sum(),
         max_depth_reached: grown.iter().map(|(_, s)| s.max_depth).max().unwrap_or(0),
-        mean_sample_depth: grown.iter().map(|(_, s)| s.sample_depth_sum / s.n_samples).sum::<f64>() / n,
-        train_accuracy: grown.iter().map(|(_, s)| s.correct_weight / s.total_weight).sum::<f64>() / n,
+        mean_sample_depth: grown
+            .iter()
+            .map(|(_, s)| s.sample_depth_sum / s.n_samples)
+            .sum::<f64>()
+            / n,
+        train_accuracy: grown
+            .iter()
+            .map(|(_, s)| s.correct_weight / s.total_weight)
+            .sum::<f64>()
+            / n,
     }
 }
 
@@ -165,30 +185,67 @@ fn grow_tree(
     let mut counts: Vec<u32> = Vec::new();
     let mut stats = TreeStats::default();
     let mut work = Work::default();
-    let mut stack = vec![Pending { id: 0, start: 0, end: idx.len(), depth: 0 }];
+    let mut stack = vec![Pending {
+        id: 0,
+        start: 0,
+        end: idx.len(),
+        depth: 0,
+    }];
     while let Some(p) = stack.pop() {
         let samples = &set.samples;
         let split = if p.depth < params.max_depth && p.end - p.start >= params.min_samples_split {
-            find_split(set, &idx[p.start..p.end], params, weights, mix(seed, p.id as u64), &mut work)
+            find_split(
+                set,
+                &idx[p.start..p.end],
+                params,
+                weights,
+                mix(seed, p.id as u64),
+                &mut work,
+            )
         } else {
             None
         };
         let mid = split.map(|(test, threshold)| {
-            partition(set, &mut idx[p.start..p.end], test, threshold, &mut work.scratch) + p.start
+            partition(
+                set,
+                &mut idx[p.start..p.end],
+                test,
+                threshold,
+                &mut work.scratch,
+            ) + p.start
         });
         match (split, mid) {
             (Some((test, threshold)), Some(mid)) if mid > p.start && mid < p.end => {
                 let child = nodes.len();
-                nodes[p.id] = Node { test, threshold, child: child as u32, is_leaf: false };
+                nodes[p.id] = Node {
+                    test,
+                    threshold,
+                    child: child as u32,
+                    is_leaf: false,
+                };
                 nodes.push(placeholder());
                 nodes.push(placeholder());
-                stack.push(Pending { id: child + 1, start: mid, end: p.end, depth: p.depth + 1 });
-                stack.push(Pending { id: child, start: p.start, end: mid, depth: p.depth + 1 });
+                stack.push(Pending {
+                    id: child + 1,
+                    start: mid,
+                    end: p.end,
+                    depth: p.depth + 1,
+                });
+                stack.push(Pending {
+                    id: child,
+                    start: p.start,
+                    end: mid,
+                    depth: p.depth + 1,
+                });
             }
             _ => {
                 let leaf = counts.len() / (2 + 2 * n_bins);
                 add_leaf(&idx[p.start..p.end], samples, params, &mut counts);
-                nodes[p.id] = Node { child: leaf as u32, is_leaf: true, ..placeholder() };
+                nodes[p.id] = Node {
+                    child: leaf as u32,
+                    is_leaf: true,
+                    ..placeholder()
+                };
                 let at = leaf * (2 + 2 * n_bins);
                 let (pos, neg) = (f64::from(counts[at]), f64::from(counts[at + 1]));
                 let n = pos + neg;
@@ -200,14 +257,21 @@ fn grow_tree(
             }
         }
     }
-    let tree = Tree::from_parts(nodes, counts, n_bins, weights, params.pseudo_count)
-        .map_err(|e| ForestError::InvalidInput(format!("internal: grown tree inconsistent: {e}")))?;
+    let tree =
+        Tree::from_parts(nodes, counts, n_bins, weights, params.pseudo_count).map_err(|e| {
+            ForestError::InvalidInput(format!("internal: grown tree inconsistent: {e}"))
+        })?;
     Ok((tree, stats))
 }
 
 fn placeholder() -> Node {
     Node {
-        test: SplitTest { channel: 0, op: crate::patch::TestOp::Value, offset1: (0, 0), offset2: (0, 0) },
+        test: SplitTest {
+            channel: 0,
+            op: crate::patch::TestOp::Value,
+            offset1: (0, 0),
+            offset2: (0, 0),
+        },
         threshold: 0,
         child: 0,
         is_leaf: true,
@@ -255,11 +319,17 @@ fn find_split(
     // Positions of the drawn samples within idx, in idx order.
     let mut chosen: Vec<usize> = Vec::with_capacity(take[0] + take[1]);
     for (class, &k) in take.iter().enumerate() {
-        let members: Vec<usize> = (0..idx.len()).filter(|&j| usize::from(positive(idx[j])) == class).collect();
+        let members: Vec<usize> = (0..idx.len())
+            .filter(|&j| usize::from(positive(idx[j])) == class)
+            .collect();
         if k == members.len() {
             chosen.extend(members);
         } else {
-            chosen.extend(rand::seq::index::sample(&mut rng, members.len(), k).into_iter().map(|j| members[j]));
+            chosen.extend(
+                rand::seq::index::sample(&mut rng, members.len(), k)
+                    .into_iter()
+                    .map(|j| members[j]),
+            );
         }
     }
     chosen.sort_unstable();
@@ -278,14 +348,24 @@ fn find_split(
     let tests: Vec<(SplitTest, u64)> = (0..params.n_tests)
         .map(|_| (SplitTest::random(&mut rng), rng.next_u64()))
         .collect();
-    let data = NodeData { patches: &work.patches, labels: &work.labels, weights: node_weights };
+    let data = NodeData {
+        patches: &work.patches,
+        labels: &work.labels,
+        weights: node_weights,
+    };
     let parallel = chosen.len() * tests.len() >= PARALLEL_WORK;
     best_split(&data, &tests, params.n_thresholds, parallel).map(|s| (s.test, s.threshold))
 }
 
 /// Stable partition of `idx` by the split (left: response <= threshold);
 /// returns the number of left samples.
-fn partition(set: &TrainingSet, idx: &mut [u32], test: SplitTest, threshold: i16, right: &mut Vec<u32>) -> usize {
+fn partition(
+    set: &TrainingSet,
+    idx: &mut [u32],
+    test: SplitTest,
+    threshold: i16,
+    right: &mut Vec<u32>,
+) -> usize {
     right.clear();
     let mut left = 0;
     for k in 0..idx.len() {

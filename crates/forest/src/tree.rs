@@ -53,7 +53,11 @@ pub(crate) fn leaf_confidence(counts: &LeafCounts, weights: [f64; 2], k: f64, ou
         let pos = weights[1] * f64::from(pn[0]);
         let neg = weights[0] * f64::from(pn[1]);
         let denominator = pos + neg + k;
-        *o = if denominator > 0.0 { (pos + k * p) / denominator } else { p } as f32;
+        *o = if denominator > 0.0 {
+            (pos + k * p) / denominator
+        } else {
+            p
+        } as f32;
     }
 }
 
@@ -71,8 +75,11 @@ impl Tree {
         if nodes.is_empty() {
             return Err("tree without nodes".into());
         }
-        if n_bins == 0 || counts.len() % per_leaf != 0 {
-            return Err(format!("{} leaf counts do not fill leaves of {per_leaf}", counts.len()));
+        if n_bins == 0 || !counts.len().is_multiple_of(per_leaf) {
+            return Err(format!(
+                "{} leaf counts do not fill leaves of {per_leaf}",
+                counts.len()
+            ));
         }
         let n_leaves = counts.len() / per_leaf;
         for (i, n) in nodes.iter().enumerate() {
@@ -81,7 +88,10 @@ impl Tree {
                 return Err(format!("node {i}: leaf {c} of {n_leaves}"));
             }
             if !n.is_leaf && (c <= i || c + 1 >= nodes.len()) {
-                return Err(format!("node {i}: children {c}, {} out of order or range", c + 1));
+                return Err(format!(
+                    "node {i}: children {c}, {} out of order or range",
+                    c + 1
+                ));
             }
             if !n.is_leaf && !n.test.is_valid() {
                 return Err(format!("node {i}: invalid split test {:?}", n.test));
@@ -183,13 +193,22 @@ mod tests {
     use crate::patch::TestOp;
 
     fn test() -> SplitTest {
-        SplitTest { channel: 0, op: TestOp::Value, offset1: (0, 0), offset2: (0, 0) }
+        SplitTest {
+            channel: 0,
+            op: TestOp::Value,
+            offset1: (0, 0),
+            offset2: (0, 0),
+        }
     }
 
     #[test]
     fn empty_bins_fall_back_to_the_leaf_ratio() {
         let per_bin = [3, 1, 0, 0, 0, 4];
-        let c = LeafCounts { positive: 3, negative: 5, per_bin: &per_bin };
+        let c = LeafCounts {
+            positive: 3,
+            negative: 5,
+            per_bin: &per_bin,
+        };
         let mut out = [0.0f32; 3];
         leaf_confidence(&c, [1.0, 1.0], 2.0, &mut out);
         let p = 3.0 / 8.0;
@@ -200,14 +219,52 @@ mod tests {
 
     #[test]
     fn inconsistent_trees_are_rejected() {
-        let leaf = |i| Node { test: test(), threshold: 0, child: i, is_leaf: true };
-        let split = |c| Node { test: test(), threshold: 0, child: c, is_leaf: false };
+        let leaf = |i| Node {
+            test: test(),
+            threshold: 0,
+            child: i,
+            is_leaf: true,
+        };
+        let split = |c| Node {
+            test: test(),
+            threshold: 0,
+            child: c,
+            is_leaf: false,
+        };
         let counts = vec![1, 0, 1, 0, 0, 1, 0, 0];
-        assert!(Tree::from_parts(vec![split(1), leaf(0), leaf(1)], counts.clone(), 1, [1.0, 1.0], 1.0).is_ok());
+        assert!(Tree::from_parts(
+            vec![split(1), leaf(0), leaf(1)],
+            counts.clone(),
+            1,
+            [1.0, 1.0],
+            1.0
+        )
+        .is_ok());
         // A child pointing back to its parent would loop forever.
-        assert!(Tree::from_parts(vec![split(0), leaf(0), leaf(1)], counts.clone(), 1, [1.0, 1.0], 1.0).is_err());
-        assert!(Tree::from_parts(vec![split(1), leaf(0), leaf(2)], counts.clone(), 1, [1.0, 1.0], 1.0).is_err());
-        assert!(Tree::from_parts(vec![split(2), leaf(0), leaf(1)], counts.clone(), 1, [1.0, 1.0], 1.0).is_err());
+        assert!(Tree::from_parts(
+            vec![split(0), leaf(0), leaf(1)],
+            counts.clone(),
+            1,
+            [1.0, 1.0],
+            1.0
+        )
+        .is_err());
+        assert!(Tree::from_parts(
+            vec![split(1), leaf(0), leaf(2)],
+            counts.clone(),
+            1,
+            [1.0, 1.0],
+            1.0
+        )
+        .is_err());
+        assert!(Tree::from_parts(
+            vec![split(2), leaf(0), leaf(1)],
+            counts.clone(),
+            1,
+            [1.0, 1.0],
+            1.0
+        )
+        .is_err());
         assert!(Tree::from_parts(vec![], counts.clone(), 1, [1.0, 1.0], 1.0).is_err());
         // Two parents sharing children: not a tree.
         let shared = vec![split(1), split(3), split(3), leaf(0), leaf(1)];

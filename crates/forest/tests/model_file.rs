@@ -9,15 +9,31 @@ use vp_scene::raster::{fnv1a64, Label};
 
 fn model_bytes() -> Vec<u8> {
     let img = texture_image(48, 48, 16, 4);
-    let labels = label_image(&img, 2, 50.0, 4, |noisy, _| if noisy { Label::Negative } else { Label::Positive });
+    let labels = label_image(&img, 2, 50.0, 4, |noisy, _| {
+        if noisy {
+            Label::Negative
+        } else {
+            Label::Positive
+        }
+    });
     let mut set = TrainingSet::new();
     set.add_image(&img.image, &[labels]).unwrap();
-    let params = TrainParams { n_trees: 2, max_depth: 5, min_samples_split: 10, n_tests: 30, n_thresholds: 10, n_node_samples: 100, ..TrainParams::default() };
+    let params = TrainParams {
+        n_trees: 2,
+        max_depth: 5,
+        min_samples_split: 10,
+        n_tests: 30,
+        n_thresholds: 10,
+        n_node_samples: 100,
+        ..TrainParams::default()
+    };
     train(&set, &params, 1).unwrap().to_bytes()
 }
 
 fn error_of(bytes: &[u8]) -> String {
-    Forest::from_bytes(bytes, Path::new("model.vpforest")).unwrap_err().to_string()
+    Forest::from_bytes(bytes, Path::new("model.vpforest"))
+        .unwrap_err()
+        .to_string()
 }
 
 fn assert_error(bytes: &[u8], needle: &str) {
@@ -41,16 +57,30 @@ fn empty_file_is_rejected() {
 
 #[test]
 fn non_model_files_are_rejected() {
-    assert_error(b"\x89PNG\r\n\x1a\n0000000000000000", "not a vp-forest model");
+    assert_error(
+        b"\x89PNG\r\n\x1a\n0000000000000000",
+        "not a vp-forest model",
+    );
     assert_error(b"VPFORES", "not a vp-forest model");
 }
 
 #[test]
 fn truncated_models_are_rejected() {
     let good = model_bytes();
-    for len in [9, 12, 19, 40, good.len() / 2, good.len() - 9, good.len() - 1] {
+    for len in [
+        9,
+        12,
+        19,
+        40,
+        good.len() / 2,
+        good.len() - 9,
+        good.len() - 1,
+    ] {
         let msg = error_of(&good[..len]);
-        assert!(msg.contains("truncated") || msg.contains("checksum"), "length {len}: {msg}");
+        assert!(
+            msg.contains("truncated") || msg.contains("checksum"),
+            "length {len}: {msg}"
+        );
     }
 }
 
@@ -97,7 +127,9 @@ fn saving_never_leaves_a_partial_file_and_missing_files_are_named() {
     let dir = tempfile::tempdir().unwrap();
     let missing_dir = dir.path().join("no/such/dir/m.vpforest");
     assert!(forest.save(&missing_dir).is_err());
-    let msg = Forest::load(&dir.path().join("absent.vpforest")).unwrap_err().to_string();
+    let msg = Forest::load(&dir.path().join("absent.vpforest"))
+        .unwrap_err()
+        .to_string();
     assert!(msg.contains("absent.vpforest"), "{msg}");
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
