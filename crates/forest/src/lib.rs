@@ -34,7 +34,7 @@ pub mod model_io;
 mod params;
 pub mod patch;
 mod predict;
-mod split;
+pub mod split;
 pub mod synthetic;
 mod train;
 pub mod tree;

@@ -165,52 +165,7 @@ impl Forest {
         let b = params.bins.len();
         let mut trees = Vec::with_capacity(n_trees);
         for t in 0..n_trees {
-            let at = r.pos;
-            let n_nodes = r.u32("node count")? as usize;
-            let n_leaves = r.u32("leaf count")? as usize;
-            let raw = r.take(n_nodes.saturating_mul(NODE_BYTES), "nodes")?;
-            let mut nodes = Vec::with_capacity(n_nodes);
-            for (i, c) in raw.chunks_exact(NODE_BYTES).enumerate() {
-                let node_at = at + 8 + i * NODE_BYTES;
-                let op = TestOp::from_code(c[2]).ok_or_else(|| {
-                    r.error(
-                        node_at,
-                        &format!("tree {t} node {i}: unknown test type {}", c[2]),
-                    )
-                })?;
-                if c[0] > 1 {
-                    return Err(r.error(
-                        node_at,
-                        &format!("tree {t} node {i}: unknown node kind {}", c[0]),
-                    ));
-                }
-                nodes.push(Node {
-                    test: SplitTest {
-                        channel: c[1],
-                        op,
-                        offset1: (c[3] as i8, c[4] as i8),
-                        offset2: (c[5] as i8, c[6] as i8),
-                    },
-                    threshold: i16::from_le_bytes([c[7], c[8]]),
-                    child: u32::from_le_bytes([c[9], c[10], c[11], c[12]]),
-                    is_leaf: c[0] == 1,
-                });
-            }
-            let raw = r.take(n_leaves.saturating_mul(4 * (2 + 2 * b)), "leaf counts")?;
-            let counts = raw
-                .chunks_exact(4)
-                .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-                .collect();
-            let tree = Tree::from_parts(nodes, counts, b, weights, params.pseudo_count)
-                .map_err(|e| r.error(at, &format!("tree {t}: {e}")))?;
-            let depth = tree.node_depths().into_iter().max().unwrap_or(0) as usize;
-            if depth > MAX_DEPTH_LIMIT {
-                return Err(r.error(
-                    at,
-                    &format!("tree {t} is {depth} levels deep (at most {MAX_DEPTH_LIMIT})"),
-                ));
-            }
-            trees.push(tree);
+            trees.push(r.tree(t, b, weights, params.pseudo_count)?);
         }
         if r.pos != r.bytes.len() {
             return Err(r.error(
@@ -233,6 +188,56 @@ struct Reader<'a> {
 }
 
 impl<'a> Reader<'a> {
+    /// Reads tree `t` (b angle bins) and checks it.
+    fn tree(&mut self, t: usize, b: usize, weights: [f64; 2], pseudo_count: f64) -> Result<Tree> {
+        let at = self.pos;
+        let n_nodes = self.u32("node count")? as usize;
+        let n_leaves = self.u32("leaf count")? as usize;
+        let raw = self.take(n_nodes.saturating_mul(NODE_BYTES), "nodes")?;
+        let mut nodes = Vec::with_capacity(n_nodes);
+        for (i, c) in raw.chunks_exact(NODE_BYTES).enumerate() {
+            let node_at = at + 8 + i * NODE_BYTES;
+            let op = TestOp::from_code(c[2]).ok_or_else(|| {
+                self.error(
+                    node_at,
+                    &format!("tree {t} node {i}: unknown test type {}", c[2]),
+                )
+            })?;
+            if c[0] > 1 {
+                return Err(self.error(
+                    node_at,
+                    &format!("tree {t} node {i}: unknown node kind {}", c[0]),
+                ));
+            }
+            nodes.push(Node {
+                test: SplitTest {
+                    channel: c[1],
+                    op,
+                    offset1: (c[3] as i8, c[4] as i8),
+                    offset2: (c[5] as i8, c[6] as i8),
+                },
+                threshold: i16::from_le_bytes([c[7], c[8]]),
+                child: u32::from_le_bytes([c[9], c[10], c[11], c[12]]),
+                is_leaf: c[0] == 1,
+            });
+        }
+        let raw = self.take(n_leaves.saturating_mul(4 * (2 + 2 * b)), "leaf counts")?;
+        let counts = raw
+            .chunks_exact(4)
+            .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
+        let tree = Tree::from_parts(nodes, counts, b, weights, pseudo_count)
+            .map_err(|e| self.error(at, &format!("tree {t}: {e}")))?;
+        let depth = tree.node_depths().into_iter().max().unwrap_or(0) as usize;
+        if depth > MAX_DEPTH_LIMIT {
+            return Err(self.error(
+                at,
+                &format!("tree {t} is {depth} levels deep (at most {MAX_DEPTH_LIMIT})"),
+            ));
+        }
+        Ok(tree)
+    }
+
     fn error(&self, offset: usize, message: &str) -> ForestError {
         ForestError::Model {
             path: self.path.clone(),

@@ -1,11 +1,15 @@
 //! Prediction: dense on a grid, or at given pixels.
 //!
-//! Trees are compiled per image stride into 16-byte nodes holding absolute
-//! plane offsets, and a leaf becomes a node that points to itself with a
-//! threshold no response exceeds. A whole row of grid points then walks a
-//! tree in lockstep for exactly the tree's depth, without a branch per
-//! visit: the walks of different points are independent, so the CPU keeps
-//! many node and pixel loads in flight instead of waiting on each.
+//! Trees are compiled per image stride into 16-byte nodes. With the
+//! complemented planes (255 - v) next to the Lab planes, every test becomes
+//! "is v1 + v2' within [lo, lo + span]": a difference v1 - v2 is
+//! v1 + (255 - v2) - 255, an absolute difference |d| <= t is a window
+//! 255 - t..=255 + t, a value v1 is v1 + v1. A leaf becomes a node that
+//! points to itself with a window holding every response. A whole row of
+//! grid points then walks a tree in lockstep for exactly the tree's depth,
+//! without a branch per visit: the walks of different points are
+//! independent, so the CPU keeps many node and pixel loads in flight
+//! instead of waiting on each.
 
 use rayon::prelude::*;
 use vp_scene::raster::{ConfidenceImage, RgbImage};
@@ -13,22 +17,62 @@ use vp_scene::raster::{ConfidenceImage, RgbImage};
 use crate::error::{ForestError, Result};
 use crate::lab::LabPlanes;
 use crate::patch::TestOp;
+use crate::tree::Node;
 use crate::Forest;
 
 /// Pixels per parallel task of [`Forest::predict_pixels`].
 const BATCH: usize = 512;
 
-/// A node compiled for one plane stride.
+/// A node compiled for one plane stride: go left iff
+/// `(v1 + v2) - lo`, as an unsigned number, is at most `span`.
 #[derive(Debug, Clone, Copy)]
 struct CNode {
     off1: i32,
     off2: i32,
     child: u32,
-    threshold: i16,
-    /// v1 + sign * v2.
-    sign: i8,
-    /// 1 to take the absolute value.
-    abs: u8,
+    lo: i16,
+    span: u16,
+}
+
+/// The window of sums v1 + v2' (each 0..=255, so 0..=510) that go left.
+fn window(lo: i32, hi: i32) -> (i16, u16) {
+    // Sums are never below 0 nor above 510: clamp the window to that range.
+    let (lo, hi) = (lo.max(-1), hi.min(600));
+    if lo > hi {
+        (1000, 0) // empty: every sum minus 1000 is negative, i.e. huge unsigned
+    } else {
+        (lo as i16, (hi - lo) as u16)
+    }
+}
+
+fn compile_node(i: usize, n: &Node, planes: &LabPlanes) -> CNode {
+    if n.is_leaf {
+        let (lo, span) = window(i32::MIN, i32::MAX);
+        return CNode {
+            off1: 0,
+            off2: 0,
+            child: i as u32,
+            lo,
+            span,
+        };
+    }
+    let (o1, o2) = n.test.plane_offsets(planes);
+    // The complement of channel c lies three planes further on.
+    let complement = 3 * planes.plane_len() as isize;
+    let t = i32::from(n.threshold);
+    let (off2, (lo, span)) = match n.test.op {
+        TestOp::Value => (o1, window(i32::MIN, 2 * t)),
+        TestOp::Sum => (o2, window(i32::MIN, t)),
+        TestOp::Difference => (o2 + complement, window(i32::MIN, t + 255)),
+        TestOp::AbsDifference => (o2 + complement, window(255 - t, 255 + t)),
+    };
+    CNode {
+        off1: o1 as i32,
+        off2: off2 as i32,
+        child: n.child,
+        lo,
+        span,
+    }
 }
 
 /// A tree compiled for one plane stride.
@@ -43,75 +87,44 @@ fn compile(forest: &Forest, planes: &LabPlanes) -> Vec<Compiled> {
     forest
         .trees()
         .iter()
-        .map(|tree| {
-            let nodes: Vec<CNode> = tree
+        .map(|tree| Compiled {
+            nodes: tree
                 .nodes()
                 .iter()
                 .enumerate()
-                .map(|(i, n)| {
-                    if n.is_leaf {
-                        return CNode {
-                            off1: 0,
-                            off2: 0,
-                            child: i as u32,
-                            threshold: i16::MAX,
-                            sign: 0,
-                            abs: 0,
-                        };
-                    }
-                    let (o1, o2) = n.test.plane_offsets(planes);
-                    let (sign, abs) = match n.test.op {
-                        TestOp::Value => (0, 0),
-                        TestOp::Sum => (1, 0),
-                        TestOp::Difference => (-1, 0),
-                        TestOp::AbsDifference => (-1, 1),
-                    };
-                    CNode {
-                        off1: o1 as i32,
-                        off2: o2 as i32,
-                        child: n.child,
-                        threshold: n.threshold,
-                        sign,
-                        abs,
-                    }
-                })
-                .collect();
-            let leaf = tree
+                .map(|(i, n)| compile_node(i, n, planes))
+                .collect(),
+            leaf: tree
                 .nodes()
                 .iter()
                 .map(|n| if n.is_leaf { n.child } else { 0 })
-                .collect();
-            let depth = tree.node_depths().into_iter().max().unwrap_or(0) as usize;
-            Compiled { nodes, leaf, depth }
+                .collect(),
+            depth: tree.node_depths().into_iter().max().unwrap_or(0) as usize,
         })
         .collect()
 }
 
-/// Walks `bases` through every tree and adds the mean leaf confidences to
-/// `acc` (`bases.len()` x b). `cur` is scratch of `bases.len()`.
+/// Walks `bases` through every tree and writes the mean leaf confidences
+/// to `acc` (`bases.len()` x b). `data` must hold the complemented planes.
 fn accumulate(
     forest: &Forest,
     compiled: &[Compiled],
     data: &[u8],
     bases: &[usize],
-    cur: &mut [u32],
     acc: &mut [f32],
 ) {
     let b = forest.bins().len();
-    let scale = 1.0 / forest.trees().len() as f32;
+    let mut cur = vec![0u32; bases.len()];
     acc.fill(0.0);
     for (tree, c) in forest.trees().iter().zip(compiled) {
         cur.fill(0);
         for _ in 0..c.depth {
             for (k, &base) in cur.iter_mut().zip(bases) {
                 let n = c.nodes[*k as usize];
-                let v1 = i32::from(data[(base as isize + n.off1 as isize) as usize]);
-                let v2 = i32::from(data[(base as isize + n.off2 as isize) as usize]);
-                let r = v1 + i32::from(n.sign) * v2;
-                // Branch-free |r| when abs = 1: mask is all ones for negative r.
-                let mask = -i32::from(n.abs) & (r >> 31);
-                let r = (r ^ mask) - mask;
-                *k = n.child + u32::from(r > i32::from(n.threshold));
+                let v1 = i32::from(data[base.wrapping_add_signed(n.off1 as isize)]);
+                let v2 = i32::from(data[base.wrapping_add_signed(n.off2 as isize)]);
+                let right = (v1 + v2 - i32::from(n.lo)) as u32 > u32::from(n.span);
+                *k = n.child + u32::from(right);
             }
         }
         let conf = tree.confidences();
@@ -122,6 +135,7 @@ fn accumulate(
             }
         }
     }
+    let scale = 1.0 / forest.trees().len() as f32;
     for v in acc.iter_mut() {
         *v *= scale;
     }
@@ -142,11 +156,16 @@ impl Forest {
                 "cannot predict on an empty image".into(),
             ));
         }
-        self.predict_lab(&LabPlanes::from_rgb(image), step)
+        self.predict_lab(&LabPlanes::from_rgb_with_complement(image), step)
     }
 
-    /// [`Forest::predict_image`] on an image already converted to Lab.
+    /// [`Forest::predict_image`] on an image already converted to Lab;
+    /// planes without complement ([`LabPlanes::from_rgb`]) are copied once
+    /// to add it.
     pub fn predict_lab(&self, planes: &LabPlanes, step: u32) -> Result<ConfidenceImage> {
+        if !planes.has_complement() {
+            return self.predict_lab(&planes.with_complement(), step);
+        }
         let mut out =
             ConfidenceImage::zeros(planes.width(), planes.height(), step, self.bins().clone())?;
         let b = self.bins().len();
@@ -159,8 +178,7 @@ impl Forest {
             .zip(ys.par_iter())
             .for_each(|(row, &y)| {
                 let bases: Vec<usize> = xs.iter().map(|&x| planes.base(x, y)).collect();
-                let mut cur = vec![0u32; gw];
-                accumulate(self, &compiled, planes.data(), &bases, &mut cur, row);
+                accumulate(self, &compiled, planes.data(), &bases, row);
             });
         Ok(out)
     }
@@ -178,6 +196,9 @@ impl Forest {
                 planes.height()
             )));
         }
+        if !planes.has_complement() {
+            return self.predict_pixels(&planes.with_complement(), pixels);
+        }
         let b = self.bins().len();
         let compiled = compile(self, planes);
         let mut out = vec![0.0f32; pixels.len() * b];
@@ -185,8 +206,7 @@ impl Forest {
             .zip(pixels.par_chunks(BATCH))
             .for_each(|(acc, chunk)| {
                 let bases: Vec<usize> = chunk.iter().map(|&(x, y)| planes.base(x, y)).collect();
-                let mut cur = vec![0u32; chunk.len()];
-                accumulate(self, &compiled, planes.data(), &bases, &mut cur, acc);
+                accumulate(self, &compiled, planes.data(), &bases, acc);
             });
         Ok(out)
     }
@@ -198,6 +218,40 @@ mod tests {
     use crate::dataset::TrainingSet;
     use crate::params::TrainParams;
     use vp_scene::raster::{Label, LabelImage};
+
+    /// The compiled window test decides exactly like `response <= threshold`,
+    /// for every op and any threshold a model file may hold.
+    #[test]
+    fn compiled_nodes_decide_like_the_split_test() {
+        use rand::{Rng, SeedableRng};
+        let img = RgbImage::from_fn(30, 30, |x, y| {
+            image::Rgb([(x * 9) as u8, (y * 8) as u8, ((x * y) % 256) as u8])
+        });
+        let planes = LabPlanes::from_rgb_with_complement(&img);
+        let d = planes.data();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        for _ in 0..3000 {
+            let test = crate::patch::SplitTest::random(&mut rng);
+            let threshold = match rng.random_range(0..4) {
+                0 => i16::MIN,
+                1 => i16::MAX,
+                _ => rng.random_range(-300..600),
+            };
+            let node = Node {
+                test,
+                threshold,
+                child: 1,
+                is_leaf: false,
+            };
+            let c = compile_node(0, &node, &planes);
+            let base = planes.base(rng.random_range(0..30), rng.random_range(0..30));
+            let v1 = i32::from(d[base.wrapping_add_signed(c.off1 as isize)]);
+            let v2 = i32::from(d[base.wrapping_add_signed(c.off2 as isize)]);
+            let left = (v1 + v2 - i32::from(c.lo)) as u32 <= u32::from(c.span);
+            let want = test.response(&planes, base) <= i32::from(threshold);
+            assert_eq!(left, want, "{test:?} threshold {threshold}");
+        }
+    }
 
     /// Lockstep compiled traversal must equal plain per-node traversal.
     #[test]

@@ -4,11 +4,12 @@
 
 use rayon::prelude::*;
 
-use crate::patch::{SplitTest, TestOp, PATCH_LEN, RESPONSE_MIN, RESPONSE_RANGE};
+use crate::patch::{SplitTest, TestOp, RESPONSE_MIN, RESPONSE_RANGE};
 
 /// The chosen split of a node.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct Split {
+pub struct Split {
+    /// The test.
     pub test: SplitTest,
     /// Samples with response <= threshold go left.
     pub threshold: i16,
@@ -30,12 +31,15 @@ impl Split {
     }
 }
 
-/// Samples gathered for one node: patches (m x PATCH_LEN bytes), labels
-/// (1 positive, 0 negative) and the weight of a sample of each class
-/// (index 0 negative, 1 positive).
-pub(crate) struct NodeData<'a> {
-    pub patches: &'a [u8],
+/// Samples gathered for one node: patches position-major
+/// ([`crate::patch::gather_columns`]), labels (1 positive, 0 negative) and
+/// the weight of a sample of each class (index 0 negative, 1 positive).
+pub struct NodeData<'a> {
+    /// PATCH_LEN rows of m bytes: byte p of sample s at `p * m + s`.
+    pub columns: &'a [u8],
+    /// m labels: 1 positive, 0 negative.
     pub labels: &'a [u8],
+    /// Weight of one sample of each class: [negative, positive].
     pub weights: [f64; 2],
 }
 
@@ -88,51 +92,71 @@ fn splitmix(state: &mut u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// Histogram slots per class: a power of two above [`RESPONSE_RANGE`], so
+/// that class and response pack into one index without a multiply.
+const CLASS_SLOTS: usize = 1024;
+
 /// Reusable buffers of one worker; `hist` is all zeros between tests.
 struct Scratch {
+    /// Negative counts at `r`, positive counts at `CLASS_SLOTS + r`.
     hist: Vec<u32>,
+    /// Per sample: shifted response with the class in bit 10.
+    index: Vec<u16>,
     cum: Vec<[u32; 2]>,
 }
 
 impl Scratch {
-    fn new() -> Self {
+    fn new(m: usize) -> Self {
         Scratch {
-            hist: vec![0; 2 * RESPONSE_RANGE],
+            hist: vec![0; 2 * CLASS_SLOTS],
+            index: vec![0; m],
             cum: Vec::with_capacity(RESPONSE_RANGE),
         }
     }
 }
 
 /// Fills the class histograms of one test; returns the shifted response range.
-fn histogram(data: &NodeData, test: SplitTest, hist: &mut [u32]) -> (usize, usize) {
+fn histogram(data: &NodeData, test: SplitTest, scratch: &mut Scratch) -> (usize, usize) {
     let (i1, i2) = test.patch_indices();
     // One loop per op so the combination is inlined, not matched per sample.
     match test.op {
-        TestOp::Value => fill(data, i1, i2, hist, |a, _| i32::from(a)),
-        TestOp::Sum => fill(data, i1, i2, hist, |a, b| i32::from(a) + i32::from(b)),
-        TestOp::Difference => fill(data, i1, i2, hist, |a, b| i32::from(a) - i32::from(b)),
-        TestOp::AbsDifference => fill(data, i1, i2, hist, |a, b| {
+        TestOp::Value => fill(data, i1, i2, scratch, |a, _| i32::from(a)),
+        TestOp::Sum => fill(data, i1, i2, scratch, |a, b| i32::from(a) + i32::from(b)),
+        TestOp::Difference => fill(data, i1, i2, scratch, |a, b| i32::from(a) - i32::from(b)),
+        TestOp::AbsDifference => fill(data, i1, i2, scratch, |a, b| {
             (i32::from(a) - i32::from(b)).abs()
         }),
     }
 }
 
+/// Two passes: responses, class bits and range first (a loop the compiler
+/// vectorises), then the bare histogram increments.
 #[inline]
 fn fill<F: Fn(u8, u8) -> i32>(
     data: &NodeData,
     i1: usize,
     i2: usize,
-    hist: &mut [u32],
+    scratch: &mut Scratch,
     f: F,
 ) -> (usize, usize) {
-    let (mut lo, mut hi) = (usize::MAX, 0usize);
-    for (patch, &label) in data.patches.chunks_exact(PATCH_LEN).zip(data.labels) {
-        let r = (f(patch[i1], patch[i2]) - RESPONSE_MIN) as usize;
-        hist[label as usize * RESPONSE_RANGE + r] += 1;
+    let m = data.labels.len();
+    let (row1, row2) = (
+        &data.columns[i1 * m..(i1 + 1) * m],
+        &data.columns[i2 * m..(i2 + 1) * m],
+    );
+    let index = &mut scratch.index[..m];
+    let (mut lo, mut hi) = (u16::MAX, 0u16);
+    for (((o, &v1), &v2), &label) in index.iter_mut().zip(row1).zip(row2).zip(data.labels) {
+        let r = (f(v1, v2) - RESPONSE_MIN) as u16;
         lo = lo.min(r);
         hi = hi.max(r);
+        *o = r | (u16::from(label) << 10);
     }
-    (lo, hi)
+    let hist = &mut scratch.hist;
+    for &i in index.iter() {
+        hist[usize::from(i) & (2 * CLASS_SLOTS - 1)] += 1;
+    }
+    (usize::from(lo), usize::from(hi))
 }
 
 /// Best threshold of one test: (threshold, S_L H_L + S_R H_R), or `None`
@@ -145,8 +169,8 @@ fn score_test(
     entropy: &Entropy,
     scratch: &mut Scratch,
 ) -> Option<(i16, f64)> {
-    let (lo, hi) = histogram(data, test, &mut scratch.hist);
-    let (neg_hist, pos_hist) = scratch.hist.split_at_mut(RESPONSE_RANGE);
+    let (lo, hi) = histogram(data, test, scratch);
+    let (neg_hist, pos_hist) = scratch.hist.split_at_mut(CLASS_SLOTS);
     if lo >= hi {
         if lo < RESPONSE_RANGE {
             neg_hist[lo] = 0;
@@ -198,7 +222,7 @@ const CHUNK: usize = 64;
 /// The split with the highest information gain among `tests` (each with a
 /// threshold seed), or `None` if no test separates anything. Runs the tests
 /// in parallel when `parallel`; the result is the same either way.
-pub(crate) fn best_split(
+pub fn best_split(
     data: &NodeData,
     tests: &[(SplitTest, u64)],
     n_thresholds: usize,
@@ -212,7 +236,7 @@ pub(crate) fn best_split(
     let total_weight =
         data.weights[0] * f64::from(neg) + data.weights[1] * f64::from(m as u32 - neg);
     let run_chunk = |(c, chunk): (usize, &[(SplitTest, u64)])| {
-        let mut scratch = Scratch::new();
+        let mut scratch = Scratch::new(m);
         let mut best: Option<Split> = None;
         for (i, (test, seed)) in chunk.iter().enumerate() {
             if let Some((threshold, children)) =
@@ -253,25 +277,25 @@ pub(crate) fn best_split(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::patch::{PATCH, RADIUS};
+    use crate::patch::{PATCH, PATCH_LEN, RADIUS};
     use rand::SeedableRng;
 
     /// Patches whose centre L value is the sample index; label = index >= 30.
     fn ramp(m: usize) -> (Vec<u8>, Vec<u8>) {
-        let mut patches = vec![0u8; m * PATCH_LEN];
+        let mut columns = vec![0u8; m * PATCH_LEN];
         let centre = RADIUS * PATCH + RADIUS;
         for s in 0..m {
-            patches[s * PATCH_LEN + centre] = s as u8;
+            columns[centre * m + s] = s as u8;
         }
         let labels = (0..m).map(|s| u8::from(s >= 30)).collect();
-        (patches, labels)
+        (columns, labels)
     }
 
     #[test]
     fn finds_the_separating_threshold_with_full_gain() {
-        let (patches, labels) = ramp(100);
+        let (columns, labels) = ramp(100);
         let data = NodeData {
-            patches: &patches,
+            columns: &columns,
             labels: &labels,
             weights: [1.0, 1.0],
         };
@@ -298,9 +322,9 @@ mod tests {
 
     #[test]
     fn weights_and_sampled_thresholds_keep_the_best_split_close() {
-        let (patches, labels) = ramp(200);
+        let (columns, labels) = ramp(200);
         let data = NodeData {
-            patches: &patches,
+            columns: &columns,
             labels: &labels,
             weights: [3.0, 0.5],
         };
@@ -323,11 +347,11 @@ mod tests {
     fn parallel_and_serial_search_agree() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
         let m = 300;
-        let patches: Vec<u8> = (0..m * PATCH_LEN).map(|i| (i * 31 % 251) as u8).collect();
+        let columns: Vec<u8> = (0..m * PATCH_LEN).map(|i| (i * 31 % 251) as u8).collect();
         let labels: Vec<u8> = (0..m).map(|i| u8::from(i % 3 == 0)).collect();
         let tests: Vec<_> = (0..500).map(|i| (SplitTest::random(&mut rng), i)).collect();
         let data = NodeData {
-            patches: &patches,
+            columns: &columns,
             labels: &labels,
             weights: [1.0, 2.0],
         };

@@ -16,7 +16,7 @@ use rayon::prelude::*;
 use crate::dataset::{Sample, TrainingSet};
 use crate::error::{ForestError, Result};
 use crate::params::{TrainParams, TrainingSummary};
-use crate::patch::{gather, SplitTest, PATCH_LEN};
+use crate::patch::{gather_columns, SplitTest};
 use crate::split::{best_split, NodeData};
 use crate::tree::{Node, Tree};
 use crate::Forest;
@@ -153,7 +153,7 @@ fn summarise(
 /// Buffers reused across the nodes of one tree.
 #[derive(Default)]
 struct Work {
-    patches: Vec<u8>,
+    columns: Vec<u8>,
     labels: Vec<u8>,
     scratch: Vec<u32>,
 }
@@ -338,18 +338,23 @@ fn find_split(
         weights[0] * n[0] as f64 / take[0] as f64,
         weights[1] * n[1] as f64 / take[1] as f64,
     ];
-    work.patches.resize(chosen.len() * PATCH_LEN, 0);
+    let chosen: Vec<&Sample> = chosen
+        .iter()
+        .map(|&j| &set.samples[idx[j] as usize])
+        .collect();
+    let at: Vec<_> = chosen
+        .iter()
+        .map(|s| (&set.images[s.image as usize], s.base as usize))
+        .collect();
+    gather_columns(&at, &mut work.columns);
     work.labels.clear();
-    for (&j, out) in chosen.iter().zip(work.patches.chunks_exact_mut(PATCH_LEN)) {
-        let s = &set.samples[idx[j] as usize];
-        gather(&set.images[s.image as usize], s.base as usize, out);
-        work.labels.push(u8::from(s.positive));
-    }
+    work.labels
+        .extend(chosen.iter().map(|s| u8::from(s.positive)));
     let tests: Vec<(SplitTest, u64)> = (0..params.n_tests)
         .map(|_| (SplitTest::random(&mut rng), rng.next_u64()))
         .collect();
     let data = NodeData {
-        patches: &work.patches,
+        columns: &work.columns,
         labels: &work.labels,
         weights: node_weights,
     };
