@@ -99,6 +99,7 @@ fn bench_split(c: &mut Criterion) {
         .collect();
     let data = NodeData {
         columns: &columns,
+        row_of: None,
         labels: &labels,
         weights: [1.0, 1.0],
     };

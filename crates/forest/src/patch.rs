@@ -178,6 +178,30 @@ pub fn gather_columns(samples: &[(&LabPlanes, usize)], out: &mut Vec<u8>) {
     }
 }
 
+/// Gathers only the patch positions `positions` (indices into a gathered
+/// patch) of m samples: byte `positions[r]` of sample s goes to
+/// `out[r * m + s]`. A node with few tests reads a few dozen positions, not
+/// all 2187, so this keeps gathering from dominating small tests counts.
+pub fn gather_rows(samples: &[(&LabPlanes, usize)], positions: &[usize], out: &mut Vec<u8>) {
+    let m = samples.len();
+    out.clear();
+    out.resize(positions.len() * m, 0);
+    let coords: Vec<(usize, isize, isize)> = positions
+        .iter()
+        .map(|&p| {
+            let (c, rest) = (p / (PATCH * PATCH), p % (PATCH * PATCH));
+            (c, (rest / PATCH) as isize - RADIUS as isize, (rest % PATCH) as isize - RADIUS as isize)
+        })
+        .collect();
+    for (s, &(planes, base)) in samples.iter().enumerate() {
+        let d = planes.data();
+        let stride = planes.stride() as isize;
+        for (r, &(c, dy, dx)) in coords.iter().enumerate() {
+            out[r * m + s] = d[(c * planes.plane_len() + base).wrapping_add_signed(dy * stride + dx)];
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -221,6 +245,12 @@ mod tests {
             .collect();
         let mut columns = Vec::new();
         gather_columns(&samples, &mut columns);
+        let positions = [5, 700, 729 + 13 * 27 + 13, 2186];
+        let mut rows = Vec::new();
+        gather_rows(&samples, &positions, &mut rows);
+        for (r, &p) in positions.iter().enumerate() {
+            assert_eq!(&rows[r * 70..(r + 1) * 70], &columns[p * 70..(p + 1) * 70]);
+        }
         for (s, &(p, base)) in samples.iter().enumerate() {
             gather(p, base, &mut patch);
             for (i, v) in patch.iter().enumerate() {

@@ -35,8 +35,12 @@ impl Split {
 /// ([`crate::patch::gather_columns`]), labels (1 positive, 0 negative) and
 /// the weight of a sample of each class (index 0 negative, 1 positive).
 pub struct NodeData<'a> {
-    /// PATCH_LEN rows of m bytes: byte p of sample s at `p * m + s`.
+    /// Rows of m bytes, one per gathered patch position: sample s at `row * m + s`.
     pub columns: &'a [u8],
+    /// Row of each patch position when only some were gathered
+    /// ([`crate::patch::gather_rows`]); `None` when row = position
+    /// ([`crate::patch::gather_columns`]).
+    pub row_of: Option<&'a [u16]>,
     /// m labels: 1 positive, 0 negative.
     pub labels: &'a [u8],
     /// Weight of one sample of each class: [negative, positive].
@@ -117,7 +121,9 @@ impl Scratch {
 
 /// Fills the class histograms of one test; returns the shifted response range.
 fn histogram(data: &NodeData, test: SplitTest, scratch: &mut Scratch) -> (usize, usize) {
-    let (i1, i2) = test.patch_indices();
+    let (p1, p2) = test.patch_indices();
+    let row = |p: usize| data.row_of.map_or(p, |rows| usize::from(rows[p]));
+    let (i1, i2) = (row(p1), row(p2));
     // One loop per op so the combination is inlined, not matched per sample.
     match test.op {
         TestOp::Value => fill(data, i1, i2, scratch, |a, _| i32::from(a)),
@@ -296,6 +302,7 @@ mod tests {
         let (columns, labels) = ramp(100);
         let data = NodeData {
             columns: &columns,
+            row_of: None,
             labels: &labels,
             weights: [1.0, 1.0],
         };
@@ -325,6 +332,7 @@ mod tests {
         let (columns, labels) = ramp(200);
         let data = NodeData {
             columns: &columns,
+            row_of: None,
             labels: &labels,
             weights: [3.0, 0.5],
         };
@@ -352,6 +360,7 @@ mod tests {
         let tests: Vec<_> = (0..500).map(|i| (SplitTest::random(&mut rng), i)).collect();
         let data = NodeData {
             columns: &columns,
+            row_of: None,
             labels: &labels,
             weights: [1.0, 2.0],
         };

@@ -16,7 +16,7 @@ use rayon::prelude::*;
 use crate::dataset::{Sample, TrainingSet};
 use crate::error::{ForestError, Result};
 use crate::params::{TrainParams, TrainingSummary};
-use crate::patch::{gather_columns, SplitTest};
+use crate::patch::{gather_columns, gather_rows, SplitTest, PATCH_LEN};
 use crate::split::{best_split, NodeData};
 use crate::tree::{Node, Tree};
 use crate::Forest;
@@ -154,6 +154,7 @@ fn summarise(
 #[derive(Default)]
 struct Work {
     columns: Vec<u8>,
+    row_of: Vec<u16>,
     labels: Vec<u8>,
     scratch: Vec<u32>,
 }
@@ -346,15 +347,35 @@ fn find_split(
         .iter()
         .map(|s| (&set.images[s.image as usize], s.base as usize))
         .collect();
-    gather_columns(&at, &mut work.columns);
     work.labels.clear();
     work.labels
         .extend(chosen.iter().map(|s| u8::from(s.positive)));
     let tests: Vec<(SplitTest, u64)> = (0..params.n_tests)
         .map(|_| (SplitTest::random(&mut rng), rng.next_u64()))
         .collect();
+    // Gather only the positions the tests read, unless that is most of them.
+    let mut used = vec![false; PATCH_LEN];
+    for (t, _) in &tests {
+        let (p1, p2) = t.patch_indices();
+        used[p1] = true;
+        used[p2] = true;
+    }
+    let positions: Vec<usize> = (0..PATCH_LEN).filter(|&p| used[p]).collect();
+    let row_of = if positions.len() * 2 > PATCH_LEN {
+        gather_columns(&at, &mut work.columns);
+        None
+    } else {
+        gather_rows(&at, &positions, &mut work.columns);
+        work.row_of.clear();
+        work.row_of.resize(PATCH_LEN, u16::MAX);
+        for (r, &p) in positions.iter().enumerate() {
+            work.row_of[p] = r as u16;
+        }
+        Some(work.row_of.as_slice())
+    };
     let data = NodeData {
         columns: &work.columns,
+        row_of,
         labels: &work.labels,
         weights: node_weights,
     };
