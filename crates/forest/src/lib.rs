@@ -22,7 +22,7 @@
 //! samples at or above gamma_max shape splits but enter no bin; the angle
 //! never influences a split). A leaf's confidence in bin i is
 //! `(pos_i + k p) / (pos_i + neg_i + k)` with class-weighted counts, p the
-//! leaf's overall positive ratio and k = [`TrainParams::pseudo_count`]
+//! leaf's overall positive ratio (over all its samples, gamma_max or not) and k = [`TrainParams::pseudo_count`]
 //! (default 2): an empty bin reads p. Prediction averages the trees.
 #![warn(missing_docs)]
 

@@ -159,7 +159,7 @@ impl Forest {
                 image.height()
             )));
         }
-        let planes = LabPlanes::from_rgb(image);
+        let planes = LabPlanes::from_rgb_with_complement(image);
         let labelled: Vec<_> = labels.labelled().collect();
         let pixels: Vec<(u32, u32)> = labelled.iter().map(|&(x, y, _, _)| (x, y)).collect();
         let values = self.predict_pixels(&planes, &pixels)?;

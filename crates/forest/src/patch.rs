@@ -190,14 +190,19 @@ pub fn gather_rows(samples: &[(&LabPlanes, usize)], positions: &[usize], out: &m
         .iter()
         .map(|&p| {
             let (c, rest) = (p / (PATCH * PATCH), p % (PATCH * PATCH));
-            (c, (rest / PATCH) as isize - RADIUS as isize, (rest % PATCH) as isize - RADIUS as isize)
+            (
+                c,
+                (rest / PATCH) as isize - RADIUS as isize,
+                (rest % PATCH) as isize - RADIUS as isize,
+            )
         })
         .collect();
     for (s, &(planes, base)) in samples.iter().enumerate() {
         let d = planes.data();
         let stride = planes.stride() as isize;
         for (r, &(c, dy, dx)) in coords.iter().enumerate() {
-            out[r * m + s] = d[(c * planes.plane_len() + base).wrapping_add_signed(dy * stride + dx)];
+            out[r * m + s] =
+                d[(c * planes.plane_len() + base).wrapping_add_signed(dy * stride + dx)];
         }
     }
 }
