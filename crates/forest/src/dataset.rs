@@ -1,0 +1,143 @@
+//! The training set: images converted once to Lab, and their labelled pixels.
+
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use vp_scene::raster::{Label, LabelImage, RgbImage};
+
+use crate::error::{ForestError, Result};
+use crate::lab::LabPlanes;
+
+/// One labelled pixel of one label image.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Sample {
+    /// Index of the image in the set.
+    pub image: u32,
+    /// [`LabPlanes::base`] of the pixel.
+    pub base: u32,
+    /// Triangulation angle in degrees.
+    pub angle: f32,
+    /// Whether the MVS succeeded here.
+    pub positive: bool,
+}
+
+/// Images with their label images, ready for [`crate::train`]. The same
+/// image may come with several label images (one per triplet it was part of);
+/// each labelled pixel of each label image becomes one sample.
+#[derive(Debug, Clone, Default)]
+pub struct TrainingSet {
+    pub(crate) images: Vec<LabPlanes>,
+    pub(crate) samples: Vec<Sample>,
+    n_label_images: usize,
+    cap: Option<(usize, u64)>,
+}
+
+impl TrainingSet {
+    /// An empty set that keeps every labelled pixel.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// An empty set that keeps at most `max_per_class` positive and as many
+    /// negative pixels of each label image, drawn at random (seeded by
+    /// `seed` and the label image's position): bounds memory when label
+    /// images are large and many.
+    pub fn with_cap_per_label_image(max_per_class: usize, seed: u64) -> Self {
+        TrainingSet {
+            cap: Some((max_per_class, seed)),
+            ..Self::default()
+        }
+    }
+
+    /// Adds an image and its label images (each of the image's size).
+    pub fn add_image(&mut self, image: &RgbImage, labels: &[LabelImage]) -> Result<()> {
+        let (w, h) = image.dimensions();
+        if w == 0 || h == 0 {
+            return Err(ForestError::InvalidInput(format!(
+                "training image {} is empty",
+                self.images.len()
+            )));
+        }
+        if let Some((i, l)) = labels
+            .iter()
+            .enumerate()
+            .find(|(_, l)| (l.width(), l.height()) != (w, h))
+        {
+            return Err(ForestError::InvalidInput(format!(
+                "training image {}: label image {i} is {}x{}, the image {w}x{h}",
+                self.images.len(),
+                l.width(),
+                l.height()
+            )));
+        }
+        let planes = LabPlanes::from_rgb(image);
+        if planes.plane_len() > u32::MAX as usize || self.images.len() >= u32::MAX as usize {
+            return Err(ForestError::InvalidInput(format!(
+                "training image {} of {w}x{h} is too large",
+                self.images.len()
+            )));
+        }
+        let image_index = self.images.len() as u32;
+        for l in labels {
+            let mut pixels: [Vec<Sample>; 2] = [Vec::new(), Vec::new()];
+            for (x, y, label, angle) in l.labelled() {
+                let positive = label == Label::Positive;
+                pixels[usize::from(positive)].push(Sample {
+                    image: image_index,
+                    base: planes.base(x, y) as u32,
+                    angle,
+                    positive,
+                });
+            }
+            for class in &mut pixels {
+                if let Some((cap, seed)) = self.cap {
+                    if class.len() > cap {
+                        let mut rng = ChaCha8Rng::seed_from_u64(
+                            seed ^ (self.n_label_images as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15),
+                        );
+                        let mut keep =
+                            rand::seq::index::sample(&mut rng, class.len(), cap).into_vec();
+                        keep.sort_unstable();
+                        *class = keep.into_iter().map(|i| class[i]).collect();
+                    }
+                }
+            }
+            let [neg, pos] = pixels;
+            let mut all: Vec<Sample> = neg.into_iter().chain(pos).collect();
+            all.sort_by_key(|s| s.base);
+            self.samples.extend(all);
+            self.n_label_images += 1;
+        }
+        self.images.push(planes);
+        Ok(())
+    }
+
+    /// Number of images.
+    pub fn n_images(&self) -> usize {
+        self.images.len()
+    }
+
+    /// Number of label images.
+    pub fn n_label_images(&self) -> usize {
+        self.n_label_images
+    }
+
+    /// Number of samples (labelled pixels kept).
+    pub fn len(&self) -> usize {
+        self.samples.len()
+    }
+
+    /// Whether the set has no samples.
+    pub fn is_empty(&self) -> bool {
+        self.samples.is_empty()
+    }
+
+    /// Number of positive samples.
+    pub fn n_positive(&self) -> usize {
+        self.samples.iter().filter(|s| s.positive).count()
+    }
+
+    /// Number of negative samples.
+    pub fn n_negative(&self) -> usize {
+        self.len() - self.n_positive()
+    }
+}

@@ -1,0 +1,386 @@
+//! CIE Lab conversion, once per image, into padded 8-bit planes.
+//!
+//! The forest's split tests read single channel values at offsets of up to
+//! [`RADIUS`] pixels from the sample. Padding every plane by that radius
+//! (replicating the border) removes all bounds checks from the hot loops, and
+//! 8-bit quantisation keeps a 27x27x3 patch in 2187 bytes and every test
+//! response a small integer, which is what lets thresholds be found with
+//! histograms instead of sorting.
+//!
+//! Quantisation: `L8 = round(L * 255 / 100)`, `a8 = round(a) + 128`,
+//! `b8 = round(b) + 128` (clamped to 0..=255), from sRGB with the D65 white.
+
+use rayon::prelude::*;
+use vp_scene::raster::RgbImage;
+
+use crate::patch::RADIUS;
+
+/// Number of padding pixels on each side of a plane.
+pub const PAD: usize = RADIUS;
+
+/// An image in CIE Lab, quantised to 8 bits per channel, as three planes
+/// padded by [`PAD`] pixels of replicated border; for prediction optionally
+/// followed by the three complemented planes (255 - v), which turn every
+/// split test into a sum (see [`crate::predict`]'s docs).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LabPlanes {
+    width: u32,
+    height: u32,
+    stride: usize,
+    plane_len: usize,
+    data: Vec<u8>,
+}
+
+/// (6/29)^3: below it CIE's f(t) is linear.
+const EPSILON: f32 = 0.008_856_452;
+
+/// sRGB byte to linear light, built once.
+fn linear_table() -> &'static [f32; 256] {
+    static TABLE: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        let mut t = [0.0f32; 256];
+        for (i, v) in t.iter_mut().enumerate() {
+            let c = i as f64 / 255.0;
+            *v = if c <= 0.040_45 {
+                c / 12.92
+            } else {
+                ((c + 0.055) / 1.055).powf(2.4)
+            } as f32;
+        }
+        t
+    })
+}
+
+/// CIE f(t): cube root above (6/29)^3, linear below. The cube root is
+/// x * x^(-1/3), the inverse cube root from a bit-trick estimate refined by
+/// two Newton steps (relative error about 1e-5, far below the 8-bit
+/// quantisation; the reference test bounds its effect). Only multiplies and adds, no branch: the compiler
+/// vectorises it, where libm's `cbrtf` is a call per value.
+#[inline]
+fn cie_f(t: f32) -> f32 {
+    let x = t.max(EPSILON);
+    // Estimate of x^(-1/3) from the exponent bits, computed in float so it vectorises.
+    let bits = x.to_bits() as i32 as f32;
+    let mut y = f32::from_bits((1_419_789_131.0 - bits * (1.0 / 3.0)) as i32 as u32);
+    for _ in 0..2 {
+        y *= (4.0 - x * y * y * y) * (1.0 / 3.0);
+    }
+    let cube_root = x * y * y;
+    let linear = t * 7.787_037 + 4.0 / 29.0;
+    if t > EPSILON {
+        cube_root
+    } else {
+        linear
+    }
+}
+
+/// Rounds v (clamped to [0, 255]) to the nearest integer by the
+/// 1.5 * 2^23 trick: pure float and bit operations, which vectorise, where
+/// a float-to-integer cast saturates value by value.
+#[inline]
+fn quantise(v: f32) -> u8 {
+    ((v.clamp(0.0, 255.0) + 12_582_912.0).to_bits() & 0xff) as u8
+}
+
+/// XYZ (relative to the D65 white) from linear sRGB.
+#[inline]
+fn xyz(r: f32, g: f32, b: f32) -> [f32; 3] {
+    [
+        (0.412_456_4 * r + 0.357_576_1 * g + 0.180_437_5 * b) * (1.0 / 0.950_47),
+        0.212_672_9 * r + 0.715_152_2 * g + 0.072_175 * b,
+        (0.019_333_9 * r + 0.119_192 * g + 0.950_304_1 * b) * (1.0 / 1.088_83),
+    ]
+}
+
+/// Quantised Lab from f(X), f(Y), f(Z).
+#[inline]
+fn lab8(fx: f32, fy: f32, fz: f32) -> [u8; 3] {
+    [
+        quantise((116.0 * fy - 16.0) * 2.55),
+        quantise(500.0 * (fx - fy) + 128.0),
+        quantise(200.0 * (fy - fz) + 128.0),
+    ]
+}
+
+/// Quantised Lab of one sRGB pixel.
+pub fn rgb_to_lab8(rgb: [u8; 3]) -> [u8; 3] {
+    let t = linear_table();
+    let [x, y, z] = xyz(t[rgb[0] as usize], t[rgb[1] as usize], t[rgb[2] as usize]);
+    lab8(cie_f(x), cie_f(y), cie_f(z))
+}
+
+/// Converts one row in passes over slices: table lookups, then small loops
+/// of pure arithmetic that the compiler inlines and turns into SIMD.
+fn convert_row(rgb: &[u8], work: &mut [Vec<f32>; 3], out: [&mut [u8]; 3]) {
+    let t = linear_table();
+    let w = rgb.len() / 3;
+    for l in work.iter_mut() {
+        l.resize(w, 0.0);
+    }
+    let [c0, c1, c2] = work;
+    for (((p, r), g), b) in rgb
+        .chunks_exact(3)
+        .zip(c0.iter_mut())
+        .zip(c1.iter_mut())
+        .zip(c2.iter_mut())
+    {
+        [*r, *g, *b] = [t[p[0] as usize], t[p[1] as usize], t[p[2] as usize]];
+    }
+    for ((r, g), b) in c0.iter_mut().zip(c1.iter_mut()).zip(c2.iter_mut()) {
+        [*r, *g, *b] = xyz(*r, *g, *b);
+    }
+    for c in [&mut *c0, &mut *c1, &mut *c2] {
+        for v in c.iter_mut() {
+            *v = cie_f(*v);
+        }
+    }
+    let [o0, o1, o2] = out;
+    for (((((fx, fy), fz), l), a), b) in c0
+        .iter()
+        .zip(c1.iter())
+        .zip(c2.iter())
+        .zip(o0)
+        .zip(o1)
+        .zip(o2)
+    {
+        [*l, *a, *b] = lab8(*fx, *fy, *fz);
+    }
+}
+
+impl LabPlanes {
+    /// Converts an RGB image (rows in parallel).
+    ///
+    /// # Performance
+    /// Three table lookups and vectorised arithmetic per pixel, written
+    /// straight into the padded planes.
+    pub fn from_rgb(image: &RgbImage) -> Self {
+        Self::convert(image, false)
+    }
+
+    /// [`LabPlanes::from_rgb`] plus the complemented planes, as prediction
+    /// wants them.
+    pub fn from_rgb_with_complement(image: &RgbImage) -> Self {
+        Self::convert(image, true)
+    }
+
+    /// These planes with the complemented planes added (a copy).
+    pub fn with_complement(&self) -> Self {
+        let mut out = self.clone();
+        if !out.has_complement() {
+            out.data.resize(6 * self.plane_len, 0);
+            out.fill_complement();
+        }
+        out
+    }
+
+    /// Whether the complemented planes follow the three Lab planes.
+    pub fn has_complement(&self) -> bool {
+        self.data.len() == 6 * self.plane_len
+    }
+
+    fn fill_complement(&mut self) {
+        let (lab, complement) = self.data.split_at_mut(3 * self.plane_len);
+        complement
+            .par_chunks_mut(1 << 16)
+            .zip(lab.par_chunks(1 << 16))
+            .for_each(|(out, lab)| {
+                for (o, v) in out.iter_mut().zip(lab) {
+                    *o = 255 - v;
+                }
+            });
+    }
+
+    fn convert(image: &RgbImage, complement: bool) -> Self {
+        let (width, height) = image.dimensions();
+        let (w, h) = (width as usize, height as usize);
+        let stride = w + 2 * PAD;
+        let plane_len = stride * (h + 2 * PAD);
+        let mut data = vec![0u8; if complement { 6 } else { 3 } * plane_len];
+        if w == 0 || h == 0 {
+            return LabPlanes {
+                width,
+                height,
+                stride,
+                plane_len,
+                data,
+            };
+        }
+        let raw = image.as_raw();
+        let (planes01, rest) = data.split_at_mut(2 * plane_len);
+        let plane2 = &mut rest[..plane_len];
+        let (plane0, plane1) = planes01.split_at_mut(plane_len);
+        let rows = PAD * stride..(PAD + h) * stride;
+        plane0[rows.clone()]
+            .par_chunks_mut(stride)
+            .zip(plane1[rows.clone()].par_chunks_mut(stride))
+            .zip(plane2[rows].par_chunks_mut(stride))
+            .zip(raw.par_chunks(3 * w))
+            .for_each_init(
+                || [Vec::new(), Vec::new(), Vec::new()],
+                |work, (((r0, r1), r2), rgb)| {
+                    convert_row(
+                        rgb,
+                        work,
+                        [
+                            &mut r0[PAD..PAD + w],
+                            &mut r1[PAD..PAD + w],
+                            &mut r2[PAD..PAD + w],
+                        ],
+                    );
+                    for row in [r0, r1, r2] {
+                        let (left, right) = (row[PAD], row[PAD + w - 1]);
+                        row[..PAD].fill(left);
+                        row[PAD + w..].fill(right);
+                    }
+                },
+            );
+        // Replicate the first and last rows into the top and bottom padding.
+        for plane in data[..3 * plane_len].chunks_exact_mut(plane_len) {
+            let (top, rest) = plane.split_at_mut(PAD * stride);
+            let first = &rest[..stride];
+            for row in top.chunks_exact_mut(stride) {
+                row.copy_from_slice(first);
+            }
+            let (body, bottom) = plane.split_at_mut((PAD + h) * stride);
+            let last = &body[(PAD + h - 1) * stride..];
+            for row in bottom.chunks_exact_mut(stride) {
+                row.copy_from_slice(last);
+            }
+        }
+        let mut planes = LabPlanes {
+            width,
+            height,
+            stride,
+            plane_len,
+            data,
+        };
+        if complement {
+            planes.fill_complement();
+        }
+        planes
+    }
+
+    /// Image width in pixels (without padding).
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Image height in pixels (without padding).
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// Row length of a padded plane.
+    pub fn stride(&self) -> usize {
+        self.stride
+    }
+
+    /// Length of one padded plane; channel c starts at `c * plane_len`.
+    pub fn plane_len(&self) -> usize {
+        self.plane_len
+    }
+
+    /// The padded planes, L then a then b, then (if present) their complements.
+    pub fn data(&self) -> &[u8] {
+        &self.data
+    }
+
+    /// Index in plane 0 of image pixel (x, y); add `c * plane_len` for channel c.
+    #[inline]
+    pub fn base(&self, x: u32, y: u32) -> usize {
+        (y as usize + PAD) * self.stride + x as usize + PAD
+    }
+
+    /// Quantised Lab value of pixel (x, y), coordinates clamped into the image.
+    pub fn at(&self, x: i64, y: i64, c: usize) -> u8 {
+        let x = x.clamp(0, i64::from(self.width) - 1) as u32;
+        let y = y.clamp(0, i64::from(self.height) - 1) as u32;
+        self.data[c * self.plane_len + self.base(x, y)]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn known_colours_convert_to_their_lab_values() {
+        // Reference values from the CIE formulas in double precision.
+        assert_eq!(rgb_to_lab8([0, 0, 0]), [0, 128, 128]);
+        assert_eq!(rgb_to_lab8([255, 255, 255]), [255, 128, 128]);
+        // sRGB red: L 53.24, a 80.09, b 67.20.
+        assert_eq!(rgb_to_lab8([255, 0, 0]), [136, 208, 195]);
+        // sRGB blue: L 32.30, a 79.19, b -107.86.
+        assert_eq!(rgb_to_lab8([0, 0, 255]), [82, 207, 20]);
+        // Mid grey 128: L 53.59.
+        assert_eq!(rgb_to_lab8([128, 128, 128]), [137, 128, 128]);
+    }
+
+    /// The fast conversion against the CIE formulas in double precision:
+    /// off by at most one quantisation step (at rounding boundaries), rarely.
+    #[test]
+    fn conversion_matches_the_double_precision_reference() {
+        let lin = |c: u8| {
+            let c = f64::from(c) / 255.0;
+            if c <= 0.040_45 {
+                c / 12.92
+            } else {
+                ((c + 0.055) / 1.055).powf(2.4)
+            }
+        };
+        let f = |t: f64| {
+            if t > 0.008_856_452 {
+                t.cbrt()
+            } else {
+                t * 7.787_037 + 4.0 / 29.0
+            }
+        };
+        let mut off = 0;
+        let mut n = 0;
+        for r in (0..=255u8).step_by(5) {
+            for g in (0..=255u8).step_by(5) {
+                for b in (0..=255u8).step_by(5) {
+                    let (lr, lg, lb) = (lin(r), lin(g), lin(b));
+                    let x = (0.412_456_4 * lr + 0.357_576_1 * lg + 0.180_437_5 * lb) / 0.950_47;
+                    let y = 0.212_672_9 * lr + 0.715_152_2 * lg + 0.072_175 * lb;
+                    let z = (0.019_333_9 * lr + 0.119_192 * lg + 0.950_304_1 * lb) / 1.088_83;
+                    let q = |v: f64| v.round().clamp(0.0, 255.0) as i32;
+                    let want = [
+                        q((116.0 * f(y) - 16.0) * 2.55),
+                        q(500.0 * (f(x) - f(y)) + 128.0),
+                        q(200.0 * (f(y) - f(z)) + 128.0),
+                    ];
+                    let got = rgb_to_lab8([r, g, b]);
+                    for (g, w) in got.iter().zip(want) {
+                        assert!(
+                            (i32::from(*g) - w).abs() <= 1,
+                            "rgb {r} {g} {b}: {got:?} vs {want:?}"
+                        );
+                        off += usize::from(i32::from(*g) != w);
+                        n += 1;
+                    }
+                }
+            }
+        }
+        assert!(off * 100 < n, "{off} of {n} values off by one");
+    }
+
+    #[test]
+    fn padding_replicates_the_border() {
+        let img = RgbImage::from_fn(4, 3, |x, y| {
+            image::Rgb([(x * 60) as u8, (y * 100) as u8, 0])
+        });
+        let lab = LabPlanes::from_rgb(&img);
+        for c in 0..3 {
+            let p = &lab.data()[c * lab.plane_len()..(c + 1) * lab.plane_len()];
+            for y in -(PAD as i64)..3 + PAD as i64 {
+                for x in -(PAD as i64)..4 + PAD as i64 {
+                    let idx = (y + PAD as i64) as usize * lab.stride() + (x + PAD as i64) as usize;
+                    let cx = x.clamp(0, 3) as u32;
+                    let cy = y.clamp(0, 2) as u32;
+                    assert_eq!(p[idx], rgb_to_lab8(img.get_pixel(cx, cy).0)[c]);
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,91 @@
+//! `vp-forest`: predicts, per pixel and per triangulation angle, how likely
+//! a multi-view stereo algorithm succeeds, with a Semantic Texton Forest
+//! whose leaves keep angle-binned counts (Mostegel et al., Sections 2.2 and 3.1).
+//!
+//! Entry points:
+//! - [`TrainingSet::add_image`] + [`train`] (or [`train_with_progress`]):
+//!   images and label images to a [`Forest`], with [`TrainParams`] (the paper's
+//!   defaults) and a seed; same inputs and seed give the same model bytes on
+//!   any number of threads.
+//! - [`Forest::predict_image`]: an RGB image to a b-channel
+//!   [`ConfidenceImage`] on a grid (paper: step 8).
+//! - [`Forest::save`] / [`Forest::load`]: versioned, checksummed model files
+//!   ([`model_io`]).
+//! - [`metrics`]: accuracy and sparsification (AUSC, relative and random),
+//!   with [`Forest::score_labels`] to score held-out label images.
+//!
+//! The forest: each split test reads one CIE Lab channel at one or two
+//! offsets in the 27x27 patch around the pixel (value, sum, difference or
+//! absolute difference) against a threshold; splits maximise Shannon
+//! information gain. Each leaf counts the positive and negative training
+//! samples per angle bin (default 9 bins of 5 deg below gamma_max = 45 deg;
+//! samples at or above gamma_max shape splits but enter no bin; the angle
+//! never influences a split). A leaf's confidence in bin i is
+//! `(pos_i + k p) / (pos_i + neg_i + k)` with class-weighted counts, p the
+//! leaf's overall positive ratio (over all its samples, gamma_max or not) and k = [`TrainParams::pseudo_count`]
+//! (default 2): an empty bin reads p. Prediction averages the trees.
+#![warn(missing_docs)]
+
+mod dataset;
+pub mod error;
+pub mod lab;
+pub mod metrics;
+pub mod model_io;
+mod params;
+pub mod patch;
+mod predict;
+pub mod split;
+pub mod synthetic;
+mod train;
+pub mod tree;
+
+pub use dataset::TrainingSet;
+pub use error::{ForestError, Result};
+pub use lab::LabPlanes;
+pub use metrics::{accuracy, sparsification, Scored, Sparsification};
+pub use params::{TrainParams, TrainingSummary};
+pub use train::{train, train_with_progress};
+pub use tree::Tree;
+pub use vp_scene::raster::{AngleBins, ConfidenceImage, RgbImage};
+
+/// A trained forest: parameters, training summary, trees.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Forest {
+    params: TrainParams,
+    summary: TrainingSummary,
+    trees: Vec<Tree>,
+}
+
+impl Forest {
+    pub(crate) fn from_parts(
+        params: TrainParams,
+        summary: TrainingSummary,
+        trees: Vec<Tree>,
+    ) -> Self {
+        Forest {
+            params,
+            summary,
+            trees,
+        }
+    }
+
+    /// The parameters it was trained with.
+    pub fn params(&self) -> &TrainParams {
+        &self.params
+    }
+
+    /// What it was trained on and how the trees came out.
+    pub fn summary(&self) -> &TrainingSummary {
+        &self.summary
+    }
+
+    /// The trees.
+    pub fn trees(&self) -> &[Tree] {
+        &self.trees
+    }
+
+    /// The angle bins of its confidences.
+    pub fn bins(&self) -> &AngleBins {
+        &self.params.bins
+    }
+}

@@ -1,0 +1,320 @@
+//! Prediction: dense on a grid, or at given pixels.
+//!
+//! Trees are compiled per image stride into 16-byte nodes. With the
+//! complemented planes (255 - v) next to the Lab planes, every test becomes
+//! "is v1 + v2' within [lo, lo + span]": a difference v1 - v2 is
+//! v1 + (255 - v2) - 255, an absolute difference |d| <= t is a window
+//! 255 - t..=255 + t, a value v1 is v1 + v1. A leaf becomes a node that
+//! points to itself with a window holding every response. A whole row of
+//! grid points then walks a tree in lockstep for exactly the tree's depth,
+//! without a branch per visit: the walks of different points are
+//! independent, so the CPU keeps many node and pixel loads in flight
+//! instead of waiting on each.
+
+use rayon::prelude::*;
+use vp_scene::raster::{ConfidenceImage, RgbImage};
+
+use crate::error::{ForestError, Result};
+use crate::lab::LabPlanes;
+use crate::patch::TestOp;
+use crate::tree::Node;
+use crate::Forest;
+
+/// Pixels per parallel task of [`Forest::predict_pixels`].
+const BATCH: usize = 512;
+
+/// A node compiled for one plane stride: go left iff
+/// `(v1 + v2) - lo`, as an unsigned number, is at most `span`.
+#[derive(Debug, Clone, Copy)]
+struct CNode {
+    off1: i32,
+    off2: i32,
+    child: u32,
+    lo: i16,
+    span: u16,
+}
+
+/// The window of sums v1 + v2' (each 0..=255, so 0..=510) that go left.
+fn window(lo: i32, hi: i32) -> (i16, u16) {
+    // Sums are never below 0 nor above 510: clamp the window to that range.
+    let (lo, hi) = (lo.max(-1), hi.min(600));
+    if lo > hi {
+        (1000, 0) // empty: every sum minus 1000 is negative, i.e. huge unsigned
+    } else {
+        (lo as i16, (hi - lo) as u16)
+    }
+}
+
+fn compile_node(i: usize, n: &Node, planes: &LabPlanes) -> CNode {
+    if n.is_leaf {
+        let (lo, span) = window(i32::MIN, i32::MAX);
+        return CNode {
+            off1: 0,
+            off2: 0,
+            child: i as u32,
+            lo,
+            span,
+        };
+    }
+    let (o1, o2) = n.test.plane_offsets(planes);
+    // The complement of channel c lies three planes further on.
+    let complement = 3 * planes.plane_len() as isize;
+    let t = i32::from(n.threshold);
+    let (off2, (lo, span)) = match n.test.op {
+        TestOp::Value => (o1, window(i32::MIN, 2 * t)),
+        TestOp::Sum => (o2, window(i32::MIN, t)),
+        TestOp::Difference => (o2 + complement, window(i32::MIN, t + 255)),
+        TestOp::AbsDifference => (o2 + complement, window(255 - t, 255 + t)),
+    };
+    CNode {
+        off1: o1 as i32,
+        off2: off2 as i32,
+        child: n.child,
+        lo,
+        span,
+    }
+}
+
+/// A tree compiled for one plane stride.
+struct Compiled {
+    nodes: Vec<CNode>,
+    /// Leaf index of each leaf node (0 for splits).
+    leaf: Vec<u32>,
+    depth: usize,
+}
+
+fn compile(forest: &Forest, planes: &LabPlanes) -> Vec<Compiled> {
+    forest
+        .trees()
+        .iter()
+        .map(|tree| Compiled {
+            nodes: tree
+                .nodes()
+                .iter()
+                .enumerate()
+                .map(|(i, n)| compile_node(i, n, planes))
+                .collect(),
+            leaf: tree
+                .nodes()
+                .iter()
+                .map(|n| if n.is_leaf { n.child } else { 0 })
+                .collect(),
+            depth: tree.node_depths().into_iter().max().unwrap_or(0) as usize,
+        })
+        .collect()
+}
+
+/// Walks `bases` through every tree and writes the mean leaf confidences
+/// to `acc` (`bases.len()` x b). `data` must hold the complemented planes.
+fn accumulate(
+    forest: &Forest,
+    compiled: &[Compiled],
+    data: &[u8],
+    bases: &[usize],
+    acc: &mut [f32],
+) {
+    let b = forest.bins().len();
+    let mut cur = vec![0u32; bases.len()];
+    acc.fill(0.0);
+    for (tree, c) in forest.trees().iter().zip(compiled) {
+        cur.fill(0);
+        for _ in 0..c.depth {
+            for (k, &base) in cur.iter_mut().zip(bases) {
+                let n = c.nodes[*k as usize];
+                let v1 = i32::from(data[base.wrapping_add_signed(n.off1 as isize)]);
+                let v2 = i32::from(data[base.wrapping_add_signed(n.off2 as isize)]);
+                let right = (v1 + v2 - i32::from(n.lo)) as u32 > u32::from(n.span);
+                *k = n.child + u32::from(right);
+            }
+        }
+        let conf = tree.confidences();
+        for (k, out) in cur.iter().zip(acc.chunks_exact_mut(b)) {
+            let leaf = c.leaf[*k as usize] as usize;
+            for (o, v) in out.iter_mut().zip(&conf[leaf * b..(leaf + 1) * b]) {
+                *o += v;
+            }
+        }
+    }
+    let scale = 1.0 / forest.trees().len() as f32;
+    for v in acc.iter_mut() {
+        *v *= scale;
+    }
+}
+
+impl Forest {
+    /// Dense prediction: converts `image` to Lab and evaluates the forest on
+    /// a grid with step `step` pixels (the paper uses 8), giving a b-channel
+    /// confidence image.
+    ///
+    /// # Performance
+    /// Rows of grid points run in parallel; see the module docs for the
+    /// traversal. Cost is about (pixels / step^2) x trees x depth node visits
+    /// plus the Lab conversion of every pixel.
+    pub fn predict_image(&self, image: &RgbImage, step: u32) -> Result<ConfidenceImage> {
+        if image.width() == 0 || image.height() == 0 {
+            return Err(ForestError::InvalidInput(
+                "cannot predict on an empty image".into(),
+            ));
+        }
+        self.predict_lab(&LabPlanes::from_rgb_with_complement(image), step)
+    }
+
+    /// [`Forest::predict_image`] on an image already converted to Lab;
+    /// planes without complement ([`LabPlanes::from_rgb`]) are copied once
+    /// to add it.
+    pub fn predict_lab(&self, planes: &LabPlanes, step: u32) -> Result<ConfidenceImage> {
+        if !planes.has_complement() {
+            return self.predict_lab(&planes.with_complement(), step);
+        }
+        let mut out =
+            ConfidenceImage::zeros(planes.width(), planes.height(), step, self.bins().clone())?;
+        let b = self.bins().len();
+        let compiled = compile(self, planes);
+        let (gw, gh) = out.grid_size();
+        let xs: Vec<u32> = (0..gw).map(|i| out.node_pixel(i, 0).0).collect();
+        let ys: Vec<u32> = (0..gh).map(|j| out.node_pixel(0, j).1).collect();
+        out.values_mut()
+            .par_chunks_mut(gw * b)
+            .zip(ys.par_iter())
+            .for_each(|(row, &y)| {
+                let bases: Vec<usize> = xs.iter().map(|&x| planes.base(x, y)).collect();
+                accumulate(self, &compiled, planes.data(), &bases, row);
+            });
+        Ok(out)
+    }
+
+    /// Mean leaf confidences (b per pixel, pixel-major) at the given pixels.
+    /// Pixels outside the image are an error.
+    pub fn predict_pixels(&self, planes: &LabPlanes, pixels: &[(u32, u32)]) -> Result<Vec<f32>> {
+        if let Some(p) = pixels
+            .iter()
+            .find(|p| p.0 >= planes.width() || p.1 >= planes.height())
+        {
+            return Err(ForestError::InvalidInput(format!(
+                "pixel {p:?} outside the {}x{} image",
+                planes.width(),
+                planes.height()
+            )));
+        }
+        if !planes.has_complement() {
+            return self.predict_pixels(&planes.with_complement(), pixels);
+        }
+        let b = self.bins().len();
+        let compiled = compile(self, planes);
+        let mut out = vec![0.0f32; pixels.len() * b];
+        out.par_chunks_mut(BATCH * b)
+            .zip(pixels.par_chunks(BATCH))
+            .for_each(|(acc, chunk)| {
+                let bases: Vec<usize> = chunk.iter().map(|&(x, y)| planes.base(x, y)).collect();
+                accumulate(self, &compiled, planes.data(), &bases, acc);
+            });
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dataset::TrainingSet;
+    use crate::params::TrainParams;
+    use vp_scene::raster::{Label, LabelImage};
+
+    /// The compiled window test decides exactly like `response <= threshold`,
+    /// for every op and any threshold a model file may hold.
+    #[test]
+    fn compiled_nodes_decide_like_the_split_test() {
+        use rand::{Rng, SeedableRng};
+        let img = RgbImage::from_fn(30, 30, |x, y| {
+            image::Rgb([(x * 9) as u8, (y * 8) as u8, ((x * y) % 256) as u8])
+        });
+        let planes = LabPlanes::from_rgb_with_complement(&img);
+        let d = planes.data();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        for _ in 0..3000 {
+            let test = crate::patch::SplitTest::random(&mut rng);
+            let threshold = match rng.random_range(0..4) {
+                0 => i16::MIN,
+                1 => i16::MAX,
+                _ => rng.random_range(-300..600),
+            };
+            let node = Node {
+                test,
+                threshold,
+                child: 1,
+                is_leaf: false,
+            };
+            let c = compile_node(0, &node, &planes);
+            let base = planes.base(rng.random_range(0..30), rng.random_range(0..30));
+            let v1 = i32::from(d[base.wrapping_add_signed(c.off1 as isize)]);
+            let v2 = i32::from(d[base.wrapping_add_signed(c.off2 as isize)]);
+            let left = (v1 + v2 - i32::from(c.lo)) as u32 <= u32::from(c.span);
+            let want = test.response(&planes, base) <= i32::from(threshold);
+            assert_eq!(left, want, "{test:?} threshold {threshold}");
+        }
+    }
+
+    /// Lockstep compiled traversal must equal plain per-node traversal.
+    #[test]
+    fn compiled_prediction_equals_plain_traversal() {
+        let img = RgbImage::from_fn(48, 40, |x, y| {
+            image::Rgb([
+                ((x * 37 + y * 11) % 256) as u8,
+                ((x * y) % 256) as u8,
+                (x * 5) as u8,
+            ])
+        });
+        let mut labels = LabelImage::new(48, 40);
+        for y in 0..40 {
+            for x in 0..48 {
+                let label = if (x * 37 + y * 11) % 256 > 128 {
+                    Label::Positive
+                } else {
+                    Label::Negative
+                };
+                labels.set(x, y, label, (x % 45) as f32).unwrap();
+            }
+        }
+        let mut set = TrainingSet::new();
+        set.add_image(&img, &[labels]).unwrap();
+        let params = TrainParams {
+            n_trees: 3,
+            max_depth: 7,
+            min_samples_split: 4,
+            n_tests: 40,
+            n_thresholds: 10,
+            n_node_samples: 64,
+            ..TrainParams::default()
+        };
+        let forest = crate::train(&set, &params, 5).unwrap();
+        let planes = LabPlanes::from_rgb(&img);
+        let pixels: Vec<(u32, u32)> = (0..40).flat_map(|y| (0..48).map(move |x| (x, y))).collect();
+        let fast = forest.predict_pixels(&planes, &pixels).unwrap();
+        let b = forest.bins().len();
+        for (p, got) in pixels.iter().zip(fast.chunks_exact(b)) {
+            let base = planes.base(p.0, p.1);
+            let mut want = vec![0.0f32; b];
+            for t in forest.trees() {
+                for (w, v) in want
+                    .iter_mut()
+                    .zip(t.leaf_confidence(t.leaf_of(&planes, base)))
+                {
+                    *w += v;
+                }
+            }
+            for (g, w) in got.iter().zip(&want) {
+                assert!(
+                    (g - w / 3.0).abs() < 1e-6,
+                    "pixel {p:?}: {g} vs {}",
+                    w / 3.0
+                );
+            }
+        }
+        // The grid prediction reads the same values at its nodes.
+        let conf = forest.predict_image(&img, 8).unwrap();
+        assert_eq!(conf.grid_size(), (6, 5));
+        let (x, y) = conf.node_pixel(2, 3);
+        let k = (y * 48 + x) as usize * b;
+        assert_eq!(conf.node(2, 3), &fast[k..k + b]);
+        assert!(forest.predict_pixels(&planes, &[(48, 0)]).is_err());
+    }
+}
