@@ -24,6 +24,8 @@ pub mod triangulation;
 
 #[cfg(test)]
 mod render_tests;
+#[cfg(test)]
+mod test_scenes;
 
 pub use error::{Result, SimError};
 pub use mvs::{MaterialCurve, MvsProfile, VirtualMvs};

@@ -63,17 +63,29 @@ pub fn value_noise(seed: u64, p: [f64; 3]) -> f64 {
     lerp(lerp(x00, x10, t[1]), lerp(x01, x11, t[1]), t[2])
 }
 
+/// A rotation that tilts the lattice against the world axes (orthonormal).
+/// Value noise is not stationary: its variance peaks on lattice planes, and
+/// a horizontal plane at a lattice height (terrain at z = 0) would see a
+/// different distribution than elsewhere. Rotated, every plane cuts the
+/// lattice obliquely.
+const ROTATION: [[f64; 3]; 3] = [[0.00, 0.80, 0.60], [-0.80, 0.36, -0.48], [-0.60, -0.48, 0.64]];
+
+fn rotate(p: [f64; 3]) -> [f64; 3] {
+    ROTATION.map(|r| r[0] * p[0] + r[1] * p[1] + r[2] * p[2])
+}
+
 /// Fractal sum of `octaves` octaves of [`value_noise`] at world point `p`
 /// (metres) with the first octave's `wavelength` (metres); each further octave
 /// halves wavelength and amplitude. Normalised to [-1, 1].
 pub fn fbm(seed: u64, p: [f64; 3], wavelength: f64, octaves: u32) -> f64 {
-    let (mut freq, mut amp, mut sum, mut norm) = (1.0 / wavelength, 1.0, 0.0, 0.0);
+    let (mut amp, mut sum, mut norm) = (1.0, 0.0, 0.0);
+    let mut q = rotate(p.map(|v| v / wavelength));
     for o in 0..octaves {
         // Offset each octave so their lattices do not line up at the origin.
         let s = 31.7 * f64::from(o);
-        sum += amp * value_noise(seed ^ u64::from(o), [p[0] * freq + s, p[1] * freq - s, p[2] * freq + 0.5 * s]);
+        sum += amp * value_noise(seed ^ u64::from(o), [q[0] + s, q[1] - s, q[2] + 0.5 * s]);
         norm += amp;
-        freq *= 2.0;
+        q = rotate(q.map(|v| 2.0 * v));
         amp *= 0.5;
     }
     sum / norm

@@ -33,7 +33,7 @@ pub fn albedo(material: Material, p: &Point3<f64>, seed: u64) -> Rgb {
         Material::Rock => rock(q, seed ^ SEED_ROCK),
         Material::Ground => ground(q, seed ^ SEED_GROUND),
         Material::Grass => foliage(q, seed ^ SEED_GRASS, [0.22, 0.46, 0.12], 0.04),
-        Material::Tree => foliage(q, seed ^ SEED_TREE, [0.16, 0.34, 0.10], 0.06),
+        Material::Tree => foliage(q, seed ^ SEED_TREE, [0.18, 0.38, 0.11], 0.05),
         Material::Marker => marker(q),
     }
 }
@@ -55,15 +55,17 @@ fn rock(q: [f64; 3], seed: u64) -> Rgb {
     let cell = q.map(|v| (v * 100.0).floor() as i64);
     let speckle = unit(hash3(seed ^ 2, cell[0], cell[1], cell[2])) - 0.5;
     let base = mix([0.56, 0.53, 0.49], [0.50, 0.47, 0.44], 0.5 + 0.5 * tint);
-    scale(base, 1.0 + 0.18 * low + 0.06 * speckle)
+    scale(base, 1.0 + 0.18 * low + 0.03 * speckle)
 }
 
-/// Brown earth with mid-frequency mottling and darker patches.
+/// Brown earth with mid-frequency mottling, darker patches and soil grain.
 fn ground(q: [f64; 3], seed: u64) -> Rgb {
-    let mid = fbm(seed, q, 0.35, 3);
+    let mid = fbm(seed, q, 0.25, 4);
     let patches = fbm(seed ^ 1, q, 2.5, 2);
+    let cell = q.map(|v| (v * 66.0).floor() as i64);
+    let grain = unit(hash3(seed ^ 2, cell[0], cell[1], cell[2])) - 0.5;
     let base = mix([0.44, 0.34, 0.22], [0.30, 0.26, 0.18], 0.5 + 0.8 * patches);
-    scale(base, 1.0 + 0.35 * mid)
+    scale(base, 1.0 + 0.4 * mid + 0.16 * grain)
 }
 
 /// Leaves and blades: strong contrast at a few centimetres, hue drifting
