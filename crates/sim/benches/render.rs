@@ -51,8 +51,14 @@ fn benches(c: &mut Criterion) {
     for level in 1..=3u8 {
         g.bench_function(format!("triplet_level{level}"), |b| {
             b.iter(|| {
-                mvs.reconstruct(&site.mesh, &caster, [&triplet[0], &triplet[1], &triplet[2]], level, 7)
-                    .expect("reconstruct")
+                mvs.reconstruct(
+                    &site.mesh,
+                    &caster,
+                    [&triplet[0], &triplet[1], &triplet[2]],
+                    level,
+                    7,
+                )
+                .expect("reconstruct")
             });
         });
     }

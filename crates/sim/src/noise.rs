@@ -52,9 +52,8 @@ pub fn value_noise(seed: u64, p: [f64; 3]) -> f64 {
     let f = p.map(f64::floor);
     let i = f.map(|v| v as i64);
     let t = [fade(p[0] - f[0]), fade(p[1] - f[1]), fade(p[2] - f[2])];
-    let corner = |dx: i64, dy: i64, dz: i64| {
-        2.0 * unit(hash3(seed, i[0] + dx, i[1] + dy, i[2] + dz)) - 1.0
-    };
+    let corner =
+        |dx: i64, dy: i64, dz: i64| 2.0 * unit(hash3(seed, i[0] + dx, i[1] + dy, i[2] + dz)) - 1.0;
     let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
     let x00 = lerp(corner(0, 0, 0), corner(1, 0, 0), t[0]);
     let x10 = lerp(corner(0, 1, 0), corner(1, 1, 0), t[0]);
@@ -68,7 +67,11 @@ pub fn value_noise(seed: u64, p: [f64; 3]) -> f64 {
 /// a horizontal plane at a lattice height (terrain at z = 0) would see a
 /// different distribution than elsewhere. Rotated, every plane cuts the
 /// lattice obliquely.
-const ROTATION: [[f64; 3]; 3] = [[0.00, 0.80, 0.60], [-0.80, 0.36, -0.48], [-0.60, -0.48, 0.64]];
+const ROTATION: [[f64; 3]; 3] = [
+    [0.00, 0.80, 0.60],
+    [-0.80, 0.36, -0.48],
+    [-0.60, -0.48, 0.64],
+];
 
 fn rotate(p: [f64; 3]) -> [f64; 3] {
     ROTATION.map(|r| r[0] * p[0] + r[1] * p[1] + r[2] * p[2])
@@ -105,7 +108,11 @@ fn field_quantiles() -> &'static [f64] {
         let mut v: Vec<f64> = (0..n)
             .map(|i| {
                 let h = hash3(0x00c0_ffee, i, 0, 0);
-                let p = [unit(h) * 500.0, unit(mix64(h ^ 1)) * 500.0, unit(mix64(h ^ 2)) * 500.0];
+                let p = [
+                    unit(h) * 500.0,
+                    unit(mix64(h ^ 1)) * 500.0,
+                    unit(mix64(h ^ 2)) * 500.0,
+                ];
                 fbm(h % 1024, p, 1.0, FIELD_OCTAVES)
             })
             .collect();
@@ -167,7 +174,10 @@ mod tests {
         }
         let mean = s / n as f64;
         let var = s2 / n as f64 - mean * mean;
-        assert!(mean.abs() < 0.02 && (var - 1.0).abs() < 0.03, "{mean} {var}");
+        assert!(
+            mean.abs() < 0.02 && (var - 1.0).abs() < 0.03,
+            "{mean} {var}"
+        );
     }
 
     #[test]

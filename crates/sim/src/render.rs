@@ -76,7 +76,10 @@ impl RenderParams {
 
     /// Unit vector towards the sun.
     pub fn sun_direction(&self) -> Vector3<f64> {
-        let (az, el) = (self.sun_azimuth_deg.to_radians(), self.sun_elevation_deg.to_radians());
+        let (az, el) = (
+            self.sun_azimuth_deg.to_radians(),
+            self.sun_elevation_deg.to_radians(),
+        );
         Vector3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin())
     }
 }
@@ -97,7 +100,9 @@ impl Rendered {
     /// Material under pixel (x, y), if a face is there. Faces of a mesh
     /// without materials read as ground.
     pub fn material(&self, mesh: &Mesh, x: u32, y: u32) -> Option<Material> {
-        let f = *self.face_id.get(y as usize * self.depth.width as usize + x as usize)?;
+        let f = *self
+            .face_id
+            .get(y as usize * self.depth.width as usize + x as usize)?;
         (f != u32::MAX).then(|| mesh.material(f as usize).unwrap_or(Material::Ground))
     }
 }
@@ -111,7 +116,12 @@ impl Rendered {
 /// # Performance
 /// Parallel over rows (rayon). One closest-hit ray per pixel plus one
 /// occlusion ray when shadows are on; see `benches/render.rs` for figures.
-pub fn render(mesh: &Mesh, caster: &RayCaster, camera: &Camera, params: &RenderParams) -> Result<Rendered> {
+pub fn render(
+    mesh: &Mesh,
+    caster: &RayCaster,
+    camera: &Camera,
+    params: &RenderParams,
+) -> Result<Rendered> {
     params.validate()?;
     if caster.n_faces() != mesh.n_faces() {
         return Err(SimError::InvalidArgument(format!(
@@ -144,7 +154,8 @@ pub fn render(mesh: &Mesh, caster: &RayCaster, camera: &Camera, params: &RenderP
                 crow[3 * x..3 * x + 3].copy_from_slice(&colour);
             }
         });
-    let rgb = RgbImage::from_raw(k.width, k.height, rgb).expect("buffer has width * height * 3 bytes");
+    let rgb =
+        RgbImage::from_raw(k.width, k.height, rgb).expect("buffer has width * height * 3 bytes");
     Ok(Rendered {
         rgb,
         depth: DepthMap {
@@ -173,9 +184,13 @@ fn shade(
         n = -n;
     }
     let mut direct = n.dot(sun).max(0.0);
-    if direct > 0.0 && params.shadows && caster.occluded(&(p + n * SHADOW_EPSILON), &(p + sun * 1e4)) {
+    if direct > 0.0
+        && params.shadows
+        && caster.occluded(&(p + n * SHADOW_EPSILON), &(p + sun * 1e4))
+    {
         direct = 0.0;
     }
     let light = params.ambient + (1.0 - params.ambient) * direct;
-    albedo(material, p, params.texture_seed).map(|a| (f64::from(a) * light * 255.0).round().clamp(0.0, 255.0) as u8)
+    albedo(material, p, params.texture_seed)
+        .map(|a| (f64::from(a) * light * 255.0).round().clamp(0.0, 255.0) as u8)
 }

@@ -43,6 +43,11 @@ pub fn triplet(k: Intrinsics, height: f64, angle_deg: f64) -> [Camera; 3] {
     let r = r.max(0.05);
     [90.0f64, 210.0, 330.0].map(|az| {
         let a = az.to_radians();
-        Camera::look_at(k, Point3::new(r * a.cos(), r * a.sin(), height), Point3::origin()).unwrap()
+        Camera::look_at(
+            k,
+            Point3::new(r * a.cos(), r * a.sin(), height),
+            Point3::origin(),
+        )
+        .unwrap()
     })
 }

@@ -47,7 +47,11 @@ impl MaterialCurve {
     }
 
     fn validate(&self, name: &str) -> Result<()> {
-        let bad = |m: String| Err(SimError::InvalidArgument(format!("profile curve '{name}': {m}")));
+        let bad = |m: String| {
+            Err(SimError::InvalidArgument(format!(
+                "profile curve '{name}': {m}"
+            )))
+        };
         if self.angles_deg.is_empty() || self.angles_deg.len() != self.success.len() {
             return bad(format!(
                 "{} angles and {} success values: need the same non-zero number",
@@ -55,8 +59,11 @@ impl MaterialCurve {
                 self.success.len()
             ));
         }
-        if let Some(w) = self.angles_deg.windows(2).find(|w| !(w[1] > w[0])) {
-            return bad(format!("angles must increase, found {} then {}", w[0], w[1]));
+        if let Some(i) =
+            (1..self.angles_deg.len()).find(|&i| !(self.angles_deg[i] > self.angles_deg[i - 1]))
+        {
+            let (a, b) = (self.angles_deg[i - 1], self.angles_deg[i]);
+            return bad(format!("angles must increase, found {a} then {b}"));
         }
         if let Some(a) = self.angles_deg.iter().find(|a| !a.is_finite()) {
             return bad(format!("angle {a} is not finite"));
@@ -107,11 +114,64 @@ impl MvsProfile {
     pub fn sure_like() -> Self {
         MvsProfile {
             name: "sure-like".into(),
-            ground: MaterialCurve::new(&[(0.0, 0.86), (5.0, 0.82), (10.0, 0.76), (20.0, 0.62), (30.0, 0.48), (45.0, 0.32), (90.0, 0.1)], 0.0),
-            rock: MaterialCurve::new(&[(0.0, 0.96), (5.0, 0.94), (10.0, 0.92), (20.0, 0.88), (30.0, 0.83), (45.0, 0.76), (90.0, 0.5)], 0.0),
-            grass: MaterialCurve::new(&[(0.0, 0.82), (5.0, 0.72), (10.0, 0.52), (20.0, 0.22), (30.0, 0.04), (40.0, 0.0)], 0.5),
-            tree: MaterialCurve::new(&[(0.0, 0.72), (5.0, 0.6), (10.0, 0.4), (20.0, 0.14), (30.0, 0.02), (40.0, 0.0)], 0.5),
-            marker: MaterialCurve::new(&[(0.0, 0.97), (5.0, 0.96), (10.0, 0.94), (20.0, 0.9), (30.0, 0.86), (45.0, 0.8), (90.0, 0.55)], 0.0),
+            ground: MaterialCurve::new(
+                &[
+                    (0.0, 0.86),
+                    (5.0, 0.82),
+                    (10.0, 0.76),
+                    (20.0, 0.62),
+                    (30.0, 0.48),
+                    (45.0, 0.32),
+                    (90.0, 0.1),
+                ],
+                0.0,
+            ),
+            rock: MaterialCurve::new(
+                &[
+                    (0.0, 0.96),
+                    (5.0, 0.94),
+                    (10.0, 0.92),
+                    (20.0, 0.88),
+                    (30.0, 0.83),
+                    (45.0, 0.76),
+                    (90.0, 0.5),
+                ],
+                0.0,
+            ),
+            grass: MaterialCurve::new(
+                &[
+                    (0.0, 0.82),
+                    (5.0, 0.72),
+                    (10.0, 0.52),
+                    (20.0, 0.22),
+                    (30.0, 0.04),
+                    (40.0, 0.0),
+                ],
+                0.5,
+            ),
+            tree: MaterialCurve::new(
+                &[
+                    (0.0, 0.72),
+                    (5.0, 0.6),
+                    (10.0, 0.4),
+                    (20.0, 0.14),
+                    (30.0, 0.02),
+                    (40.0, 0.0),
+                ],
+                0.5,
+            ),
+            marker: MaterialCurve::new(
+                &[
+                    (0.0, 0.97),
+                    (5.0, 0.96),
+                    (10.0, 0.94),
+                    (20.0, 0.9),
+                    (30.0, 0.86),
+                    (45.0, 0.8),
+                    (90.0, 0.55),
+                ],
+                0.0,
+            ),
             gsd_ref_m: 0.02,
             sigma_px: 1.0,
             outlier_share: 0.01,
@@ -124,10 +184,38 @@ impl MvsProfile {
     pub fn pmvs_like() -> Self {
         MvsProfile {
             name: "pmvs-like".into(),
-            ground: MaterialCurve::new(&[(0.0, 0.72), (10.0, 0.7), (20.0, 0.62), (30.0, 0.5), (45.0, 0.34), (90.0, 0.1)], 0.0),
+            ground: MaterialCurve::new(
+                &[
+                    (0.0, 0.72),
+                    (10.0, 0.7),
+                    (20.0, 0.62),
+                    (30.0, 0.5),
+                    (45.0, 0.34),
+                    (90.0, 0.1),
+                ],
+                0.0,
+            ),
             rock: MaterialCurve::new(&[(0.0, 0.86), (45.0, 0.86), (90.0, 0.6)], 0.0),
-            grass: MaterialCurve::new(&[(0.0, 0.55), (5.0, 0.44), (10.0, 0.28), (20.0, 0.07), (30.0, 0.0)], 0.6),
-            tree: MaterialCurve::new(&[(0.0, 0.45), (5.0, 0.34), (10.0, 0.2), (20.0, 0.04), (30.0, 0.0)], 0.6),
+            grass: MaterialCurve::new(
+                &[
+                    (0.0, 0.55),
+                    (5.0, 0.44),
+                    (10.0, 0.28),
+                    (20.0, 0.07),
+                    (30.0, 0.0),
+                ],
+                0.6,
+            ),
+            tree: MaterialCurve::new(
+                &[
+                    (0.0, 0.45),
+                    (5.0, 0.34),
+                    (10.0, 0.2),
+                    (20.0, 0.04),
+                    (30.0, 0.0),
+                ],
+                0.6,
+            ),
             marker: MaterialCurve::new(&[(0.0, 0.9), (45.0, 0.9), (90.0, 0.65)], 0.0),
             gsd_ref_m: 0.02,
             sigma_px: 1.0,
@@ -152,7 +240,12 @@ impl MvsProfile {
     /// angle `angle_deg` and ground sampling distance `gsd_m` (metres per
     /// pixel in the query image at its pyramid level; pass `None` to read the
     /// curve at the reference resolution).
-    pub fn success_probability(&self, material: Material, angle_deg: f64, gsd_m: Option<f64>) -> f64 {
+    pub fn success_probability(
+        &self,
+        material: Material,
+        angle_deg: f64,
+        gsd_m: Option<f64>,
+    ) -> f64 {
         let curve = self.curve(material);
         let mut p = curve.at_angle(angle_deg);
         if let Some(gsd) = gsd_m {
@@ -168,7 +261,12 @@ impl MvsProfile {
         for m in Material::ALL {
             self.curve(m).validate(m.name())?;
         }
-        let bad = |m: String| Err(SimError::InvalidArgument(format!("profile '{}': {m}", self.name)));
+        let bad = |m: String| {
+            Err(SimError::InvalidArgument(format!(
+                "profile '{}': {m}",
+                self.name
+            )))
+        };
         if !(self.gsd_ref_m > 0.0 && self.gsd_ref_m.is_finite()) {
             return bad(format!("gsd_ref_m = {} must be positive", self.gsd_ref_m));
         }
@@ -176,7 +274,10 @@ impl MvsProfile {
             return bad(format!("sigma_px = {} must be >= 0", self.sigma_px));
         }
         if !(0.0..1.0).contains(&self.outlier_share) {
-            return bad(format!("outlier_share = {} is outside [0, 1)", self.outlier_share));
+            return bad(format!(
+                "outlier_share = {} is outside [0, 1)",
+                self.outlier_share
+            ));
         }
         if !(self.blob_size_px >= 1.0 && self.blob_size_px.is_finite()) {
             return bad(format!("blob_size_px = {} must be >= 1", self.blob_size_px));
@@ -193,6 +294,8 @@ impl Default for MvsProfile {
 }
 
 #[cfg(test)]
+// Exact values are the point: clamping and flat curves.
+#[allow(clippy::float_cmp)]
 mod tests {
     use super::*;
 
@@ -201,7 +304,11 @@ mod tests {
         for p in [MvsProfile::sure_like(), MvsProfile::pmvs_like()] {
             p.validate().unwrap();
             for m in [Material::Grass, Material::Tree] {
-                assert!(p.success_probability(m, 35.0, None) < 0.05, "{} {m:?}", p.name);
+                assert!(
+                    p.success_probability(m, 35.0, None) < 0.05,
+                    "{} {m:?}",
+                    p.name
+                );
                 assert!(p.success_probability(m, 3.0, None) > 0.3);
             }
             for m in [Material::Rock, Material::Marker] {
@@ -211,12 +318,24 @@ mod tests {
         let sure = MvsProfile::sure_like();
         let pmvs = MvsProfile::pmvs_like();
         // SURE: highest at small angles; PMVS: flat on smooth surfaces.
-        assert!(sure.success_probability(Material::Rock, 2.0, None) > sure.success_probability(Material::Rock, 30.0, None));
-        assert_eq!(pmvs.success_probability(Material::Rock, 2.0, None), pmvs.success_probability(Material::Rock, 30.0, None));
+        assert!(
+            sure.success_probability(Material::Rock, 2.0, None)
+                > sure.success_probability(Material::Rock, 30.0, None)
+        );
+        assert_eq!(
+            pmvs.success_probability(Material::Rock, 2.0, None),
+            pmvs.success_probability(Material::Rock, 30.0, None)
+        );
         // SURE more robust than PMVS on non-planar structures.
-        assert!(sure.success_probability(Material::Grass, 10.0, None) > pmvs.success_probability(Material::Grass, 10.0, None));
+        assert!(
+            sure.success_probability(Material::Grass, 10.0, None)
+                > pmvs.success_probability(Material::Grass, 10.0, None)
+        );
         // Grass is harder up close.
-        assert!(sure.success_probability(Material::Grass, 5.0, Some(0.005)) < 0.6 * sure.success_probability(Material::Grass, 5.0, Some(0.02)));
+        assert!(
+            sure.success_probability(Material::Grass, 5.0, Some(0.005))
+                < 0.6 * sure.success_probability(Material::Grass, 5.0, Some(0.02))
+        );
     }
 
     #[test]

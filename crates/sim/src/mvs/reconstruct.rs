@@ -9,7 +9,7 @@ use vp_scene::{Camera, Material, Mesh};
 
 use super::profile::MvsProfile;
 use crate::error::{Result, SimError};
-use crate::noise::{gaussian, hash3, mix64, unit, uniform_field};
+use crate::noise::{gaussian, hash3, mix64, uniform_field, unit};
 use crate::triangulation::{point_covariance, sigma_along, triangulation_angle_deg};
 
 /// Deepest pyramid level accepted (level L has 2^-(L-1) of the resolution).
@@ -21,9 +21,9 @@ const GSD_PROBE: u32 = 24;
 const OUTLIER_ERROR: (f64, f64) = (0.1, 0.4);
 
 /// Stream constants of the per-pixel randomness.
-const STREAM_FIELD: u64 = 0x6669_656c_64;
-const STREAM_NOISE: u64 = 0x6e6f_6973_65;
-const STREAM_OUTLIER: u64 = 0x6f75_746c_6965_72;
+const STREAM_FIELD: u64 = 0x0066_6965_6c64;
+const STREAM_NOISE: u64 = 0x006e_6f69_7365;
+const STREAM_OUTLIER: u64 = 0x006f_7574_6c69_6572;
 
 /// The camera of pyramid level `level` (1 = full resolution): intrinsics
 /// scaled by 2^-(level-1), same pose.
@@ -34,7 +34,10 @@ pub fn level_camera(camera: &Camera, level: u8) -> Result<Camera> {
         )));
     }
     let s = 0.5f64.powi(i32::from(level) - 1);
-    Ok(Camera::new(camera.intrinsics.scaled(s), camera.world_from_cam))
+    Ok(Camera::new(
+        camera.intrinsics.scaled(s),
+        camera.world_from_cam,
+    ))
 }
 
 /// What happened at one pixel of a virtual reconstruction.
@@ -268,7 +271,10 @@ impl Run<'_> {
             return PixelTruth::empty(PixelStatus::NoSurface);
         };
         let p = hit.point;
-        let material = self.mesh.material(hit.face as usize).unwrap_or(Material::Ground);
+        let material = self
+            .mesh
+            .material(hit.face as usize)
+            .unwrap_or(Material::Ground);
         let true_depth = hit.t * d.dot(&cam.axis());
         let mut truth = PixelTruth {
             material: Some(material),
@@ -295,7 +301,11 @@ impl Run<'_> {
         truth.angle_deg = angle as f32;
         truth.probability = prob as f32;
         truth.sigma_depth = sigma_depth as f32;
-        let u = uniform_field(self.seed ^ STREAM_FIELD, [p.x, p.y, p.z], self.blob_wavelength);
+        let u = uniform_field(
+            self.seed ^ STREAM_FIELD,
+            [p.x, p.y, p.z],
+            self.blob_wavelength,
+        );
         if !(u < prob) {
             truth.status = PixelStatus::Failed;
             return truth;
