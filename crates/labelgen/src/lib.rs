@@ -71,26 +71,7 @@ pub fn generate_labels(
     meshes: Option<&MissingPartMeshes>,
     params: &LabelParams,
 ) -> Result<Vec<ReconLabels>> {
-    params.validate()?;
-    let mut ids = BTreeSet::new();
-    for r in recs {
-        r.validate()?;
-        if !ids.insert(r.id.as_str()) {
-            return Err(LabelgenError::InvalidArgument(format!(
-                "reconstruction id {} given twice",
-                r.id
-            )));
-        }
-    }
-    let mut sorted: Vec<&TripletReconstruction> = recs.iter().collect();
-    sorted.sort_by(|a, b| a.id.cmp(&b.id));
-    let prepared: Vec<Prepared<'_>> = sorted
-        .par_iter()
-        .map(|r| Prepared::new(r, params))
-        .collect();
-    let refs: Vec<Vec<usize>> = (0..prepared.len())
-        .map(|q| references(&prepared, q))
-        .collect();
+    let (sorted, prepared, refs) = prepare(recs, params)?;
     let tasks: Vec<(usize, usize)> = (0..prepared.len())
         .flat_map(|q| (0..3).map(move |v| (q, v)))
         .collect();
@@ -116,6 +97,57 @@ pub fn generate_labels(
             }
         })
         .collect())
+}
+
+/// Stage 1 alone: the support of every measurement of every view (0 where
+/// there is no measurement), per reconstruction id, in id order. Useful to
+/// inspect why a pixel got no label.
+pub fn support_maps(
+    recs: &[TripletReconstruction],
+    params: &LabelParams,
+) -> Result<Vec<(String, [Vec<u16>; 3])>> {
+    let (sorted, prepared, refs) = prepare(recs, params)?;
+    let flat: Vec<Vec<u16>> = (0..prepared.len() * 3)
+        .into_par_iter()
+        .map(|t| support::view_support(&prepared, t / 3, t % 3, &refs[t / 3], params))
+        .collect();
+    Ok(sorted
+        .iter()
+        .map(|r| r.id.clone())
+        .zip(regroup(flat))
+        .collect())
+}
+
+type PreparedSet<'a> = (
+    Vec<&'a TripletReconstruction>,
+    Vec<Prepared<'a>>,
+    Vec<Vec<usize>>,
+);
+
+/// Validates, sorts by id, derives the per-measurement data and lists the
+/// references of each reconstruction.
+fn prepare<'a>(recs: &'a [TripletReconstruction], params: &LabelParams) -> Result<PreparedSet<'a>> {
+    params.validate()?;
+    let mut ids = BTreeSet::new();
+    for r in recs {
+        r.validate()?;
+        if !ids.insert(r.id.as_str()) {
+            return Err(LabelgenError::InvalidArgument(format!(
+                "reconstruction id {} given twice",
+                r.id
+            )));
+        }
+    }
+    let mut sorted: Vec<&TripletReconstruction> = recs.iter().collect();
+    sorted.sort_by(|a, b| a.id.cmp(&b.id));
+    let prepared: Vec<Prepared<'_>> = sorted
+        .par_iter()
+        .map(|r| Prepared::new(r, params))
+        .collect();
+    let refs: Vec<Vec<usize>> = (0..prepared.len())
+        .map(|q| references(&prepared, q))
+        .collect();
+    Ok((sorted, prepared, refs))
 }
 
 /// Independent reconstructions that may overlap `q`, in id order.
