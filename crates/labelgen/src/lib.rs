@@ -23,6 +23,7 @@ pub mod missing;
 pub mod params;
 pub mod summary;
 pub mod support;
+pub mod synthetic;
 pub mod triplets;
 pub mod voting;
 

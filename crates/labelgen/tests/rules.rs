@@ -8,7 +8,12 @@ use proptest::prelude::*;
 use vp_labelgen::{generate_labels, support_maps, LabelParams, TripletReconstruction};
 use vp_scene::Intrinsics;
 
-const CLEAN: Errors = Errors { blobs: 0, holes: 0, radius: 0.0, noise_sigma: 0.0 };
+const CLEAN: Errors = Errors {
+    blobs: 0,
+    holes: 0,
+    radius: 0.0,
+    noise_sigma: 0.0,
+};
 
 fn k() -> Intrinsics {
     Intrinsics::from_hfov(64, 48, 60.0).unwrap()
@@ -36,7 +41,9 @@ fn a_reference_sharing_an_image_never_supports() {
     assert_eq!(max_support(&maps, "b"), 0);
     // Without support nobody votes: nothing is labelled.
     let labels = generate_labels(&[a.clone(), shares], None, &params).unwrap();
-    assert!(labels.iter().all(|l| l.counts.iter().all(|c| c.positive + c.negative_voted == 0)));
+    assert!(labels
+        .iter()
+        .all(|l| l.counts.iter().all(|c| c.positive + c.negative_voted == 0)));
     // The same reference with its own images supports.
     let independent = rec(&w, "c", ["c0", "c1", "c2"], 14.0, 0.0, 0.5);
     let maps = support_maps(&[a, independent], &params).unwrap();
@@ -72,7 +79,15 @@ fn label_bytes(recs: &[TripletReconstruction]) -> Vec<(String, Vec<Vec<u8>>)> {
     generate_labels(recs, None, &LabelParams::default())
         .unwrap()
         .into_iter()
-        .map(|l| (l.id, l.labels.iter().map(vp_scene::raster::LabelImage::to_bytes).collect()))
+        .map(|l| {
+            (
+                l.id,
+                l.labels
+                    .iter()
+                    .map(vp_scene::raster::LabelImage::to_bytes)
+                    .collect(),
+            )
+        })
         .collect()
 }
 
