@@ -297,7 +297,9 @@ where
             let vv = k.fy * pc.y / pc.z + k.cy;
             // Footprint of one reference pixel, in query pixels.
             let footprint = f64::from(view.depth.data[idx]) / fr * fq / pc.z;
-            let r = ((0.5 * footprint).floor() as i64).clamp(0, i64::from(max_radius));
+            // Under-cover rather than over-cover: a splat spilling over a depth
+            // edge would vote against the surface behind it.
+            let r = ((0.5 * (footprint - 1.0)).floor() as i64).clamp(0, i64::from(max_radius));
             let (cx, cy) = (u.floor() as i64, vv.floor() as i64);
             let z = pc.z as f32;
             for yy in (cy - r).max(0)..=(cy + r).min(h as i64 - 1) {

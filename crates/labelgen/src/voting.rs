@@ -58,13 +58,45 @@ fn blocks_reference(
         if s < params.min_support || sigma <= 0.0 {
             continue;
         }
-        let t_ref = f64::from(depth.data[ridx]) * ray_scale(cam, x, y);
         let t_query = (p - cam.center()).norm();
-        if t_ref > t_query + bound {
+        // The nearest reference surface around the pixel: at a depth edge the
+        // query point may project next to the pixel that saw it.
+        let w = depth.width as usize;
+        let t_ref = neighbourhood(x, y, w, depth.height as usize)
+            .map(|(nx, ny)| (nx, ny, depth.data[ny * w + nx]))
+            .filter(|&(_, _, d)| d > 0.0)
+            .map(|(nx, ny, d)| f64::from(d) * ray_scale(cam, nx, ny))
+            .fold(f64::INFINITY, f64::min);
+        if t_ref.is_finite() && t_ref > t_query + bound {
             best = best.max(f32::from(s) / sigma);
         }
     }
     best
+}
+
+/// Pixels of the 3x3 neighbourhood of (x, y) inside a w x h image.
+fn neighbourhood(x: usize, y: usize, w: usize, h: usize) -> impl Iterator<Item = (usize, usize)> {
+    (y.saturating_sub(1)..(y + 2).min(h))
+        .flat_map(move |ny| (x.saturating_sub(1)..(x + 2).min(w)).map(move |nx| (nx, ny)))
+}
+
+/// Whether a reference depth `dz` (query optical axis) in front of query
+/// pixel `idx` matches the query's own depth at a neighbouring pixel: then it
+/// is the other side of a depth edge seen at sub-pixel offset, not a
+/// free-space violation.
+fn edge_explains(
+    cam: &vp_scene::Camera,
+    depth: &[f32],
+    idx: usize,
+    w: usize,
+    h: usize,
+    dz: f32,
+    bound: f64,
+) -> bool {
+    neighbourhood(idx % w, idx / w, w, h).any(|(nx, ny)| {
+        let d = depth[ny * w + nx];
+        d > 0.0 && (f64::from(d) - f64::from(dz)).abs() * ray_scale(cam, nx, ny) <= bound
+    })
 }
 
 /// The label image of view `v` of reconstruction `q`, given every
@@ -105,7 +137,7 @@ pub(crate) fn label_view(
                     pos[idx] += wz;
                     continue;
                 }
-                if along < -bound {
+                if along < -bound && !edge_explains(cam, &depth.data, idx, w, h, dz, bound) {
                     blocked = wz;
                 }
             }
