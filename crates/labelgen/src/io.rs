@@ -18,7 +18,7 @@
 //! image format: label and triangulation angle per pixel), and
 //! `<out-dir>/summary.json` ([`LabelSummary`]).
 
-use std::collections::HashMap;
+use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
 use vp_scene::colmap::{read_depth_map, DepthMap, Reconstruction};
@@ -101,14 +101,10 @@ pub fn load_reconstructions(
     depth_dir: &Path,
 ) -> Result<Vec<TripletReconstruction>> {
     let mut out = Vec::new();
-    let names: HashMap<&str, ()> = model
-        .images
-        .values()
-        .map(|i| (i.name.as_str(), ()))
-        .collect();
+    let names: HashSet<&str> = model.images.values().map(|i| i.name.as_str()).collect();
     for (i, t) in triplets.iter().enumerate() {
         let id = triplet_id(i);
-        if let Some(bad) = t.images.iter().find(|n| !names.contains_key(n.as_str())) {
+        if let Some(bad) = t.images.iter().find(|n| !names.contains(n.as_str())) {
             return Err(LabelgenError::InvalidArgument(format!(
                 "triplet {id} names image {bad:?}, which is not in the COLMAP model"
             )));

@@ -45,15 +45,14 @@ fn blocks_reference(
     params: &LabelParams,
 ) -> f32 {
     let mut best = 0.0f32;
-    for rv in 0..3 {
-        let cam = &rp.cameras[rv];
+    for (rv, (cam, sup)) in rp.cameras.iter().zip(support).enumerate() {
         let Some(px) = cam.project_in_frame(p) else {
             continue;
         };
         let (x, y) = (px.x as usize, px.y as usize);
         let depth = &rp.rec.views[rv].depth;
         let ridx = y * depth.width as usize + x;
-        let s = support[rv][ridx];
+        let s = sup[ridx];
         let sigma = rp.data[rv].sigma[ridx];
         if s < params.min_support || sigma <= 0.0 {
             continue;
