@@ -41,6 +41,9 @@ enum Command {
     /// Turn a plan into a MAVLink mission: export, upload, download.
     #[command(subcommand)]
     Mission(cmd::mission::MissionCommand),
+    /// Training labels without ground truth: triplet sampling and consistency voting.
+    #[command(subcommand)]
+    Labelgen(cmd::labelgen::LabelgenCommand),
 }
 
 fn run(args: Args, out: &mut dyn Write) -> anyhow::Result<()> {
@@ -50,6 +53,7 @@ fn run(args: Args, out: &mut dyn Write) -> anyhow::Result<()> {
         Command::Colmap(c) => cmd::colmap::run(c, out),
         Command::Depth(c) => cmd::depth::run(c, out),
         Command::Mission(c) => cmd::mission::run(c, out),
+        Command::Labelgen(c) => cmd::labelgen::run(c, out),
     }
 }
 

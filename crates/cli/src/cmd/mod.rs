@@ -2,6 +2,7 @@
 
 pub mod colmap;
 pub mod depth;
+pub mod labelgen;
 pub mod mesh;
 pub mod mission;
 pub mod scene;
@@ -14,6 +15,9 @@ use vp_scene::SceneError;
 /// (I/O failures, a vehicle that does not answer or rejects the mission).
 pub fn exit_code(e: &anyhow::Error) -> u8 {
     for cause in e.chain() {
+        if let Some(le) = cause.downcast_ref::<vp_labelgen::LabelgenError>() {
+            return if le.is_input_error() { 2 } else { 1 };
+        }
         if let Some(se) = cause.downcast_ref::<SceneError>() {
             return scene_exit_code(se);
         }

@@ -1,0 +1,162 @@
+//! `vpctl labelgen ...`: training labels without ground truth.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use clap::{Args, Subcommand};
+use vp_labelgen::triplets::{self, TripletParams};
+use vp_labelgen::{generate_labels, io, LabelParams, MissingPartMeshes};
+use vp_scene::{colmap, fsio};
+
+/// Label-generation subcommands.
+#[derive(Debug, Subcommand)]
+pub enum LabelgenCommand {
+    /// Sample image triplets from triangulation-angle bins (4-8-16-32-64-128
+    /// deg) of a COLMAP model, for the MVS to reconstruct one by one.
+    ///
+    /// Writes the triplet list (one line per triplet: bin, angle, three image
+    /// names, tab-separated; triplet i has the id t0000, t0001, ...) and, with
+    /// --image-lists, one COLMAP image list per triplet (<id>.txt).
+    Triplets(TripletsArgs),
+    /// Label every image of every triplet from the triplets' depth maps by
+    /// consistency voting (support, voting, missing parts).
+    ///
+    /// Depth maps: <depth-dir>/<triplet id>/level<L>/<image name>.geometric.bin
+    /// (COLMAP's format; .photometric.bin if no geometric map), L = 1, 2, 3
+    /// for the pyramid levels; each level is an independent reconstruction.
+    /// Writes <out-dir>/<triplet id>/level<L>/<image name>.vplabel and
+    /// <out-dir>/summary.json.
+    Run(RunArgs),
+}
+
+/// Arguments of `labelgen triplets`.
+#[derive(Debug, Args)]
+pub struct TripletsArgs {
+    /// COLMAP sparse model folder (cameras, images, points3D; .bin or .txt).
+    #[arg(long)]
+    model: PathBuf,
+    /// Triplets drawn per angle bin.
+    #[arg(long, default_value_t = 10)]
+    per_bin: usize,
+    /// RNG seed: same model and seed, same triplets.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Fewest sparse points the three images must share.
+    #[arg(long, default_value_t = 20)]
+    min_shared_points: usize,
+    /// Fewest shared points as a share of the points of the image that sees fewest.
+    #[arg(long, default_value_t = 0.1)]
+    min_shared_share: f64,
+    /// Smallest / largest pairwise angle at the median point.
+    #[arg(long, default_value_t = 0.5)]
+    min_equilateral: f64,
+    /// Output triplet list.
+    #[arg(long)]
+    out: PathBuf,
+    /// Also write one COLMAP image list per triplet into this folder.
+    #[arg(long)]
+    image_lists: Option<PathBuf>,
+    /// Overwrite existing output files.
+    #[arg(long)]
+    force: bool,
+}
+
+/// Arguments of `labelgen run`.
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    /// COLMAP sparse model folder with the poses of every image.
+    #[arg(long)]
+    model: PathBuf,
+    /// Triplet list written by `vpctl labelgen triplets`.
+    #[arg(long)]
+    triplets: PathBuf,
+    /// Folder of depth maps (layout above).
+    #[arg(long)]
+    depth_dir: PathBuf,
+    /// Surface mesh (PLY/OBJ, e.g. from the sparse points) for missing-part
+    /// negatives (stage 3). Without it, holes stay unlabelled.
+    #[arg(long)]
+    mesh: Option<PathBuf>,
+    /// Output folder for label images and summary.json.
+    #[arg(long)]
+    out_dir: PathBuf,
+    /// Label parameters as JSON (any subset of alpha_min_deg, s_min,
+    /// sigma_px, k_sigma, min_support, max_splat_radius, mesh_iterations).
+    #[arg(long)]
+    params: Option<PathBuf>,
+    /// Overwrite existing label files.
+    #[arg(long)]
+    force: bool,
+}
+
+pub fn run(cmd: LabelgenCommand, out: &mut dyn Write) -> Result<()> {
+    match cmd {
+        LabelgenCommand::Triplets(a) => sample(&a, out),
+        LabelgenCommand::Run(a) => label(&a, out),
+    }
+}
+
+fn sample(a: &TripletsArgs, out: &mut dyn Write) -> Result<()> {
+    fsio::check_overwrite(&a.out, a.force)?;
+    let model = colmap::read_model(&a.model)?;
+    let params = TripletParams {
+        per_bin: a.per_bin,
+        seed: a.seed,
+        min_shared_points: a.min_shared_points,
+        min_shared_share: a.min_shared_share,
+        min_equilateral: a.min_equilateral,
+        ..TripletParams::default()
+    };
+    let sampled = triplets::sample_triplets(&model, &params)?;
+    // Image lists first: they refuse to overwrite one by one, and a refusal
+    // should leave no triplet list behind either.
+    if let Some(dir) = &a.image_lists {
+        triplets::write_image_lists(dir, &sampled, a.force)?;
+    }
+    triplets::write_triplet_list(&a.out, &sampled)?;
+    writeln!(out, "triplets: {}", sampled.len())?;
+    for (b, e) in params.bin_edges.windows(2).enumerate() {
+        let n = sampled.iter().filter(|t| t.bin == b).count();
+        writeln!(out, "bin {b} [{}, {}) deg: {n}", e[0], e[1])?;
+    }
+    writeln!(out, "written: {}", a.out.display())?;
+    Ok(())
+}
+
+fn read_params(path: Option<&Path>) -> Result<LabelParams> {
+    let Some(path) = path else {
+        return Ok(LabelParams::default());
+    };
+    let bytes = fsio::read_file(path)?;
+    let params: LabelParams = serde_json::from_slice(&bytes).map_err(|e| {
+        vp_scene::SceneError::parse(path, vp_scene::Location::Line(e.line()), e.to_string())
+    })?;
+    params.validate()?;
+    Ok(params)
+}
+
+fn label(a: &RunArgs, out: &mut dyn Write) -> Result<()> {
+    let params = read_params(a.params.as_deref())?;
+    let model = colmap::read_model(&a.model)?;
+    let list = triplets::read_triplet_list(&a.triplets)?;
+    let recs = io::load_reconstructions(&model, &list, &a.depth_dir)
+        .with_context(|| format!("loading depth maps from {}", a.depth_dir.display()))?;
+    let meshes = match &a.mesh {
+        Some(p) => Some(MissingPartMeshes::new(
+            &vp_scene::io::read_mesh(p)?,
+            params.mesh_iterations,
+        )),
+        None => None,
+    };
+    let labels = generate_labels(&recs, meshes.as_ref(), &params)?;
+    let s = io::write_labels(&a.out_dir, &labels, a.force)?;
+    writeln!(out, "reconstructions: {}", s.reconstructions)?;
+    writeln!(out, "measured pixels: {}", s.measured)?;
+    writeln!(out, "positive: {}", s.positive)?;
+    writeln!(out, "negative (voting): {}", s.negative_voted)?;
+    writeln!(out, "negative (missing parts): {}", s.negative_missing)?;
+    writeln!(out, "labelled share: {:.4}", s.labelled_share)?;
+    writeln!(out, "written: {}", a.out_dir.display())?;
+    Ok(())
+}
