@@ -12,6 +12,11 @@ use vp_scene::{Aabb, Mesh};
 /// that round-off never lets a position undershoot it (vp-scene clearance docs).
 pub const CLEARANCE_MARGIN_M: f64 = 1e-3;
 
+/// "Straight down", tilted by a milliradian: the vp-scene ray caster (obvhs)
+/// misses every hit of an exactly axis-aligned ray (seen here on procedural
+/// sites), so the free-space test never casts one.
+const DOWN: Vector3<f64> = Vector3::new(1e-3, 2e-3, -1.0);
+
 /// The safety constraints of one planning call.
 pub struct Safety {
     clearance: Clearance,
@@ -73,7 +78,7 @@ impl Safety {
     pub fn in_free_space(&self, p: &Point3<f64>, caster: &RayCaster, mesh: &Mesh) -> bool {
         self.point_ok(p)
             && caster
-                .closest_hit(p, &-Vector3::z(), f64::INFINITY)
+                .closest_hit(p, &DOWN.normalize(), f64::INFINITY)
                 .is_some_and(|h| mesh.face_normal(h.face as usize).z > 0.0)
     }
 
