@@ -332,6 +332,16 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
     })
 }
 
+/// The plan without its wall-clock timings (per-module times, total time):
+/// the rest of a plan is a function of the inputs and the seed, so this is
+/// what reproducibility checks and `vpctl plan --no-timings` compare byte for byte.
+pub fn strip_timings(plan: &mut Plan) {
+    plan.statistics.total_time_s = None;
+    for it in &mut plan.statistics.iterations {
+        it.time_s.clear();
+    }
+}
+
 /// A grid flight over the region of interest's footprint, checked against
 /// the safety rules of `cfg` (every waypoint and segment), as a plan.
 pub fn plan_grid(
