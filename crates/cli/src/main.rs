@@ -38,6 +38,10 @@ enum Command {
     /// Inspect COLMAP dense depth maps.
     #[command(subcommand)]
     Depth(cmd::depth::DepthCommand),
+    /// Plan the next camera triplets, or a grid flight (`plan grid`).
+    Plan(cmd::plan::PlanArgs),
+    /// Print configuration files (`config --defaults`).
+    Config(cmd::plan::ConfigArgs),
 }
 
 fn run(args: Args, out: &mut dyn Write) -> anyhow::Result<()> {
@@ -46,6 +50,8 @@ fn run(args: Args, out: &mut dyn Write) -> anyhow::Result<()> {
         Command::Mesh(c) => cmd::mesh::run(c, out),
         Command::Colmap(c) => cmd::colmap::run(c, out),
         Command::Depth(c) => cmd::depth::run(c, out),
+        Command::Plan(c) => cmd::plan::run(c, out),
+        Command::Config(c) => cmd::plan::run_config(c, out),
     }
 }
 
