@@ -54,14 +54,14 @@ struct Common {
     #[arg(long, conflicts_with = "roi_box")]
     roi: Option<PathBuf>,
     /// Region of interest box: xmin,ymin,zmin,xmax,ymax,zmax (metres).
-    #[arg(long, value_delimiter = ',', num_args = 6, allow_negative_numbers = true)]
-    roi_box: Option<Vec<f64>>,
+    #[arg(long, allow_hyphen_values = true, value_parser = floats::<6>)]
+    roi_box: Option<[f64; 6]>,
     /// Planner configuration (TOML); `vpctl config --defaults` prints one.
     #[arg(long)]
     config: Option<PathBuf>,
     /// WGS84 position of the local origin: lat,lon,alt (degrees, metres).
-    #[arg(long, value_delimiter = ',', num_args = 3, allow_negative_numbers = true)]
-    origin: Option<Vec<f64>>,
+    #[arg(long, allow_hyphen_values = true, value_parser = floats::<3>)]
+    origin: Option<[f64; 3]>,
     /// Output plan (JSON).
     #[arg(long, required = true)]
     out: Option<PathBuf>,
@@ -74,6 +74,23 @@ struct Common {
     /// Overwrite existing output files.
     #[arg(long)]
     force: bool,
+}
+
+/// Parses `N` comma-separated numbers (`--roi-box -5,-5,0,5,5,10`).
+fn floats<const N: usize>(s: &str) -> std::result::Result<[f64; N], String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>().map_err(|e| format!("{x:?}: {e}")))
+        .collect::<std::result::Result<_, _>>()?;
+    <[f64; N]>::try_from(v.as_slice())
+        .map_err(|_| format!("expected {N} comma-separated numbers, got {}", v.len()))
+        .and_then(|a| {
+            if a.iter().all(|x| x.is_finite()) {
+                Ok(a)
+            } else {
+                Err("numbers must be finite".into())
+            }
+        })
 }
 
 /// Plan subcommands.
