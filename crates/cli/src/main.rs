@@ -44,6 +44,10 @@ enum Command {
     /// Training labels without ground truth: triplet sampling and consistency voting.
     #[command(subcommand)]
     Labelgen(cmd::labelgen::LabelgenCommand),
+    /// Plan the next camera triplets, or a grid flight (`plan grid`).
+    Plan(cmd::plan::PlanArgs),
+    /// Print configuration files (`config --defaults`).
+    Config(cmd::plan::ConfigArgs),
 }
 
 fn run(args: Args, out: &mut dyn Write) -> anyhow::Result<()> {
@@ -54,6 +58,8 @@ fn run(args: Args, out: &mut dyn Write) -> anyhow::Result<()> {
         Command::Depth(c) => cmd::depth::run(c, out),
         Command::Mission(c) => cmd::mission::run(c, out),
         Command::Labelgen(c) => cmd::labelgen::run(c, out),
+        Command::Plan(c) => cmd::plan::run(c, out),
+        Command::Config(c) => cmd::plan::run_config(c, out),
     }
 }
 

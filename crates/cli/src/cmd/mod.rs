@@ -5,6 +5,7 @@ pub mod depth;
 pub mod labelgen;
 pub mod mesh;
 pub mod mission;
+pub mod plan;
 pub mod scene;
 
 use vp_mission::MissionError;
@@ -17,6 +18,8 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
     for cause in e.chain() {
         if let Some(le) = cause.downcast_ref::<vp_labelgen::LabelgenError>() {
             return if le.is_input_error() { 2 } else { 1 };
+        if let Some(pe) = cause.downcast_ref::<vp_planner::PlannerError>() {
+            return if pe.is_input_error() { 2 } else { 1 };
         }
         if let Some(se) = cause.downcast_ref::<SceneError>() {
             return scene_exit_code(se);

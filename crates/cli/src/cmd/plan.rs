@@ -1,0 +1,349 @@
+//! `vpctl plan ...` and `vpctl config --defaults`: view planning.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use clap::{Args, Subcommand};
+use nalgebra::Point3;
+use vp_planner::grid::GridParams;
+use vp_planner::output::{write_frusta_ply, write_top_view_png, TopView};
+use vp_planner::{AcquiredView, PlanInputs, PlannerConfig, RoiSpec};
+use vp_scene::mesh_ops::Roi;
+use vp_scene::plan::{GeodeticOrigin, Plan, Role};
+use vp_scene::raster::ConfidenceImage;
+use vp_scene::{colmap, fsio, io, Mesh};
+
+/// Depth of the camera pyramids in the PLY, metres.
+const FRUSTUM_DEPTH_M: f64 = 2.0;
+/// Longest side of the top view, pixels.
+const TOP_VIEW_SIZE: u32 = 1024;
+
+/// Plan the next camera triplets (the paper's M1-M4) from a mesh and the
+/// acquired cameras, or a grid flight (`vpctl plan grid`).
+///
+/// Progress and per-module timings go to stderr; a summary to stdout.
+#[derive(Debug, Args)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+pub struct PlanArgs {
+    #[command(subcommand)]
+    sub: Option<PlanCommand>,
+    /// Scene mesh (.ply or .obj), in the frame of the COLMAP model.
+    #[arg(long, required = true)]
+    mesh: Option<PathBuf>,
+    /// COLMAP sparse model directory (text or binary): the acquired cameras.
+    #[arg(long, required = true)]
+    cameras: Option<PathBuf>,
+    /// Directory of confidence images: `<image name>.vpconf` (extension
+    /// replaced) per image of the model. Without it: no prediction (NP).
+    #[arg(long)]
+    confidence_dir: Option<PathBuf>,
+    #[command(flatten)]
+    common: Common,
+    /// Leave wall-clock timings out of the plan file, so that the same
+    /// inputs and seed give the same bytes.
+    #[arg(long)]
+    no_timings: bool,
+}
+
+/// Options shared by `plan` and `plan grid`.
+#[derive(Debug, Args)]
+struct Common {
+    /// Region of interest as JSON (a vp-scene `Roi`: {"kind": "box", "min": [..], "max": [..]},
+    /// "polygon" or "image_polygon"). Default: the whole mesh.
+    #[arg(long, conflicts_with = "roi_box")]
+    roi: Option<PathBuf>,
+    /// Region of interest box: xmin,ymin,zmin,xmax,ymax,zmax (metres).
+    #[arg(long, allow_hyphen_values = true, value_parser = floats::<6>)]
+    roi_box: Option<[f64; 6]>,
+    /// Planner configuration (TOML); `vpctl config --defaults` prints one.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// WGS84 position of the local origin: lat,lon,alt (degrees, metres).
+    #[arg(long, allow_hyphen_values = true, value_parser = floats::<3>)]
+    origin: Option<[f64; 3]>,
+    /// Output plan (JSON).
+    #[arg(long, required = true)]
+    out: Option<PathBuf>,
+    /// Also write the planned cameras as pyramids (PLY) for MeshLab/CloudCompare.
+    #[arg(long)]
+    ply: Option<PathBuf>,
+    /// Also write a top view (PNG): mesh shaded by f(t), ROI, cameras, path.
+    #[arg(long)]
+    png: Option<PathBuf>,
+    /// Overwrite existing output files.
+    #[arg(long)]
+    force: bool,
+}
+
+/// Parses `N` comma-separated numbers (`--roi-box -5,-5,0,5,5,10`).
+fn floats<const N: usize>(s: &str) -> std::result::Result<[f64; N], String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>().map_err(|e| format!("{x:?}: {e}")))
+        .collect::<std::result::Result<_, _>>()?;
+    <[f64; N]>::try_from(v.as_slice())
+        .map_err(|_| format!("expected {N} comma-separated numbers, got {}", v.len()))
+        .and_then(|a| {
+            if a.iter().all(|x| x.is_finite()) {
+                Ok(a)
+            } else {
+                Err("numbers must be finite".into())
+            }
+        })
+}
+
+/// Plan subcommands.
+#[derive(Debug, Subcommand)]
+enum PlanCommand {
+    /// A lawnmower grid flight over the region of interest (the paper's
+    /// baseline, or an initial flight), checked against the safety distance.
+    Grid(GridArgs),
+}
+
+#[derive(Debug, Args)]
+struct GridArgs {
+    /// Scene mesh (.ply or .obj).
+    #[arg(long)]
+    mesh: PathBuf,
+    /// Height above the lowest point of the region of interest, metres.
+    #[arg(long, default_value_t = 50.0)]
+    height: f64,
+    /// Ground sampling distance (m/px) instead of a height.
+    #[arg(long, conflicts_with = "height")]
+    gsd: Option<f64>,
+    /// Front and side overlap, in [0, 1).
+    #[arg(long, default_value_t = 0.8)]
+    overlap: f64,
+    /// Side overlap, if different from --overlap.
+    #[arg(long)]
+    side_overlap: Option<f64>,
+    /// Camera pitch, degrees (-90 nadir).
+    #[arg(long, default_value_t = -90.0, allow_negative_numbers = true)]
+    pitch: f64,
+    /// Direction of the flight lines, degrees counter-clockwise from east.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    yaw: f64,
+    /// Mark the views as an initial flight instead of a grid baseline.
+    #[arg(long)]
+    initial: bool,
+    #[command(flatten)]
+    common: Common,
+}
+
+/// Print configuration files.
+#[derive(Debug, Args)]
+pub struct ConfigArgs {
+    /// Print the planner configuration with every default, commented.
+    #[arg(long, required = true)]
+    defaults: bool,
+}
+
+/// `vpctl config --defaults`.
+pub fn run_config(_args: ConfigArgs, out: &mut dyn Write) -> Result<()> {
+    out.write_all(PlannerConfig::default_toml().as_bytes())?;
+    Ok(())
+}
+
+/// `vpctl plan ...`.
+pub fn run(args: PlanArgs, out: &mut dyn Write) -> Result<()> {
+    match args.sub {
+        Some(PlanCommand::Grid(g)) => grid(g, out),
+        None => plan(args, out),
+    }
+}
+
+fn required<'a>(v: Option<&'a PathBuf>, flag: &str) -> Result<&'a Path> {
+    match v {
+        Some(p) => Ok(p),
+        None => bail!("{flag} is required"),
+    }
+}
+
+impl Common {
+    fn config(&self) -> Result<PlannerConfig> {
+        Ok(match &self.config {
+            Some(p) => PlannerConfig::load(p)?,
+            None => PlannerConfig::default(),
+        })
+    }
+
+    fn roi(&self) -> Result<RoiSpec> {
+        if let Some(b) = &self.roi_box {
+            return Ok(RoiSpec::Region(Roi::Box {
+                min: [b[0], b[1], b[2]],
+                max: [b[3], b[4], b[5]],
+            }));
+        }
+        let Some(path) = &self.roi else {
+            return Ok(RoiSpec::All);
+        };
+        let bytes = fsio::read_file(path)?;
+        let roi: Roi = serde_json::from_slice(&bytes).map_err(|e| {
+            vp_scene::SceneError::parse(
+                path,
+                vp_scene::Location::Line(e.line()),
+                format!("column {}: not a region of interest: {e}", e.column()),
+            )
+        })?;
+        Ok(RoiSpec::Region(roi))
+    }
+
+    fn origin(&self) -> Result<Option<GeodeticOrigin>> {
+        self.origin
+            .as_ref()
+            .map(|o| {
+                let g = GeodeticOrigin {
+                    lat_deg: o[0],
+                    lon_deg: o[1],
+                    alt_m: o[2],
+                };
+                g.validate()?;
+                Ok(g)
+            })
+            .transpose()
+    }
+
+    /// Refuses early, before any work, when an output exists.
+    fn check_outputs(&self) -> Result<&Path> {
+        let out = required(self.out.as_ref(), "--out")?;
+        for p in [Some(out), self.ply.as_deref(), self.png.as_deref()].into_iter().flatten() {
+            fsio::check_overwrite(p, self.force)?;
+        }
+        Ok(out)
+    }
+
+    fn write(&self, plan: &Plan, mesh: &Mesh, cfg: &PlannerConfig, f: &[(Point3<f64>, f64)], roi: &[[f64; 2]]) -> Result<()> {
+        let out = required(self.out.as_ref(), "--out")?;
+        plan.save(out, self.force)?;
+        if let Some(p) = &self.ply {
+            write_frusta_ply(p, plan, cfg.camera.intrinsics(), FRUSTUM_DEPTH_M, self.force)?;
+        }
+        if let Some(p) = &self.png {
+            let view = TopView {
+                mesh,
+                fulfilment: f,
+                roi_outline: roi,
+                plan,
+                size: TOP_VIEW_SIZE,
+            };
+            write_top_view_png(p, &view, self.force)?;
+        }
+        Ok(())
+    }
+}
+
+/// ROI outline for the top view: the box or polygon, else the x/y bounds of `pts`.
+fn outline(roi: &RoiSpec, pts: impl Iterator<Item = Point3<f64>>) -> Vec<[f64; 2]> {
+    match roi {
+        RoiSpec::Region(Roi::Box { min, max }) => {
+            vec![[min[0], min[1]], [max[0], min[1]], [max[0], max[1]], [min[0], max[1]]]
+        }
+        RoiSpec::Region(Roi::Polygon { polygon, .. }) => polygon.clone(),
+        _ => {
+            let mut b = vp_scene::Aabb::empty();
+            pts.for_each(|p| b.grow(&p));
+            if b.min.x > b.max.x {
+                return Vec::new();
+            }
+            vec![[b.min.x, b.min.y], [b.max.x, b.min.y], [b.max.x, b.max.y], [b.min.x, b.max.y]]
+        }
+    }
+}
+
+fn load_acquired(model: &Path, conf_dir: Option<&Path>) -> Result<Vec<AcquiredView>> {
+    let rec = colmap::read_model(model)?;
+    let mut views = Vec::with_capacity(rec.images.len());
+    // COLMAP image ids follow capture order in practice; the last one is
+    // where the path starts.
+    for (&id, image) in &rec.images {
+        let camera = rec
+            .camera_of(id)
+            .with_context(|| format!("{}: image {id} ({})", model.display(), image.name))?;
+        let confidence = match conf_dir {
+            None => None,
+            Some(dir) => {
+                let path = dir.join(Path::new(&image.name).with_extension("vpconf"));
+                Some(ConfidenceImage::load(&path).with_context(|| {
+                    format!("confidence image of image {id} ({}) in {}", image.name, dir.display())
+                })?)
+            }
+        };
+        views.push(AcquiredView { camera, confidence });
+    }
+    Ok(views)
+}
+
+fn plan(args: PlanArgs, out: &mut dyn Write) -> Result<()> {
+    let c = &args.common;
+    let out_path = c.check_outputs()?.to_path_buf();
+    let cfg = c.config()?;
+    let mesh = io::read_mesh(required(args.mesh.as_ref(), "--mesh")?)?;
+    let acquired = load_acquired(required(args.cameras.as_ref(), "--cameras")?, args.confidence_dir.as_deref())?;
+    let roi = c.roi()?;
+    eprintln!(
+        "planning: {} faces, {} acquired images, k = {} triplets",
+        mesh.n_faces(),
+        acquired.len(),
+        cfg.n_triplets
+    );
+    let r = vp_planner::plan(&PlanInputs {
+        mesh: &mesh,
+        acquired: &acquired,
+        roi: roi.clone(),
+        config: &cfg,
+        origin: c.origin()?,
+    })?;
+    for it in &r.iterations {
+        let times: Vec<String> = it.time_s.iter().map(|(m, s)| format!("{m} {s:.3} s")).collect();
+        eprintln!(
+            "triplet {}: mean f {:.4} -> {:.4}, coverage {:.3} ({})",
+            it.iteration,
+            it.f_before,
+            it.f_after,
+            it.coverage,
+            times.join(", ")
+        );
+    }
+    let mut plan = r.plan.clone();
+    if args.no_timings {
+        vp_planner::strip_timings(&mut plan);
+    }
+    let f: Vec<(Point3<f64>, f64)> = r.sampled.iter().map(|s| (s.centroid, s.f)).collect();
+    let roi_outline = outline(&roi, r.sampled.iter().map(|s| s.centroid));
+    c.write(&plan, &mesh, &cfg, &f, &roi_outline)?;
+    let members = plan.waypoints.iter().filter(|w| w.role == Role::TripletMember).count();
+    writeln!(out, "plan: {}", out_path.display())?;
+    writeln!(out, "waypoints: {} ({members} triplet members, {} bridging)", plan.waypoints.len(), plan.waypoints.len() - members)?;
+    if let (Some(a), Some(b)) = (r.iterations.first(), r.iterations.last()) {
+        writeln!(out, "mean f: {:.4} -> {:.4}", a.f_before, b.f_after)?;
+    }
+    match &r.cut_short_reason {
+        Some(why) => writeln!(out, "cut short: {why}")?,
+        None => writeln!(out, "cut short: no")?,
+    }
+    Ok(())
+}
+
+fn grid(g: GridArgs, out: &mut dyn Write) -> Result<()> {
+    let c = &g.common;
+    let out_path = c.check_outputs()?.to_path_buf();
+    let cfg = c.config()?;
+    let mesh = io::read_mesh(&g.mesh)?;
+    let roi = c.roi()?;
+    let params = GridParams {
+        height_m: g.height,
+        gsd_m: g.gsd,
+        front_overlap: g.overlap,
+        side_overlap: g.side_overlap.unwrap_or(g.overlap),
+        pitch_deg: g.pitch,
+        yaw_deg: g.yaw,
+        role: if g.initial { Role::Initial } else { Role::Grid },
+    };
+    let plan = vp_planner::plan_grid(&mesh, &roi, &params, &cfg, c.origin()?)?;
+    let roi_outline = outline(&roi, mesh.vertices.iter().copied());
+    c.write(&plan, &mesh, &cfg, &[], &roi_outline)?;
+    writeln!(out, "plan: {}", out_path.display())?;
+    writeln!(out, "waypoints: {}", plan.waypoints.len())?;
+    Ok(())
+}

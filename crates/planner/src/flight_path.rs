@@ -1,0 +1,244 @@
+//! M4: flight order, image overlap with bridging views, and the safe path.
+//!
+//! Greedy nearest-neighbour order from the last captured image; every image
+//! must overlap an earlier one by o_min (bridging views are inserted when
+//! not); every waypoint and every straight segment between consecutive
+//! waypoints keeps the safety distance, blocked segments climb, traverse and
+//! descend, or the plan is refused naming the segment.
+
+use nalgebra::{Point2, Point3};
+use rayon::prelude::*;
+use vp_scene::plan::{PlannedView, Role};
+use vp_scene::raycast::{RayCaster, FACE_VISIBILITY_EPSILON};
+use vp_scene::{Camera, Intrinsics, Mesh};
+
+use crate::error::{PlannerError, Result};
+use crate::safety::Safety;
+
+/// Pixel-ray grid of the overlap test (DESIGN.md [vpctl]).
+pub const OVERLAP_GRID: (u32, u32) = (32, 24);
+/// Most bridging views inserted before one image.
+pub const MAX_BRIDGES: usize = 8;
+/// Height step of the climb-traverse-descend search, metres.
+const CLIMB_STEP_M: f64 = 2.0;
+
+/// Surface points seen through a regular grid of pixel rays of `cam`,
+/// with the normal of the face hit.
+pub fn grid_hits(cam: &Camera, caster: &RayCaster, mesh: &Mesh) -> Vec<Point3<f64>> {
+    let (gx, gy) = OVERLAP_GRID;
+    let k = cam.intrinsics;
+    let rays: Vec<_> = (0..gy)
+        .flat_map(|j| (0..gx).map(move |i| (i, j)))
+        .map(|(i, j)| {
+            let px = Point2::new(
+                (f64::from(i) + 0.5) * f64::from(k.width) / f64::from(gx),
+                (f64::from(j) + 0.5) * f64::from(k.height) / f64::from(gy),
+            );
+            cam.ray(&px)
+        })
+        .collect();
+    caster
+        .closest_hits(&rays, f64::INFINITY)
+        .into_iter()
+        .flatten()
+        .map(|h| h.point + mesh.face_normal(h.face as usize) * FACE_VISIBILITY_EPSILON)
+        .collect()
+}
+
+/// Share of `hits` (of image i) visible in image `j`: inside its frame and unoccluded.
+pub fn overlap(hits: &[Point3<f64>], j: &Camera, caster: &RayCaster) -> f64 {
+    if hits.is_empty() {
+        return 0.0;
+    }
+    let c = j.center();
+    let seen = hits
+        .par_iter()
+        .with_min_len(64)
+        .filter(|p| j.in_frustum(p) && !caster.occluded(&c, p))
+        .count();
+    seen as f64 / hits.len() as f64
+}
+
+/// What the path builder needs.
+pub struct PathContext<'a> {
+    /// Scene mesh.
+    pub mesh: &'a Mesh,
+    /// Its ray caster.
+    pub caster: &'a RayCaster,
+    /// Safety rules.
+    pub safety: &'a Safety,
+    /// Intrinsics of the new views.
+    pub intrinsics: Intrinsics,
+    /// o_min.
+    pub min_overlap: f64,
+}
+
+/// The path and its notes.
+#[derive(Debug, Clone, Default)]
+pub struct Path {
+    /// Waypoints in flight order.
+    pub waypoints: Vec<PlannedView>,
+    /// Images that could not be bridged to o_min overlap (index into `waypoints`).
+    pub unbridged: Vec<usize>,
+}
+
+fn cam_of(v: &PlannedView, k: Intrinsics) -> Camera {
+    v.to_camera(k)
+}
+
+impl PathContext<'_> {
+    fn overlaps_any(&self, hits: &[Point3<f64>], earlier: &[Camera]) -> bool {
+        earlier
+            .iter()
+            .rev()
+            .any(|c| overlap(hits, c, self.caster) >= self.min_overlap)
+    }
+
+    /// Fewest bridging views from `from` to `to` so that each step overlaps
+    /// its predecessor; positions lerp, orientations slerp (roll dropped).
+    fn bridge(&self, from: &Camera, to: &Camera) -> Option<Vec<Camera>> {
+        let (q0, q1) = (from.world_from_cam.rotation, to.world_from_cam.rotation);
+        let (p0, p1) = (from.center(), to.center());
+        for n in 1..=MAX_BRIDGES {
+            let mut chain = vec![*from];
+            let mut ok = true;
+            for i in 1..=n {
+                let s = i as f64 / (n + 1) as f64;
+                let p = p0 + (p1 - p0) * s;
+                let axis = q0.slerp(&q1, s) * nalgebra::Vector3::z();
+                let cam = Camera::from_yaw_pitch(
+                    self.intrinsics,
+                    p,
+                    axis.y.atan2(axis.x),
+                    axis.z.clamp(-1.0, 1.0).asin(),
+                );
+                let prev = chain[chain.len() - 1];
+                if !self.safety.point_ok(&p)
+                    || overlap(&grid_hits(&cam, self.caster, self.mesh), &prev, self.caster)
+                        < self.min_overlap
+                {
+                    ok = false;
+                    break;
+                }
+                chain.push(cam);
+            }
+            let last = chain[chain.len() - 1];
+            if ok && overlap(&grid_hits(to, self.caster, self.mesh), &last, self.caster) >= self.min_overlap {
+                return Some(chain.split_off(1));
+            }
+        }
+        None
+    }
+
+    /// Orders `views` greedily from `start`, inserts bridging views, then
+    /// makes every segment safe.
+    pub fn build(&self, start: &Camera, captured: &[Camera], views: Vec<PlannedView>) -> Result<Path> {
+        let k = self.intrinsics;
+        let mut remaining = views;
+        let mut earlier: Vec<Camera> = captured.to_vec();
+        let mut out = Path::default();
+        let mut here = start.center();
+        while !remaining.is_empty() {
+            let next = remaining
+                .iter()
+                .enumerate()
+                .min_by(|a, b| {
+                    let da = (Point3::from(a.1.position) - here).norm_squared();
+                    let db = (Point3::from(b.1.position) - here).norm_squared();
+                    da.total_cmp(&db).then(a.0.cmp(&b.0))
+                })
+                .map_or(0, |x| x.0);
+            let view = remaining.remove(next);
+            let cam = cam_of(&view, k);
+            let hits = grid_hits(&cam, self.caster, self.mesh);
+            if !earlier.is_empty() && !self.overlaps_any(&hits, &earlier) {
+                let closest = *earlier
+                    .iter()
+                    .min_by(|a, b| {
+                        let c = cam.center();
+                        (a.center() - c).norm_squared().total_cmp(&(b.center() - c).norm_squared())
+                    })
+                    .unwrap_or(start);
+                match self.bridge(&closest, &cam) {
+                    Some(bridges) => {
+                        for b in bridges {
+                            out.waypoints.push(PlannedView::from_camera(&b, Role::Bridge));
+                            earlier.push(b);
+                        }
+                    }
+                    None => out.unbridged.push(out.waypoints.len()),
+                }
+            }
+            here = cam.center();
+            earlier.push(cam);
+            out.waypoints.push(view);
+        }
+        out.waypoints = self.make_safe(out.waypoints)?;
+        Ok(out)
+    }
+
+    /// Re-routes every blocked segment by climb-traverse-descend within the
+    /// altitude limit; refuses the plan when that fails.
+    pub fn make_safe(&self, waypoints: Vec<PlannedView>) -> Result<Vec<PlannedView>> {
+        let s = self.safety;
+        for (i, w) in waypoints.iter().enumerate() {
+            let p = Point3::from(w.position);
+            if !s.point_ok(&p) {
+                return Err(PlannerError::Refused(format!(
+                    "waypoint {i} at ({:.2}, {:.2}, {:.2}) is closer than {} m to the mesh or \
+                     outside the flight volume, geofence or altitude limits",
+                    p.x, p.y, p.z, s.distance
+                )));
+            }
+        }
+        let mut out: Vec<PlannedView> = Vec::with_capacity(waypoints.len());
+        for (i, w) in waypoints.into_iter().enumerate() {
+            if let Some(prev) = out.last().cloned() {
+                let (a, b) = (Point3::from(prev.position), Point3::from(w.position));
+                if !s.segment_ok(&a, &b) {
+                    let detour = self.climb(&a, &b).ok_or_else(|| {
+                        PlannerError::Refused(format!(
+                            "segment {} -> {i} from ({:.2}, {:.2}, {:.2}) to ({:.2}, {:.2}, {:.2}) \
+                             comes closer than {} m to the mesh or leaves the geofence, and no \
+                             climb-traverse-descend route below the altitude limit {} m is clear",
+                            i - 1,
+                            a.x,
+                            a.y,
+                            a.z,
+                            b.x,
+                            b.y,
+                            b.z,
+                            s.distance,
+                            s.altitude.max_m
+                        ))
+                    })?;
+                    for (p, from) in detour.into_iter().zip([&prev, &w]) {
+                        let mut v = from.clone();
+                        v.position = p.into();
+                        v.role = Role::Bridge;
+                        v.triplet_id = None;
+                        v.expected_gain = None;
+                        v.angle_bin_deg = None;
+                        out.push(v);
+                    }
+                }
+            }
+            out.push(w);
+        }
+        Ok(out)
+    }
+
+    fn climb(&self, a: &Point3<f64>, b: &Point3<f64>) -> Option<[Point3<f64>; 2]> {
+        let s = self.safety;
+        let top = s.altitude.max_m.min(s.volume.max.z);
+        let mut h = a.z.max(b.z) + CLIMB_STEP_M;
+        while h <= top {
+            let (a2, b2) = (Point3::new(a.x, a.y, h), Point3::new(b.x, b.y, h));
+            if s.segment_ok(a, &a2) && s.segment_ok(&a2, &b2) && s.segment_ok(&b2, b) {
+                return Some([a2, b2]);
+            }
+            h += CLIMB_STEP_M;
+        }
+        None
+    }
+}

@@ -1,0 +1,30 @@
+//! `vp-planner`: view planning for multi-view stereo after Mostegel et al.
+//!
+//! [`plan`] runs the paper's pipeline on a mesh and the acquired views:
+//! [`fulfillment`] (M1, quality fulfilment f(t) of sampled triangles),
+//! [`surrogate`] (M2, free-space surrogate cameras linked by inverse
+//! visibility), [`triplet`] (M3, best camera triplet, k times) and
+//! [`flight_path`] (M4, order, overlap, bridging views, safe segments).
+//! [`grid`] plans the lawnmower baseline, [`output`] writes the camera PLY and
+//! the PNG top view, [`config`] holds every parameter with the paper's defaults.
+//!
+//! Confidence arrives as one `ConfidenceImage` per acquired image (or none:
+//! the paper's NP variant, confidence 1); the planner never sees the forest.
+#![warn(missing_docs)]
+
+pub mod config;
+pub mod error;
+pub mod flight_path;
+pub mod fulfillment;
+pub mod grid;
+pub mod output;
+pub mod quality;
+pub mod safety;
+pub mod surrogate;
+pub mod triplet;
+
+mod pipeline;
+
+pub use config::{CameraConfig, PlannerConfig};
+pub use error::{PlannerError, Result};
+pub use pipeline::{plan, plan_grid, safety_for, strip_timings, AcquiredView, PlanInputs, PlanResult, RoiSpec, SampledFulfilment};

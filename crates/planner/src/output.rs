@@ -1,0 +1,217 @@
+//! Outputs besides the plan JSON: a PLY of the planned cameras as small
+//! pyramids for MeshLab/CloudCompare, and a PNG top view.
+
+use std::io::Write;
+use std::path::Path;
+
+use image::{Rgb, RgbImage};
+use nalgebra::{Point2, Point3};
+use vp_scene::io::{write_mesh, MeshFormat};
+use vp_scene::plan::{Plan, Role};
+use vp_scene::{fsio, Intrinsics, Material, Mesh};
+
+use crate::error::{PlannerError, Result};
+
+/// Material marking each role in the camera PLY (read as a face property):
+/// triplet members `Rock`, bridging views `Marker`, grid views `Grass`,
+/// initial views `Ground`.
+pub fn role_material(role: Role) -> Material {
+    match role {
+        Role::TripletMember => Material::Rock,
+        Role::Bridge => Material::Marker,
+        Role::Grid => Material::Grass,
+        Role::Initial => Material::Ground,
+    }
+}
+
+/// The plan's views as pyramids (apex at the camera centre, base `depth`
+/// metres along the optical axis spanning the image).
+pub fn frusta_mesh(plan: &Plan, k: Intrinsics, depth: f64) -> Mesh {
+    let mut mesh = Mesh {
+        vertices: Vec::new(),
+        faces: Vec::new(),
+        materials: Some(Vec::new()),
+    };
+    let (w, h) = (f64::from(k.width), f64::from(k.height));
+    for v in &plan.waypoints {
+        let cam = v.to_camera(k);
+        let base = mesh.vertices.len() as u32;
+        mesh.vertices.push(cam.center());
+        for (x, y) in [(0.0, 0.0), (w, 0.0), (w, h), (0.0, h)] {
+            let (o, d) = cam.ray(&Point2::new(x, y));
+            let along = d.dot(&cam.axis());
+            mesh.vertices.push(o + d * (depth / along));
+        }
+        let faces = [[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 1], [1, 3, 2], [1, 4, 3]];
+        for f in faces {
+            mesh.faces.push(f.map(|i| base + i));
+        }
+        if let Some(m) = mesh.materials.as_mut() {
+            m.extend([role_material(v.role); 6]);
+        }
+    }
+    mesh
+}
+
+/// Writes the camera pyramids as a binary PLY; refuses to overwrite unless `force`.
+pub fn write_frusta_ply(path: &Path, plan: &Plan, k: Intrinsics, depth: f64, force: bool) -> Result<()> {
+    fsio::check_overwrite(path, force)?;
+    write_mesh(path, &frusta_mesh(plan, k, depth), MeshFormat::PlyBinaryLittleEndian)?;
+    Ok(())
+}
+
+/// What the top view shows.
+pub struct TopView<'a> {
+    /// The scene mesh.
+    pub mesh: &'a Mesh,
+    /// Sampled triangles' centroids with their f(t), drawn over the mesh.
+    pub fulfilment: &'a [(Point3<f64>, f64)],
+    /// ROI outline corners (x, y), closed implicitly.
+    pub roi_outline: &'a [[f64; 2]],
+    /// The plan.
+    pub plan: &'a Plan,
+    /// Longest image side, pixels.
+    pub size: u32,
+}
+
+struct Canvas {
+    img: RgbImage,
+    x0: f64,
+    y1: f64,
+    scale: f64,
+}
+
+impl Canvas {
+    fn px(&self, x: f64, y: f64) -> (f64, f64) {
+        ((x - self.x0) * self.scale, (self.y1 - y) * self.scale)
+    }
+
+    fn put(&mut self, x: i64, y: i64, c: Rgb<u8>) {
+        if x >= 0 && y >= 0 && x < i64::from(self.img.width()) && y < i64::from(self.img.height()) {
+            self.img.put_pixel(x as u32, y as u32, c);
+        }
+    }
+
+    fn line(&mut self, a: (f64, f64), b: (f64, f64), c: Rgb<u8>) {
+        let n = (b.0 - a.0).abs().max((b.1 - a.1).abs()).ceil().max(1.0) as usize;
+        for i in 0..=n {
+            let s = i as f64 / n as f64;
+            self.put(
+                (a.0 + (b.0 - a.0) * s) as i64,
+                (a.1 + (b.1 - a.1) * s) as i64,
+                c,
+            );
+        }
+    }
+
+    fn dot(&mut self, p: (f64, f64), r: i64, c: Rgb<u8>) {
+        for dy in -r..=r {
+            for dx in -r..=r {
+                if dx * dx + dy * dy <= r * r {
+                    self.put(p.0 as i64 + dx, p.1 as i64 + dy, c);
+                }
+            }
+        }
+    }
+
+    fn triangle(&mut self, t: [(f64, f64); 3], c: Rgb<u8>) {
+        let (xmin, xmax) = (t.iter().map(|p| p.0).fold(f64::INFINITY, f64::min), t.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max));
+        let (ymin, ymax) = (t.iter().map(|p| p.1).fold(f64::INFINITY, f64::min), t.iter().map(|p| p.1).fold(f64::NEG_INFINITY, f64::max));
+        let edge = |a: (f64, f64), b: (f64, f64), p: (f64, f64)| (b.0 - a.0) * (p.1 - a.1) - (b.1 - a.1) * (p.0 - a.0);
+        let area = edge(t[0], t[1], t[2]);
+        if area == 0.0 {
+            return;
+        }
+        for y in (ymin.floor() as i64)..=(ymax.ceil() as i64) {
+            for x in (xmin.floor() as i64)..=(xmax.ceil() as i64) {
+                let p = (x as f64 + 0.5, y as f64 + 0.5);
+                let w = [edge(t[1], t[2], p), edge(t[2], t[0], p), edge(t[0], t[1], p)];
+                if w.iter().all(|v| v * area >= 0.0) {
+                    self.put(x, y, c);
+                }
+            }
+        }
+    }
+}
+
+/// Red (0) through yellow to green (1).
+fn ramp(f: f64) -> Rgb<u8> {
+    let f = f.clamp(0.0, 1.0);
+    let r = (255.0 * (2.0 - 2.0 * f).min(1.0)) as u8;
+    let g = (255.0 * (2.0 * f).min(1.0)) as u8;
+    Rgb([r, g, 40])
+}
+
+/// Renders the top view: mesh faces from below to above shaded by height,
+/// sampled triangles coloured by f(t) (red 0 to green 1), the ROI outline in
+/// blue, the path in white, cameras as dots (triplet members orange,
+/// bridges cyan, grid and initial views magenta) with heading ticks.
+pub fn render_top_view(view: &TopView) -> RgbImage {
+    let b = view.mesh.bounds();
+    let mut ext = b.extent();
+    for p in &view.plan.waypoints {
+        ext.x = ext.x.max((p.position[0] - b.min.x).abs()).max((p.position[0] - b.max.x).abs());
+        ext.y = ext.y.max((p.position[1] - b.min.y).abs()).max((p.position[1] - b.max.y).abs());
+    }
+    let side = ext.x.max(ext.y).max(1e-6);
+    let scale = f64::from(view.size.max(16)) / side;
+    let (w, h) = (((b.extent().x * scale).ceil() as u32).max(16), ((b.extent().y * scale).ceil() as u32).max(16));
+    let mut cv = Canvas {
+        img: RgbImage::from_pixel(w, h, Rgb([20, 20, 30])),
+        x0: b.min.x,
+        y1: b.max.y,
+        scale,
+    };
+    let mut order: Vec<usize> = (0..view.mesh.n_faces()).collect();
+    let cz: Vec<f64> = (0..view.mesh.n_faces()).map(|f| view.mesh.face_centroid(f).z).collect();
+    order.sort_by(|&a, &b| cz[a].total_cmp(&cz[b]));
+    let dz = (b.max.z - b.min.z).max(1e-9);
+    for f in order {
+        let t = view.mesh.triangle(f).map(|p| cv.px(p.x, p.y));
+        let g = (60.0 + 170.0 * (cz[f] - b.min.z) / dz) as u8;
+        cv.triangle(t, Rgb([g, g, g]));
+    }
+    let r = (0.004 * f64::from(w.max(h))).ceil().max(1.0) as i64;
+    for (p, f) in view.fulfilment {
+        let q = cv.px(p.x, p.y);
+        cv.dot(q, r, ramp(*f));
+    }
+    let n = view.roi_outline.len();
+    for i in 0..n {
+        let (a, c) = (view.roi_outline[i], view.roi_outline[(i + 1) % n]);
+        let (pa, pc) = (cv.px(a[0], a[1]), cv.px(c[0], c[1]));
+        cv.line(pa, pc, Rgb([60, 120, 255]));
+    }
+    let wps = &view.plan.waypoints;
+    for pair in wps.windows(2) {
+        let (a, c) = (cv.px(pair[0].position[0], pair[0].position[1]), cv.px(pair[1].position[0], pair[1].position[1]));
+        cv.line(a, c, Rgb([255, 255, 255]));
+    }
+    for v in wps {
+        let colour = match v.role {
+            Role::TripletMember => Rgb([255, 150, 0]),
+            Role::Bridge => Rgb([0, 220, 220]),
+            Role::Grid | Role::Initial => Rgb([230, 0, 230]),
+        };
+        let p = cv.px(v.position[0], v.position[1]);
+        let yaw = v.yaw_deg.to_radians();
+        let tick = 4.0 * r as f64;
+        cv.line(p, (p.0 + tick * yaw.cos(), p.1 - tick * yaw.sin()), colour);
+        cv.dot(p, r + 1, colour);
+    }
+    cv.img
+}
+
+/// Writes the top view as PNG, atomically; refuses to overwrite unless `force`.
+pub fn write_top_view_png(path: &Path, view: &TopView, force: bool) -> Result<()> {
+    fsio::check_overwrite(path, force)?;
+    let img = render_top_view(view);
+    let mut buf = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut buf, image::ImageFormat::Png)
+        .map_err(|e| PlannerError::Output {
+            path: path.to_path_buf(),
+            message: format!("PNG encoding failed: {e}"),
+        })?;
+    fsio::write_atomic(path, |w| w.write_all(buf.get_ref()))?;
+    Ok(())
+}

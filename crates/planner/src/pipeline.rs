@@ -1,0 +1,382 @@
+//! The planning call: M1 once, M2 once, M3 k times with f(t) updates, M4.
+
+use std::collections::BTreeMap;
+use std::time::{Duration, Instant};
+
+use nalgebra::{Point3, Vector3};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use vp_scene::mesh_ops::{submesh, Roi};
+use vp_scene::plan::{AltitudeLimits, GeodeticOrigin, IterationStatistics, Plan, PlannedView, Role};
+use vp_scene::raster::ConfidenceImage;
+use vp_scene::raycast::RayCaster;
+use vp_scene::{Aabb, Camera, Mesh};
+
+use crate::config::PlannerConfig;
+use crate::error::{PlannerError, Result};
+use crate::flight_path::PathContext;
+use crate::fulfillment::{sample_triangles, Fulfillment};
+use crate::grid::{grid_views, GridParams};
+use crate::quality::Requirements;
+use crate::safety::Safety;
+use crate::surrogate::{link, sample_positions};
+use crate::triplet::Search;
+
+/// Height of the default flight volume above the highest mesh point, metres.
+const DEFAULT_CEILING_M: f64 = 60.0;
+
+/// An acquired image: its camera and, when predicted, its confidence image.
+#[derive(Debug, Clone)]
+pub struct AcquiredView {
+    /// The posed camera.
+    pub camera: Camera,
+    /// Predicted MVS confidence; `None` means no prediction (confidence 1).
+    pub confidence: Option<ConfidenceImage>,
+}
+
+/// Which faces the quality requirements apply to.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RoiSpec {
+    /// Every face of the mesh.
+    All,
+    /// These face indices.
+    Faces(Vec<u32>),
+    /// A region (box, ground polygon, image polygon).
+    Region(Roi),
+}
+
+/// Inputs of one planning call.
+pub struct PlanInputs<'a> {
+    /// The scene mesh (obstacles and surface to reconstruct).
+    pub mesh: &'a Mesh,
+    /// Acquired images, in capture order (the last is where the path starts).
+    pub acquired: &'a [AcquiredView],
+    /// Region of interest.
+    pub roi: RoiSpec,
+    /// Parameters.
+    pub config: &'a PlannerConfig,
+    /// Geodetic origin written into the plan.
+    pub origin: Option<GeodeticOrigin>,
+}
+
+/// One sampled triangle and its final fulfilment.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SampledFulfilment {
+    /// Face of the input mesh it was split from.
+    pub parent: u32,
+    /// Centroid.
+    pub centroid: Point3<f64>,
+    /// Unit normal.
+    pub normal: Vector3<f64>,
+    /// f(t) with the acquired and planned cameras.
+    pub f: f64,
+    /// Whether it belonged to the selected set T.
+    pub selected: bool,
+}
+
+/// Everything a planning call produced.
+#[derive(Debug, Clone)]
+pub struct PlanResult {
+    /// The plan (also carries statistics and the cut-short flag).
+    pub plan: Plan,
+    /// Per-iteration figures (same as `plan.statistics.iterations`).
+    pub iterations: Vec<IterationStatistics>,
+    /// Wall time per module over the whole call, seconds.
+    pub module_time_s: BTreeMap<String, f64>,
+    /// Input-mesh faces of the selected triangles T.
+    pub selected_faces: Vec<u32>,
+    /// Every sampled triangle with its final f(t).
+    pub sampled: Vec<SampledFulfilment>,
+    /// Gains g(c3) of the planned triplets, in planning order.
+    pub triplet_gains: Vec<f64>,
+    /// Surrogates visited by M3 in each iteration.
+    pub visited: Vec<usize>,
+    /// Waypoint indices of images that could not be bridged to o_min overlap.
+    pub unbridged: Vec<usize>,
+    /// True when planning stopped before k triplets.
+    pub cut_short: bool,
+    /// Why.
+    pub cut_short_reason: Option<String>,
+}
+
+/// The safety rules of a call: volume, altitude and geofence from the
+/// config or, by default, from the mesh bounds.
+pub fn safety_for(mesh: &Mesh, cfg: &PlannerConfig) -> Safety {
+    let b = mesh.bounds();
+    let volume = cfg.flight_volume_aabb().unwrap_or(Aabb {
+        min: b.min,
+        max: Point3::new(b.max.x, b.max.y, b.max.z + DEFAULT_CEILING_M),
+    });
+    let altitude = cfg.altitude_limits.unwrap_or(AltitudeLimits {
+        min_m: volume.min.z,
+        max_m: volume.max.z,
+    });
+    Safety::new(mesh, cfg.safety_distance_m, volume, cfg.geofence.clone(), altitude)
+}
+
+fn roi_faces(mesh: &Mesh, caster: &RayCaster, roi: &RoiSpec) -> Result<Vec<u32>> {
+    let faces = match roi {
+        RoiSpec::All => (0..mesh.n_faces() as u32).collect(),
+        RoiSpec::Faces(f) => {
+            if let Some(bad) = f.iter().find(|&&f| f as usize >= mesh.n_faces()) {
+                return Err(PlannerError::Input(format!(
+                    "region of interest: face {bad} does not exist (the mesh has {} faces)",
+                    mesh.n_faces()
+                )));
+            }
+            f.clone()
+        }
+        RoiSpec::Region(r) => r.select(mesh, caster)?,
+    };
+    if faces.is_empty() {
+        return Err(PlannerError::Input(
+            "the region of interest selects no face of the mesh (empty, or outside the mesh)"
+                .into(),
+        ));
+    }
+    Ok(faces)
+}
+
+fn secs(d: Duration) -> f64 {
+    d.as_secs_f64()
+}
+
+/// Plans the next k triplets and the flight path (DESIGN.md M1-M4).
+pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
+    let t0 = Instant::now();
+    let cfg = inputs.config;
+    cfg.validate()?;
+    let mesh = inputs.mesh;
+    if mesh.n_faces() == 0 {
+        return Err(PlannerError::Input("the mesh has no faces".into()));
+    }
+    let Some(last) = inputs.acquired.last() else {
+        return Err(PlannerError::Input(
+            "no acquired cameras: planning starts from an initial flight".into(),
+        ));
+    };
+    let deadline = cfg.time_budget_s.map(|s| t0 + Duration::from_secs_f64(s));
+    let over = || deadline.is_some_and(|d| Instant::now() >= d);
+    let mut times: BTreeMap<String, f64> = BTreeMap::new();
+    let caster = RayCaster::new(mesh);
+    let roi = roi_faces(mesh, &caster, &inputs.roi)?;
+    let safety = safety_for(mesh, cfg);
+    let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
+    let k = cfg.camera.intrinsics();
+
+    // M1.
+    let tm = Instant::now();
+    let (tri_mesh, tris) = sample_triangles(mesh, &roi, cfg.n_triangles, &mut rng)?;
+    let req = Requirements {
+        r_desired: 1.0 / (cfg.gsd_m * cfg.gsd_m),
+        accuracy: cfg.accuracy_m,
+        alpha: cfg.alpha,
+        bins: cfg.angle_bins()?,
+    };
+    let cams: Vec<Camera> = inputs.acquired.iter().map(|a| a.camera).collect();
+    let confs: Vec<Option<&ConfidenceImage>> =
+        inputs.acquired.iter().map(|a| a.confidence.as_ref()).collect();
+    let mut ful = Fulfillment::new(
+        req,
+        cfg.sigma_px,
+        cfg.min_cameras as usize,
+        (tri_mesh, tris),
+        &caster,
+        &cams,
+        &confs,
+    );
+    if ful.observers.iter().all(Vec::is_empty) {
+        return Err(PlannerError::Input(format!(
+            "none of the {} acquired cameras sees the region of interest",
+            cams.len()
+        )));
+    }
+    let selected = ful.select(cfg.n_selected, &mut rng);
+    let selected_mesh = submesh(&ful.tri_mesh, &selected.iter().map(|&t| t as u32).collect::<Vec<_>>());
+    times.insert("m1".into(), secs(tm.elapsed()));
+
+    // M2.
+    let tm = Instant::now();
+    let mut cut: Option<String> = None;
+    let mut surrogates = Vec::new();
+    let mut links = Vec::new();
+    if over() {
+        cut = Some("time budget spent before M2".into());
+    } else {
+        surrogates = sample_positions(&safety, &caster, mesh, cfg.n_surrogates, &mut rng)?;
+        let t_geo: Vec<_> = selected
+            .iter()
+            .map(|&t| (ful.tris[t].centroid, ful.tris[t].normal))
+            .collect();
+        links = link(&surrogates, &t_geo, cfg.inverse_fov_deg, &caster);
+    }
+    times.insert("m2".into(), secs(tm.elapsed()));
+
+    // M3, k times.
+    let mut iterations = Vec::new();
+    let mut views: Vec<PlannedView> = Vec::new();
+    let mut gains = Vec::new();
+    let mut visited = Vec::new();
+    for it in 0..cfg.n_triplets {
+        if cut.is_some() {
+            break;
+        }
+        if over() {
+            cut = Some(format!("time budget of {} s spent after {it} triplets", cfg.time_budget_s.unwrap_or(0.0)));
+            break;
+        }
+        let tm = Instant::now();
+        let f_before = ful.mean_f();
+        let outcome = Search {
+            ful: &ful,
+            selected: &selected,
+            selected_mesh: &selected_mesh,
+            surrogates: &surrogates,
+            links: &links,
+            safety: &safety,
+            caster: &caster,
+            intrinsics: k,
+            pitch_limits: (
+                cfg.gimbal_pitch_min_deg.to_radians(),
+                cfg.gimbal_pitch_max_deg.to_radians(),
+            ),
+            early_stop: cfg.m3_early_stop,
+            deadline,
+        }
+        .run();
+        visited.push(outcome.visited);
+        let Some(best) = outcome.best else {
+            cut = Some(if outcome.timed_out {
+                format!("time budget spent during triplet search {it}")
+            } else {
+                format!("no triplet with a positive gain after {it} triplets")
+            });
+            break;
+        };
+        for cam in &best.cameras {
+            ful.add_planned(cam, &caster);
+            let mut v = PlannedView::from_camera(cam, Role::TripletMember);
+            v.triplet_id = Some(it as u32);
+            v.expected_gain = Some(best.gain);
+            v.angle_bin_deg = Some(best.angle_deg);
+            views.push(v);
+        }
+        gains.push(best.gain);
+        let dt = secs(tm.elapsed());
+        *times.entry("m3".into()).or_default() += dt;
+        let mut stats = IterationStatistics {
+            iteration: it as u32,
+            f_before,
+            f_after: ful.mean_f(),
+            coverage: ful.coverage(),
+            time_s: BTreeMap::new(),
+        };
+        stats.time_s.insert("m3".into(), dt);
+        if it == 0 {
+            stats.time_s.insert("m1".into(), times["m1"]);
+            stats.time_s.insert("m2".into(), times["m2"]);
+        }
+        iterations.push(stats);
+        if outcome.timed_out && it + 1 < cfg.n_triplets {
+            cut = Some(format!("time budget spent during triplet search {}", it + 1));
+            break;
+        }
+    }
+
+    // M4.
+    let tm = Instant::now();
+    let ctx = PathContext {
+        mesh,
+        caster: &caster,
+        safety: &safety,
+        intrinsics: k,
+        min_overlap: cfg.min_overlap,
+    };
+    let path = ctx.build(&last.camera, &cams, views)?;
+    let m4 = secs(tm.elapsed());
+    times.insert("m4".into(), m4);
+    if let Some(s) = iterations.last_mut() {
+        s.time_s.insert("m4".into(), m4);
+    }
+
+    let mut plan = Plan::new(inputs.origin);
+    plan.waypoints = path.waypoints;
+    plan.geofence.clone_from(&safety.geofence);
+    plan.altitude_limits = Some(safety.altitude);
+    plan.safety_distance_m = Some(cfg.safety_distance_m);
+    plan.statistics.iterations.clone_from(&iterations);
+    plan.statistics.total_time_s = Some(secs(t0.elapsed()));
+    plan.cut_short = cut.is_some();
+    plan.cut_short_reason.clone_from(&cut);
+    let in_t: std::collections::HashSet<usize> = selected.iter().copied().collect();
+    let sampled = (0..ful.tris.len())
+        .map(|t| SampledFulfilment {
+            parent: ful.tris[t].parent,
+            centroid: ful.tris[t].centroid,
+            normal: ful.tris[t].normal,
+            f: ful.f(t),
+            selected: in_t.contains(&t),
+        })
+        .collect();
+    Ok(PlanResult {
+        plan,
+        iterations,
+        module_time_s: times,
+        selected_faces: selected.iter().map(|&t| ful.tris[t].parent).collect(),
+        sampled,
+        triplet_gains: gains,
+        visited,
+        unbridged: path.unbridged,
+        cut_short: cut.is_some(),
+        cut_short_reason: cut,
+    })
+}
+
+/// The plan without its wall-clock timings (per-module times, total time):
+/// the rest of a plan is a function of the inputs and the seed, so this is
+/// what reproducibility checks and `vpctl plan --no-timings` compare byte for byte.
+pub fn strip_timings(plan: &mut Plan) {
+    plan.statistics.total_time_s = None;
+    for it in &mut plan.statistics.iterations {
+        it.time_s.clear();
+    }
+}
+
+/// A grid flight over the region of interest's footprint, checked against
+/// the safety rules of `cfg` (every waypoint and segment), as a plan.
+pub fn plan_grid(
+    mesh: &Mesh,
+    roi: &RoiSpec,
+    params: &GridParams,
+    cfg: &PlannerConfig,
+    origin: Option<GeodeticOrigin>,
+) -> Result<Plan> {
+    cfg.validate()?;
+    if mesh.n_faces() == 0 {
+        return Err(PlannerError::Input("the mesh has no faces".into()));
+    }
+    let caster = RayCaster::new(mesh);
+    let faces = roi_faces(mesh, &caster, roi)?;
+    let mut fp = Aabb::empty();
+    for &f in &faces {
+        for p in mesh.triangle(f as usize) {
+            fp.grow(&p);
+        }
+    }
+    let k = cfg.camera.intrinsics();
+    let views = grid_views(&fp, params, k)?;
+    let safety = safety_for(mesh, cfg);
+    let ctx = PathContext {
+        mesh,
+        caster: &caster,
+        safety: &safety,
+        intrinsics: k,
+        min_overlap: cfg.min_overlap,
+    };
+    let mut plan = Plan::new(origin);
+    plan.waypoints = ctx.make_safe(views)?;
+    plan.geofence.clone_from(&safety.geofence);
+    plan.altitude_limits = Some(safety.altitude);
+    plan.safety_distance_m = Some(cfg.safety_distance_m);
+    Ok(plan)
+}

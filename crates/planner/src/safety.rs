@@ -1,0 +1,157 @@
+//! Safety rules every planned position and path segment obeys: the safety
+//! distance to the mesh, the flight volume, the geofence and the altitude band.
+
+use nalgebra::{Point2, Point3, Vector3};
+use vp_scene::clearance::Clearance;
+use vp_scene::mesh_ops::point_in_polygon;
+use vp_scene::plan::AltitudeLimits;
+use vp_scene::raycast::RayCaster;
+use vp_scene::{Aabb, Mesh};
+
+/// Margin added to the safety distance in the `f32` clearance checks, so
+/// that round-off never lets a position undershoot it (vp-scene clearance docs).
+pub const CLEARANCE_MARGIN_M: f64 = 1e-3;
+
+/// "Straight down", tilted by a milliradian: the vp-scene ray caster (obvhs)
+/// misses every hit of an exactly axis-aligned ray (seen here on procedural
+/// sites), so the free-space test never casts one.
+const DOWN: Vector3<f64> = Vector3::new(1e-3, 2e-3, -1.0);
+
+/// The safety constraints of one planning call.
+pub struct Safety {
+    clearance: Clearance,
+    /// Minimum distance to the mesh, metres.
+    pub distance: f64,
+    /// Flight volume.
+    pub volume: Aabb,
+    /// Inclusion polygon in x/y, if any.
+    pub geofence: Option<Vec<[f64; 2]>>,
+    /// Altitude band (z).
+    pub altitude: AltitudeLimits,
+}
+
+impl Safety {
+    /// Builds the clearance structure of `mesh`.
+    pub fn new(
+        mesh: &Mesh,
+        distance: f64,
+        volume: Aabb,
+        geofence: Option<Vec<[f64; 2]>>,
+        altitude: AltitudeLimits,
+    ) -> Self {
+        Safety {
+            clearance: Clearance::new(mesh),
+            distance,
+            volume,
+            geofence,
+            altitude,
+        }
+    }
+
+    /// The clearance queries of the mesh.
+    pub fn clearance(&self) -> &Clearance {
+        &self.clearance
+    }
+
+    /// Inside the flight volume, the altitude band and the geofence.
+    pub fn within_limits(&self, p: &Point3<f64>) -> bool {
+        self.volume.contains(p)
+            && p.z >= self.altitude.min_m
+            && p.z <= self.altitude.max_m
+            && self
+                .geofence
+                .as_ref()
+                .is_none_or(|g| point_in_polygon(&Point2::new(p.x, p.y), g))
+    }
+
+    /// Within the limits and at least the safety distance from the mesh.
+    pub fn point_ok(&self, p: &Point3<f64>) -> bool {
+        self.within_limits(p)
+            && self
+                .clearance
+                .point_is_clear(p, self.distance + CLEARANCE_MARGIN_M)
+    }
+
+    /// [`Safety::point_ok`] and in free air: straight down there is a
+    /// surface seen from above (not under the terrain, not inside an object
+    /// open at the bottom).
+    pub fn in_free_space(&self, p: &Point3<f64>, caster: &RayCaster, mesh: &Mesh) -> bool {
+        self.point_ok(p)
+            && caster
+                .closest_hit(p, &DOWN.normalize(), f64::INFINITY)
+                .is_some_and(|h| mesh.face_normal(h.face as usize).z > 0.0)
+    }
+
+    /// Both ends within the limits, the straight segment inside the geofence
+    /// (the volume and the altitude band are convex) and at least the safety
+    /// distance from the mesh everywhere.
+    pub fn segment_ok(&self, a: &Point3<f64>, b: &Point3<f64>) -> bool {
+        self.within_limits(a)
+            && self.within_limits(b)
+            && self
+                .geofence
+                .as_ref()
+                .is_none_or(|g| !crosses_polygon(a, b, g))
+            && self
+                .clearance
+                .segment_is_clear(a, b, self.distance + CLEARANCE_MARGIN_M)
+    }
+
+    /// The box positions are drawn from: the flight volume cut to the altitude band.
+    pub fn sampling_box(&self) -> Aabb {
+        let mut b = self.volume;
+        b.min.z = b.min.z.max(self.altitude.min_m);
+        b.max.z = b.max.z.min(self.altitude.max_m);
+        b
+    }
+}
+
+/// Whether the x/y projection of segment a-b properly crosses a polygon edge.
+fn crosses_polygon(a: &Point3<f64>, b: &Point3<f64>, poly: &[[f64; 2]]) -> bool {
+    let cross = |o: [f64; 2], p: [f64; 2], q: [f64; 2]| {
+        (p[0] - o[0]) * (q[1] - o[1]) - (p[1] - o[1]) * (q[0] - o[0])
+    };
+    let (p, q) = ([a.x, a.y], [b.x, b.y]);
+    let n = poly.len();
+    (0..n).any(|i| {
+        let (r, s) = (poly[i], poly[(i + 1) % n]);
+        let d1 = cross(r, s, p);
+        let d2 = cross(r, s, q);
+        let d3 = cross(p, q, r);
+        let d4 = cross(p, q, s);
+        d1 * d2 < 0.0 && d3 * d4 < 0.0
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vp_scene::procedural::shapes;
+
+    #[test]
+    fn geofence_and_altitude_bound_points_and_segments() {
+        let mesh = shapes::plane(100.0, 100.0, 4, 4);
+        let fence = vec![[-20.0, -20.0], [20.0, -20.0], [20.0, 20.0], [0.0, 0.0], [-20.0, 20.0]];
+        let s = Safety::new(
+            &mesh,
+            5.0,
+            Aabb {
+                min: Point3::new(-50.0, -50.0, -10.0),
+                max: Point3::new(50.0, 50.0, 60.0),
+            },
+            Some(fence),
+            AltitudeLimits {
+                min_m: 0.0,
+                max_m: 40.0,
+            },
+        );
+        assert!(s.point_ok(&Point3::new(0.0, -10.0, 10.0)));
+        assert!(!s.point_ok(&Point3::new(0.0, -10.0, 4.0)), "too close");
+        assert!(!s.point_ok(&Point3::new(0.0, -10.0, 45.0)), "too high");
+        assert!(!s.point_ok(&Point3::new(0.0, 10.0, 10.0)), "in the notch");
+        // Both ends inside, but the segment crosses the notch of the fence.
+        let (a, b) = (Point3::new(-15.0, 15.0, 10.0), Point3::new(15.0, 15.0, 10.0));
+        assert!(s.point_ok(&a) && s.point_ok(&b) && !s.segment_ok(&a, &b));
+        assert!(s.segment_ok(&a, &Point3::new(-15.0, -15.0, 10.0)));
+    }
+}

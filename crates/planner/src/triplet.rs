@@ -1,0 +1,354 @@
+//! M3: the best camera triplet: potential gains, mean-shift orientation,
+//! b triplets per surrogate, safety filtering and the gain g(c3).
+//!
+//! The visit order (decreasing summed potential gain) with its early stop
+//! is the paper's shortcut, a heuristic: it can miss the best triplet.
+//! [`Search::early_stop`] = false searches every surrogate instead.
+
+use std::time::Instant;
+
+use nalgebra::{Point3, Vector3};
+use rayon::prelude::*;
+use vp_scene::raycast::RayCaster;
+use vp_scene::{Camera, Intrinsics, Mesh};
+
+use crate::fulfillment::Fulfillment;
+use crate::quality::{CamTerm, ConfCurve};
+use crate::safety::Safety;
+use crate::surrogate::basis;
+
+/// Azimuths of the three cameras around the viewing direction, degrees
+/// (DESIGN.md [vpctl]): one above, two below, measured from image right.
+const AZIMUTHS_DEG: [f64; 3] = [90.0, 210.0, 330.0];
+
+/// Surrogates evaluated together between two early-stop checks; results
+/// are merged in visit order, so they equal a sequential visit.
+const CHUNK: usize = 4;
+
+/// A candidate triplet.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Candidate {
+    /// The three cameras (roll 0, looking at the focus).
+    pub cameras: [Camera; 3],
+    /// g(c3): summed fulfilment gain over the selected triangles.
+    pub gain: f64,
+    /// Angle bin the triplet was built for.
+    pub bin: usize,
+    /// Bin-centre triangulation angle at the focus, degrees.
+    pub angle_deg: f64,
+    /// Index of the surrogate it was built around.
+    pub surrogate: usize,
+}
+
+/// Outcome of one best-triplet search.
+#[derive(Debug, Clone, Default)]
+pub struct Outcome {
+    /// The best candidate with a positive gain, if any.
+    pub best: Option<Candidate>,
+    /// Surrogates oriented and evaluated.
+    pub visited: usize,
+    /// True when the deadline stopped the search.
+    pub timed_out: bool,
+}
+
+/// One M3 search over the surrogates.
+pub struct Search<'a> {
+    /// f(t) of the sampled triangles with all current cameras.
+    pub ful: &'a Fulfillment,
+    /// T: indices into `ful.tris`.
+    pub selected: &'a [usize],
+    /// The T triangles as a mesh (face i = `selected[i]`), for visibility.
+    pub selected_mesh: &'a Mesh,
+    /// Surrogate positions (M2).
+    pub surrogates: &'a [Point3<f64>],
+    /// Per surrogate, linked triangles (indices into `selected`).
+    pub links: &'a [Vec<u32>],
+    /// Safety rules for the cameras.
+    pub safety: &'a Safety,
+    /// Ray caster of the scene mesh.
+    pub caster: &'a RayCaster,
+    /// Intrinsics of the new views.
+    pub intrinsics: Intrinsics,
+    /// Gimbal pitch limits, radians.
+    pub pitch_limits: (f64, f64),
+    /// The paper's early stop (heuristic) when true; all surrogates when false.
+    pub early_stop: bool,
+    /// Stop searching at this instant.
+    pub deadline: Option<Instant>,
+}
+
+/// Camera frame around a viewing direction: image right (horizontal when
+/// possible) and image up.
+fn frame(v: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    let right = v.cross(&Vector3::z());
+    if right.norm() < 1e-9 {
+        let (e1, e2) = basis(v);
+        return (e1, e2);
+    }
+    let right = right.normalize();
+    (right, right.cross(v))
+}
+
+/// Half-cone angle beta (between a camera ray and the triplet axis) of an
+/// equilateral triplet with pairwise angle gamma: sin(gamma/2) = sqrt(3)/2 sin(beta).
+fn half_cone(gamma_rad: f64) -> f64 {
+    (2.0 * (0.5 * gamma_rad).sin() / 3f64.sqrt()).clamp(-1.0, 1.0).asin()
+}
+
+impl Search<'_> {
+    fn curve_near(&self, t: usize, s: &Point3<f64>) -> ConfCurve {
+        self.ful.acquired_curves[t]
+            .iter()
+            .min_by(|a, b| {
+                let da = (self.ful.cameras[a.0 as usize].center() - s).norm_squared();
+                let db = (self.ful.cameras[b.0 as usize].center() - s).norm_squared();
+                da.total_cmp(&db).then(a.0.cmp(&b.0))
+            })
+            .map_or_else(|| ConfCurve::one(&self.ful.req.bins), |x| x.1.clone())
+    }
+
+    /// g_pot(t) for surrogate position `s`: best gain over the bins of the
+    /// hypothetical equilateral triplet centred at `s` facing t, with the
+    /// bin-centre angle at t. The cameras look straight at t, where the
+    /// information of each is `(f/D)^2 (I - u u^T) / sigma^2`; for the
+    /// symmetric triplet the smallest eigenvalue of the sum is closed-form.
+    pub fn potential_gain(&self, s: &Point3<f64>, t: usize) -> f64 {
+        let ful = self.ful;
+        let tri = &ful.tris[t];
+        if ful.observers[t].len() + 3 < ful.min_cameras {
+            return 0.0;
+        }
+        let to = s - tri.centroid;
+        let d = to.norm();
+        if !(d > 0.0) {
+            return 0.0;
+        }
+        let w = to / d;
+        let (e1, e2) = frame(&-w);
+        let curve = self.curve_near(t, s);
+        let req = &ful.req;
+        let f = self.intrinsics.focal();
+        let f_t = ful.f(t);
+        let mut best = 0.0f64;
+        for bin in 0..req.bins.len() {
+            let gamma = f64::from(req.bins.centre(bin));
+            let beta = half_cone(gamma.to_radians());
+            let (sb, cb) = beta.sin_cos();
+            let d2 = d * d / (cb * cb);
+            let k = f * f / (d2 * ful.sigma_px * ful.sigma_px);
+            let lmin = (3.0 * k * sb * sb).min(k * (3.0 - 1.5 * sb * sb));
+            let r_min = AZIMUTHS_DEG
+                .iter()
+                .map(|a| {
+                    let (sa, ca) = a.to_radians().sin_cos();
+                    let u = w * cb + (e1 * ca + e2 * sa) * sb;
+                    (f * f * tri.normal.dot(&u) / d2).max(0.0)
+                })
+                .fold(f64::INFINITY, f64::min);
+            let q = req.alpha * req.f_res(r_min) + (1.0 - req.alpha) * req.f_unc_bound(lmin);
+            best = best.max(q * curve.at(&req.bins, gamma) - f_t);
+        }
+        best.max(0.0)
+    }
+
+    /// g(c3) = sum over T seen by all three cameras of max(f(t, c3) - f(t), 0).
+    pub fn gain(&self, cams: &[Camera; 3]) -> f64 {
+        let vis: Vec<Vec<bool>> = cams
+            .iter()
+            .map(|c| self.caster.visible_faces(c, self.selected_mesh))
+            .collect();
+        let ful = self.ful;
+        let mut g = 0.0;
+        for (i, &t) in self.selected.iter().enumerate() {
+            if !(vis[0][i] && vis[1][i] && vis[2][i]) || ful.observers[t].len() + 3 < ful.min_cameras {
+                continue;
+            }
+            let tri = &ful.tris[t];
+            let terms = cams.map(|c| CamTerm::new(&c, &tri.centroid, &tri.normal, ful.sigma_px));
+            let (q, angle) = ful.req.score(&terms[0], &terms[1], &terms[2]);
+            let f = q * ful.curve[t].at(&ful.req.bins, angle);
+            g += (f - ful.f(t)).max(0.0);
+        }
+        g
+    }
+
+    /// Weighted mean shift with a flat kernel of angular `radius` over unit
+    /// rays; returns the mode whose converged rays carry the largest weight.
+    pub fn orient(rays: &[(Vector3<f64>, f64)], radius: f64) -> Option<Vector3<f64>> {
+        let cos_r = radius.cos();
+        let merge = (radius / 8.0).cos();
+        let mut modes: Vec<(Vector3<f64>, f64)> = Vec::new();
+        for &(start, weight) in rays.iter().filter(|r| r.1 > 0.0) {
+            let mut m = start;
+            for _ in 0..100 {
+                let sum: Vector3<f64> = rays
+                    .iter()
+                    .filter(|(r, _)| r.dot(&m) >= cos_r)
+                    .map(|(r, w)| r * *w)
+                    .sum();
+                let Some(next) = sum.try_normalize(1e-12) else {
+                    break;
+                };
+                let moved = (next - m).norm();
+                m = next;
+                if moved < 1e-9 {
+                    break;
+                }
+            }
+            match modes.iter_mut().find(|(c, _)| c.dot(&m) >= merge) {
+                Some(mode) => mode.1 += weight,
+                None => modes.push((m, weight)),
+            }
+        }
+        modes
+            .into_iter()
+            .fold(None, |best: Option<(Vector3<f64>, f64)>, m| match best {
+                Some(b) if b.1 >= m.1 => Some(b),
+                _ => Some(m),
+            })
+            .map(|m| m.0)
+    }
+
+    /// Orients surrogate `s`, builds its b triplets and returns the best safe one.
+    fn visit(&self, s: usize, gpot: &[f64]) -> Option<Candidate> {
+        let pos = self.surrogates[s];
+        let links = &self.links[s];
+        let rays: Vec<(Vector3<f64>, f64)> = links
+            .iter()
+            .zip(gpot)
+            .map(|(&ti, &g)| {
+                let t = self.selected[ti as usize];
+                ((self.ful.tris[t].centroid - pos).normalize(), g)
+            })
+            .collect();
+        let (hfov, vfov) = self.intrinsics.fov();
+        let v = Self::orient(&rays, 0.5 * hfov.min(vfov))?;
+        let look = Camera::from_yaw_pitch(self.intrinsics, pos, v.y.atan2(v.x), v.z.clamp(-1.0, 1.0).asin());
+        // Re-link with the real frustum; recompute the focus distance.
+        let (mut gsum, mut dsum) = (0.0, 0.0);
+        for (&ti, &g) in links.iter().zip(gpot) {
+            let c = self.ful.tris[self.selected[ti as usize]].centroid;
+            if g > 0.0 && look.in_frustum(&c) {
+                gsum += g;
+                dsum += g * (c - pos).norm();
+            }
+        }
+        if !(gsum > 0.0) {
+            return None;
+        }
+        let focus = pos + v * (dsum / gsum);
+        let (right, up) = frame(&v);
+        let bins = &self.ful.req.bins;
+        let mut best: Option<Candidate> = None;
+        for bin in 0..bins.len() {
+            let gamma = f64::from(bins.centre(bin));
+            let radius = (dsum / gsum) * half_cone(gamma.to_radians()).tan();
+            let mut cams = Vec::with_capacity(3);
+            for a in AZIMUTHS_DEG {
+                let (sa, ca) = a.to_radians().sin_cos();
+                let c = pos + (right * ca + up * sa) * radius;
+                let dir = focus - c;
+                let pitch = (dir.z / dir.norm()).clamp(-1.0, 1.0).asin();
+                if pitch < self.pitch_limits.0 || pitch > self.pitch_limits.1 || !self.safety.point_ok(&c) {
+                    break;
+                }
+                cams.push(Camera::from_yaw_pitch(self.intrinsics, c, dir.y.atan2(dir.x), pitch));
+            }
+            let Ok(cams) = <[Camera; 3]>::try_from(cams) else {
+                continue;
+            };
+            let gain = self.gain(&cams);
+            if gain > 0.0 && best.as_ref().is_none_or(|b| gain > b.gain) {
+                best = Some(Candidate {
+                    cameras: cams,
+                    gain,
+                    bin,
+                    angle_deg: gamma,
+                    surrogate: s,
+                });
+            }
+        }
+        best
+    }
+
+    /// Potential gains per surrogate (aligned with `links`).
+    pub fn potential_gains(&self) -> Vec<Vec<f64>> {
+        self.surrogates
+            .par_iter()
+            .zip(self.links)
+            .map(|(s, links)| {
+                links
+                    .iter()
+                    .map(|&ti| self.potential_gain(s, self.selected[ti as usize]))
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// Visits surrogates by decreasing summed potential gain; with
+    /// `early_stop`, stops when that sum is below the best gain found.
+    pub fn run(&self) -> Outcome {
+        let gpot = self.potential_gains();
+        let sums: Vec<f64> = gpot.iter().map(|g| g.iter().sum()).collect();
+        let mut order: Vec<usize> = (0..sums.len()).filter(|&s| sums[s] > 0.0).collect();
+        order.sort_by(|&a, &b| sums[b].total_cmp(&sums[a]).then(a.cmp(&b)));
+        let mut out = Outcome::default();
+        'chunks: for chunk in order.chunks(CHUNK) {
+            if self.deadline.is_some_and(|d| Instant::now() >= d) {
+                out.timed_out = true;
+                break;
+            }
+            let results: Vec<Option<Candidate>> =
+                chunk.par_iter().map(|&s| self.visit(s, &gpot[s])).collect();
+            for (&s, cand) in chunk.iter().zip(results) {
+                let best_gain = out.best.as_ref().map_or(0.0, |b| b.gain);
+                if self.early_stop && out.best.is_some() && sums[s] < best_gain {
+                    break 'chunks;
+                }
+                out.visited += 1;
+                if let Some(c) = cand {
+                    if c.gain > best_gain {
+                        out.best = Some(c);
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn half_cone_gives_the_bin_angle() {
+        for gamma in [2.5f64, 22.5, 42.5] {
+            let beta = half_cone(gamma.to_radians());
+            let w = Vector3::z();
+            let (e1, e2) = frame(&-w);
+            let u: Vec<Vector3<f64>> = AZIMUTHS_DEG
+                .iter()
+                .map(|a| {
+                    let (sa, ca) = a.to_radians().sin_cos();
+                    w * beta.cos() + (e1 * ca + e2 * sa) * beta.sin()
+                })
+                .collect();
+            let got = crate::quality::triplet_angle_deg(&u[0], &u[1], &u[2]);
+            assert!((got - gamma).abs() < 1e-9, "{got} vs {gamma}");
+        }
+    }
+
+    #[test]
+    fn mean_shift_picks_the_heavier_cluster() {
+        let dir = |x: f64, y: f64| Vector3::new(x, y, -1.0).normalize();
+        let rays = vec![
+            (dir(0.0, 0.0), 1.0),
+            (dir(0.05, 0.0), 1.0),
+            (dir(2.0, 0.0), 1.5),
+            (dir(2.05, 0.02), 1.5),
+        ];
+        let m = Search::orient(&rays, 0.2).unwrap();
+        assert!(m.dot(&dir(2.02, 0.01)) > 0.999, "{m:?}");
+    }
+}

@@ -1,0 +1,159 @@
+//! The safety invariant: no waypoint and no path segment closer to the mesh
+//! than the safety distance; geofence and altitude limits hold.
+
+mod common;
+
+use common::{initial_views, site, test_config};
+use nalgebra::{Point2, Point3};
+use proptest::prelude::*;
+use vp_planner::flight_path::PathContext;
+use vp_planner::{safety_for, PlanInputs, PlannerConfig, PlannerError, RoiSpec};
+use vp_scene::clearance::Clearance;
+use vp_scene::mesh_ops::{point_in_polygon, Roi};
+use vp_scene::plan::{AltitudeLimits, Plan, PlannedView, Role};
+use vp_scene::procedural::shapes;
+use vp_scene::raycast::RayCaster;
+
+/// Exact distances (parry), not the bounded checks the planner uses.
+fn assert_safe(plan: &Plan, mesh: &vp_scene::Mesh, cfg: &PlannerConfig) {
+    let c = Clearance::new(mesh);
+    let d = cfg.safety_distance_m;
+    let lim = plan.altitude_limits.unwrap();
+    for (i, w) in plan.waypoints.iter().enumerate() {
+        let p = Point3::from(w.position);
+        assert!(c.distance(&p) >= d, "waypoint {i} at {p:?}: {} m", c.distance(&p));
+        assert!(p.z >= lim.min_m && p.z <= lim.max_m, "waypoint {i} altitude {}", p.z);
+        if let Some(g) = &plan.geofence {
+            assert!(point_in_polygon(&Point2::new(p.x, p.y), g), "waypoint {i} outside the geofence");
+        }
+    }
+    for (i, s) in plan.waypoints.windows(2).enumerate() {
+        let (a, b) = (Point3::from(s[0].position), Point3::from(s[1].position));
+        let dist = c.segment_distance(&a, &b);
+        assert!(dist >= d, "segment {i}: {dist} m");
+    }
+}
+
+fn run_case(seed: u64, roi_centre: (f64, f64), roi_half: f64, safety: f64, fence_half: f64, ceiling: f64) {
+    let s = site(seed, 20_000);
+    let cfg = PlannerConfig {
+        seed,
+        safety_distance_m: safety,
+        geofence: Some(vec![
+            [-fence_half, -fence_half],
+            [fence_half, -fence_half],
+            [fence_half, fence_half],
+            [-fence_half, fence_half],
+        ]),
+        altitude_limits: Some(AltitudeLimits {
+            min_m: s.flight_volume.min.z,
+            max_m: ceiling,
+        }),
+        n_surrogates: 400,
+        n_triangles: 200,
+        n_selected: 40,
+        ..test_config(&s)
+    };
+    let roi = Roi::Box {
+        min: [roi_centre.0 - roi_half, roi_centre.1 - roi_half, -100.0],
+        max: [roi_centre.0 + roi_half, roi_centre.1 + roi_half, 100.0],
+    };
+    let acquired = initial_views(&s);
+    match vp_planner::plan(&PlanInputs {
+        mesh: &s.mesh,
+        acquired: &acquired,
+        roi: RoiSpec::Region(roi),
+        config: &cfg,
+        origin: None,
+    }) {
+        Ok(r) => assert_safe(&r.plan, &s.mesh, &cfg),
+        // Refusing is safe; bad inputs (e.g. no free space under a low ceiling) too.
+        Err(e @ (PlannerError::Refused(_) | PlannerError::Input(_))) => eprintln!("ERR {e}"),
+        Err(e) => panic!("unexpected error {e}"),
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(16))]
+    #[test]
+    fn planned_paths_keep_the_safety_distance(
+        seed in 0u64..1000,
+        cx in -15.0f64..15.0,
+        cy in -15.0f64..15.0,
+        half in 3.0f64..12.0,
+        safety in 2.0f64..8.0,
+        fence in 18.0f64..30.0,
+        ceiling in 30.0f64..60.0,
+    ) {
+        run_case(seed, (cx, cy), half, safety, fence, ceiling);
+    }
+}
+
+/// The long run of the same property (`cargo test -- --ignored`).
+#[test]
+#[ignore = "long: 200 random sites"]
+fn planned_paths_keep_the_safety_distance_long() {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    for _ in 0..200 {
+        run_case(
+            rng.random_range(0..100_000),
+            (rng.random_range(-15.0..15.0), rng.random_range(-15.0..15.0)),
+            rng.random_range(3.0..12.0),
+            rng.random_range(2.0..8.0),
+            rng.random_range(18.0..30.0),
+            rng.random_range(30.0..60.0),
+        );
+    }
+}
+
+fn wall_scene() -> (vp_scene::Mesh, PlannerConfig) {
+    let mut mesh = shapes::plane(100.0, 100.0, 10, 10);
+    mesh.append(&shapes::box_mesh(Point3::new(-1.0, -50.0, 0.0), Point3::new(1.0, 50.0, 20.0)));
+    let cfg = PlannerConfig {
+        flight_volume: Some([[-50.0, -50.0, 0.0], [50.0, 50.0, 60.0]]),
+        ..PlannerConfig::default()
+    };
+    (mesh, cfg)
+}
+
+fn view(x: f64, z: f64) -> PlannedView {
+    PlannedView {
+        position: [x, 0.0, z],
+        yaw_deg: 0.0,
+        pitch_deg: -90.0,
+        roll_deg: 0.0,
+        role: Role::TripletMember,
+        triplet_id: Some(0),
+        expected_gain: None,
+        angle_bin_deg: None,
+    }
+}
+
+#[test]
+fn blocked_segment_climbs_over_the_wall() {
+    let (mesh, cfg) = wall_scene();
+    let caster = RayCaster::new(&mesh);
+    let safety = safety_for(&mesh, &cfg);
+    let ctx = PathContext { mesh: &mesh, caster: &caster, safety: &safety, intrinsics: cfg.camera.intrinsics(), min_overlap: 0.5 };
+    let out = ctx.make_safe(vec![view(-20.0, 10.0), view(20.0, 10.0)]).unwrap();
+    assert_eq!(out.len(), 4, "climb and descend waypoints inserted");
+    assert!(out[1].position[2] >= 25.0 && out[1].role == Role::Bridge);
+    let mut plan = Plan::new(None);
+    plan.waypoints = out;
+    plan.altitude_limits = Some(safety.altitude);
+    assert_safe(&plan, &mesh, &cfg);
+}
+
+#[test]
+fn blocked_segment_under_a_low_ceiling_refuses_the_plan_naming_it() {
+    let (mesh, mut cfg) = wall_scene();
+    cfg.altitude_limits = Some(AltitudeLimits { min_m: 0.0, max_m: 22.0 });
+    let caster = RayCaster::new(&mesh);
+    let safety = safety_for(&mesh, &cfg);
+    let ctx = PathContext { mesh: &mesh, caster: &caster, safety: &safety, intrinsics: cfg.camera.intrinsics(), min_overlap: 0.5 };
+    let e = ctx.make_safe(vec![view(-30.0, 10.0), view(-20.0, 10.0), view(20.0, 10.0)]).unwrap_err();
+    let msg = e.to_string();
+    assert!(matches!(e, PlannerError::Refused(_)), "{msg}");
+    assert!(msg.contains("segment 1 -> 2") && msg.contains("altitude limit 22 m"), "{msg}");
+}
