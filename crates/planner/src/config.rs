@@ -255,7 +255,11 @@ impl PlannerConfig {
             return bad("alpha", self.alpha.to_string(), "must be in [0, 1]");
         }
         if !(0.0..=1.0).contains(&self.min_overlap) {
-            return bad("min_overlap", self.min_overlap.to_string(), "must be in [0, 1]");
+            return bad(
+                "min_overlap",
+                self.min_overlap.to_string(),
+                "must be in [0, 1]",
+            );
         }
         for (k, v) in [
             ("n_triangles", self.n_triangles),
@@ -347,8 +351,8 @@ mod tests {
 
     #[test]
     fn default_toml_parses_to_the_defaults() {
-        let cfg = PlannerConfig::from_toml(PlannerConfig::default_toml(), Path::new("d.toml"))
-            .unwrap();
+        let cfg =
+            PlannerConfig::from_toml(PlannerConfig::default_toml(), Path::new("d.toml")).unwrap();
         assert_eq!(cfg, PlannerConfig::default());
     }
 
@@ -361,6 +365,9 @@ mod tests {
         let err = PlannerConfig::from_toml("\nn_triangels = 5\n", Path::new("c.toml"))
             .unwrap_err()
             .to_string();
-        assert!(err.contains("line 2") && err.contains("n_triangels"), "{err}");
+        assert!(
+            err.contains("line 2") && err.contains("n_triangels"),
+            "{err}"
+        );
     }
 }

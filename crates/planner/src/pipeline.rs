@@ -7,7 +7,9 @@ use nalgebra::{Point3, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use vp_scene::mesh_ops::{submesh, Roi};
-use vp_scene::plan::{AltitudeLimits, GeodeticOrigin, IterationStatistics, Plan, PlannedView, Role};
+use vp_scene::plan::{
+    AltitudeLimits, GeodeticOrigin, IterationStatistics, Plan, PlannedView, Role,
+};
 use vp_scene::raster::ConfidenceImage;
 use vp_scene::raycast::RayCaster;
 use vp_scene::{Aabb, Camera, Mesh};
@@ -111,7 +113,13 @@ pub fn safety_for(mesh: &Mesh, cfg: &PlannerConfig) -> Safety {
         min_m: volume.min.z,
         max_m: volume.max.z,
     });
-    Safety::new(mesh, cfg.safety_distance_m, volume, cfg.geofence.clone(), altitude)
+    Safety::new(
+        mesh,
+        cfg.safety_distance_m,
+        volume,
+        cfg.geofence.clone(),
+        altitude,
+    )
 }
 
 fn roi_faces(mesh: &Mesh, caster: &RayCaster, roi: &RoiSpec) -> Result<Vec<u32>> {
@@ -174,8 +182,11 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
         bins: cfg.angle_bins()?,
     };
     let cams: Vec<Camera> = inputs.acquired.iter().map(|a| a.camera).collect();
-    let confs: Vec<Option<&ConfidenceImage>> =
-        inputs.acquired.iter().map(|a| a.confidence.as_ref()).collect();
+    let confs: Vec<Option<&ConfidenceImage>> = inputs
+        .acquired
+        .iter()
+        .map(|a| a.confidence.as_ref())
+        .collect();
     let mut ful = Fulfillment::new(
         req,
         cfg.sigma_px,
@@ -192,7 +203,10 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
         )));
     }
     let selected = ful.select(cfg.n_selected, &mut rng);
-    let selected_mesh = submesh(&ful.tri_mesh, &selected.iter().map(|&t| t as u32).collect::<Vec<_>>());
+    let selected_mesh = submesh(
+        &ful.tri_mesh,
+        &selected.iter().map(|&t| t as u32).collect::<Vec<_>>(),
+    );
     times.insert("m1".into(), secs(tm.elapsed()));
 
     // M2.
@@ -222,7 +236,10 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
             break;
         }
         if over() {
-            cut = Some(format!("time budget of {} s spent after {it} triplets", cfg.time_budget_s.unwrap_or(0.0)));
+            cut = Some(format!(
+                "time budget of {} s spent after {it} triplets",
+                cfg.time_budget_s.unwrap_or(0.0)
+            ));
             break;
         }
         let tm = Instant::now();
@@ -278,7 +295,10 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
         }
         iterations.push(stats);
         if outcome.timed_out && it + 1 < cfg.n_triplets {
-            cut = Some(format!("time budget spent during triplet search {}", it + 1));
+            cut = Some(format!(
+                "time budget spent during triplet search {}",
+                it + 1
+            ));
             break;
         }
     }

@@ -128,7 +128,11 @@ impl ConfCurve {
     }
 
     /// Sampled at `px` of a confidence image, one value per bin centre.
-    pub fn sample(image: &vp_scene::raster::ConfidenceImage, px: (f64, f64), bins: &AngleBins) -> Self {
+    pub fn sample(
+        image: &vp_scene::raster::ConfidenceImage,
+        px: (f64, f64),
+        bins: &AngleBins,
+    ) -> Self {
         ConfCurve(
             (0..bins.len())
                 .map(|i| image.sample(px, f64::from(bins.centre(i))).clamp(0.0, 1.0))

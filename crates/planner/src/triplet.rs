@@ -92,7 +92,9 @@ fn frame(v: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
 /// Half-cone angle beta (between a camera ray and the triplet axis) of an
 /// equilateral triplet with pairwise angle gamma: sin(gamma/2) = sqrt(3)/2 sin(beta).
 fn half_cone(gamma_rad: f64) -> f64 {
-    (2.0 * (0.5 * gamma_rad).sin() / 3f64.sqrt()).clamp(-1.0, 1.0).asin()
+    (2.0 * (0.5 * gamma_rad).sin() / 3f64.sqrt())
+        .clamp(-1.0, 1.0)
+        .asin()
 }
 
 impl Search<'_> {
@@ -160,7 +162,9 @@ impl Search<'_> {
         let ful = self.ful;
         let mut g = 0.0;
         for (i, &t) in self.selected.iter().enumerate() {
-            if !(vis[0][i] && vis[1][i] && vis[2][i]) || ful.observers[t].len() + 3 < ful.min_cameras {
+            if !(vis[0][i] && vis[1][i] && vis[2][i])
+                || ful.observers[t].len() + 3 < ful.min_cameras
+            {
                 continue;
             }
             let tri = &ful.tris[t];
@@ -223,7 +227,12 @@ impl Search<'_> {
             .collect();
         let (hfov, vfov) = self.intrinsics.fov();
         let v = Self::orient(&rays, 0.5 * hfov.min(vfov))?;
-        let look = Camera::from_yaw_pitch(self.intrinsics, pos, v.y.atan2(v.x), v.z.clamp(-1.0, 1.0).asin());
+        let look = Camera::from_yaw_pitch(
+            self.intrinsics,
+            pos,
+            v.y.atan2(v.x),
+            v.z.clamp(-1.0, 1.0).asin(),
+        );
         // Re-link with the real frustum; recompute the focus distance.
         let (mut gsum, mut dsum) = (0.0, 0.0);
         for (&ti, &g) in links.iter().zip(gpot) {
@@ -249,10 +258,18 @@ impl Search<'_> {
                 let c = pos + (right * ca + up * sa) * radius;
                 let dir = focus - c;
                 let pitch = (dir.z / dir.norm()).clamp(-1.0, 1.0).asin();
-                if pitch < self.pitch_limits.0 || pitch > self.pitch_limits.1 || !self.safety.point_ok(&c) {
+                if pitch < self.pitch_limits.0
+                    || pitch > self.pitch_limits.1
+                    || !self.safety.point_ok(&c)
+                {
                     break;
                 }
-                cams.push(Camera::from_yaw_pitch(self.intrinsics, c, dir.y.atan2(dir.x), pitch));
+                cams.push(Camera::from_yaw_pitch(
+                    self.intrinsics,
+                    c,
+                    dir.y.atan2(dir.x),
+                    pitch,
+                ));
             }
             let Ok(cams) = <[Camera; 3]>::try_from(cams) else {
                 continue;

@@ -18,6 +18,7 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
     for cause in e.chain() {
         if let Some(le) = cause.downcast_ref::<vp_labelgen::LabelgenError>() {
             return if le.is_input_error() { 2 } else { 1 };
+        }
         if let Some(pe) = cause.downcast_ref::<vp_planner::PlannerError>() {
             return if pe.is_input_error() { 2 } else { 1 };
         }
