@@ -34,7 +34,7 @@ pub struct Hit {
     /// Index of the face hit.
     pub face: u32,
     /// Barycentric coordinates of the hit point with respect to the face's
-    /// three vertices (sum to 1).
+    /// three vertices (sum to 1; computed in `f32`).
     pub bary: [f64; 3],
     /// The hit point.
     pub point: Point3<f64>,
@@ -57,10 +57,12 @@ pub struct RayCaster {
     tris: Vec<RtTriangle>,
     /// Mesh face of each entry of `tris`.
     face_of: Vec<u32>,
-    /// World position of the local frame's origin.
+    /// World position of the local frame's origin (the centre of the mesh bounds).
     offset: Vector3<f64>,
-    /// World-frame triangles for exact `f64` barycentrics of hits.
-    mesh_tris: Vec<[Point3<f64>; 3]>,
+    /// Largest side of the mesh bounds (1 for an empty mesh), for ray sort keys.
+    extent: f64,
+    /// Number of faces of the mesh.
+    n_faces: usize,
 }
 
 impl RayCaster {
@@ -75,18 +77,18 @@ impl RayCaster {
         } else {
             (bounds.min.coords + bounds.max.coords) * 0.5
         };
-        let mesh_tris: Vec<[Point3<f64>; 3]> =
-            (0..mesh.n_faces()).map(|f| mesh.triangle(f)).collect();
         let local = |p: &Point3<f64>| {
             let q = p.coords - offset;
             Vec3A::new(q.x as f32, q.y as f32, q.z as f32)
         };
-        let build_tris: Vec<Triangle> = mesh_tris
-            .iter()
-            .map(|[a, b, c]| Triangle {
-                v0: local(a),
-                v1: local(b),
-                v2: local(c),
+        let build_tris: Vec<Triangle> = (0..mesh.n_faces())
+            .map(|f| {
+                let [a, b, c] = mesh.triangle(f);
+                Triangle {
+                    v0: local(&a),
+                    v1: local(&b),
+                    v2: local(&c),
+                }
             })
             .collect();
         let bvh = build_cwbvh_from_tris(
@@ -102,25 +104,30 @@ impl RayCaster {
             .map(|&i| RtTriangle::from(&build_tris[i as usize]))
             .collect();
         let face_of = bvh.primitive_indices.clone();
+        let extent = bounds.extent().max();
         RayCaster {
             bvh,
             tris,
             face_of,
             offset,
-            mesh_tris,
+            extent: if extent > 0.0 { extent } else { 1.0 },
+            n_faces: mesh.n_faces(),
         }
     }
 
     /// Number of faces of the mesh.
     pub fn n_faces(&self) -> usize {
-        self.mesh_tris.len()
+        self.n_faces
     }
 
     fn local_ray(&self, origin: &Point3<f64>, dir: &Vector3<f64>, t_max: f64) -> Ray {
         let o = origin.coords - self.offset;
         Ray::new(
             Vec3A::new(o.x as f32, o.y as f32, o.z as f32),
-            Vec3A::new(dir.x as f32, dir.y as f32, dir.z as f32),
+            // `+ 0.0` turns a negative zero into a positive one: obvhs picks
+            // slab planes by the sign bits, and -0.0 made axis-aligned rays
+            // miss flat geometry.
+            Vec3A::new(dir.x as f32 + 0.0, dir.y as f32 + 0.0, dir.z as f32 + 0.0),
             0.0,
             t_max as f32,
         )
@@ -138,14 +145,17 @@ impl RayCaster {
         {
             return None;
         }
-        let face = self.face_of[hit.primitive_id as usize];
+        let prim = hit.primitive_id as usize;
         let t = f64::from(hit.t);
-        let point = origin + dir * t;
+        // Barycentrics from the leaf-ordered triangle, which the traversal
+        // just read (in cache); the world-frame triangle would cost a miss.
+        let uv = self.tris[prim].compute_barycentric(&ray);
+        let (u, v) = (f64::from(uv.x), f64::from(uv.y));
         Some(Hit {
             t,
-            face,
-            bary: barycentric(&self.mesh_tris[face as usize], &point),
-            point,
+            face: self.face_of[prim],
+            bary: [1.0 - u - v, u, v],
+            point: origin + dir * t,
         })
     }
 
@@ -165,24 +175,77 @@ impl RayCaster {
 
     /// [`RayCaster::closest_hit`] for many rays, in parallel. Each ray is
     /// `(origin, unit direction)`.
+    ///
+    /// # Performance
+    /// Large batches are traced in a coherent order (rays sorted by direction
+    /// bin, then by the Morton code of their origin) so that consecutive rays
+    /// visit the same BVH nodes and triangles while they are in cache; the
+    /// results come back in input order.
     pub fn closest_hits(
         &self,
         rays: &[(Point3<f64>, Vector3<f64>)],
         t_max: f64,
     ) -> Vec<Option<Hit>> {
-        rays.par_iter()
-            .with_min_len(256)
-            .map(|(o, d)| self.closest_hit(o, d, t_max))
-            .collect()
+        self.trace_coherent(
+            rays,
+            |(o, d)| (*o, *d),
+            |(o, d)| self.closest_hit(o, d, t_max),
+        )
     }
 
-    /// [`RayCaster::occluded`] for many segments, in parallel.
+    /// [`RayCaster::occluded`] for many segments, in parallel (coherent order
+    /// as in [`RayCaster::closest_hits`]).
     pub fn occluded_batch(&self, segments: &[(Point3<f64>, Point3<f64>)]) -> Vec<bool> {
-        segments
+        self.trace_coherent(segments, |(a, b)| (*a, b - a), |(a, b)| self.occluded(a, b))
+    }
+
+    /// Runs `query` on every item in parallel, in the coherent order of the
+    /// rays `ray_of` gives, and returns the answers in input order.
+    fn trace_coherent<I: Sync, R: Send + Copy + Default>(
+        &self,
+        items: &[I],
+        ray_of: impl Fn(&I) -> (Point3<f64>, Vector3<f64>) + Sync,
+        query: impl Fn(&I) -> R + Sync,
+    ) -> Vec<R> {
+        if items.len() < COHERENT_BATCH {
+            return items.par_iter().with_min_len(256).map(&query).collect();
+        }
+        let mut order: Vec<(u64, u32)> = items
             .par_iter()
-            .with_min_len(256)
-            .map(|(a, b)| self.occluded(a, b))
-            .collect()
+            .enumerate()
+            .map(|(i, item)| {
+                let (o, d) = ray_of(item);
+                (self.coherence_key(&o, &d), i as u32)
+            })
+            .collect();
+        order.par_sort_unstable();
+        let answers: Vec<R> = order
+            .par_iter()
+            .with_min_len(1024)
+            .map(|&(_, i)| query(&items[i as usize]))
+            .collect();
+        let mut out = vec![R::default(); items.len()];
+        for (&(_, i), a) in order.iter().zip(answers) {
+            out[i as usize] = a;
+        }
+        out
+    }
+
+    /// Sort key for ray coherence: 6 bits of direction (4 bins per axis) above
+    /// 30 bits of origin Morton code (10 bits per axis over the mesh bounds,
+    /// padded by their size on every side). Only the direction matters for
+    /// length: a segment's unnormalised direction bins the same.
+    fn coherence_key(&self, o: &Point3<f64>, d: &Vector3<f64>) -> u64 {
+        let bin = |v: f64, n: f64| (v.clamp(0.0, 0.999_999) * n) as u64;
+        let d = d.try_normalize(0.0).unwrap_or_else(Vector3::z);
+        let dir = spread_bits(bin(0.5 + 0.5 * d.x, 4.0))
+            | spread_bits(bin(0.5 + 0.5 * d.y, 4.0)) << 1
+            | spread_bits(bin(0.5 + 0.5 * d.z, 4.0)) << 2;
+        let rel = |i: usize| (o[i] - self.offset[i] + 1.5 * self.extent) / (3.0 * self.extent);
+        let morton = spread_bits(bin(rel(0), 1024.0))
+            | spread_bits(bin(rel(1), 1024.0)) << 1
+            | spread_bits(bin(rel(2), 1024.0)) << 2;
+        dir << 30 | morton
     }
 
     /// For each point: inside the camera's image, in front of it, and not
@@ -244,19 +307,16 @@ impl RayCaster {
     }
 }
 
-/// Barycentric coordinates of `p` (assumed on the triangle's plane).
-fn barycentric(tri: &[Point3<f64>; 3], p: &Point3<f64>) -> [f64; 3] {
-    let [a, b, c] = tri;
-    let (v0, v1, v2) = (b - a, c - a, p - a);
-    let (d00, d01, d11) = (v0.dot(&v0), v0.dot(&v1), v1.dot(&v1));
-    let (d20, d21) = (v2.dot(&v0), v2.dot(&v1));
-    let denom = d00 * d11 - d01 * d01;
-    if denom == 0.0 {
-        return [1.0, 0.0, 0.0];
-    }
-    let v = (d11 * d20 - d01 * d21) / denom;
-    let w = (d00 * d21 - d01 * d20) / denom;
-    [1.0 - v - w, v, w]
+/// Batches at least this large are traced in coherent order.
+const COHERENT_BATCH: usize = 16_384;
+
+/// Spreads the low 10 bits of `x` to every third bit (Morton interleave).
+fn spread_bits(x: u64) -> u64 {
+    let mut x = x & 0x3ff;
+    x = (x | x << 16) & 0x0300_00ff;
+    x = (x | x << 8) & 0x0300_f00f;
+    x = (x | x << 4) & 0x030c_30c3;
+    (x | x << 2) & 0x0924_9249
 }
 
 #[cfg(test)]

@@ -103,6 +103,10 @@ proptest! {
                     }
                     let sum: f64 = hit.bary.iter().sum();
                     prop_assert!((sum - 1.0).abs() < 1e-9 && hit.bary.iter().all(|&b| b > -1e-3));
+                    // The barycentrics weight the face's own vertices, in order.
+                    let [a, b, c] = mesh.triangle(hit.face as usize);
+                    let p = Point3::from(a.coords * hit.bary[0] + b.coords * hit.bary[1] + c.coords * hit.bary[2]);
+                    prop_assert!((p - hit.point).norm() < 1e-3, "{p} vs {}", hit.point);
                 }
                 None => {
                     // A miss by brute force may be a graze the f32 BVH hits; it
@@ -125,7 +129,9 @@ fn batch_results_equal_single_queries() {
     let mesh = random_soup(7, 2000);
     let caster = RayCaster::new(&mesh);
     let mut rng = ChaCha8Rng::seed_from_u64(3);
-    let rays: Vec<_> = (0..5000).map(|_| random_ray(&mut rng)).collect();
+    let rays: Vec<_> = (0..2 * COHERENT_BATCH)
+        .map(|_| random_ray(&mut rng))
+        .collect();
     let batch = caster.closest_hits(&rays, f64::INFINITY);
     for (r, b) in rays.iter().zip(&batch) {
         assert_eq!(*b, caster.closest_hit(&r.0, &r.1, f64::INFINITY));
@@ -233,3 +239,16 @@ fn empty_mesh_never_hits() {
         .is_none());
     assert!(!caster.occluded(&Point3::origin(), &Point3::new(0.0, 0.0, 5.0)));
 }
+
+/// Regression: a direction with a negative zero component (as `-Vector3::z()`
+/// has) made obvhs miss flat geometry.
+#[test]
+fn axis_aligned_rays_hit_a_plane() {
+    let plane = crate::procedural::plane(10.0, 10.0, 4, 4);
+    let caster = RayCaster::new(&plane);
+    for (x, y) in [(0.3, 0.2), (-2.1, 3.7), (1.0, 1.0)] {
+        let hit = caster.closest_hit(&Point3::new(x, y, 10.0), &-Vector3::z(), f64::INFINITY);
+        assert!(hit.is_some_and(|h| (h.t - 10.0).abs() < 1e-5), "({x}, {y}): {hit:?}");
+    }
+}
+
