@@ -67,7 +67,7 @@ fn prediction_forest() -> (Forest, &'static str) {
     let tier = if paper { "paper" } else { "fast" };
     let seed = 20;
     let path: PathBuf =
-        std::env::temp_dir().join(format!("vp-forest-bench-v1-{tier}-{seed}.vpforest"));
+        std::env::temp_dir().join(format!("vp-forest-bench-v2-{tier}-{seed}.vpforest"));
     if let Ok(f) = Forest::load(&path) {
         return (f, tier);
     }
