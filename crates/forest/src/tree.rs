@@ -275,6 +275,60 @@ mod tests {
         assert!((out[2] - (2.0 * p) / 6.0).abs() < 1e-6);
     }
 
+    /// Re-laying a tree out in blocks changes where nodes live, not where samples go.
+    #[test]
+    fn blocked_layout_keeps_every_decision() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+        // A random, unbalanced tree grown depth-first (children appended in pairs).
+        let mut nodes = vec![Node {
+            test: test(),
+            threshold: 0,
+            child: 0,
+            is_leaf: true,
+        }];
+        let mut open = vec![(0usize, 0u32)];
+        let mut leaves = 0;
+        while let Some((i, depth)) = open.pop() {
+            if depth < 14 && rng.random_bool(0.8) {
+                let c = nodes.len();
+                let t = SplitTest::random(&mut rng);
+                nodes[i] = Node {
+                    test: t,
+                    threshold: rng.random_range(0..300),
+                    child: c as u32,
+                    is_leaf: false,
+                };
+                nodes.push(nodes[0]);
+                nodes.push(nodes[0]);
+                open.push((c + 1, depth + 1));
+                open.push((c, depth + 1));
+            } else {
+                nodes[i] = Node {
+                    test: test(),
+                    threshold: 0,
+                    child: leaves,
+                    is_leaf: true,
+                };
+                leaves += 1;
+            }
+        }
+        let counts = vec![1; leaves as usize * 4];
+        let plain = Tree::from_parts(nodes.clone(), counts.clone(), 1, [1.0, 1.0], 1.0).unwrap();
+        let blocked = Tree::from_parts(blocked_layout(&nodes), counts, 1, [1.0, 1.0], 1.0).unwrap();
+        assert!(nodes.len() > 500, "{} nodes", nodes.len());
+        let img = vp_scene::raster::RgbImage::from_fn(40, 40, |_, _| {
+            image::Rgb([rng.random(), rng.random(), rng.random()])
+        });
+        let planes = LabPlanes::from_rgb(&img);
+        for y in 0..40 {
+            for x in 0..40 {
+                let base = planes.base(x, y);
+                assert_eq!(plain.leaf_of(&planes, base), blocked.leaf_of(&planes, base));
+            }
+        }
+    }
+
     #[test]
     fn inconsistent_trees_are_rejected() {
         let leaf = |i| Node {
