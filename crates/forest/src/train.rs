@@ -258,6 +258,7 @@ fn grow_tree(
             }
         }
     }
+    let nodes = crate::tree::blocked_layout(&nodes);
     let tree =
         Tree::from_parts(nodes, counts, n_bins, weights, params.pseudo_count).map_err(|e| {
             ForestError::InvalidInput(format!("internal: grown tree inconsistent: {e}"))
