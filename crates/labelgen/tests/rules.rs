@@ -102,3 +102,33 @@ proptest! {
         prop_assert_eq!(label_bytes(&shuffled), expected);
     }
 }
+
+#[test]
+fn bad_in_memory_input_is_refused_with_the_place() {
+    let w = world();
+    let mut a = rec(&w, "a", ["a0", "a1", "a2"], 0.0, 0.0, 0.0);
+    let params = LabelParams::default();
+    let dup = generate_labels(&[a.clone(), a.clone()], None, &params)
+        .unwrap_err()
+        .to_string();
+    assert!(dup.contains("id a given twice"), "{dup}");
+    a.views[1].depth.data[64 * 3 + 2] = f32::NAN;
+    let nan = generate_labels(&[a], None, &params)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        nan.contains("image a1") && nan.contains("pixel (2, 3)"),
+        "{nan}"
+    );
+    let bad = LabelParams {
+        k_sigma: -1.0,
+        ..LabelParams::default()
+    };
+    assert!(generate_labels(&[], None, &bad).is_err());
+    // Defaults as DESIGN.md states them.
+    let d = LabelParams::default();
+    assert_eq!(
+        (d.alpha_min_deg, d.s_min, d.sigma_px, d.mesh_iterations),
+        (10.0, 1.5, 1.0, 3)
+    );
+}
