@@ -75,9 +75,15 @@ fn a_reference_from_the_same_viewpoint_does_not_support() {
     assert_eq!(max_support(&maps, "a"), 0);
 }
 
-fn label_bytes(recs: &[TripletReconstruction]) -> Vec<(String, Vec<Vec<u8>>)> {
-    generate_labels(recs, None, &LabelParams::default())
-        .unwrap()
+/// Label files' bytes per reconstruction, and the number of labelled pixels.
+fn label_bytes(recs: &[TripletReconstruction]) -> (Vec<(String, Vec<Vec<u8>>)>, usize) {
+    let labels = generate_labels(recs, None, &LabelParams::default()).unwrap();
+    let labelled = labels
+        .iter()
+        .flat_map(|l| l.counts)
+        .map(|c| c.positive + c.negative_voted)
+        .sum();
+    let bytes = labels
         .into_iter()
         .map(|l| {
             (
@@ -88,7 +94,8 @@ fn label_bytes(recs: &[TripletReconstruction]) -> Vec<(String, Vec<Vec<u8>>)> {
                     .collect(),
             )
         })
-        .collect()
+        .collect();
+    (bytes, labelled)
 }
 
 proptest! {
@@ -98,6 +105,7 @@ proptest! {
         let w = world();
         let (recs, _) = scene(&w, 6, 1, 48, Errors::default());
         let expected = label_bytes(&recs);
+        prop_assert!(expected.1 > 1000, "only {} pixels labelled", expected.1);
         let shuffled: Vec<TripletReconstruction> = perm.iter().map(|&i| recs[i].clone()).collect();
         prop_assert_eq!(label_bytes(&shuffled), expected);
     }
