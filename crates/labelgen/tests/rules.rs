@@ -75,8 +75,11 @@ fn a_reference_from_the_same_viewpoint_does_not_support() {
     assert_eq!(max_support(&maps, "a"), 0);
 }
 
+/// Reconstruction id and the bytes of its three label files.
+type FileBytes = (String, Vec<Vec<u8>>);
+
 /// Label files' bytes per reconstruction, and the number of labelled pixels.
-fn label_bytes(recs: &[TripletReconstruction]) -> (Vec<(String, Vec<Vec<u8>>)>, usize) {
+fn label_bytes(recs: &[TripletReconstruction]) -> (Vec<FileBytes>, usize) {
     let labels = generate_labels(recs, None, &LabelParams::default()).unwrap();
     let labelled = labels
         .iter()
