@@ -15,7 +15,8 @@
 //!
 //! # Labels
 //! `<out-dir>/<triplet id>/level<L>/<image name>.vplabel` (vp-scene's label
-//! image format: label and triangulation angle per pixel), and
+//! image format: label and triangulation angle per pixel, at the depth
+//! map's size, i.e. the image at that pyramid level), and
 //! `<out-dir>/summary.json` ([`LabelSummary`]).
 
 use std::collections::HashSet;

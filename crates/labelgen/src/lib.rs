@@ -65,8 +65,10 @@ pub struct ReconLabels {
 /// # Performance
 /// Per query view and reference: one z-buffer splat of the reference's
 /// measurements (O(reference pixels)) and one pass over the query pixels with
-/// three projections each; parallel over views with rayon. Memory: all
-/// depthmaps plus 10 bytes per pixel of derived data.
+/// three projections each; parallel over views with rayon. Time grows with
+/// the number of overlapping references per triplet. Memory: every depthmap
+/// is held (4 bytes per pixel) plus 10 bytes per pixel of derived data
+/// (uncertainty, angle, support); depthmaps are not streamed from disk.
 pub fn generate_labels(
     recs: &[TripletReconstruction],
     meshes: Option<&MissingPartMeshes>,

@@ -281,22 +281,34 @@ where
     let fq = k.focal();
     for v in 0..3 {
         let view = &reference.rec.views[v];
-        let fr = view.camera.intrinsics.focal();
-        for idx in 0..view.depth.data.len() {
-            let Some(p) = reference.point(v, idx) else {
+        let kr = view.camera.intrinsics;
+        let fr = kr.focal();
+        // One rigid transform from the reference camera to the query camera,
+        // applied to the back-projected pixel: no world point in between.
+        let query_from_ref = cam_from_world * view.camera.world_from_cam;
+        let rw = kr.width as usize;
+        let sigma = &reference.data[v].sigma;
+        for (idx, &d) in view.depth.data.iter().enumerate() {
+            if sigma[idx] <= 0.0 {
                 continue;
-            };
+            }
             let Some(wt) = weight_of(v, idx) else {
                 continue;
             };
-            let pc = cam_from_world.transform_point(&p);
+            let d = f64::from(d);
+            let p_ref = Point3::new(
+                ((idx % rw) as f64 + 0.5 - kr.cx) / kr.fx * d,
+                ((idx / rw) as f64 + 0.5 - kr.cy) / kr.fy * d,
+                d,
+            );
+            let pc = query_from_ref.transform_point(&p_ref);
             if pc.z <= 0.0 {
                 continue;
             }
             let u = k.fx * pc.x / pc.z + k.cx;
             let vv = k.fy * pc.y / pc.z + k.cy;
             // Footprint of one reference pixel, in query pixels.
-            let footprint = f64::from(view.depth.data[idx]) / fr * fq / pc.z;
+            let footprint = d / fr * fq / pc.z;
             // Under-cover rather than over-cover: a splat spilling over a depth
             // edge would vote against the surface behind it.
             let r = ((0.5 * (footprint - 1.0)).floor() as i64).clamp(0, i64::from(max_radius));

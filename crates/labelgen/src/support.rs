@@ -54,12 +54,18 @@ pub(crate) fn view_support(
         let zb = splat(cam, rp, params.max_splat_radius, |_, _| Some(1.0));
         for idx in 0..n {
             let Some((dz, _)) = zb.get(idx) else { continue };
-            let Some(p) = qp.point(v, idx) else { continue };
-            let dq = f64::from(depth.data[idx]);
-            let along = (f64::from(dz) - dq).abs() * ray_scale(cam, idx % w, idx / w);
-            if along > params.k_sigma * f64::from(qp.data[v].sigma[idx]) {
+            let sigma = f64::from(qp.data[v].sigma[idx]);
+            if sigma <= 0.0 {
                 continue;
             }
+            let dq = f64::from(depth.data[idx]);
+            let along = (f64::from(dz) - dq).abs() * ray_scale(cam, idx % w, idx / w);
+            if along > params.k_sigma * sigma {
+                continue;
+            }
+            let Some(p) = qp.point(v, idx) else {
+                continue;
+            };
             let query = Viewpoint {
                 dir: (qp.mean_centre - p).normalize(),
                 res: qp.resolution_at(&p),

@@ -75,9 +75,18 @@ fn a_reference_from_the_same_viewpoint_does_not_support() {
     assert_eq!(max_support(&maps, "a"), 0);
 }
 
-fn label_bytes(recs: &[TripletReconstruction]) -> Vec<(String, Vec<Vec<u8>>)> {
-    generate_labels(recs, None, &LabelParams::default())
-        .unwrap()
+/// Reconstruction id and the bytes of its three label files.
+type FileBytes = (String, Vec<Vec<u8>>);
+
+/// Label files' bytes per reconstruction, and the number of labelled pixels.
+fn label_bytes(recs: &[TripletReconstruction]) -> (Vec<FileBytes>, usize) {
+    let labels = generate_labels(recs, None, &LabelParams::default()).unwrap();
+    let labelled = labels
+        .iter()
+        .flat_map(|l| l.counts)
+        .map(|c| c.positive + c.negative_voted)
+        .sum();
+    let bytes = labels
         .into_iter()
         .map(|l| {
             (
@@ -88,7 +97,8 @@ fn label_bytes(recs: &[TripletReconstruction]) -> Vec<(String, Vec<Vec<u8>>)> {
                     .collect(),
             )
         })
-        .collect()
+        .collect();
+    (bytes, labelled)
 }
 
 proptest! {
@@ -98,7 +108,38 @@ proptest! {
         let w = world();
         let (recs, _) = scene(&w, 6, 1, 48, Errors::default());
         let expected = label_bytes(&recs);
+        prop_assert!(expected.1 > 1000, "only {} pixels labelled", expected.1);
         let shuffled: Vec<TripletReconstruction> = perm.iter().map(|&i| recs[i].clone()).collect();
         prop_assert_eq!(label_bytes(&shuffled), expected);
     }
+}
+
+#[test]
+fn bad_in_memory_input_is_refused_with_the_place() {
+    let w = world();
+    let mut a = rec(&w, "a", ["a0", "a1", "a2"], 0.0, 0.0, 0.0);
+    let params = LabelParams::default();
+    let dup = generate_labels(&[a.clone(), a.clone()], None, &params)
+        .unwrap_err()
+        .to_string();
+    assert!(dup.contains("id a given twice"), "{dup}");
+    a.views[1].depth.data[64 * 3 + 2] = f32::NAN;
+    let nan = generate_labels(&[a], None, &params)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        nan.contains("image a1") && nan.contains("pixel (2, 3)"),
+        "{nan}"
+    );
+    let bad = LabelParams {
+        k_sigma: -1.0,
+        ..LabelParams::default()
+    };
+    assert!(generate_labels(&[], None, &bad).is_err());
+    // Defaults as DESIGN.md states them.
+    let d = LabelParams::default();
+    assert_eq!(
+        (d.alpha_min_deg, d.s_min, d.sigma_px, d.mesh_iterations),
+        (10.0, 1.5, 1.0, 3)
+    );
 }

@@ -1,5 +1,6 @@
 //! Time per triplet at 1 Mpx (ignored by default: run with
-//! `cargo test -p vp-labelgen --release --test timing -- --ignored --nocapture`).
+//! `cargo test -p vp-labelgen --release --test timing -- --ignored --nocapture`;
+//! `VP_TIMING_TRIPLETS=n` sets the number of triplets, default 6).
 
 mod common;
 
@@ -12,7 +13,10 @@ use vp_labelgen::{generate_labels, LabelParams, LabelSummary, MissingPartMeshes}
 #[ignore = "measurement, not a check; takes a minute"]
 fn time_per_triplet_at_one_megapixel() {
     let w = world();
-    let n = 6;
+    let n: usize = std::env::var("VP_TIMING_TRIPLETS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(6);
     let (recs, _) = scene(&w, n, 3, 1152, Errors::default());
     let params = LabelParams::default();
     let meshes = MissingPartMeshes::new(&w.mesh, params.mesh_iterations);
