@@ -38,6 +38,9 @@ enum Command {
     /// Inspect COLMAP dense depth maps.
     #[command(subcommand)]
     Depth(cmd::depth::DepthCommand),
+    /// The simulated world: render images of procedural sites.
+    #[command(subcommand)]
+    Sim(cmd::render::SimCommand),
 }
 
 fn run(args: Args, out: &mut dyn Write) -> anyhow::Result<()> {
@@ -46,6 +49,7 @@ fn run(args: Args, out: &mut dyn Write) -> anyhow::Result<()> {
         Command::Mesh(c) => cmd::mesh::run(c, out),
         Command::Colmap(c) => cmd::colmap::run(c, out),
         Command::Depth(c) => cmd::depth::run(c, out),
+        Command::Sim(c) => cmd::render::run(c, out),
     }
 }
 

@@ -33,7 +33,7 @@ fn benches(c: &mut Criterion) {
     g.sample_size(10).measurement_time(Duration::from_secs(8));
     // Baseline in the same run: the bare ray casting (depth and face ids).
     g.bench_function("1mpx_depth_only", |b| {
-        b.iter(|| caster.render_depth(black_box(&cam)))
+        b.iter(|| caster.render_depth(black_box(&cam)));
     });
     for (name, shadows) in [("1mpx_shadows", true), ("1mpx_no_shadows", false)] {
         let params = RenderParams {
