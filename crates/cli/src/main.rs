@@ -48,6 +48,9 @@ enum Command {
     Plan(cmd::plan::PlanArgs),
     /// Print configuration files (`config --defaults`).
     Config(cmd::plan::ConfigArgs),
+    /// The simulated world: render images of procedural sites.
+    #[command(subcommand)]
+    Sim(cmd::render::SimCommand),
 }
 
 fn run(args: Args, out: &mut dyn Write) -> anyhow::Result<()> {
@@ -60,6 +63,7 @@ fn run(args: Args, out: &mut dyn Write) -> anyhow::Result<()> {
         Command::Labelgen(c) => cmd::labelgen::run(c, out),
         Command::Plan(c) => cmd::plan::run(c, out),
         Command::Config(c) => cmd::plan::run_config(c, out),
+        Command::Sim(c) => cmd::render::run(c, out),
     }
 }
 

@@ -1,5 +1,7 @@
 //! Rendering and virtual MVS on the default ~200k-face procedural site.
 //!
+//! - `render/1mpx_depth_only`: `RayCaster::render_depth` of the same view,
+//!   the ray-casting floor the renderer's cost is measured against.
 //! - `render/1mpx_shadows` and `render/1mpx_no_shadows`: one 1024x1024 image
 //!   of an oblique camera 40 m from the rock (the budget: well under a
 //!   second on 2 cores).
@@ -29,6 +31,10 @@ fn benches(c: &mut Criterion) {
     let cam = camera(Point3::new(-25.0, -20.0, 25.0));
     let mut g = c.benchmark_group("render");
     g.sample_size(10).measurement_time(Duration::from_secs(8));
+    // Baseline in the same run: the bare ray casting (depth and face ids).
+    g.bench_function("1mpx_depth_only", |b| {
+        b.iter(|| caster.render_depth(black_box(&cam)));
+    });
     for (name, shadows) in [("1mpx_shadows", true), ("1mpx_no_shadows", false)] {
         let params = RenderParams {
             shadows,

@@ -134,6 +134,19 @@ pub fn render(
     let (w, h) = (k.width as usize, k.height as usize);
     let axis = camera.axis();
     let sun = params.sun_direction();
+    // One normal and material per face up front: the per-pixel lookups then
+    // touch one array each instead of the face and its three vertices.
+    let normals = mesh.face_normals();
+    let materials: Vec<Material> = (0..mesh.n_faces())
+        .map(|f| mesh.material(f).unwrap_or(Material::Ground))
+        .collect();
+    let surface = Surface {
+        caster,
+        normals: &normals,
+        materials: &materials,
+        sun,
+        params,
+    };
     let mut rgb = vec![0u8; w * h * 3];
     let mut depth = vec![0f32; w * h];
     let mut face_id = vec![u32::MAX; w * h];
@@ -150,7 +163,7 @@ pub fn render(
                 };
                 drow[x] = (hit.t * d.dot(&axis)) as f32;
                 frow[x] = hit.face;
-                let colour = shade(mesh, caster, hit.face, &hit.point, &d, &sun, params);
+                let colour = surface.shade(hit.face, &hit.point, &d);
                 crow[3 * x..3 * x + 3].copy_from_slice(&colour);
             }
         });
@@ -167,30 +180,35 @@ pub fn render(
     })
 }
 
-/// Colour of face `face` at `p`, seen along `dir`.
-fn shade(
-    mesh: &Mesh,
-    caster: &RayCaster,
-    face: u32,
-    p: &Point3<f64>,
-    dir: &Vector3<f64>,
-    sun: &Vector3<f64>,
-    params: &RenderParams,
-) -> [u8; 3] {
-    let f = face as usize;
-    let material = mesh.material(f).unwrap_or(Material::Ground);
-    let mut n = mesh.face_normal(f);
-    if n.dot(dir) > 0.0 {
-        n = -n;
+/// What shading needs of the scene, prepared once per image.
+struct Surface<'a> {
+    caster: &'a RayCaster,
+    normals: &'a [Vector3<f64>],
+    materials: &'a [Material],
+    sun: Vector3<f64>,
+    params: &'a RenderParams,
+}
+
+impl Surface<'_> {
+    /// Colour of face `face` at `p`, seen along `dir`.
+    fn shade(&self, face: u32, p: &Point3<f64>, dir: &Vector3<f64>) -> [u8; 3] {
+        let f = face as usize;
+        let mut n = self.normals[f];
+        if n.dot(dir) > 0.0 {
+            n = -n;
+        }
+        let mut direct = n.dot(&self.sun).max(0.0);
+        if direct > 0.0
+            && self.params.shadows
+            && self
+                .caster
+                .occluded(&(p + n * SHADOW_EPSILON), &(p + self.sun * 1e4))
+        {
+            direct = 0.0;
+        }
+        let ambient = self.params.ambient;
+        let light = ambient + (1.0 - ambient) * direct;
+        albedo(self.materials[f], p, self.params.texture_seed)
+            .map(|a| (f64::from(a) * light * 255.0).round().clamp(0.0, 255.0) as u8)
     }
-    let mut direct = n.dot(sun).max(0.0);
-    if direct > 0.0
-        && params.shadows
-        && caster.occluded(&(p + n * SHADOW_EPSILON), &(p + sun * 1e4))
-    {
-        direct = 0.0;
-    }
-    let light = params.ambient + (1.0 - params.ambient) * direct;
-    albedo(material, p, params.texture_seed)
-        .map(|a| (f64::from(a) * light * 255.0).round().clamp(0.0, 255.0) as u8)
 }

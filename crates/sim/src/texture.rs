@@ -50,7 +50,8 @@ fn mix(a: [f32; 3], b: [f32; 3], t: f64) -> Rgb {
 /// Smooth grey-beige stone: large soft patches, faint speckle.
 fn rock(q: [f64; 3], seed: u64) -> Rgb {
     let low = fbm(seed, q, 4.0, 3);
-    let tint = fbm(seed ^ 1, q, 9.0, 2);
+    // The large-scale tint follows the first octave's patches (no extra noise: cost).
+    let tint = low;
     // Speckle on a 1 cm lattice: a little grain, far below the grass contrast.
     let cell = q.map(|v| (v * 100.0).floor() as i64);
     let speckle = unit(hash3(seed ^ 2, cell[0], cell[1], cell[2])) - 0.5;
@@ -60,8 +61,8 @@ fn rock(q: [f64; 3], seed: u64) -> Rgb {
 
 /// Brown earth with mid-frequency mottling, darker patches and soil grain.
 fn ground(q: [f64; 3], seed: u64) -> Rgb {
-    let mid = fbm(seed, q, 0.25, 4);
-    let patches = fbm(seed ^ 1, q, 2.5, 2);
+    let mid = fbm(seed, q, 0.25, 3);
+    let patches = fbm(seed ^ 1, q, 2.5, 1);
     let cell = q.map(|v| (v * 66.0).floor() as i64);
     let grain = unit(hash3(seed ^ 2, cell[0], cell[1], cell[2])) - 0.5;
     let base = mix([0.44, 0.34, 0.22], [0.30, 0.26, 0.18], 0.5 + 0.8 * patches);
@@ -72,7 +73,7 @@ fn ground(q: [f64; 3], seed: u64) -> Rgb {
 /// between green and straw.
 fn foliage(q: [f64; 3], seed: u64, green: [f32; 3], wavelength: f64) -> Rgb {
     let hi = fbm(seed, q, wavelength, 2);
-    let hue = fbm(seed ^ 1, q, 1.5, 2);
+    let hue = fbm(seed ^ 1, q, 1.5, 1);
     let base = mix(green, [0.52, 0.50, 0.20], 0.3 + 0.6 * hue);
     scale(base, 1.0 + 0.85 * hi)
 }

@@ -12,14 +12,16 @@ use vp_scene::Camera;
 /// the rays from `p` to the camera centres. 0 for fewer than two centres or
 /// when a centre coincides with `p`.
 pub fn triangulation_angle_deg(p: &Point3<f64>, centres: &[Point3<f64>]) -> f64 {
-    let rays: Vec<Vector3<f64>> = centres
-        .iter()
-        .filter_map(|c| (c - p).try_normalize(0.0))
-        .collect();
+    // No allocation: this runs once per pixel in the virtual MVS.
     let mut best: f64 = 0.0;
-    for (i, a) in rays.iter().enumerate() {
-        for b in &rays[i + 1..] {
-            best = best.max(a.angle(b));
+    for (i, a) in centres.iter().enumerate() {
+        let Some(ra) = (a - p).try_normalize(0.0) else {
+            continue;
+        };
+        for b in &centres[i + 1..] {
+            if let Some(rb) = (b - p).try_normalize(0.0) {
+                best = best.max(ra.angle(&rb));
+            }
         }
     }
     best.to_degrees()
@@ -46,9 +48,12 @@ pub fn point_covariance(
         normal += j.transpose() * j;
     }
     // Rank-deficient normal matrices (no baseline) rarely have an exactly
-    // zero determinant in floating point: test the conditioning instead.
-    let eig = normal.symmetric_eigenvalues();
-    if !(eig.min() > eig.max() * 1e-12) {
+    // zero determinant in floating point: compare it with the scale of the
+    // matrix instead (for a PSD matrix, det / trace^3 is tiny exactly when the
+    // smallest eigenvalue is tiny against the largest). Cheaper than an
+    // eigen-decomposition per pixel.
+    let trace = normal.trace();
+    if !(normal.determinant() > 1e-13 * trace * trace * trace) {
         return None;
     }
     Some(normal.try_inverse()? * (sigma_px * sigma_px))

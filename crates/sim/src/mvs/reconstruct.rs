@@ -141,6 +141,10 @@ impl VirtualMvs {
     /// three images); a share `outlier_share` of successes gets a depth
     /// 10-40 % off instead. Same inputs and seed, same bytes.
     ///
+    /// The failure field depends on `seed` and `level` only: give each
+    /// triplet its own seed, or two triplets fail on the same surface
+    /// patches (a real MVS run on independent image sets would not).
+    ///
     /// # Performance
     /// One closest-hit ray and two occlusion rays per pixel, parallel over rows.
     pub fn reconstruct(
