@@ -248,7 +248,9 @@ fn axis_aligned_rays_hit_a_plane() {
     let caster = RayCaster::new(&plane);
     for (x, y) in [(0.3, 0.2), (-2.1, 3.7), (1.0, 1.0)] {
         let hit = caster.closest_hit(&Point3::new(x, y, 10.0), &-Vector3::z(), f64::INFINITY);
-        assert!(hit.is_some_and(|h| (h.t - 10.0).abs() < 1e-5), "({x}, {y}): {hit:?}");
+        assert!(
+            hit.is_some_and(|h| (h.t - 10.0).abs() < 1e-5),
+            "({x}, {y}): {hit:?}"
+        );
     }
 }
-

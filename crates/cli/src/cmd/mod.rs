@@ -17,10 +17,6 @@ use vp_sim::SimError;
 /// bad argument, refusing to overwrite, missing file, bad URL), 1 otherwise
 /// (I/O failures, a vehicle that does not answer or rejects the mission).
 pub fn exit_code(e: &anyhow::Error) -> u8 {
-    let scene_code = |se: &SceneError| match se {
-        SceneError::Io { source, .. } if source.kind() != std::io::ErrorKind::NotFound => 1,
-        _ => 2,
-    };
     for cause in e.chain() {
         if let Some(le) = cause.downcast_ref::<vp_labelgen::LabelgenError>() {
             return if le.is_input_error() { 2 } else { 1 };
@@ -37,13 +33,12 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
                 MissionError::InvalidInput(_) | MissionError::BadUrl { .. } => 2,
                 _ => 1,
             };
-            return scene_code(se);
         }
         // SimError::Scene is transparent: the chain skips the SceneError inside.
         match cause.downcast_ref::<SimError>() {
             Some(SimError::InvalidArgument(_)) => return 2,
-            Some(SimError::Scene(se)) => return scene_code(se),
-            None => {}
+            Some(SimError::Scene(se)) => return scene_exit_code(se),
+            _ => {}
         }
     }
     1
