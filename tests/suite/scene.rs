@@ -1,4 +1,4 @@
-//! Workspace integration tests: the crates together on procedural sites.
+//! vp-scene pieces together: file round trips, ray casting, clearance.
 
 use nalgebra::{Point2, Point3};
 use vpctl_suite::scene::camera::{Camera, Intrinsics};

@@ -1,0 +1,5 @@
+//! Workspace integration tests: the crates together on procedural sites.
+//! One test binary (CONVENTIONS.md), one module per concern.
+
+mod labels;
+mod scene;
