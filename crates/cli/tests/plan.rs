@@ -26,8 +26,8 @@ fn fixture(dir: &Path) -> Site {
     let b = site.rock_bounds;
     let c = nalgebra::center(&b.min, &b.max);
     let fp = Aabb {
-        min: nalgebra::Point3::new(c.x - 20.0, c.y - 20.0, b.min.z),
-        max: nalgebra::Point3::new(c.x + 20.0, c.y + 20.0, b.max.z),
+        min: nalgebra::Point3::new(c.x - 22.0, c.y - 22.0, b.min.z),
+        max: nalgebra::Point3::new(c.x + 22.0, c.y + 22.0, b.max.z),
     };
     let params = GridParams { height_m: 50.0, role: Role::Initial, ..GridParams::default() };
     let mut rec = Reconstruction::default();

@@ -27,8 +27,8 @@ fn bench(c: &mut Criterion) {
     let b = site.rock_bounds;
     let mid = nalgebra::center(&b.min, &b.max);
     let fp = Aabb {
-        min: nalgebra::Point3::new(mid.x - 20.0, mid.y - 20.0, b.min.z),
-        max: nalgebra::Point3::new(mid.x + 20.0, mid.y + 20.0, b.max.z),
+        min: nalgebra::Point3::new(mid.x - 22.0, mid.y - 22.0, b.min.z),
+        max: nalgebra::Point3::new(mid.x + 22.0, mid.y + 22.0, b.max.z),
     };
     let params = GridParams { height_m: 50.0, role: Role::Initial, ..GridParams::default() };
     let acquired: Vec<AcquiredView> = grid_views(&fp, &params, k)

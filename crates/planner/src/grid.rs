@@ -56,7 +56,9 @@ fn stations(lo: f64, hi: f64, size: f64, step: f64) -> Vec<f64> {
     let n = if extent <= size {
         1
     } else {
-        ((extent - size) / step).ceil() as usize + 1
+        // Tolerance: an extent that is a whole number of steps (up to
+        // round-off) must not get an extra station.
+        ((extent - size) / step - 1e-9).ceil() as usize + 1
     };
     let span = (n - 1) as f64 * step;
     let start = 0.5 * (lo + hi) - 0.5 * span;

@@ -20,7 +20,7 @@ use crate::grid::{grid_views, GridParams};
 use crate::quality::Requirements;
 use crate::safety::Safety;
 use crate::surrogate::{link, sample_positions};
-use crate::triplet::Search;
+use crate::triplet::{potential_values, Search};
 
 /// Height of the default flight volume above the highest mesh point, metres.
 const DEFAULT_CEILING_M: f64 = 60.0;
@@ -200,6 +200,7 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
     let mut cut: Option<String> = None;
     let mut surrogates = Vec::new();
     let mut links = Vec::new();
+    let mut potential = Vec::new();
     if over() {
         cut = Some("time budget spent before M2".into());
     } else {
@@ -209,6 +210,7 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
             .map(|&t| (ful.tris[t].centroid, ful.tris[t].normal))
             .collect();
         links = link(&surrogates, &t_geo, cfg.inverse_fov_deg, &caster);
+        potential = potential_values(&ful, &selected, &surrogates, &links, k.focal());
     }
     times.insert("m2".into(), secs(tm.elapsed()));
 
@@ -233,6 +235,7 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
             selected_mesh: &selected_mesh,
             surrogates: &surrogates,
             links: &links,
+            potential: &potential,
             safety: &safety,
             caster: &caster,
             intrinsics: k,
