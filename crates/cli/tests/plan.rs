@@ -11,7 +11,10 @@ use vp_scene::procedural::{generate_site, Site, SiteParams};
 use vp_scene::{Aabb, Intrinsics};
 
 fn vpctl(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vpctl")).args(args).output().expect("vpctl runs")
+    Command::new(env!("CARGO_BIN_EXE_vpctl"))
+        .args(args)
+        .output()
+        .expect("vpctl runs")
 }
 
 fn stderr(o: &Output) -> String {
@@ -20,20 +23,47 @@ fn stderr(o: &Output) -> String {
 
 /// A site mesh, a COLMAP model of an initial grid flight over it, and a small config.
 fn fixture(dir: &Path) -> Site {
-    let site = generate_site(&SiteParams { seed: 2, target_faces: 20_000, ..SiteParams::default() }).unwrap();
-    write_mesh(&dir.join("site.ply"), &site.mesh, MeshFormat::PlyBinaryLittleEndian).unwrap();
-    let k = Intrinsics { width: 1200, height: 800, fx: 1800.0, fy: 1800.0, cx: 600.0, cy: 400.0 };
+    let site = generate_site(&SiteParams {
+        seed: 2,
+        target_faces: 20_000,
+        ..SiteParams::default()
+    })
+    .unwrap();
+    write_mesh(
+        &dir.join("site.ply"),
+        &site.mesh,
+        MeshFormat::PlyBinaryLittleEndian,
+    )
+    .unwrap();
+    let k = Intrinsics {
+        width: 1200,
+        height: 800,
+        fx: 1800.0,
+        fy: 1800.0,
+        cx: 600.0,
+        cy: 400.0,
+    };
     let b = site.rock_bounds;
     let c = nalgebra::center(&b.min, &b.max);
     let fp = Aabb {
         min: nalgebra::Point3::new(c.x - 22.0, c.y - 22.0, b.min.z),
         max: nalgebra::Point3::new(c.x + 22.0, c.y + 22.0, b.max.z),
     };
-    let params = GridParams { height_m: 50.0, role: Role::Initial, ..GridParams::default() };
+    let params = GridParams {
+        height_m: 50.0,
+        role: Role::Initial,
+        ..GridParams::default()
+    };
     let mut rec = Reconstruction::default();
     rec.cameras.insert(
         1,
-        ColmapCamera { id: 1, model: CameraModel::Pinhole, width: 1200, height: 800, params: vec![1800.0, 1800.0, 600.0, 400.0] },
+        ColmapCamera {
+            id: 1,
+            model: CameraModel::Pinhole,
+            width: 1200,
+            height: 800,
+            params: vec![1800.0, 1800.0, 600.0, 400.0],
+        },
     );
     for (i, v) in grid_views(&fp, &params, k).unwrap().iter().enumerate() {
         let id = i as u32 + 1;
@@ -68,11 +98,23 @@ fn plan_writes_plan_ply_and_png_and_refuses_to_overwrite() {
     let site = fixture(dir.path());
     let p = |f: &str| dir.path().join(f).to_str().unwrap().to_string();
     let b = site.rock_bounds;
-    let roi = format!("{},{},{},{},{},{}", b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z);
+    let roi = format!(
+        "{},{},{},{},{},{}",
+        b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z
+    );
     let args = |out: &str| {
         vec![
-            "plan".to_string(), "--mesh".into(), p("site.ply"), "--cameras".into(), p("model"),
-            "--config".into(), p("plan.toml"), "--roi-box".into(), roi.clone(), "--out".into(), p(out),
+            "plan".to_string(),
+            "--mesh".into(),
+            p("site.ply"),
+            "--cameras".into(),
+            p("model"),
+            "--config".into(),
+            p("plan.toml"),
+            "--roi-box".into(),
+            roi.clone(),
+            "--out".into(),
+            p(out),
             "--no-timings".into(),
         ]
     };
@@ -82,10 +124,19 @@ fn plan_writes_plan_ply_and_png_and_refuses_to_overwrite() {
     let o = run(&a);
     assert!(o.status.success(), "{}", stderr(&o));
     let out = String::from_utf8_lossy(&o.stdout);
-    assert!(out.contains("waypoints:") && out.contains("6 triplet members"), "{out}");
+    assert!(
+        out.contains("waypoints:") && out.contains("6 triplet members"),
+        "{out}"
+    );
     assert!(stderr(&o).contains("triplet 1: mean f"), "{}", stderr(&o));
     let plan = Plan::load(&dir.path().join("a.json")).unwrap();
-    assert_eq!(plan.waypoints.iter().filter(|w| w.role == Role::TripletMember).count(), 6);
+    assert_eq!(
+        plan.waypoints
+            .iter()
+            .filter(|w| w.role == Role::TripletMember)
+            .count(),
+        6
+    );
     assert_eq!(plan.safety_distance_m, Some(5.0));
     let png = std::fs::read(dir.path().join("top.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
@@ -94,7 +145,10 @@ fn plan_writes_plan_ply_and_png_and_refuses_to_overwrite() {
     // Same inputs, same bytes.
     let o = run(&args("b.json"));
     assert!(o.status.success(), "{}", stderr(&o));
-    assert_eq!(std::fs::read(dir.path().join("a.json")).unwrap(), std::fs::read(dir.path().join("b.json")).unwrap());
+    assert_eq!(
+        std::fs::read(dir.path().join("a.json")).unwrap(),
+        std::fs::read(dir.path().join("b.json")).unwrap()
+    );
     // No overwrite without --force, and exit 2.
     let o = run(&a);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
@@ -107,21 +161,53 @@ fn bad_inputs_exit_2_without_output() {
     fixture(dir.path());
     let p = |f: &str| dir.path().join(f).to_str().unwrap().to_string();
     std::fs::write(dir.path().join("bad.toml"), "alpha = 3.0\n").unwrap();
-    let o = vpctl(&["plan", "--mesh", &p("site.ply"), "--cameras", &p("model"), "--config", &p("bad.toml"), "--out", &p("x.json")]);
+    let o = vpctl(&[
+        "plan",
+        "--mesh",
+        &p("site.ply"),
+        "--cameras",
+        &p("model"),
+        "--config",
+        &p("bad.toml"),
+        "--out",
+        &p("x.json"),
+    ]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("bad.toml") && stderr(&o).contains("alpha = 3"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("bad.toml") && stderr(&o).contains("alpha = 3"),
+        "{}",
+        stderr(&o)
+    );
     // ROI outside the mesh.
     let o = vpctl(&[
-        "plan", "--mesh", &p("site.ply"), "--cameras", &p("model"), "--config", &p("plan.toml"),
-        "--roi-box", "500,500,0,600,600,10", "--out", &p("x.json"),
+        "plan",
+        "--mesh",
+        &p("site.ply"),
+        "--cameras",
+        &p("model"),
+        "--config",
+        &p("plan.toml"),
+        "--roi-box",
+        "500,500,0,600,600,10",
+        "--out",
+        &p("x.json"),
     ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("selects no face"), "{}", stderr(&o));
     // Confidence image missing.
     std::fs::create_dir(dir.path().join("conf")).unwrap();
     let o = vpctl(&[
-        "plan", "--mesh", &p("site.ply"), "--cameras", &p("model"), "--config", &p("plan.toml"),
-        "--confidence-dir", &p("conf"), "--out", &p("x.json"),
+        "plan",
+        "--mesh",
+        &p("site.ply"),
+        "--cameras",
+        &p("model"),
+        "--config",
+        &p("plan.toml"),
+        "--confidence-dir",
+        &p("conf"),
+        "--out",
+        &p("x.json"),
     ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("img_001.vpconf"), "{}", stderr(&o));
@@ -133,13 +219,27 @@ fn grid_and_config_defaults() {
     let dir = tempfile::tempdir().unwrap();
     fixture(dir.path());
     let p = |f: &str| dir.path().join(f).to_str().unwrap().to_string();
-    let o = vpctl(&["plan", "grid", "--mesh", &p("site.ply"), "--height", "50", "--overlap", "0.5", "--out", &p("grid.json")]);
+    let o = vpctl(&[
+        "plan",
+        "grid",
+        "--mesh",
+        &p("site.ply"),
+        "--height",
+        "50",
+        "--overlap",
+        "0.5",
+        "--out",
+        &p("grid.json"),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let plan = Plan::load(&dir.path().join("grid.json")).unwrap();
     // Default camera at 50 m: 75 m x 50 m footprint, steps 37.5 m and 25 m
     // over the 60 m site: 1 line of ceil((60-50)/25)+1 = 2 images.
     assert_eq!(plan.waypoints.len(), 2);
-    assert!(plan.waypoints.iter().all(|w| w.role == Role::Grid && w.pitch_deg == -90.0));
+    assert!(plan
+        .waypoints
+        .iter()
+        .all(|w| w.role == Role::Grid && w.pitch_deg == -90.0));
     let o = vpctl(&["config", "--defaults"]);
     assert!(o.status.success());
     let text = String::from_utf8(o.stdout).unwrap();

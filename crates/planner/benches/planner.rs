@@ -23,18 +23,32 @@ fn bench(c: &mut Criterion) {
         ..SiteParams::default()
     })
     .expect("site");
-    let k = Intrinsics { width: 1200, height: 800, fx: 1800.0, fy: 1800.0, cx: 600.0, cy: 400.0 };
+    let k = Intrinsics {
+        width: 1200,
+        height: 800,
+        fx: 1800.0,
+        fy: 1800.0,
+        cx: 600.0,
+        cy: 400.0,
+    };
     let b = site.rock_bounds;
     let mid = nalgebra::center(&b.min, &b.max);
     let fp = Aabb {
         min: nalgebra::Point3::new(mid.x - 22.0, mid.y - 22.0, b.min.z),
         max: nalgebra::Point3::new(mid.x + 22.0, mid.y + 22.0, b.max.z),
     };
-    let params = GridParams { height_m: 50.0, role: Role::Initial, ..GridParams::default() };
+    let params = GridParams {
+        height_m: 50.0,
+        role: Role::Initial,
+        ..GridParams::default()
+    };
     let acquired: Vec<AcquiredView> = grid_views(&fp, &params, k)
         .expect("grid")
         .iter()
-        .map(|v| AcquiredView { camera: v.to_camera(k), confidence: None })
+        .map(|v| AcquiredView {
+            camera: v.to_camera(k),
+            confidence: None,
+        })
         .collect();
     let v = site.flight_volume;
     let cfg = PlannerConfig {
@@ -66,7 +80,9 @@ fn bench(c: &mut Criterion) {
     );
     let mut g = c.benchmark_group("paper");
     g.sample_size(10).measurement_time(Duration::from_secs(20));
-    g.bench_function("plan_k4_200k_faces", |bch| bch.iter(|| black_box(plan(&inputs).expect("plan"))));
+    g.bench_function("plan_k4_200k_faces", |bch| {
+        bch.iter(|| black_box(plan(&inputs).expect("plan")));
+    });
     g.finish();
 }
 

@@ -255,7 +255,11 @@ impl PlannerConfig {
             return bad("alpha", self.alpha.to_string(), "must be in [0, 1]");
         }
         if !(0.0..=1.0).contains(&self.min_overlap) {
-            return bad("min_overlap", self.min_overlap.to_string(), "must be in [0, 1]");
+            return bad(
+                "min_overlap",
+                self.min_overlap.to_string(),
+                "must be in [0, 1]",
+            );
         }
         for (k, v) in [
             ("n_triangles", self.n_triangles),
@@ -282,6 +286,15 @@ impl PlannerConfig {
                 "must be in (0, 180)",
             );
         }
+        self.validate_limits()
+    }
+
+    /// The safety, camera and flight-limit part of [`PlannerConfig::validate`].
+    fn validate_limits(&self) -> Result<()> {
+        let bad = |key: &str, v: String, want: &str| {
+            Err(PlannerError::Config(format!("{key} = {v}: {want}")))
+        };
+        let pos = |x: f64| x.is_finite() && x > 0.0;
         if !(self.safety_distance_m.is_finite() && self.safety_distance_m >= 0.0) {
             return bad(
                 "safety_distance_m",
@@ -347,8 +360,8 @@ mod tests {
 
     #[test]
     fn default_toml_parses_to_the_defaults() {
-        let cfg = PlannerConfig::from_toml(PlannerConfig::default_toml(), Path::new("d.toml"))
-            .unwrap();
+        let cfg =
+            PlannerConfig::from_toml(PlannerConfig::default_toml(), Path::new("d.toml")).unwrap();
         assert_eq!(cfg, PlannerConfig::default());
     }
 
@@ -361,6 +374,9 @@ mod tests {
         let err = PlannerConfig::from_toml("\nn_triangels = 5\n", Path::new("c.toml"))
             .unwrap_err()
             .to_string();
-        assert!(err.contains("line 2") && err.contains("n_triangels"), "{err}");
+        assert!(
+            err.contains("line 2") && err.contains("n_triangels"),
+            "{err}"
+        );
     }
 }

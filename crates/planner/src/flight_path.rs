@@ -123,7 +123,10 @@ impl PathContext<'_> {
                 chain.push(cam);
             }
             let last = chain[chain.len() - 1];
-            if ok && overlap(&grid_hits(to, self.caster, self.mesh), &last, self.caster) >= self.min_overlap {
+            if ok
+                && overlap(&grid_hits(to, self.caster, self.mesh), &last, self.caster)
+                    >= self.min_overlap
+            {
                 return Some(chain.split_off(1));
             }
         }
@@ -132,7 +135,12 @@ impl PathContext<'_> {
 
     /// Orders `views` greedily from `start`, inserts bridging views, then
     /// makes every segment safe.
-    pub fn build(&self, start: &Camera, captured: &[Camera], views: Vec<PlannedView>) -> Result<Path> {
+    pub fn build(
+        &self,
+        start: &Camera,
+        captured: &[Camera],
+        views: Vec<PlannedView>,
+    ) -> Result<Path> {
         let k = self.intrinsics;
         let mut remaining = views;
         let mut earlier: Vec<Camera> = captured.to_vec();
@@ -156,13 +164,16 @@ impl PathContext<'_> {
                     .iter()
                     .min_by(|a, b| {
                         let c = cam.center();
-                        (a.center() - c).norm_squared().total_cmp(&(b.center() - c).norm_squared())
+                        (a.center() - c)
+                            .norm_squared()
+                            .total_cmp(&(b.center() - c).norm_squared())
                     })
                     .unwrap_or(start);
                 match self.bridge(&closest, &cam) {
                     Some(bridges) => {
                         for b in bridges {
-                            out.waypoints.push(PlannedView::from_camera(&b, Role::Bridge));
+                            out.waypoints
+                                .push(PlannedView::from_camera(&b, Role::Bridge));
                             earlier.push(b);
                         }
                     }

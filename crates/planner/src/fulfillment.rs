@@ -79,7 +79,11 @@ pub fn best_triplet_plain(
 /// Plain enumeration is cubic in the number of observing cameras; with
 /// saturating resolution the bound stops the search after the first triplet
 /// that reaches the confidence maximum.
-pub fn best_triplet(terms: &[CamTerm], conf: Option<&ConfCurve>, req: &Requirements) -> Option<Best> {
+pub fn best_triplet(
+    terms: &[CamTerm],
+    conf: Option<&ConfCurve>,
+    req: &Requirements,
+) -> Option<Best> {
     let n = terms.len();
     if n < 3 {
         return None;
@@ -229,7 +233,9 @@ impl Fulfillment {
                 let tri = me.tris[t];
                 let curve = match confidence[ci] {
                     Some(img) => {
-                        let px = cam.project(&tri.centroid).map_or((0.0, 0.0), |p| (p.x, p.y));
+                        let px = cam
+                            .project(&tri.centroid)
+                            .map_or((0.0, 0.0), |p| (p.x, p.y));
                         ConfCurve::sample(img, px, &me.req.bins)
                     }
                     None => ConfCurve::one(&me.req.bins),
@@ -355,7 +361,12 @@ impl Fulfillment {
     }
 }
 
-fn best_of(obs: &[(u32, CamTerm)], curve: &ConfCurve, req: &Requirements, c: usize) -> Option<Best> {
+fn best_of(
+    obs: &[(u32, CamTerm)],
+    curve: &ConfCurve,
+    req: &Requirements,
+    c: usize,
+) -> Option<Best> {
     if obs.len() < c {
         return None;
     }

@@ -71,7 +71,11 @@ fn stations(lo: f64, hi: f64, size: f64, step: f64) -> Vec<f64> {
 /// Line spacing uses the nadir footprint (image height along the line,
 /// width across it); for oblique pitches the camera is moved back so its
 /// optical axis meets the ground point at the reference height.
-pub fn grid_views(footprint: &Aabb, params: &GridParams, k: Intrinsics) -> Result<Vec<PlannedView>> {
+pub fn grid_views(
+    footprint: &Aabb,
+    params: &GridParams,
+    k: Intrinsics,
+) -> Result<Vec<PlannedView>> {
     let p = params;
     let bad = |m: String| Err(PlannerError::Input(format!("grid: {m}")));
     if !(0.0..1.0).contains(&p.front_overlap) || !(0.0..1.0).contains(&p.side_overlap) {
@@ -80,7 +84,7 @@ pub fn grid_views(footprint: &Aabb, params: &GridParams, k: Intrinsics) -> Resul
             p.front_overlap, p.side_overlap
         ));
     }
-    if !(p.pitch_deg >= -90.0 && p.pitch_deg < -5.0) || !p.yaw_deg.is_finite() {
+    if !(-90.0..-5.0).contains(&p.pitch_deg) || !p.yaw_deg.is_finite() {
         return bad(format!(
             "pitch {} deg must be in [-90, -5) and yaw finite",
             p.pitch_deg
@@ -90,8 +94,13 @@ pub fn grid_views(footprint: &Aabb, params: &GridParams, k: Intrinsics) -> Resul
     if !(height.is_finite() && height > 0.0) {
         return bad(format!("height {height} m must be positive"));
     }
-    if !(footprint.min.x <= footprint.max.x && footprint.min.y <= footprint.max.y)
-        || !footprint.min.iter().chain(footprint.max.iter()).all(|c| c.is_finite())
+    if footprint.min.x > footprint.max.x
+        || footprint.min.y > footprint.max.y
+        || !footprint
+            .min
+            .iter()
+            .chain(footprint.max.iter())
+            .all(|c| c.is_finite())
     {
         return bad("the region of interest is empty".into());
     }
@@ -112,7 +121,9 @@ pub fn grid_views(footprint: &Aabb, params: &GridParams, k: Intrinsics) -> Resul
     let range = |f: fn(&(f64, f64)) -> f64| {
         uv.iter()
             .map(f)
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(v), b.max(v))
+            })
     };
     let (u0, u1) = range(|q| q.0);
     let (v0, v1) = range(|q| q.1);

@@ -27,4 +27,7 @@ mod pipeline;
 
 pub use config::{CameraConfig, PlannerConfig};
 pub use error::{PlannerError, Result};
-pub use pipeline::{plan, plan_grid, safety_for, strip_timings, AcquiredView, PlanInputs, PlanResult, RoiSpec, SampledFulfilment};
+pub use pipeline::{
+    plan, plan_grid, safety_for, strip_timings, AcquiredView, PlanInputs, PlanResult, RoiSpec,
+    SampledFulfilment,
+};

@@ -42,7 +42,14 @@ pub fn frusta_mesh(plan: &Plan, k: Intrinsics, depth: f64) -> Mesh {
             let along = d.dot(&cam.axis());
             mesh.vertices.push(o + d * (depth / along));
         }
-        let faces = [[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 1], [1, 3, 2], [1, 4, 3]];
+        let faces = [
+            [0, 1, 2],
+            [0, 2, 3],
+            [0, 3, 4],
+            [0, 4, 1],
+            [1, 3, 2],
+            [1, 4, 3],
+        ];
         for f in faces {
             mesh.faces.push(f.map(|i| base + i));
         }
@@ -54,9 +61,19 @@ pub fn frusta_mesh(plan: &Plan, k: Intrinsics, depth: f64) -> Mesh {
 }
 
 /// Writes the camera pyramids as a binary PLY; refuses to overwrite unless `force`.
-pub fn write_frusta_ply(path: &Path, plan: &Plan, k: Intrinsics, depth: f64, force: bool) -> Result<()> {
+pub fn write_frusta_ply(
+    path: &Path,
+    plan: &Plan,
+    k: Intrinsics,
+    depth: f64,
+    force: bool,
+) -> Result<()> {
     fsio::check_overwrite(path, force)?;
-    write_mesh(path, &frusta_mesh(plan, k, depth), MeshFormat::PlyBinaryLittleEndian)?;
+    write_mesh(
+        path,
+        &frusta_mesh(plan, k, depth),
+        MeshFormat::PlyBinaryLittleEndian,
+    )?;
     Ok(())
 }
 
@@ -115,9 +132,17 @@ impl Canvas {
     }
 
     fn triangle(&mut self, t: [(f64, f64); 3], c: Rgb<u8>) {
-        let (xmin, xmax) = (t.iter().map(|p| p.0).fold(f64::INFINITY, f64::min), t.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max));
-        let (ymin, ymax) = (t.iter().map(|p| p.1).fold(f64::INFINITY, f64::min), t.iter().map(|p| p.1).fold(f64::NEG_INFINITY, f64::max));
-        let edge = |a: (f64, f64), b: (f64, f64), p: (f64, f64)| (b.0 - a.0) * (p.1 - a.1) - (b.1 - a.1) * (p.0 - a.0);
+        let (xmin, xmax) = (
+            t.iter().map(|p| p.0).fold(f64::INFINITY, f64::min),
+            t.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max),
+        );
+        let (ymin, ymax) = (
+            t.iter().map(|p| p.1).fold(f64::INFINITY, f64::min),
+            t.iter().map(|p| p.1).fold(f64::NEG_INFINITY, f64::max),
+        );
+        let edge = |a: (f64, f64), b: (f64, f64), p: (f64, f64)| {
+            (b.0 - a.0) * (p.1 - a.1) - (b.1 - a.1) * (p.0 - a.0)
+        };
         let area = edge(t[0], t[1], t[2]);
         if area == 0.0 {
             return;
@@ -125,7 +150,11 @@ impl Canvas {
         for y in (ymin.floor() as i64)..=(ymax.ceil() as i64) {
             for x in (xmin.floor() as i64)..=(xmax.ceil() as i64) {
                 let p = (x as f64 + 0.5, y as f64 + 0.5);
-                let w = [edge(t[1], t[2], p), edge(t[2], t[0], p), edge(t[0], t[1], p)];
+                let w = [
+                    edge(t[1], t[2], p),
+                    edge(t[2], t[0], p),
+                    edge(t[0], t[1], p),
+                ];
                 if w.iter().all(|v| v * area >= 0.0) {
                     self.put(x, y, c);
                 }
@@ -150,12 +179,21 @@ pub fn render_top_view(view: &TopView) -> RgbImage {
     let b = view.mesh.bounds();
     let mut ext = b.extent();
     for p in &view.plan.waypoints {
-        ext.x = ext.x.max((p.position[0] - b.min.x).abs()).max((p.position[0] - b.max.x).abs());
-        ext.y = ext.y.max((p.position[1] - b.min.y).abs()).max((p.position[1] - b.max.y).abs());
+        ext.x = ext
+            .x
+            .max((p.position[0] - b.min.x).abs())
+            .max((p.position[0] - b.max.x).abs());
+        ext.y = ext
+            .y
+            .max((p.position[1] - b.min.y).abs())
+            .max((p.position[1] - b.max.y).abs());
     }
     let side = ext.x.max(ext.y).max(1e-6);
     let scale = f64::from(view.size.max(16)) / side;
-    let (w, h) = (((b.extent().x * scale).ceil() as u32).max(16), ((b.extent().y * scale).ceil() as u32).max(16));
+    let (w, h) = (
+        ((b.extent().x * scale).ceil() as u32).max(16),
+        ((b.extent().y * scale).ceil() as u32).max(16),
+    );
     let mut cv = Canvas {
         img: RgbImage::from_pixel(w, h, Rgb([20, 20, 30])),
         x0: b.min.x,
@@ -163,7 +201,9 @@ pub fn render_top_view(view: &TopView) -> RgbImage {
         scale,
     };
     let mut order: Vec<usize> = (0..view.mesh.n_faces()).collect();
-    let cz: Vec<f64> = (0..view.mesh.n_faces()).map(|f| view.mesh.face_centroid(f).z).collect();
+    let cz: Vec<f64> = (0..view.mesh.n_faces())
+        .map(|f| view.mesh.face_centroid(f).z)
+        .collect();
     order.sort_by(|&a, &b| cz[a].total_cmp(&cz[b]));
     let dz = (b.max.z - b.min.z).max(1e-9);
     for f in order {
@@ -184,7 +224,10 @@ pub fn render_top_view(view: &TopView) -> RgbImage {
     }
     let wps = &view.plan.waypoints;
     for pair in wps.windows(2) {
-        let (a, c) = (cv.px(pair[0].position[0], pair[0].position[1]), cv.px(pair[1].position[0], pair[1].position[1]));
+        let (a, c) = (
+            cv.px(pair[0].position[0], pair[0].position[1]),
+            cv.px(pair[1].position[0], pair[1].position[1]),
+        );
         cv.line(a, c, Rgb([255, 255, 255]));
     }
     for v in wps {

@@ -144,7 +144,11 @@ impl ConfCurve {
     }
 
     /// Sampled at `px` of a confidence image, one value per bin centre.
-    pub fn sample(image: &vp_scene::raster::ConfidenceImage, px: (f64, f64), bins: &AngleBins) -> Self {
+    pub fn sample(
+        image: &vp_scene::raster::ConfidenceImage,
+        px: (f64, f64),
+        bins: &AngleBins,
+    ) -> Self {
         ConfCurve(
             (0..bins.len())
                 .map(|i| image.sample(px, f64::from(bins.centre(i))).clamp(0.0, 1.0))
@@ -176,7 +180,11 @@ mod tests {
             Matrix3::new(1e8, 2e7, 0.0, 2e7, 5e7, 1e3, 0.0, 1e3, 1e4),
         ];
         for m in mats {
-            let want = m.symmetric_eigenvalues().iter().copied().fold(f64::INFINITY, f64::min);
+            let want = m
+                .symmetric_eigenvalues()
+                .iter()
+                .copied()
+                .fold(f64::INFINITY, f64::min);
             let got = smallest_eigenvalue(&m);
             assert!((got - want).abs() <= 1e-9 * m.norm(), "{got} vs {want}");
         }

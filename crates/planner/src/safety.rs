@@ -131,7 +131,13 @@ mod tests {
     #[test]
     fn geofence_and_altitude_bound_points_and_segments() {
         let mesh = shapes::plane(100.0, 100.0, 4, 4);
-        let fence = vec![[-20.0, -20.0], [20.0, -20.0], [20.0, 20.0], [0.0, 0.0], [-20.0, 20.0]];
+        let fence = vec![
+            [-20.0, -20.0],
+            [20.0, -20.0],
+            [20.0, 20.0],
+            [0.0, 0.0],
+            [-20.0, 20.0],
+        ];
         let s = Safety::new(
             &mesh,
             5.0,
@@ -150,7 +156,10 @@ mod tests {
         assert!(!s.point_ok(&Point3::new(0.0, -10.0, 45.0)), "too high");
         assert!(!s.point_ok(&Point3::new(0.0, 10.0, 10.0)), "in the notch");
         // Both ends inside, but the segment crosses the notch of the fence.
-        let (a, b) = (Point3::new(-15.0, 10.0, 10.0), Point3::new(15.0, 10.0, 10.0));
+        let (a, b) = (
+            Point3::new(-15.0, 10.0, 10.0),
+            Point3::new(15.0, 10.0, 10.0),
+        );
         assert!(s.point_ok(&a) && s.point_ok(&b) && !s.segment_ok(&a, &b));
         assert!(s.segment_ok(&a, &Point3::new(-15.0, -15.0, 10.0)));
     }

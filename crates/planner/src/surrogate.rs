@@ -49,7 +49,14 @@ pub fn sample_positions(
             .par_iter()
             .map(|p| safety.in_free_space(p, caster, mesh))
             .collect();
-        out.extend(cands.into_iter().zip(ok).filter(|x| x.1).map(|x| x.0).take(n - out.len()));
+        out.extend(
+            cands
+                .into_iter()
+                .zip(ok)
+                .filter(|x| x.1)
+                .map(|x| x.0)
+                .take(n - out.len()),
+        );
     }
     if out.is_empty() {
         return Err(PlannerError::Input(format!(

@@ -95,7 +95,9 @@ fn frame(v: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
 /// Half-cone angle beta (between a camera ray and the triplet axis) of an
 /// equilateral triplet with pairwise angle gamma: sin(gamma/2) = sqrt(3)/2 sin(beta).
 fn half_cone(gamma_rad: f64) -> f64 {
-    (2.0 * (0.5 * gamma_rad).sin() / 3f64.sqrt()).clamp(-1.0, 1.0).asin()
+    (2.0 * (0.5 * gamma_rad).sin() / 3f64.sqrt())
+        .clamp(-1.0, 1.0)
+        .asin()
 }
 
 /// Geometry of the hypothetical equilateral triplet of one bin.
@@ -128,7 +130,11 @@ pub fn potential_values(
         .map(|i| {
             let gamma_deg = f64::from(req.bins.centre(i));
             let (sin_b, cos_b) = half_cone(gamma_deg.to_radians()).sin_cos();
-            BinGeometry { gamma_deg, sin_b, cos_b }
+            BinGeometry {
+                gamma_deg,
+                sin_b,
+                cos_b,
+            }
         })
         .collect();
     let azimuths = AZIMUTHS_DEG.map(|a| a.to_radians().sin_cos());
@@ -170,7 +176,12 @@ pub fn potential_values(
     surrogates
         .par_iter()
         .zip(links)
-        .map(|(s, links)| links.iter().map(|&ti| value(s, selected[ti as usize])).collect())
+        .map(|(s, links)| {
+            links
+                .iter()
+                .map(|&ti| value(s, selected[ti as usize]))
+                .collect()
+        })
         .collect()
 }
 
@@ -194,7 +205,9 @@ impl Search<'_> {
         let ful = self.ful;
         let mut g = 0.0;
         for (i, &t) in self.selected.iter().enumerate() {
-            if !(vis[0][i] && vis[1][i] && vis[2][i]) || ful.observers[t].len() + 3 < ful.min_cameras {
+            if !(vis[0][i] && vis[1][i] && vis[2][i])
+                || ful.observers[t].len() + 3 < ful.min_cameras
+            {
                 continue;
             }
             let tri = &ful.tris[t];
@@ -257,7 +270,12 @@ impl Search<'_> {
             .collect();
         let (hfov, vfov) = self.intrinsics.fov();
         let v = Self::orient(&rays, 0.5 * hfov.min(vfov))?;
-        let look = Camera::from_yaw_pitch(self.intrinsics, pos, v.y.atan2(v.x), v.z.clamp(-1.0, 1.0).asin());
+        let look = Camera::from_yaw_pitch(
+            self.intrinsics,
+            pos,
+            v.y.atan2(v.x),
+            v.z.clamp(-1.0, 1.0).asin(),
+        );
         // Re-link with the real frustum; recompute the focus distance.
         let (mut gsum, mut dsum) = (0.0, 0.0);
         for (&ti, &g) in links.iter().zip(gpot) {
@@ -283,10 +301,18 @@ impl Search<'_> {
                 let c = pos + (right * ca + up * sa) * radius;
                 let dir = focus - c;
                 let pitch = (dir.z / dir.norm()).clamp(-1.0, 1.0).asin();
-                if pitch < self.pitch_limits.0 || pitch > self.pitch_limits.1 || !self.safety.point_ok(&c) {
+                if pitch < self.pitch_limits.0
+                    || pitch > self.pitch_limits.1
+                    || !self.safety.point_ok(&c)
+                {
                     break;
                 }
-                cams.push(Camera::from_yaw_pitch(self.intrinsics, c, dir.y.atan2(dir.x), pitch));
+                cams.push(Camera::from_yaw_pitch(
+                    self.intrinsics,
+                    c,
+                    dir.y.atan2(dir.x),
+                    pitch,
+                ));
             }
             let Ok(cams) = <[Camera; 3]>::try_from(cams) else {
                 continue;

@@ -82,7 +82,10 @@ fn f_matches_hand_computation_for_a_symmetric_triplet() {
     // each looking at p: on the optical axis, so the information of each is
     // (f/D)^2 (I - u u^T) / sigma^2.
     let (d, beta) = (30.0f64, 20.0f64);
-    let cams: Vec<Camera> = [90.0, 210.0, 330.0].iter().map(|&az| cam_at(&p, d, az, 90.0 - beta)).collect();
+    let cams: Vec<Camera> = [90.0, 210.0, 330.0]
+        .iter()
+        .map(|&az| cam_at(&p, d, az, 90.0 - beta))
+        .collect();
     let r = req(0.008, 0.008);
     // Confidence falling linearly per bin: 1.0, 0.9, ..., 0.2 at the bin centres.
     let mut img = ConfidenceImage::zeros(1200, 800, 100, AngleBins::paper()).unwrap();
@@ -105,7 +108,10 @@ fn f_matches_hand_computation_for_a_symmetric_triplet() {
     let conf = (1.0 - 0.1 * i) - 0.1 * (pos - i);
     let expected = (0.5 * f_res + 0.5 * f_unc) * conf;
     let got = ful.f(0);
-    assert!((got - expected).abs() < 1e-5, "f = {got}, by hand {expected} (f_res {f_res}, f_unc {f_unc}, angle {gamma}, conf {conf})");
+    assert!(
+        (got - expected).abs() < 1e-5,
+        "f = {got}, by hand {expected} (f_res {f_res}, f_unc {f_unc}, angle {gamma}, conf {conf})"
+    );
     assert!(ful.covered(0));
     // w = 1 - f / f_conf(t*).
     assert!((ful.weight(0) - (1.0 - 0.5 * f_res - 0.5 * f_unc)).abs() < 1e-5);
@@ -117,13 +123,38 @@ fn no_prediction_equals_confidence_one() {
     let caster = RayCaster::new(&mesh);
     let sampled = sample_triangles(&mesh, &[0], 50, &mut ChaCha8Rng::seed_from_u64(3)).unwrap();
     let p = Point3::new(0.0, 0.0, 0.0);
-    let cams: Vec<Camera> = (0..5).map(|i| cam_at(&p, 25.0 + f64::from(i), f64::from(i) * 70.0, 50.0 + f64::from(i) * 5.0)).collect();
+    let cams: Vec<Camera> = (0..5)
+        .map(|i| {
+            cam_at(
+                &p,
+                25.0 + f64::from(i),
+                f64::from(i) * 70.0,
+                50.0 + f64::from(i) * 5.0,
+            )
+        })
+        .collect();
     let one = ConfidenceImage::constant(1.0);
-    let a = Fulfillment::new(req(0.008, 0.008), 1.0, 3, sampled.clone(), &caster, &cams, &[None; 5]);
-    let b = Fulfillment::new(req(0.008, 0.008), 1.0, 3, sampled, &caster, &cams, &vec![Some(&one); 5]);
+    let a = Fulfillment::new(
+        req(0.008, 0.008),
+        1.0,
+        3,
+        sampled.clone(),
+        &caster,
+        &cams,
+        &[None; 5],
+    );
+    let b = Fulfillment::new(
+        req(0.008, 0.008),
+        1.0,
+        3,
+        sampled,
+        &caster,
+        &cams,
+        &[Some(&one); 5],
+    );
     assert!(a.mean_f() > 0.0);
     for t in 0..a.tris.len() {
-        assert_eq!(a.f(t), b.f(t));
+        assert_eq!(a.f(t).to_bits(), b.f(t).to_bits(), "bit-identical f");
     }
 }
 
@@ -133,11 +164,24 @@ fn fewer_than_c_cameras_leave_triangles_uncovered() {
     let caster = RayCaster::new(&mesh);
     let sampled = sample_triangles(&mesh, &[0], 20, &mut ChaCha8Rng::seed_from_u64(3)).unwrap();
     let p = Point3::new(0.0, 0.0, 0.0);
-    let cams: Vec<Camera> = (0..3).map(|i| cam_at(&p, 30.0, f64::from(i) * 120.0, 60.0)).collect();
-    let ful = Fulfillment::new(req(0.008, 0.008), 1.0, 4, sampled, &caster, &cams, &[None; 3]);
-    assert_eq!(ful.coverage(), 0.0);
-    assert_eq!(ful.mean_f(), 0.0);
-    assert!((0..ful.tris.len()).all(|t| ful.weight(t) == 1.0));
+    let cams: Vec<Camera> = (0..3)
+        .map(|i| cam_at(&p, 30.0, f64::from(i) * 120.0, 60.0))
+        .collect();
+    let ful = Fulfillment::new(
+        req(0.008, 0.008),
+        1.0,
+        4,
+        sampled,
+        &caster,
+        &cams,
+        &[None; 3],
+    );
+    assert!(ful.coverage().abs() < 1e-15);
+    assert!(ful.mean_f().abs() < 1e-15);
+    assert!((0..ful.tris.len()).all(|t| (ful.weight(t) - 1.0).abs() < 1e-15));
     // Selection takes every triangle with a positive weight when there are few.
-    assert_eq!(ful.select(1000, &mut ChaCha8Rng::seed_from_u64(1)).len(), ful.tris.len());
+    assert_eq!(
+        ful.select(1000, &mut ChaCha8Rng::seed_from_u64(1)).len(),
+        ful.tris.len()
+    );
 }

@@ -24,7 +24,12 @@ fn planning_raises_mean_fulfilment_on_the_roi() {
     let (first, last) = (&r.iterations[0], &r.iterations[1]);
     assert!(last.f_after > first.f_before + 0.05, "{first:?} {last:?}");
     assert!(first.f_after <= last.f_after);
-    let members = r.plan.waypoints.iter().filter(|w| w.triplet_id.is_some()).count();
+    let members = r
+        .plan
+        .waypoints
+        .iter()
+        .filter(|w| w.triplet_id.is_some())
+        .count();
     assert_eq!(members, 6);
     assert!(r.triplet_gains.iter().all(|&g| g > 0.0));
     for m in ["m1", "m2", "m3", "m4"] {
@@ -45,7 +50,10 @@ fn same_seed_gives_identical_plan_json() {
     let a = json();
     assert_eq!(a, json());
     // A different seed samples other triangles and surrogates.
-    let other = PlannerConfig { seed: 9, ..cfg.clone() };
+    let other = PlannerConfig {
+        seed: 9,
+        ..cfg.clone()
+    };
     let mut p = plan_rock(&s, &acquired, &other).unwrap().plan;
     strip_timings(&mut p);
     assert_ne!(a, serde_json::to_string_pretty(&p).unwrap());
@@ -76,7 +84,12 @@ fn time_budget_cuts_planning_short_and_says_so() {
     };
     let r = plan_rock(&s, &initial_views(&s), &cfg).unwrap();
     assert!(r.cut_short && r.plan.cut_short);
-    assert!(r.plan.cut_short_reason.as_deref().unwrap().contains("time budget"));
+    assert!(r
+        .plan
+        .cut_short_reason
+        .as_deref()
+        .unwrap()
+        .contains("time budget"));
     assert!(r.iterations.is_empty());
 }
 
@@ -100,7 +113,10 @@ fn bad_inputs_give_clear_errors() {
         max: [600.0, 600.0, 10.0],
     };
     let e = run(RoiSpec::Region(outside), &cfg, &acquired);
-    assert!(matches!(e, PlannerError::Input(_)) && e.to_string().contains("selects no face"), "{e}");
+    assert!(
+        matches!(e, PlannerError::Input(_)) && e.to_string().contains("selects no face"),
+        "{e}"
+    );
     let e = run(RoiSpec::Faces(vec![]), &cfg, &acquired);
     assert!(e.to_string().contains("selects no face"), "{e}");
     // Cameras looking at the sky see nothing.
@@ -119,13 +135,19 @@ fn bad_inputs_give_clear_errors() {
         ..cfg.clone()
     };
     let e = run(roi.clone(), &huge, &acquired);
-    assert!(e.is_input_error() && e.to_string().contains("safety distance of 500 m"), "{e}");
+    assert!(
+        e.is_input_error() && e.to_string().contains("safety distance of 500 m"),
+        "{e}"
+    );
     let bad = PlannerConfig {
         alpha: -1.0,
         ..cfg.clone()
     };
     let e = run(roi, &bad, &acquired);
-    assert!(matches!(e, PlannerError::Config(_)) && e.to_string().contains("alpha"), "{e}");
+    assert!(
+        matches!(e, PlannerError::Config(_)) && e.to_string().contains("alpha"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -143,7 +165,15 @@ fn early_stop_gap_against_exhaustive_search() {
         };
         let acquired = initial_views(&s);
         let h = plan_rock(&s, &acquired, &cfg).unwrap();
-        let ex = plan_rock(&s, &acquired, &PlannerConfig { m3_early_stop: false, ..cfg }).unwrap();
+        let ex = plan_rock(
+            &s,
+            &acquired,
+            &PlannerConfig {
+                m3_early_stop: false,
+                ..cfg
+            },
+        )
+        .unwrap();
         let (gh, ge) = (h.triplet_gains[0], ex.triplet_gains[0]);
         assert!(ge >= gh, "exhaustive {ge} < heuristic {gh}");
         report.push(format!(

@@ -21,10 +21,21 @@ fn assert_safe(plan: &Plan, mesh: &vp_scene::Mesh, cfg: &PlannerConfig) {
     let lim = plan.altitude_limits.unwrap();
     for (i, w) in plan.waypoints.iter().enumerate() {
         let p = Point3::from(w.position);
-        assert!(c.distance(&p) >= d, "waypoint {i} at {p:?}: {} m", c.distance(&p));
-        assert!(p.z >= lim.min_m && p.z <= lim.max_m, "waypoint {i} altitude {}", p.z);
+        assert!(
+            c.distance(&p) >= d,
+            "waypoint {i} at {p:?}: {} m",
+            c.distance(&p)
+        );
+        assert!(
+            p.z >= lim.min_m && p.z <= lim.max_m,
+            "waypoint {i} altitude {}",
+            p.z
+        );
         if let Some(g) = &plan.geofence {
-            assert!(point_in_polygon(&Point2::new(p.x, p.y), g), "waypoint {i} outside the geofence");
+            assert!(
+                point_in_polygon(&Point2::new(p.x, p.y), g),
+                "waypoint {i} outside the geofence"
+            );
         }
     }
     for (i, s) in plan.waypoints.windows(2).enumerate() {
@@ -34,7 +45,14 @@ fn assert_safe(plan: &Plan, mesh: &vp_scene::Mesh, cfg: &PlannerConfig) {
     }
 }
 
-fn run_case(seed: u64, roi_centre: (f64, f64), roi_half: f64, safety: f64, fence_half: f64, ceiling: f64) {
+fn run_case(
+    seed: u64,
+    roi_centre: (f64, f64),
+    roi_half: f64,
+    safety: f64,
+    fence_half: f64,
+    ceiling: f64,
+) {
     let s = site(seed, 20_000);
     let cfg = PlannerConfig {
         seed,
@@ -109,7 +127,10 @@ fn planned_paths_keep_the_safety_distance_long() {
 
 fn wall_scene() -> (vp_scene::Mesh, PlannerConfig) {
     let mut mesh = shapes::plane(100.0, 100.0, 10, 10);
-    mesh.append(&shapes::box_mesh(Point3::new(-1.0, -50.0, 0.0), Point3::new(1.0, 50.0, 20.0)));
+    mesh.append(&shapes::box_mesh(
+        Point3::new(-1.0, -50.0, 0.0),
+        Point3::new(1.0, 50.0, 20.0),
+    ));
     let cfg = PlannerConfig {
         flight_volume: Some([[-50.0, -50.0, 0.0], [50.0, 50.0, 60.0]]),
         ..PlannerConfig::default()
@@ -135,8 +156,16 @@ fn blocked_segment_climbs_over_the_wall() {
     let (mesh, cfg) = wall_scene();
     let caster = RayCaster::new(&mesh);
     let safety = safety_for(&mesh, &cfg);
-    let ctx = PathContext { mesh: &mesh, caster: &caster, safety: &safety, intrinsics: cfg.camera.intrinsics(), min_overlap: 0.5 };
-    let out = ctx.make_safe(vec![view(-20.0, 10.0), view(20.0, 10.0)]).unwrap();
+    let ctx = PathContext {
+        mesh: &mesh,
+        caster: &caster,
+        safety: &safety,
+        intrinsics: cfg.camera.intrinsics(),
+        min_overlap: 0.5,
+    };
+    let out = ctx
+        .make_safe(vec![view(-20.0, 10.0), view(20.0, 10.0)])
+        .unwrap();
     assert_eq!(out.len(), 4, "climb and descend waypoints inserted");
     assert!(out[1].position[2] >= 25.0 && out[1].role == Role::Bridge);
     let mut plan = Plan::new(None);
@@ -148,12 +177,26 @@ fn blocked_segment_climbs_over_the_wall() {
 #[test]
 fn blocked_segment_under_a_low_ceiling_refuses_the_plan_naming_it() {
     let (mesh, mut cfg) = wall_scene();
-    cfg.altitude_limits = Some(AltitudeLimits { min_m: 0.0, max_m: 22.0 });
+    cfg.altitude_limits = Some(AltitudeLimits {
+        min_m: 0.0,
+        max_m: 22.0,
+    });
     let caster = RayCaster::new(&mesh);
     let safety = safety_for(&mesh, &cfg);
-    let ctx = PathContext { mesh: &mesh, caster: &caster, safety: &safety, intrinsics: cfg.camera.intrinsics(), min_overlap: 0.5 };
-    let e = ctx.make_safe(vec![view(-30.0, 10.0), view(-20.0, 10.0), view(20.0, 10.0)]).unwrap_err();
+    let ctx = PathContext {
+        mesh: &mesh,
+        caster: &caster,
+        safety: &safety,
+        intrinsics: cfg.camera.intrinsics(),
+        min_overlap: 0.5,
+    };
+    let e = ctx
+        .make_safe(vec![view(-30.0, 10.0), view(-20.0, 10.0), view(20.0, 10.0)])
+        .unwrap_err();
     let msg = e.to_string();
     assert!(matches!(e, PlannerError::Refused(_)), "{msg}");
-    assert!(msg.contains("segment 1 -> 2") && msg.contains("altitude limit 22 m"), "{msg}");
+    assert!(
+        msg.contains("segment 1 -> 2") && msg.contains("altitude limit 22 m"),
+        "{msg}"
+    );
 }

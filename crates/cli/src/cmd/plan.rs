@@ -207,17 +207,33 @@ impl Common {
     /// Refuses early, before any work, when an output exists.
     fn check_outputs(&self) -> Result<&Path> {
         let out = required(self.out.as_ref(), "--out")?;
-        for p in [Some(out), self.ply.as_deref(), self.png.as_deref()].into_iter().flatten() {
+        for p in [Some(out), self.ply.as_deref(), self.png.as_deref()]
+            .into_iter()
+            .flatten()
+        {
             fsio::check_overwrite(p, self.force)?;
         }
         Ok(out)
     }
 
-    fn write(&self, plan: &Plan, mesh: &Mesh, cfg: &PlannerConfig, f: &[(Point3<f64>, f64)], roi: &[[f64; 2]]) -> Result<()> {
+    fn write(
+        &self,
+        plan: &Plan,
+        mesh: &Mesh,
+        cfg: &PlannerConfig,
+        f: &[(Point3<f64>, f64)],
+        roi: &[[f64; 2]],
+    ) -> Result<()> {
         let out = required(self.out.as_ref(), "--out")?;
         plan.save(out, self.force)?;
         if let Some(p) = &self.ply {
-            write_frusta_ply(p, plan, cfg.camera.intrinsics(), FRUSTUM_DEPTH_M, self.force)?;
+            write_frusta_ply(
+                p,
+                plan,
+                cfg.camera.intrinsics(),
+                FRUSTUM_DEPTH_M,
+                self.force,
+            )?;
         }
         if let Some(p) = &self.png {
             let view = TopView {
@@ -237,7 +253,12 @@ impl Common {
 fn outline(roi: &RoiSpec, pts: impl Iterator<Item = Point3<f64>>) -> Vec<[f64; 2]> {
     match roi {
         RoiSpec::Region(Roi::Box { min, max }) => {
-            vec![[min[0], min[1]], [max[0], min[1]], [max[0], max[1]], [min[0], max[1]]]
+            vec![
+                [min[0], min[1]],
+                [max[0], min[1]],
+                [max[0], max[1]],
+                [min[0], max[1]],
+            ]
         }
         RoiSpec::Region(Roi::Polygon { polygon, .. }) => polygon.clone(),
         _ => {
@@ -246,7 +267,12 @@ fn outline(roi: &RoiSpec, pts: impl Iterator<Item = Point3<f64>>) -> Vec<[f64; 2
             if b.min.x > b.max.x {
                 return Vec::new();
             }
-            vec![[b.min.x, b.min.y], [b.max.x, b.min.y], [b.max.x, b.max.y], [b.min.x, b.max.y]]
+            vec![
+                [b.min.x, b.min.y],
+                [b.max.x, b.min.y],
+                [b.max.x, b.max.y],
+                [b.min.x, b.max.y],
+            ]
         }
     }
 }
@@ -265,7 +291,11 @@ fn load_acquired(model: &Path, conf_dir: Option<&Path>) -> Result<Vec<AcquiredVi
             Some(dir) => {
                 let path = dir.join(Path::new(&image.name).with_extension("vpconf"));
                 Some(ConfidenceImage::load(&path).with_context(|| {
-                    format!("confidence image of image {id} ({}) in {}", image.name, dir.display())
+                    format!(
+                        "confidence image of image {id} ({}) in {}",
+                        image.name,
+                        dir.display()
+                    )
                 })?)
             }
         };
@@ -279,7 +309,10 @@ fn plan(args: PlanArgs, out: &mut dyn Write) -> Result<()> {
     let out_path = c.check_outputs()?.to_path_buf();
     let cfg = c.config()?;
     let mesh = io::read_mesh(required(args.mesh.as_ref(), "--mesh")?)?;
-    let acquired = load_acquired(required(args.cameras.as_ref(), "--cameras")?, args.confidence_dir.as_deref())?;
+    let acquired = load_acquired(
+        required(args.cameras.as_ref(), "--cameras")?,
+        args.confidence_dir.as_deref(),
+    )?;
     let roi = c.roi()?;
     eprintln!(
         "planning: {} faces, {} acquired images, k = {} triplets",
@@ -295,7 +328,11 @@ fn plan(args: PlanArgs, out: &mut dyn Write) -> Result<()> {
         origin: c.origin()?,
     })?;
     for it in &r.iterations {
-        let times: Vec<String> = it.time_s.iter().map(|(m, s)| format!("{m} {s:.3} s")).collect();
+        let times: Vec<String> = it
+            .time_s
+            .iter()
+            .map(|(m, s)| format!("{m} {s:.3} s"))
+            .collect();
         eprintln!(
             "triplet {}: mean f {:.4} -> {:.4}, coverage {:.3} ({})",
             it.iteration,
@@ -312,9 +349,18 @@ fn plan(args: PlanArgs, out: &mut dyn Write) -> Result<()> {
     let f: Vec<(Point3<f64>, f64)> = r.sampled.iter().map(|s| (s.centroid, s.f)).collect();
     let roi_outline = outline(&roi, r.sampled.iter().map(|s| s.centroid));
     c.write(&plan, &mesh, &cfg, &f, &roi_outline)?;
-    let members = plan.waypoints.iter().filter(|w| w.role == Role::TripletMember).count();
+    let members = plan
+        .waypoints
+        .iter()
+        .filter(|w| w.role == Role::TripletMember)
+        .count();
     writeln!(out, "plan: {}", out_path.display())?;
-    writeln!(out, "waypoints: {} ({members} triplet members, {} bridging)", plan.waypoints.len(), plan.waypoints.len() - members)?;
+    writeln!(
+        out,
+        "waypoints: {} ({members} triplet members, {} bridging)",
+        plan.waypoints.len(),
+        plan.waypoints.len() - members
+    )?;
     if let (Some(a), Some(b)) = (r.iterations.first(), r.iterations.last()) {
         writeln!(out, "mean f: {:.4} -> {:.4}", a.f_before, b.f_after)?;
     }

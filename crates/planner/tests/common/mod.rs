@@ -72,7 +72,11 @@ pub fn initial_views(site: &Site) -> Vec<AcquiredView> {
 }
 
 /// Plans on `site` with the rock as ROI.
-pub fn plan_rock(site: &Site, acquired: &[AcquiredView], cfg: &PlannerConfig) -> vp_planner::Result<PlanResult> {
+pub fn plan_rock(
+    site: &Site,
+    acquired: &[AcquiredView],
+    cfg: &PlannerConfig,
+) -> vp_planner::Result<PlanResult> {
     vp_planner::plan(&PlanInputs {
         mesh: &site.mesh,
         acquired,
