@@ -39,7 +39,7 @@ enum Command {
     #[command(subcommand)]
     Depth(cmd::depth::DepthCommand),
     /// Plan the next camera triplets, or a grid flight (`plan grid`).
-    Plan(cmd::plan::PlanArgs),
+    Plan(Box<cmd::plan::PlanArgs>),
     /// Print configuration files (`config --defaults`).
     Config(cmd::plan::ConfigArgs),
 }
@@ -50,7 +50,7 @@ fn run(args: Args, out: &mut dyn Write) -> anyhow::Result<()> {
         Command::Mesh(c) => cmd::mesh::run(c, out),
         Command::Colmap(c) => cmd::colmap::run(c, out),
         Command::Depth(c) => cmd::depth::run(c, out),
-        Command::Plan(c) => cmd::plan::run(c, out),
+        Command::Plan(c) => cmd::plan::run(*c, out),
         Command::Config(c) => cmd::plan::run_config(c, out),
     }
 }

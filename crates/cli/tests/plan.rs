@@ -239,7 +239,7 @@ fn grid_and_config_defaults() {
     assert!(plan
         .waypoints
         .iter()
-        .all(|w| w.role == Role::Grid && w.pitch_deg == -90.0));
+        .all(|w| w.role == Role::Grid && (w.pitch_deg + 90.0).abs() < 1e-9));
     let o = vpctl(&["config", "--defaults"]);
     assert!(o.status.success());
     let text = String::from_utf8(o.stdout).unwrap();
