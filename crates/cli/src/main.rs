@@ -45,7 +45,7 @@ enum Command {
     #[command(subcommand)]
     Labelgen(cmd::labelgen::LabelgenCommand),
     /// Plan the next camera triplets, or a grid flight (`plan grid`).
-    Plan(cmd::plan::PlanArgs),
+    Plan(Box<cmd::plan::PlanArgs>),
     /// Print configuration files (`config --defaults`).
     Config(cmd::plan::ConfigArgs),
     /// The simulated world: render images of procedural sites.
@@ -61,7 +61,7 @@ fn run(args: Args, out: &mut dyn Write) -> anyhow::Result<()> {
         Command::Depth(c) => cmd::depth::run(c, out),
         Command::Mission(c) => cmd::mission::run(c, out),
         Command::Labelgen(c) => cmd::labelgen::run(c, out),
-        Command::Plan(c) => cmd::plan::run(c, out),
+        Command::Plan(c) => cmd::plan::run(*c, out),
         Command::Config(c) => cmd::plan::run_config(c, out),
         Command::Sim(c) => cmd::render::run(c, out),
     }

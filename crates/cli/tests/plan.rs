@@ -46,8 +46,8 @@ fn fixture(dir: &Path) -> Site {
     let b = site.rock_bounds;
     let c = nalgebra::center(&b.min, &b.max);
     let fp = Aabb {
-        min: nalgebra::Point3::new(c.x - 20.0, c.y - 20.0, b.min.z),
-        max: nalgebra::Point3::new(c.x + 20.0, c.y + 20.0, b.max.z),
+        min: nalgebra::Point3::new(c.x - 22.0, c.y - 22.0, b.min.z),
+        max: nalgebra::Point3::new(c.x + 22.0, c.y + 22.0, b.max.z),
     };
     let params = GridParams {
         height_m: 50.0,
@@ -239,7 +239,7 @@ fn grid_and_config_defaults() {
     assert!(plan
         .waypoints
         .iter()
-        .all(|w| w.role == Role::Grid && w.pitch_deg == -90.0));
+        .all(|w| w.role == Role::Grid && (w.pitch_deg + 90.0).abs() < 1e-9));
     let o = vpctl(&["config", "--defaults"]);
     assert!(o.status.success());
     let text = String::from_utf8(o.stdout).unwrap();

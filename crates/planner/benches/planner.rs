@@ -1,1 +1,90 @@
-fn main() {}
+//! Planning at the paper's parameters (N_t 2000, N_p 5000, N_v 200, b 9,
+//! phi 120 deg, k 4) on a ~200k-face procedural site with 18 initial
+//! cameras (a 50 m nadir grid, as the paper's 19). Prints the time per
+//! module and per triplet of one call, then lets criterion time whole calls.
+//!
+//! `cargo bench -p vp-planner -- --quick`
+
+use std::hint::black_box;
+use std::time::Duration;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use vp_planner::grid::{grid_views, GridParams};
+use vp_planner::{plan, AcquiredView, PlanInputs, PlannerConfig, RoiSpec};
+use vp_scene::mesh_ops::Roi;
+use vp_scene::plan::Role;
+use vp_scene::procedural::{generate_site, SiteParams};
+use vp_scene::{Aabb, Intrinsics};
+
+fn bench(c: &mut Criterion) {
+    let site = generate_site(&SiteParams {
+        seed: 1,
+        target_faces: 200_000,
+        ..SiteParams::default()
+    })
+    .expect("site");
+    let k = Intrinsics {
+        width: 1200,
+        height: 800,
+        fx: 1800.0,
+        fy: 1800.0,
+        cx: 600.0,
+        cy: 400.0,
+    };
+    let b = site.rock_bounds;
+    let mid = nalgebra::center(&b.min, &b.max);
+    let fp = Aabb {
+        min: nalgebra::Point3::new(mid.x - 22.0, mid.y - 22.0, b.min.z),
+        max: nalgebra::Point3::new(mid.x + 22.0, mid.y + 22.0, b.max.z),
+    };
+    let params = GridParams {
+        height_m: 50.0,
+        role: Role::Initial,
+        ..GridParams::default()
+    };
+    let acquired: Vec<AcquiredView> = grid_views(&fp, &params, k)
+        .expect("grid")
+        .iter()
+        .map(|v| AcquiredView {
+            camera: v.to_camera(k),
+            confidence: None,
+        })
+        .collect();
+    let v = site.flight_volume;
+    let cfg = PlannerConfig {
+        flight_volume: Some([v.min.into(), v.max.into()]),
+        ..PlannerConfig::default()
+    };
+    let inputs = PlanInputs {
+        mesh: &site.mesh,
+        acquired: &acquired,
+        roi: RoiSpec::Region(Roi::from_aabb(&site.rock_bounds)),
+        config: &cfg,
+        origin: None,
+    };
+    let r = plan(&inputs).expect("plan");
+    let total: f64 = r.module_time_s.values().sum();
+    eprintln!(
+        "paper parameters: {} faces, {} initial cameras, {} triplets, visited {:?}",
+        site.mesh.n_faces(),
+        acquired.len(),
+        r.triplet_gains.len(),
+        r.visited
+    );
+    for (m, s) in &r.module_time_s {
+        eprintln!("  {m}: {s:.4} s");
+    }
+    eprintln!(
+        "  total {total:.4} s = {:.4} s per triplet (paper: 5.98 s; target 0.05 s)",
+        total / r.triplet_gains.len().max(1) as f64
+    );
+    let mut g = c.benchmark_group("paper");
+    g.sample_size(10).measurement_time(Duration::from_secs(20));
+    g.bench_function("plan_k4_200k_faces", |bch| {
+        bch.iter(|| black_box(plan(&inputs).expect("plan")));
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -286,6 +286,15 @@ impl PlannerConfig {
                 "must be in (0, 180)",
             );
         }
+        self.validate_limits()
+    }
+
+    /// The safety, camera and flight-limit part of [`PlannerConfig::validate`].
+    fn validate_limits(&self) -> Result<()> {
+        let bad = |key: &str, v: String, want: &str| {
+            Err(PlannerError::Config(format!("{key} = {v}: {want}")))
+        };
+        let pos = |x: f64| x.is_finite() && x > 0.0;
         if !(self.safety_distance_m.is_finite() && self.safety_distance_m >= 0.0) {
             return bad(
                 "safety_distance_m",

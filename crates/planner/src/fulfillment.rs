@@ -193,7 +193,9 @@ pub struct Fulfillment {
     pub n_acquired: usize,
     /// Per triangle: observing cameras (indices into `cameras`) and their terms.
     pub observers: Vec<Vec<(u32, CamTerm)>>,
-    /// Per triangle: confidence curves of the acquired observers, by camera index.
+    /// Per triangle: confidence curves of the acquired observers, by camera
+    /// index; for a triangle no acquired image observes, the curve of the
+    /// closest acquired image whose frame contains it (if any).
     pub acquired_curves: Vec<Vec<(u32, ConfCurve)>>,
     /// Per triangle: confidence curve of the acquired observer closest to the centroid.
     pub curve: Vec<ConfCurve>,
@@ -240,6 +242,33 @@ impl Fulfillment {
                     }
                     None => ConfCurve::one(&me.req.bins),
                 };
+                me.acquired_curves[t].push((ci as u32, curve));
+            }
+        }
+        // [vpctl] A triangle no acquired image observes (occluded, seen
+        // edge-on, back-facing) takes the prediction at its place in the
+        // closest acquired image whose frame contains it: that pixel shows
+        // the same material at the same scale, a better guess than "no
+        // prediction". Only without any such image is the confidence 1.
+        for t in 0..n {
+            if !me.acquired_curves[t].is_empty() {
+                continue;
+            }
+            let c = me.tris[t].centroid;
+            let fallback = cameras
+                .iter()
+                .enumerate()
+                .filter_map(|(ci, cam)| cam.project_in_frame(&c).map(|px| (ci, px)))
+                .min_by(|a, b| {
+                    let da = (cameras[a.0].center() - c).norm_squared();
+                    let db = (cameras[b.0].center() - c).norm_squared();
+                    da.total_cmp(&db).then(a.0.cmp(&b.0))
+                });
+            if let Some((ci, px)) = fallback {
+                let curve = confidence[ci].map_or_else(
+                    || ConfCurve::one(&me.req.bins),
+                    |img| ConfCurve::sample(img, (px.x, px.y), &me.req.bins),
+                );
                 me.acquired_curves[t].push((ci as u32, curve));
             }
         }

@@ -56,7 +56,9 @@ fn stations(lo: f64, hi: f64, size: f64, step: f64) -> Vec<f64> {
     let n = if extent <= size {
         1
     } else {
-        ((extent - size) / step).ceil() as usize + 1
+        // Tolerance: an extent that is a whole number of steps (up to
+        // round-off) must not get an extra station.
+        ((extent - size) / step - 1e-9).ceil() as usize + 1
     };
     let span = (n - 1) as f64 * step;
     let start = 0.5 * (lo + hi) - 0.5 * span;
@@ -82,7 +84,7 @@ pub fn grid_views(
             p.front_overlap, p.side_overlap
         ));
     }
-    if !(p.pitch_deg >= -90.0 && p.pitch_deg < -5.0) || !p.yaw_deg.is_finite() {
+    if !(-90.0..-5.0).contains(&p.pitch_deg) || !p.yaw_deg.is_finite() {
         return bad(format!(
             "pitch {} deg must be in [-90, -5) and yaw finite",
             p.pitch_deg
@@ -92,7 +94,8 @@ pub fn grid_views(
     if !(height.is_finite() && height > 0.0) {
         return bad(format!("height {height} m must be positive"));
     }
-    if !(footprint.min.x <= footprint.max.x && footprint.min.y <= footprint.max.y)
+    if footprint.min.x > footprint.max.x
+        || footprint.min.y > footprint.max.y
         || !footprint
             .min
             .iter()

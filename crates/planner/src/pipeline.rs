@@ -22,7 +22,7 @@ use crate::grid::{grid_views, GridParams};
 use crate::quality::Requirements;
 use crate::safety::Safety;
 use crate::surrogate::{link, sample_positions};
-use crate::triplet::Search;
+use crate::triplet::{potential_values, Search};
 
 /// Height of the default flight volume above the highest mesh point, metres.
 const DEFAULT_CEILING_M: f64 = 60.0;
@@ -149,6 +149,188 @@ fn secs(d: Duration) -> f64 {
     d.as_secs_f64()
 }
 
+/// M1: sampled triangles, f(t) with the acquired cameras, and the selection T.
+fn m1(
+    inputs: &PlanInputs,
+    roi: &[u32],
+    caster: &RayCaster,
+    rng: &mut ChaCha8Rng,
+) -> Result<(Fulfillment, Vec<usize>)> {
+    let cfg = inputs.config;
+    let (tri_mesh, tris) = sample_triangles(inputs.mesh, roi, cfg.n_triangles, rng)?;
+    let req = Requirements {
+        r_desired: 1.0 / (cfg.gsd_m * cfg.gsd_m),
+        accuracy: cfg.accuracy_m,
+        alpha: cfg.alpha,
+        bins: cfg.angle_bins()?,
+    };
+    let cams: Vec<Camera> = inputs.acquired.iter().map(|a| a.camera).collect();
+    let confs: Vec<Option<&ConfidenceImage>> = inputs
+        .acquired
+        .iter()
+        .map(|a| a.confidence.as_ref())
+        .collect();
+    let ful = Fulfillment::new(
+        req,
+        cfg.sigma_px,
+        cfg.min_cameras as usize,
+        (tri_mesh, tris),
+        caster,
+        &cams,
+        &confs,
+    );
+    if ful.observers.iter().all(Vec::is_empty) {
+        return Err(PlannerError::Input(format!(
+            "none of the {} acquired cameras sees the region of interest",
+            cams.len()
+        )));
+    }
+    let selected = ful.select(cfg.n_selected, rng);
+    Ok((ful, selected))
+}
+
+/// Per-triangle results of a call.
+fn sampled_results(ful: &Fulfillment, selected: &[usize]) -> Vec<SampledFulfilment> {
+    let in_t: std::collections::HashSet<usize> = selected.iter().copied().collect();
+    (0..ful.tris.len())
+        .map(|t| SampledFulfilment {
+            parent: ful.tris[t].parent,
+            centroid: ful.tris[t].centroid,
+            normal: ful.tris[t].normal,
+            f: ful.f(t),
+            selected: in_t.contains(&t),
+        })
+        .collect()
+}
+
+/// Everything an M3 search needs besides f(t), which changes between iterations.
+struct Setup<'a> {
+    selected: &'a [usize],
+    selected_mesh: &'a Mesh,
+    surrogates: &'a [Point3<f64>],
+    links: &'a [Vec<u32>],
+    potential: &'a [Vec<f64>],
+    safety: &'a Safety,
+    caster: &'a RayCaster,
+    intrinsics: vp_scene::Intrinsics,
+    pitch_limits: (f64, f64),
+    early_stop: bool,
+    deadline: Option<Instant>,
+}
+
+impl Setup<'_> {
+    fn search<'b>(&'b self, ful: &'b Fulfillment) -> Search<'b> {
+        Search {
+            ful,
+            selected: self.selected,
+            selected_mesh: self.selected_mesh,
+            surrogates: self.surrogates,
+            links: self.links,
+            potential: self.potential,
+            safety: self.safety,
+            caster: self.caster,
+            intrinsics: self.intrinsics,
+            pitch_limits: self.pitch_limits,
+            early_stop: self.early_stop,
+            deadline: self.deadline,
+        }
+    }
+}
+
+/// What the M3 iterations produce.
+#[derive(Default)]
+struct M3Loop {
+    iterations: Vec<IterationStatistics>,
+    views: Vec<PlannedView>,
+    gains: Vec<f64>,
+    visited: Vec<usize>,
+}
+
+/// k best-triplet searches with f(t) updates; returns why it stopped early, if it did.
+fn m3_loop(
+    setup: &Setup,
+    ful: &mut Fulfillment,
+    cfg: &PlannerConfig,
+    times: &mut BTreeMap<String, f64>,
+    out: &mut M3Loop,
+) -> Option<String> {
+    let over = || setup.deadline.is_some_and(|d| Instant::now() >= d);
+    for it in 0..cfg.n_triplets {
+        if over() {
+            return Some(format!(
+                "time budget of {} s spent after {it} triplets",
+                cfg.time_budget_s.unwrap_or(0.0)
+            ));
+        }
+        let tm = Instant::now();
+        let f_before = ful.mean_f();
+        let outcome = setup.search(ful).run();
+        out.visited.push(outcome.visited);
+        let Some(best) = outcome.best else {
+            return Some(if outcome.timed_out {
+                format!("time budget spent during triplet search {it}")
+            } else {
+                format!("no triplet with a positive gain after {it} triplets")
+            });
+        };
+        for cam in &best.cameras {
+            ful.add_planned(cam, setup.caster);
+            let mut v = PlannedView::from_camera(cam, Role::TripletMember);
+            v.triplet_id = Some(it as u32);
+            v.expected_gain = Some(best.gain);
+            v.angle_bin_deg = Some(best.angle_deg);
+            out.views.push(v);
+        }
+        out.gains.push(best.gain);
+        let dt = secs(tm.elapsed());
+        *times.entry("m3".into()).or_default() += dt;
+        let mut stats = IterationStatistics {
+            iteration: it as u32,
+            f_before,
+            f_after: ful.mean_f(),
+            coverage: ful.coverage(),
+            time_s: BTreeMap::new(),
+        };
+        stats.time_s.insert("m3".into(), dt);
+        if it == 0 {
+            stats.time_s.insert("m1".into(), times["m1"]);
+            stats.time_s.insert("m2".into(), times["m2"]);
+        }
+        out.iterations.push(stats);
+        if outcome.timed_out && it + 1 < cfg.n_triplets {
+            return Some(format!(
+                "time budget spent during triplet search {}",
+                it + 1
+            ));
+        }
+    }
+    None
+}
+
+/// Surrogate positions, their links to T and the hypothetical fulfilment per link.
+type M2Out = (Vec<Point3<f64>>, Vec<Vec<u32>>, Vec<Vec<f64>>);
+
+/// M2: free-space surrogates linked by inverse visibility, and the part of
+/// M3's potential gains that does not change between iterations.
+fn m2(
+    inputs: &PlanInputs,
+    ful: &Fulfillment,
+    selected: &[usize],
+    safety: &Safety,
+    caster: &RayCaster,
+    rng: &mut ChaCha8Rng,
+) -> Result<M2Out> {
+    let cfg = inputs.config;
+    let surrogates = sample_positions(safety, caster, inputs.mesh, cfg.n_surrogates, rng)?;
+    let t_geo: Vec<_> = selected
+        .iter()
+        .map(|&t| (ful.tris[t].centroid, ful.tris[t].normal))
+        .collect();
+    let links = link(&surrogates, &t_geo, cfg.inverse_fov_deg, caster);
+    let potential = potential_values(ful, selected, &surrogates, &links, cfg.camera.focal_px);
+    Ok((surrogates, links, potential))
+}
+
 /// Plans the next k triplets and the flight path (DESIGN.md M1-M4).
 pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
     let t0 = Instant::now();
@@ -174,35 +356,7 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
 
     // M1.
     let tm = Instant::now();
-    let (tri_mesh, tris) = sample_triangles(mesh, &roi, cfg.n_triangles, &mut rng)?;
-    let req = Requirements {
-        r_desired: 1.0 / (cfg.gsd_m * cfg.gsd_m),
-        accuracy: cfg.accuracy_m,
-        alpha: cfg.alpha,
-        bins: cfg.angle_bins()?,
-    };
-    let cams: Vec<Camera> = inputs.acquired.iter().map(|a| a.camera).collect();
-    let confs: Vec<Option<&ConfidenceImage>> = inputs
-        .acquired
-        .iter()
-        .map(|a| a.confidence.as_ref())
-        .collect();
-    let mut ful = Fulfillment::new(
-        req,
-        cfg.sigma_px,
-        cfg.min_cameras as usize,
-        (tri_mesh, tris),
-        &caster,
-        &cams,
-        &confs,
-    );
-    if ful.observers.iter().all(Vec::is_empty) {
-        return Err(PlannerError::Input(format!(
-            "none of the {} acquired cameras sees the region of interest",
-            cams.len()
-        )));
-    }
-    let selected = ful.select(cfg.n_selected, &mut rng);
+    let (mut ful, selected) = m1(inputs, &roi, &caster, &mut rng)?;
     let selected_mesh = submesh(
         &ful.tri_mesh,
         &selected.iter().map(|&t| t as u32).collect::<Vec<_>>(),
@@ -212,96 +366,41 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
     // M2.
     let tm = Instant::now();
     let mut cut: Option<String> = None;
-    let mut surrogates = Vec::new();
-    let mut links = Vec::new();
-    if over() {
+    let (surrogates, links, potential) = if over() {
         cut = Some("time budget spent before M2".into());
+        Default::default()
     } else {
-        surrogates = sample_positions(&safety, &caster, mesh, cfg.n_surrogates, &mut rng)?;
-        let t_geo: Vec<_> = selected
-            .iter()
-            .map(|&t| (ful.tris[t].centroid, ful.tris[t].normal))
-            .collect();
-        links = link(&surrogates, &t_geo, cfg.inverse_fov_deg, &caster);
-    }
+        m2(inputs, &ful, &selected, &safety, &caster, &mut rng)?
+    };
     times.insert("m2".into(), secs(tm.elapsed()));
 
     // M3, k times.
-    let mut iterations = Vec::new();
-    let mut views: Vec<PlannedView> = Vec::new();
-    let mut gains = Vec::new();
-    let mut visited = Vec::new();
-    for it in 0..cfg.n_triplets {
-        if cut.is_some() {
-            break;
-        }
-        if over() {
-            cut = Some(format!(
-                "time budget of {} s spent after {it} triplets",
-                cfg.time_budget_s.unwrap_or(0.0)
-            ));
-            break;
-        }
-        let tm = Instant::now();
-        let f_before = ful.mean_f();
-        let outcome = Search {
-            ful: &ful,
-            selected: &selected,
-            selected_mesh: &selected_mesh,
-            surrogates: &surrogates,
-            links: &links,
-            safety: &safety,
-            caster: &caster,
-            intrinsics: k,
-            pitch_limits: (
-                cfg.gimbal_pitch_min_deg.to_radians(),
-                cfg.gimbal_pitch_max_deg.to_radians(),
-            ),
-            early_stop: cfg.m3_early_stop,
-            deadline,
-        }
-        .run();
-        visited.push(outcome.visited);
-        let Some(best) = outcome.best else {
-            cut = Some(if outcome.timed_out {
-                format!("time budget spent during triplet search {it}")
-            } else {
-                format!("no triplet with a positive gain after {it} triplets")
-            });
-            break;
-        };
-        for cam in &best.cameras {
-            ful.add_planned(cam, &caster);
-            let mut v = PlannedView::from_camera(cam, Role::TripletMember);
-            v.triplet_id = Some(it as u32);
-            v.expected_gain = Some(best.gain);
-            v.angle_bin_deg = Some(best.angle_deg);
-            views.push(v);
-        }
-        gains.push(best.gain);
-        let dt = secs(tm.elapsed());
-        *times.entry("m3".into()).or_default() += dt;
-        let mut stats = IterationStatistics {
-            iteration: it as u32,
-            f_before,
-            f_after: ful.mean_f(),
-            coverage: ful.coverage(),
-            time_s: BTreeMap::new(),
-        };
-        stats.time_s.insert("m3".into(), dt);
-        if it == 0 {
-            stats.time_s.insert("m1".into(), times["m1"]);
-            stats.time_s.insert("m2".into(), times["m2"]);
-        }
-        iterations.push(stats);
-        if outcome.timed_out && it + 1 < cfg.n_triplets {
-            cut = Some(format!(
-                "time budget spent during triplet search {}",
-                it + 1
-            ));
-            break;
-        }
+    let setup = Setup {
+        selected: &selected,
+        selected_mesh: &selected_mesh,
+        surrogates: &surrogates,
+        links: &links,
+        potential: &potential,
+        safety: &safety,
+        caster: &caster,
+        intrinsics: k,
+        pitch_limits: (
+            cfg.gimbal_pitch_min_deg.to_radians(),
+            cfg.gimbal_pitch_max_deg.to_radians(),
+        ),
+        early_stop: cfg.m3_early_stop,
+        deadline,
+    };
+    let mut m3 = M3Loop::default();
+    if cut.is_none() {
+        cut = m3_loop(&setup, &mut ful, cfg, &mut times, &mut m3);
     }
+    let M3Loop {
+        mut iterations,
+        views,
+        gains,
+        visited,
+    } = m3;
 
     // M4.
     let tm = Instant::now();
@@ -312,7 +411,8 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
         intrinsics: k,
         min_overlap: cfg.min_overlap,
     };
-    let path = ctx.build(&last.camera, &cams, views)?;
+    let captured: Vec<Camera> = inputs.acquired.iter().map(|a| a.camera).collect();
+    let path = ctx.build(&last.camera, &captured, views)?;
     let m4 = secs(tm.elapsed());
     times.insert("m4".into(), m4);
     if let Some(s) = iterations.last_mut() {
@@ -328,16 +428,7 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
     plan.statistics.total_time_s = Some(secs(t0.elapsed()));
     plan.cut_short = cut.is_some();
     plan.cut_short_reason.clone_from(&cut);
-    let in_t: std::collections::HashSet<usize> = selected.iter().copied().collect();
-    let sampled = (0..ful.tris.len())
-        .map(|t| SampledFulfilment {
-            parent: ful.tris[t].parent,
-            centroid: ful.tris[t].centroid,
-            normal: ful.tris[t].normal,
-            f: ful.f(t),
-            selected: in_t.contains(&t),
-        })
-        .collect();
+    let sampled = sampled_results(&ful, &selected);
     Ok(PlanResult {
         plan,
         iterations,

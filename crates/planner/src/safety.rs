@@ -157,8 +157,8 @@ mod tests {
         assert!(!s.point_ok(&Point3::new(0.0, 10.0, 10.0)), "in the notch");
         // Both ends inside, but the segment crosses the notch of the fence.
         let (a, b) = (
-            Point3::new(-15.0, 15.0, 10.0),
-            Point3::new(15.0, 15.0, 10.0),
+            Point3::new(-15.0, 10.0, 10.0),
+            Point3::new(15.0, 10.0, 10.0),
         );
         assert!(s.point_ok(&a) && s.point_ok(&b) && !s.segment_ok(&a, &b));
         assert!(s.segment_ok(&a, &Point3::new(-15.0, -15.0, 10.0)));

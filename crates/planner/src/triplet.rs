@@ -63,6 +63,9 @@ pub struct Search<'a> {
     pub surrogates: &'a [Point3<f64>],
     /// Per surrogate, linked triangles (indices into `selected`).
     pub links: &'a [Vec<u32>],
+    /// Per surrogate and link, the best hypothetical fulfilment over the
+    /// bins ([`potential_values`]); g_pot = max(0, that - f(t)).
+    pub potential: &'a [Vec<f64>],
     /// Safety rules for the cameras.
     pub safety: &'a Safety,
     /// Ray caster of the scene mesh.
@@ -97,29 +100,47 @@ fn half_cone(gamma_rad: f64) -> f64 {
         .asin()
 }
 
-impl Search<'_> {
-    fn curve_near(&self, t: usize, s: &Point3<f64>) -> ConfCurve {
-        self.ful.acquired_curves[t]
-            .iter()
-            .min_by(|a, b| {
-                let da = (self.ful.cameras[a.0 as usize].center() - s).norm_squared();
-                let db = (self.ful.cameras[b.0 as usize].center() - s).norm_squared();
-                da.total_cmp(&db).then(a.0.cmp(&b.0))
-            })
-            .map_or_else(|| ConfCurve::one(&self.ful.req.bins), |x| x.1.clone())
-    }
+/// Geometry of the hypothetical equilateral triplet of one bin.
+struct BinGeometry {
+    gamma_deg: f64,
+    sin_b: f64,
+    cos_b: f64,
+}
 
-    /// g_pot(t) for surrogate position `s`: best gain over the bins of the
-    /// hypothetical equilateral triplet centred at `s` facing t, with the
-    /// bin-centre angle at t. The cameras look straight at t, where the
-    /// information of each is `(f/D)^2 (I - u u^T) / sigma^2`; for the
-    /// symmetric triplet the smallest eigenvalue of the sum is closed-form.
-    pub fn potential_gain(&self, s: &Point3<f64>, t: usize) -> f64 {
-        let ful = self.ful;
+/// For every surrogate and linked triangle, the best fulfilment over the
+/// bins of the hypothetical equilateral triplet centred at the surrogate,
+/// facing the triangle, with the bin-centre angle at it (M3 g_pot without
+/// the `- f(t)`, which is the same for every bin). It depends on the
+/// acquired cameras only, so it is computed once per planning call.
+///
+/// The cameras look straight at t, where the information of each is
+/// `(f/D)^2 (I - u u^T) / sigma^2`; for the symmetric triplet the smallest
+/// eigenvalue of the sum is `min(3 k sin^2 b, k (3 - 1.5 sin^2 b))`,
+/// `k = f^2 / (sigma D)^2`, b the half-cone angle. Confidence comes from
+/// the acquired image closest to the surrogate among those observing t.
+pub fn potential_values(
+    ful: &Fulfillment,
+    selected: &[usize],
+    surrogates: &[Point3<f64>],
+    links: &[Vec<u32>],
+    focal: f64,
+) -> Vec<Vec<f64>> {
+    let req = &ful.req;
+    let bins: Vec<BinGeometry> = (0..req.bins.len())
+        .map(|i| {
+            let gamma_deg = f64::from(req.bins.centre(i));
+            let (sin_b, cos_b) = half_cone(gamma_deg.to_radians()).sin_cos();
+            BinGeometry {
+                gamma_deg,
+                sin_b,
+                cos_b,
+            }
+        })
+        .collect();
+    let azimuths = AZIMUTHS_DEG.map(|a| a.to_radians().sin_cos());
+    let one = ConfCurve::one(&req.bins);
+    let value = |s: &Point3<f64>, t: usize| -> f64 {
         let tri = &ful.tris[t];
-        if ful.observers[t].len() + 3 < ful.min_cameras {
-            return 0.0;
-        }
         let to = s - tri.centroid;
         let d = to.norm();
         if !(d > 0.0) {
@@ -127,30 +148,52 @@ impl Search<'_> {
         }
         let w = to / d;
         let (e1, e2) = frame(&-w);
-        let curve = self.curve_near(t, s);
-        let req = &ful.req;
-        let f = self.intrinsics.focal();
-        let f_t = ful.f(t);
+        let curve = ful.acquired_curves[t]
+            .iter()
+            .min_by(|a, b| {
+                let da = (ful.cameras[a.0 as usize].center() - s).norm_squared();
+                let db = (ful.cameras[b.0 as usize].center() - s).norm_squared();
+                da.total_cmp(&db).then(a.0.cmp(&b.0))
+            })
+            .map_or(&one, |x| &x.1);
+        // n . u for u = w cos b + (e1 cos a + e2 sin a) sin b.
+        let (nw, n1, n2) = (tri.normal.dot(&w), tri.normal.dot(&e1), tri.normal.dot(&e2));
+        let ring: [f64; 3] = azimuths.map(|(sa, ca)| n1 * ca + n2 * sa);
+        let ring_min = ring.iter().copied().fold(f64::INFINITY, f64::min);
         let mut best = 0.0f64;
-        for bin in 0..req.bins.len() {
-            let gamma = f64::from(req.bins.centre(bin));
-            let beta = half_cone(gamma.to_radians());
-            let (sb, cb) = beta.sin_cos();
-            let d2 = d * d / (cb * cb);
-            let k = f * f / (d2 * ful.sigma_px * ful.sigma_px);
-            let lmin = (3.0 * k * sb * sb).min(k * (3.0 - 1.5 * sb * sb));
-            let r_min = AZIMUTHS_DEG
-                .iter()
-                .map(|a| {
-                    let (sa, ca) = a.to_radians().sin_cos();
-                    let u = w * cb + (e1 * ca + e2 * sa) * sb;
-                    (f * f * tri.normal.dot(&u) / d2).max(0.0)
-                })
-                .fold(f64::INFINITY, f64::min);
+        for g in &bins {
+            let d2 = d * d / (g.cos_b * g.cos_b);
+            let k = focal * focal / (d2 * ful.sigma_px * ful.sigma_px);
+            let s2 = g.sin_b * g.sin_b;
+            let lmin = (3.0 * k * s2).min(k * (3.0 - 1.5 * s2));
+            let cos_min = nw * g.cos_b + ring_min * g.sin_b;
+            let r_min = (focal * focal * cos_min / d2).max(0.0);
             let q = req.alpha * req.f_res(r_min) + (1.0 - req.alpha) * req.f_unc_bound(lmin);
-            best = best.max(q * curve.at(&req.bins, gamma) - f_t);
+            best = best.max(q * curve.at(&req.bins, g.gamma_deg));
         }
-        best.max(0.0)
+        best
+    };
+    surrogates
+        .par_iter()
+        .zip(links)
+        .map(|(s, links)| {
+            links
+                .iter()
+                .map(|&ti| value(s, selected[ti as usize]))
+                .collect()
+        })
+        .collect()
+}
+
+impl Search<'_> {
+    /// g_pot(t) for surrogate `s` (index) and selected triangle `ti` (index
+    /// into `selected`): `max(0, best - f(t))` with the precomputed best
+    /// hypothetical fulfilment (see [`potential_values`]).
+    fn potential_gain(&self, best: f64, t: usize) -> f64 {
+        if self.ful.observers[t].len() + 3 < self.ful.min_cameras {
+            return 0.0;
+        }
+        (best - self.ful.f(t)).max(0.0)
     }
 
     /// g(c3) = sum over T seen by all three cameras of max(f(t, c3) - f(t), 0).
@@ -290,13 +333,14 @@ impl Search<'_> {
 
     /// Potential gains per surrogate (aligned with `links`).
     pub fn potential_gains(&self) -> Vec<Vec<f64>> {
-        self.surrogates
+        self.potential
             .par_iter()
             .zip(self.links)
-            .map(|(s, links)| {
+            .map(|(best, links)| {
                 links
                     .iter()
-                    .map(|&ti| self.potential_gain(s, self.selected[ti as usize]))
+                    .zip(best)
+                    .map(|(&ti, &b)| self.potential_gain(b, self.selected[ti as usize]))
                     .collect()
             })
             .collect()

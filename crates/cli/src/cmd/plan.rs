@@ -148,8 +148,8 @@ pub fn run_config(_args: ConfigArgs, out: &mut dyn Write) -> Result<()> {
 /// `vpctl plan ...`.
 pub fn run(args: PlanArgs, out: &mut dyn Write) -> Result<()> {
     match args.sub {
-        Some(PlanCommand::Grid(g)) => grid(g, out),
-        None => plan(args, out),
+        Some(PlanCommand::Grid(g)) => grid(&g, out),
+        None => plan(&args, out),
     }
 }
 
@@ -304,7 +304,7 @@ fn load_acquired(model: &Path, conf_dir: Option<&Path>) -> Result<Vec<AcquiredVi
     Ok(views)
 }
 
-fn plan(args: PlanArgs, out: &mut dyn Write) -> Result<()> {
+fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
     let c = &args.common;
     let out_path = c.check_outputs()?.to_path_buf();
     let cfg = c.config()?;
@@ -371,7 +371,7 @@ fn plan(args: PlanArgs, out: &mut dyn Write) -> Result<()> {
     Ok(())
 }
 
-fn grid(g: GridArgs, out: &mut dyn Write) -> Result<()> {
+fn grid(g: &GridArgs, out: &mut dyn Write) -> Result<()> {
     let c = &g.common;
     let out_path = c.check_outputs()?.to_path_buf();
     let cfg = c.config()?;

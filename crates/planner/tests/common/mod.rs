@@ -45,7 +45,7 @@ pub fn initial_intrinsics() -> Intrinsics {
 }
 
 /// The paper's initial flight: a nadir grid 50 m above the lowest point of
-/// a 40 m square around the rock, 80 % overlap (18 images).
+/// a 44 m square around the rock, 80 % overlap (18 images).
 pub fn initial_views(site: &Site) -> Vec<AcquiredView> {
     let params = GridParams {
         height_m: 50.0,
@@ -57,8 +57,8 @@ pub fn initial_views(site: &Site) -> Vec<AcquiredView> {
     let b = site.rock_bounds;
     let c = nalgebra::center(&b.min, &b.max);
     let fp = Aabb {
-        min: nalgebra::Point3::new(c.x - 20.0, c.y - 20.0, b.min.z),
-        max: nalgebra::Point3::new(c.x + 20.0, c.y + 20.0, b.max.z),
+        min: nalgebra::Point3::new(c.x - 22.0, c.y - 22.0, b.min.z),
+        max: nalgebra::Point3::new(c.x + 22.0, c.y + 22.0, b.max.z),
     };
     let k = initial_intrinsics();
     grid_views(&fp, &params, k)
