@@ -14,10 +14,12 @@ use vpctl_suite::scene::Material;
 use vpctl_suite::sim::mvs::{level_camera, PixelStatus, PixelTruth};
 use vpctl_suite::sim::{MvsProfile, VirtualMvs};
 
-#[test]
-fn labels_of_virtual_mvs_triplets_are_98_percent_right() {
+/// Reconstructions of ring triplets around the rock, with the per-pixel truth.
+type Simulated = (Vec<TripletReconstruction>, Vec<[Vec<PixelTruth>; 3]>);
+
+fn simulate(mesh_seed: u64) -> (vpctl_suite::scene::Mesh, Simulated) {
     let site = generate_site(&SiteParams {
-        seed: 21,
+        seed: mesh_seed,
         target_faces: 40_000,
         ..SiteParams::default()
     })
@@ -73,18 +75,23 @@ fn labels_of_virtual_mvs_triplets_are_98_percent_right() {
             truths.push([v0.truth, v1.truth, v2.truth]);
         }
     }
-    let meshes = MissingPartMeshes::new(mesh, 3);
+    (site.mesh, (recs, truths))
+}
+
+#[test]
+fn labels_of_virtual_mvs_triplets_are_98_percent_right() {
+    let (mesh, (recs, truths)) = simulate(21);
+    let meshes = MissingPartMeshes::new(&mesh, 3);
     let labels = generate_labels(&recs, Some(&meshes), &LabelParams::default()).unwrap();
 
     let (mut right, mut labelled, mut surface) = (0usize, 0usize, 0usize);
     let (mut grass_holes, mut grass_holes_negative) = (0usize, 0usize);
     for rl in &labels {
         let r = recs.iter().position(|r| r.id == rl.id).unwrap();
-        for v in 0..3 {
-            let img = &rl.labels[v];
+        for (img, truth_v) in rl.labels.iter().zip(&truths[r]) {
             for y in 0..img.height() {
                 for x in 0..img.width() {
-                    let truth = truths[r][v][(y * img.width() + x) as usize];
+                    let truth = truth_v[(y * img.width() + x) as usize];
                     if truth.status == PixelStatus::NoSurface {
                         continue;
                     }
