@@ -44,6 +44,13 @@ enum Command {
     /// Training labels without ground truth: triplet sampling and consistency voting.
     #[command(subcommand)]
     Labelgen(cmd::labelgen::LabelgenCommand),
+    /// Train the MVS confidence predictor from images and label images.
+    Train(cmd::forest::TrainArgs),
+    /// Predict confidence images (one channel per angle bin) with a trained model.
+    Predict(cmd::forest::PredictArgs),
+    /// Inspect, evaluate and configure confidence-predictor models.
+    #[command(subcommand)]
+    Forest(cmd::forest::ForestCommand),
     /// Plan the next camera triplets, or a grid flight (`plan grid`).
     Plan(Box<cmd::plan::PlanArgs>),
     /// Print configuration files (`config --defaults`).
@@ -61,6 +68,9 @@ fn run(args: Args, out: &mut dyn Write) -> anyhow::Result<()> {
         Command::Depth(c) => cmd::depth::run(c, out),
         Command::Mission(c) => cmd::mission::run(c, out),
         Command::Labelgen(c) => cmd::labelgen::run(c, out),
+        Command::Train(c) => cmd::forest::train(&c, out),
+        Command::Predict(c) => cmd::forest::predict(&c, out),
+        Command::Forest(c) => cmd::forest::run(c, out),
         Command::Plan(c) => cmd::plan::run(*c, out),
         Command::Config(c) => cmd::plan::run_config(c, out),
         Command::Sim(c) => cmd::render::run(c, out),

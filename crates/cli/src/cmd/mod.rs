@@ -2,6 +2,7 @@
 
 pub mod colmap;
 pub mod depth;
+pub mod forest;
 pub mod labelgen;
 pub mod mesh;
 pub mod mission;
@@ -20,6 +21,12 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
     for cause in e.chain() {
         if let Some(le) = cause.downcast_ref::<vp_labelgen::LabelgenError>() {
             return if le.is_input_error() { 2 } else { 1 };
+        }
+        if let Some(fe) = cause.downcast_ref::<vp_forest::ForestError>() {
+            return match fe {
+                vp_forest::ForestError::Scene(se) => scene_exit_code(se),
+                _ => 2,
+            };
         }
         if let Some(pe) = cause.downcast_ref::<vp_planner::PlannerError>() {
             return if pe.is_input_error() { 2 } else { 1 };
