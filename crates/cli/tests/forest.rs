@@ -132,8 +132,6 @@ fn train_predict_and_eval_learn_texture_and_angle() {
         .expect("accuracy line");
     assert!(acc > 0.85, "held-out accuracy {acc}\n{}", text(&o));
 
-    // Prediction: noisy blocks are confident at 2.5 deg, not at 42.5 deg;
-    // smooth blocks are not confident at all.
     let conf_dir = dir.path().join("conf");
     let o = vpctl(&[
         "predict",
@@ -144,10 +142,16 @@ fn train_predict_and_eval_learn_texture_and_angle() {
         held_images.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", text(&o));
-    let c = ConfidenceImage::load(&conf_dir.join("i3.vpconf")).unwrap();
-    assert_eq!((c.width(), c.height(), c.step()), (96, 64, 8));
     assert!(conf_dir.join("i3.bin0.png").exists() && conf_dir.join("i3.bin8.png").exists());
-    let tex = texture_image(96, 64, 16, 3);
+    assert_confidence_learned(&conf_dir.join("i3.vpconf"), 3);
+}
+
+/// Noisy blocks are confident at 2.5 deg, not at 42.5 deg; smooth blocks
+/// are not confident at all (the planted rule).
+fn assert_confidence_learned(path: &Path, seed: u64) {
+    let c = ConfidenceImage::load(path).unwrap();
+    assert_eq!((c.width(), c.height(), c.step()), (96, 64, 8));
+    let tex = texture_image(96, 64, 16, seed);
     let (mut noisy_low, mut noisy_high, mut smooth) = (vec![], vec![], vec![]);
     let (gw, gh) = c.grid_size();
     for j in 0..gh {

@@ -15,6 +15,9 @@ use crate::TrainingSet;
 /// Extension of label image files.
 pub const LABEL_EXTENSION: &str = "vplabel";
 
+/// Image name and label size (largest first): the order of the groups.
+type GroupKey = (String, std::cmp::Reverse<(u32, u32)>);
+
 /// One image at one size with the label images of that size.
 #[derive(Debug, Clone)]
 pub struct LabelledImage {
@@ -49,9 +52,7 @@ pub fn load_label_dir(images_dir: &Path, labels_dir: &Path) -> Result<Vec<Labell
         )));
     }
     paths.sort();
-    // (image name, (width, height) reversed for largest first) -> labels.
-    let mut groups: BTreeMap<(String, std::cmp::Reverse<(u32, u32)>), Vec<(PathBuf, LabelImage)>> =
-        BTreeMap::new();
+    let mut groups: BTreeMap<GroupKey, Vec<(PathBuf, LabelImage)>> = BTreeMap::new();
     for path in paths {
         let name = image_name(&path)?;
         let label = LabelImage::load(&path)?;
