@@ -48,9 +48,13 @@ enum Command {
     Plan(Box<cmd::plan::PlanArgs>),
     /// Print configuration files (`config --defaults`).
     Config(cmd::plan::ConfigArgs),
-    /// The simulated world: render images of procedural sites.
+    /// The simulated world: render images of procedural sites, run
+    /// closed-loop campaigns (`sim run --config`, `sim config --defaults`).
     #[command(subcommand)]
     Sim(cmd::render::SimCommand),
+    /// Train on small procedural sites, fly a held-out site with the F, NP
+    /// and Grid strategies, print the paper's Table 1, write a report.
+    Demo(cmd::demo::DemoArgs),
 }
 
 fn run(args: Args, out: &mut dyn Write) -> anyhow::Result<()> {
@@ -64,6 +68,7 @@ fn run(args: Args, out: &mut dyn Write) -> anyhow::Result<()> {
         Command::Plan(c) => cmd::plan::run(*c, out),
         Command::Config(c) => cmd::plan::run_config(c, out),
         Command::Sim(c) => cmd::render::run(c, out),
+        Command::Demo(c) => cmd::demo::run_demo(&c, out),
     }
 }
 
