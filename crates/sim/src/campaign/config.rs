@@ -85,7 +85,7 @@ impl Default for MatchingGate {
     fn default() -> Self {
         MatchingGate {
             enabled: true,
-            matchable_probability: 0.5,
+            matchable_probability: 0.4,
             min_matchable_share: 0.5,
             max_nonflat_median_angle_deg: 30.0,
             nonflat_min_share: 0.3,
@@ -257,6 +257,9 @@ impl CampaignConfig {
                     n_thresholds: 20,
                     n_node_samples: 500,
                     samples_per_class: 40_000,
+                    // The planner multiplies by the confidence: it must be
+                    // a calibrated probability, not class-balanced.
+                    balance_classes: false,
                     ..TrainParams::default()
                 },
             },

@@ -137,14 +137,31 @@ fn run_strategy(
                 triplets.entry(t).or_default().push(cam);
             }
         }
-        for cams in triplets.values() {
+        for (t, cams) in &triplets {
             let [a, b, c] = cams.as_slice() else {
                 continue;
             };
             let i = next_index;
             next_index += 3;
             let ids = [image_id(source, i), image_id(source, i + 1), image_id(source, i + 2)];
-            out.flown.push(fly_triplet(mvs, &cfg.gate, &world.site.mesh, &world.caster, [*a, *b, *c], ids, mix64(base ^ mix64(i as u64)))?);
+            let fl = fly_triplet(mvs, &cfg.gate, &world.site.mesh, &world.caster, [*a, *b, *c], ids, mix64(base ^ mix64(i as u64)))?;
+            let bin = result
+                .plan
+                .waypoints
+                .iter()
+                .find(|w| w.triplet_id == Some(*t))
+                .and_then(|w| w.angle_bin_deg)
+                .unwrap_or(f64::NAN);
+            let s = &fl.stats;
+            progress(&format!(
+                "    triplet {t} ({bin:.1} deg): {}; overlap {} px, matchable {:.2}, non-flat {:.2} at median {:.1} deg",
+                if fl.success() { "output" } else { "nothing" },
+                s.overlap_pixels,
+                s.matchable_share,
+                s.nonflat_share,
+                s.nonflat_median_angle_deg
+            ));
+            out.flown.push(fl);
         }
         progress(&format!(
             "  site {site_seed} {} iteration {}/{}: {} triplets planned ({} images with bridges), {} of {} flown so far succeeded",
