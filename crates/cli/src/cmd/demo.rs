@@ -39,28 +39,6 @@ pub struct DemoArgs {
     pub quick: bool,
 }
 
-/// The `--quick` demo: the demo preset shrunk to seconds.
-pub fn quick_config() -> CampaignConfig {
-    let mut c = CampaignConfig::demo();
-    c.strategies = vec!["F1x2".into(), "NP1x2".into()];
-    c.site.target_faces = 12_000;
-    c.training.site_seeds = vec![101];
-    c.training.site.target_faces = 8_000;
-    c.training.triplets_per_site = 6;
-    c.training.forest.n_trees = 2;
-    c.training.forest.max_depth = 8;
-    c.training.forest.n_tests = 50;
-    c.training.forest.samples_per_class = 4_000;
-    c.init.nx = 3;
-    c.init.ny = 2;
-    c.grid.overlap = 0.5;
-    c.planner.n_triangles = 300;
-    c.planner.n_surrogates = 300;
-    c.planner.n_selected = 40;
-    c.eval.split_edge_m = 1.0;
-    c
-}
-
 /// Runs `cfg`: trains (or loads `--model`), flies, prints the table, writes the report.
 pub fn run_config(cfg: &CampaignConfig, args: &CampaignArgs, out: &mut dyn Write) -> Result<()> {
     // Refuse before hours of work, not after.
@@ -119,7 +97,7 @@ fn load_model(p: &Path) -> Result<Forest> {
 /// `vpctl demo`.
 pub fn run_demo(args: &DemoArgs, out: &mut dyn Write) -> Result<()> {
     let cfg = if args.quick {
-        quick_config()
+        CampaignConfig::quick()
     } else {
         CampaignConfig::demo()
     };

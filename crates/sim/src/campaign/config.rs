@@ -299,6 +299,29 @@ impl CampaignConfig {
         }
     }
 
+    /// The demo shrunk to seconds, for smoke tests (`vpctl demo --quick`):
+    /// tiny sites, one training site, one planning iteration, coarse evaluation.
+    pub fn quick() -> Self {
+        let mut c = Self::demo();
+        c.strategies = vec!["F1x2".into(), "NP1x2".into()];
+        c.site.target_faces = 12_000;
+        c.training.site_seeds = vec![101];
+        c.training.site.target_faces = 8_000;
+        c.training.triplets_per_site = 6;
+        c.training.forest.n_trees = 2;
+        c.training.forest.max_depth = 8;
+        c.training.forest.n_tests = 50;
+        c.training.forest.samples_per_class = 4_000;
+        c.init.nx = 3;
+        c.init.ny = 2;
+        c.grid.overlap = 0.7;
+        c.planner.n_triangles = 300;
+        c.planner.n_surrogates = 300;
+        c.planner.n_selected = 40;
+        c.eval.split_edge_m = 1.0;
+        c
+    }
+
     /// The paper's experiment as far as the simulator allows: three
     /// held-out sites, F5x4, F1x20, NP5x4, five training sites, 8 cm faces.
     pub fn paper() -> Self {
@@ -427,5 +450,40 @@ impl CampaignConfig {
             return bad("sfm.min_views must be at least 1".into());
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn presets_round_trip_through_toml_and_validate() {
+        for c in [CampaignConfig::demo(), CampaignConfig::paper(), CampaignConfig::quick()] {
+            c.validate().unwrap();
+            let text = c.to_toml().unwrap();
+            let back = CampaignConfig::from_toml(&text, Path::new("x.toml")).unwrap();
+            assert_eq!(back, c);
+        }
+        // An empty file is the demo.
+        assert_eq!(
+            CampaignConfig::from_toml("", Path::new("e.toml")).unwrap(),
+            CampaignConfig::demo()
+        );
+    }
+
+    #[test]
+    fn refuses_unknown_keys_and_training_on_the_held_out_site() {
+        let e = CampaignConfig::from_toml("sed = 3\n", Path::new("typo.toml")).unwrap_err();
+        let m = e.to_string();
+        assert!(m.contains("typo.toml") && m.contains("sed"), "{m}");
+        let e = CampaignConfig::from_toml(
+            "held_out_seeds = [101]\n[training]\nsite_seeds = [101, 102]\n",
+            Path::new("c.toml"),
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("never be a training site"), "{e}");
+        let e = CampaignConfig::from_toml("strategies = [\"G5x4\"]\n", Path::new("s.toml")).unwrap_err();
+        assert!(e.to_string().contains("G5x4"), "{e}");
     }
 }

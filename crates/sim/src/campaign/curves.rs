@@ -96,6 +96,22 @@ impl CurveAccumulator {
     }
 }
 
+/// Per angle bin, the Spearman rank correlation between the learned and the
+/// true confidence across materials: whether the forest ranks materials
+/// (rock above grass, ...) as the simulator's truth does. (angle, rho) pairs.
+pub fn material_ranking(curves: &[ConfidenceCurve]) -> Vec<(f64, f64)> {
+    let Some(first) = curves.first() else {
+        return Vec::new();
+    };
+    (0..first.angle_deg.len())
+        .map(|b| {
+            let l: Vec<f64> = curves.iter().map(|c| c.learned[b]).collect();
+            let t: Vec<f64> = curves.iter().map(|c| c.truth[b]).collect();
+            (first.angle_deg[b], spearman(&l, &t))
+        })
+        .collect()
+}
+
 /// Ranks with ties averaged (1-based).
 fn ranks(v: &[f64]) -> Vec<f64> {
     let mut idx: Vec<usize> = (0..v.len()).collect();

@@ -95,6 +95,9 @@ pub struct CampaignReport {
     pub sites: Vec<SiteResult>,
     /// Learned vs true confidence per material, with rank correlations.
     pub curves: Vec<ConfidenceCurve>,
+    /// Per angle bin (deg), the rank correlation across materials of learned
+    /// against true confidence.
+    pub material_ranking: Vec<(f64, f64)>,
     /// What training did (None when the forest was loaded).
     pub training: Option<TrainingStats>,
     /// The configuration that produced it.
@@ -229,23 +232,31 @@ impl CampaignReport {
     }
 
     /// Per material: the Spearman rank correlation of learned against true
-    /// confidence over the angle bins, as text lines.
+    /// confidence over the angle bins; per bin, the rank correlation across
+    /// materials; as text lines.
     pub fn curves_summary(&self) -> String {
         let mut t = String::new();
+        let ranking: Vec<String> = self
+            .material_ranking
+            .iter()
+            .map(|(a, r)| format!("{a:.1} deg {r:+.2}"))
+            .collect();
+        let _ = writeln!(t, "ranking of materials, learned vs truth, per bin: {}", ranking.join(", "));
         for c in &self.curves {
             let _ = writeln!(
                 t,
-                "{:<7} spearman {:+.2} over {} bins ({} samples); learned {} / truth {} at {:.1} deg and {:.1} deg",
+                "{:<7} spearman {:+.2} over {} bins ({} samples): learned {} -> {}, truth {} -> {} from {:.1} to {:.1} deg",
                 c.material,
                 c.spearman,
                 c.angle_deg.len(),
                 c.samples,
                 fmt2(c.learned.first()),
+                fmt2(c.learned.last()),
                 fmt2(c.truth.first()),
+                fmt2(c.truth.last()),
                 c.angle_deg.first().copied().unwrap_or(0.0),
                 c.angle_deg.last().copied().unwrap_or(0.0),
             );
-            let _ = writeln!(t, "        learned at the last bin {} / truth {}", fmt2(c.learned.last()), fmt2(c.truth.last()));
         }
         t
     }

@@ -260,10 +260,12 @@ pub fn run_campaign_with_forest(cfg: &CampaignConfig, forest: &Forest, progress:
             artifacts = a;
         }
     }
+    let curves = curves.curves();
     Ok(CampaignReport {
         rows: aggregate(&sites),
         sites,
-        curves: curves.curves(),
+        material_ranking: super::curves::material_ranking(&curves),
+        curves,
         training: None,
         config: cfg.clone(),
         artifacts,

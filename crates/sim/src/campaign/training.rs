@@ -189,7 +189,8 @@ pub fn train_forest_with_stats(cfg: &CampaignConfig, progress: &mut dyn FnMut(&s
     Ok((forest, stats))
 }
 
-/// [`train_forest_with_stats`] without the statistics.
-pub fn train_forest(cfg: &CampaignConfig, progress: &mut dyn FnMut(&str)) -> Result<Forest> {
-    Ok(train_forest_with_stats(cfg, progress)?.0)
+/// [`train_forest_with_stats`] without progress or statistics: the forest
+/// `vpctl demo --save-model` writes and `--model` reuses.
+pub fn train_forest(cfg: &CampaignConfig) -> Result<Forest> {
+    Ok(train_forest_with_stats(cfg, &mut |_| {})?.0)
 }
