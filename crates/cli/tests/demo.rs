@@ -24,10 +24,24 @@ fn quick_demo_prints_the_table_and_writes_the_report() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("report");
     let model = dir.path().join("forest.vpf");
-    let o = vpctl(&["demo", "--quick", "--out", s(&out), "--save-model", s(&model)]);
+    let o = vpctl(&[
+        "demo",
+        "--quick",
+        "--out",
+        s(&out),
+        "--save-model",
+        s(&model),
+    ]);
     assert!(o.status.success(), "stderr: {}", text(&o.stderr));
     let stdout = text(&o.stdout);
-    for row in ["| Init |", "| Grid |", "| F1x2 |", "| NP1x2 |", "| G+F1x2 |", "| G+NP1x2 |"] {
+    for row in [
+        "| Init |",
+        "| Grid |",
+        "| F1x2 |",
+        "| NP1x2 |",
+        "| G+F1x2 |",
+        "| G+NP1x2 |",
+    ] {
         assert!(stdout.contains(row), "{row} missing from\n{stdout}");
     }
     assert!(stdout.contains("spearman"), "{stdout}");
@@ -49,13 +63,18 @@ fn quick_demo_prints_the_table_and_writes_the_report() {
         "plans/Grid/iter1.plan",
     ] {
         let p = out.join(f);
-        assert!(p.is_file() && std::fs::metadata(&p).unwrap().len() > 0, "{f} missing");
+        assert!(
+            p.is_file() && std::fs::metadata(&p).unwrap().len() > 0,
+            "{f} missing"
+        );
     }
     let plan: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("plans/F1x2/iter1.plan")).unwrap())
             .unwrap();
     assert_eq!(plan["fileType"], "Plan");
-    assert!(plan["mission"]["items"].as_array().is_some_and(|a| !a.is_empty()));
+    assert!(plan["mission"]["items"]
+        .as_array()
+        .is_some_and(|a| !a.is_empty()));
     assert!(model.is_file());
 
     // The report exists: refused without --force (exit 2), nothing changed.
@@ -85,10 +104,20 @@ fn sim_config_prints_a_loadable_config_and_sim_run_checks_it() {
     // A typo in the config: exit 2, the message names the file and the key.
     let bad = dir.path().join("bad.toml");
     std::fs::write(&bad, toml.replace("roi_margin_m", "roi_margn_m")).unwrap();
-    let o = vpctl(&["sim", "run", "--config", s(&bad), "--out", s(&dir.path().join("r"))]);
+    let o = vpctl(&[
+        "sim",
+        "run",
+        "--config",
+        s(&bad),
+        "--out",
+        s(&dir.path().join("r")),
+    ]);
     assert_eq!(o.status.code(), Some(2));
     let err = text(&o.stderr);
-    assert!(err.contains("bad.toml") && err.contains("roi_margn_m"), "{err}");
+    assert!(
+        err.contains("bad.toml") && err.contains("roi_margn_m"),
+        "{err}"
+    );
     // A missing config: exit 2.
     let o = vpctl(&["sim", "run", "--config", s(&dir.path().join("none.toml"))]);
     assert_eq!(o.status.code(), Some(2));

@@ -37,14 +37,14 @@ impl SimError {
             _ => true,
         };
         match self {
-            SimError::InvalidArgument(_) => true,
-            SimError::Scene(e) => scene(e),
-            SimError::Forest(vp_forest::ForestError::Scene(e)) => scene(e),
-            SimError::Forest(_) => true,
+            SimError::Scene(e)
+            | SimError::Forest(vp_forest::ForestError::Scene(e))
+            | SimError::Mission(vp_mission::MissionError::Scene(e)) => scene(e),
+            SimError::InvalidArgument(_)
+            | SimError::Forest(_)
+            | SimError::Mission(vp_mission::MissionError::InvalidInput(_)) => true,
             SimError::Planner(e) => e.is_input_error(),
             SimError::Labelgen(e) => e.is_input_error(),
-            SimError::Mission(vp_mission::MissionError::Scene(e)) => scene(e),
-            SimError::Mission(vp_mission::MissionError::InvalidInput(_)) => true,
             SimError::Mission(_) | SimError::Campaign(_) => false,
         }
     }

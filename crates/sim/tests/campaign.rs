@@ -63,7 +63,11 @@ fn paper_findings_hold_on_held_out_sites() {
     // Learned confidence follows the truth over the angle where the truth
     // changes most (ground); every material's correlation is reported above.
     let ground = r.curves.iter().find(|c| c.material == "ground").unwrap();
-    assert!(ground.spearman >= 0.5, "ground rank correlation {}", ground.spearman);
+    assert!(
+        ground.spearman >= 0.5,
+        "ground rank correlation {}",
+        ground.spearman
+    );
 }
 
 #[test]

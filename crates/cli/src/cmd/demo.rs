@@ -8,7 +8,9 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use clap::Args;
 use vp_forest::Forest;
-use vp_sim::campaign::{run_campaign_with_forest, train_forest_with_stats, write_report, CampaignConfig};
+use vp_sim::campaign::{
+    run_campaign_with_forest, train_forest_with_stats, write_report, CampaignConfig,
+};
 
 /// Arguments shared by `demo` and `sim run`.
 #[derive(Debug, Args)]
@@ -56,18 +58,17 @@ pub fn run_config(cfg: &CampaignConfig, args: &CampaignArgs, out: &mut dyn Write
     let mut say = |m: &str| {
         eprintln!("[{:6.1} s] {m}", t0.elapsed().as_secs_f64());
     };
-    let (forest, stats) = match &args.model {
-        Some(p) => {
-            say(&format!("loading the forest {}", p.display()));
-            (load_model(p)?, None)
-        }
-        None => {
-            let (f, s) = train_forest_with_stats(cfg, &mut say)?;
-            (f, Some(s))
-        }
+    let (forest, stats) = if let Some(p) = &args.model {
+        say(&format!("loading the forest {}", p.display()));
+        (load_model(p)?, None)
+    } else {
+        let (f, s) = train_forest_with_stats(cfg, &mut say)?;
+        (f, Some(s))
     };
     if let Some(p) = &args.save_model {
-        forest.save(p).with_context(|| format!("saving the forest to {}", p.display()))?;
+        forest
+            .save(p)
+            .with_context(|| format!("saving the forest to {}", p.display()))?;
         say(&format!("forest saved to {}", p.display()));
     }
     let mut report = run_campaign_with_forest(cfg, &forest, &mut say)?;
@@ -79,7 +80,10 @@ pub fn run_config(cfg: &CampaignConfig, args: &CampaignArgs, out: &mut dyn Write
         cfg.held_out_seeds
     )?;
     write!(out, "{}", report.table_markdown())?;
-    writeln!(out, "\nLearned confidence vs the simulator's truth (rank correlation over angle bins):")?;
+    writeln!(
+        out,
+        "\nLearned confidence vs the simulator's truth (rank correlation over angle bins):"
+    )?;
     write!(out, "{}", report.curves_summary())?;
     writeln!(
         out,

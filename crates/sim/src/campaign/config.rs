@@ -419,18 +419,33 @@ impl CampaignConfig {
         self.training.site.validate()?;
         let t = &self.training;
         if !(t.distance_m[0] > 0.0 && t.distance_m[1] >= t.distance_m[0]) {
-            return bad(format!("training.distance_m = {:?}: need 0 < min <= max", t.distance_m));
+            return bad(format!(
+                "training.distance_m = {:?}: need 0 < min <= max",
+                t.distance_m
+            ));
         }
         if !(t.max_angle_deg > 2.0 && t.max_angle_deg < 120.0) {
-            return bad(format!("training.max_angle_deg = {} is outside (2, 120)", t.max_angle_deg));
+            return bad(format!(
+                "training.max_angle_deg = {} is outside (2, 120)",
+                t.max_angle_deg
+            ));
         }
         if t.width < 32 || t.height < 32 || !(t.hfov_deg > 1.0 && t.hfov_deg < 150.0) {
             return bad("training: width/height must be >= 32 px and hfov_deg in (1, 150)".into());
         }
-        if t.levels.is_empty() || t.levels.iter().any(|&l| !(1..=crate::mvs::MAX_LEVEL).contains(&l)) {
-            return bad(format!("training.levels = {:?}: need levels in 1..=6", t.levels));
+        if t.levels.is_empty()
+            || t.levels
+                .iter()
+                .any(|&l| !(1..=crate::mvs::MAX_LEVEL).contains(&l))
+        {
+            return bad(format!(
+                "training.levels = {:?}: need levels in 1..=6",
+                t.levels
+            ));
         }
-        if self.init.nx * self.init.ny < 3 || !(self.init.height_m > 0.0 && self.init.spacing_m > 0.0) {
+        if self.init.nx * self.init.ny < 3
+            || !(self.init.height_m > 0.0 && self.init.spacing_m > 0.0)
+        {
             return bad("init: need at least 3 images, positive height and spacing".into());
         }
         if !(0.0..0.99).contains(&self.grid.overlap) || !(self.grid.height_m > 0.0) {
@@ -441,7 +456,9 @@ impl CampaignConfig {
         }
         let e = &self.eval;
         if !(e.split_edge_m >= 0.01) || !(e.depth_tolerance_m >= 0.0) || e.min_cameras == 0 {
-            return bad("eval: split_edge_m >= 0.01, depth_tolerance_m >= 0, min_cameras >= 1".into());
+            return bad(
+                "eval: split_edge_m >= 0.01, depth_tolerance_m >= 0, min_cameras >= 1".into(),
+            );
         }
         if self.confidence_step == 0 {
             return bad("confidence_step must be at least 1".into());
@@ -459,7 +476,11 @@ mod tests {
 
     #[test]
     fn presets_round_trip_through_toml_and_validate() {
-        for c in [CampaignConfig::demo(), CampaignConfig::paper(), CampaignConfig::quick()] {
+        for c in [
+            CampaignConfig::demo(),
+            CampaignConfig::paper(),
+            CampaignConfig::quick(),
+        ] {
             c.validate().unwrap();
             let text = c.to_toml().unwrap();
             let back = CampaignConfig::from_toml(&text, Path::new("x.toml")).unwrap();
@@ -483,7 +504,8 @@ mod tests {
         )
         .unwrap_err();
         assert!(e.to_string().contains("never be a training site"), "{e}");
-        let e = CampaignConfig::from_toml("strategies = [\"G5x4\"]\n", Path::new("s.toml")).unwrap_err();
+        let e = CampaignConfig::from_toml("strategies = [\"G5x4\"]\n", Path::new("s.toml"))
+            .unwrap_err();
         assert!(e.to_string().contains("G5x4"), "{e}");
     }
 }

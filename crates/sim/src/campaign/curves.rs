@@ -120,7 +120,7 @@ fn ranks(v: &[f64]) -> Vec<f64> {
     let mut i = 0;
     while i < idx.len() {
         let mut j = i;
-        while j + 1 < idx.len() && v[idx[j + 1]] == v[idx[i]] {
+        while j + 1 < idx.len() && v[idx[j + 1]].total_cmp(&v[idx[i]]).is_eq() {
             j += 1;
         }
         let avg = (i + j) as f64 / 2.0 + 1.0;
@@ -161,7 +161,7 @@ mod tests {
         let a = [0.9, 0.8, 0.5, 0.1];
         assert!((spearman(&a, &[10.0, 7.0, 3.0, 1.0]) - 1.0).abs() < 1e-12);
         assert!((spearman(&a, &[1.0, 3.0, 7.0, 10.0]) + 1.0).abs() < 1e-12);
-        assert_eq!(spearman(&a, &[1.0; 4]), 0.0);
+        assert!(spearman(&a, &[1.0; 4]).abs() < 1e-12);
         // Ties take the mean rank.
         let s = spearman(&[1.0, 2.0, 2.0, 3.0], &[1.0, 2.0, 3.0, 4.0]);
         assert!(s > 0.9 && s < 1.0, "{s}");

@@ -79,7 +79,11 @@ pub struct Scores {
 }
 
 /// Scores of `flown` on `em`; also returns each face's f (0..1) for maps.
-pub fn evaluate(em: &EvalMesh, flown: &[&Flown], cfg: &CampaignConfig) -> Result<(Scores, Vec<f64>)> {
+pub fn evaluate(
+    em: &EvalMesh,
+    flown: &[&Flown],
+    cfg: &CampaignConfig,
+) -> Result<(Scores, Vec<f64>)> {
     let pc = &cfg.planner;
     let req = Requirements {
         r_desired: 1.0 / (pc.gsd_m * pc.gsd_m),
@@ -89,8 +93,10 @@ pub fn evaluate(em: &EvalMesh, flown: &[&Flown], cfg: &CampaignConfig) -> Result
     };
     let tol = cfg.eval.depth_tolerance_m;
     let c_min = cfg.eval.min_cameras;
-    let ok: Vec<(&Flown, &[vp_scene::colmap::DepthMap; 3])> =
-        flown.iter().filter_map(|f| f.depth.as_ref().map(|d| (*f, d))).collect();
+    let ok: Vec<(&Flown, &[vp_scene::colmap::DepthMap; 3])> = flown
+        .iter()
+        .filter_map(|f| f.depth.as_ref().map(|d| (*f, d)))
+        .collect();
     let per_face: Vec<(f64, f64, f64, bool)> = (0..em.len())
         .into_par_iter()
         .with_min_len(64)
@@ -139,9 +145,14 @@ pub fn evaluate(em: &EvalMesh, flown: &[&Flown], cfg: &CampaignConfig) -> Result
         })
         .collect();
     let n = em.len().max(1) as f64;
-    let mean = |k: fn(&(f64, f64, f64, bool)) -> f64| 100.0 * per_face.iter().map(k).sum::<f64>() / n;
+    let mean =
+        |k: fn(&(f64, f64, f64, bool)) -> f64| 100.0 * per_face.iter().map(k).sum::<f64>() / n;
     let n_rock = em.rock.iter().filter(|&&r| r).count().max(1) as f64;
-    let rock_cov = per_face.iter().zip(&em.rock).filter(|(f, &r)| r && f.3).count() as f64;
+    let rock_cov = per_face
+        .iter()
+        .zip(&em.rock)
+        .filter(|(f, &r)| r && f.3)
+        .count() as f64;
     let mut images: Vec<u64> = flown.iter().flat_map(|f| f.ids).collect();
     images.sort_unstable();
     images.dedup();

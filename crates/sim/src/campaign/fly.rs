@@ -98,7 +98,9 @@ pub fn reconstruct_gated(
         overlap_pixels: overlap,
         matchable_share: matchable as f64 / overlap.max(1) as f64,
         nonflat_share: nonflat.len() as f64 / overlap.max(1) as f64,
-        nonflat_median_angle_deg: nonflat.get(nonflat.len() / 2).map_or(0.0, |&a| f64::from(a)),
+        nonflat_median_angle_deg: nonflat
+            .get(nonflat.len() / 2)
+            .map_or(0.0, |&a| f64::from(a)),
     };
     if !gate.passes(&stats) {
         return Ok((None, stats));
@@ -118,7 +120,15 @@ pub fn fly_triplet(
     ids: [u64; 3],
     seed: u64,
 ) -> Result<Flown> {
-    let (depth, stats) = reconstruct_gated(mvs, gate, mesh, caster, [&cams[0], &cams[1], &cams[2]], 1, seed)?;
+    let (depth, stats) = reconstruct_gated(
+        mvs,
+        gate,
+        mesh,
+        caster,
+        [&cams[0], &cams[1], &cams[2]],
+        1,
+        seed,
+    )?;
     Ok(Flown {
         ids,
         cams,

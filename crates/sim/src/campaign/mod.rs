@@ -25,7 +25,9 @@ pub mod strategies;
 pub mod training;
 pub mod world;
 
-pub use config::{CampaignConfig, EvalConfig, GridBaseline, InitFlight, MatchingGate, SfmConfig, TrainingConfig};
+pub use config::{
+    CampaignConfig, EvalConfig, GridBaseline, InitFlight, MatchingGate, SfmConfig, TrainingConfig,
+};
 pub use curves::ConfidenceCurve;
 pub use eval::Scores;
 pub use report::{write_report, CampaignReport, SiteResult, TableRow};

@@ -52,10 +52,23 @@ pub fn curve_plot(c: &ConfidenceCurve) -> RgbImage {
     }
     line(&mut img, (x0, y0), (x1, y0), Rgb([0, 0, 0]));
     line(&mut img, (x0, y0), (x0, y1), Rgb([0, 0, 0]));
-    let to = |a: f64, v: f64| (x0 + (x1 - x0) * a / X_MAX, y0 + (y1 - y0) * v.clamp(0.0, 1.0));
-    for (vals, colour) in [(&c.truth, Rgb([220, 40, 40])), (&c.learned, Rgb([40, 70, 220]))] {
+    let to = |a: f64, v: f64| {
+        (
+            x0 + (x1 - x0) * a / X_MAX,
+            y0 + (y1 - y0) * v.clamp(0.0, 1.0),
+        )
+    };
+    for (vals, colour) in [
+        (&c.truth, Rgb([220, 40, 40])),
+        (&c.learned, Rgb([40, 70, 220])),
+    ] {
         for i in 1..vals.len() {
-            line(&mut img, to(c.angle_deg[i - 1], vals[i - 1]), to(c.angle_deg[i], vals[i]), colour);
+            line(
+                &mut img,
+                to(c.angle_deg[i - 1], vals[i - 1]),
+                to(c.angle_deg[i], vals[i]),
+                colour,
+            );
         }
     }
     img
@@ -64,7 +77,10 @@ pub fn curve_plot(c: &ConfidenceCurve) -> RgbImage {
 /// `confidence_<material>.png` for every curve.
 pub fn write_curve_plots(curves: &[ConfidenceCurve], dir: &Path) -> Result<()> {
     for c in curves {
-        save_rgb(&curve_plot(c), &dir.join(format!("confidence_{}.png", c.material)))?;
+        save_rgb(
+            &curve_plot(c),
+            &dir.join(format!("confidence_{}.png", c.material)),
+        )?;
     }
     Ok(())
 }
@@ -95,7 +111,10 @@ pub fn write_site_plots(a: &SiteArtifacts, dir: &Path) -> Result<()> {
                 plan: &all,
                 size: 640,
             };
-            save_rgb(&render_top_view(&view), &dir.join(format!("plan_{file}.png")))?;
+            save_rgb(
+                &render_top_view(&view),
+                &dir.join(format!("plan_{file}.png")),
+            )?;
         }
         let pts: Vec<_> = a
             .centroids
@@ -111,7 +130,10 @@ pub fn write_site_plots(a: &SiteArtifacts, dir: &Path) -> Result<()> {
             plan: &empty,
             size: 640,
         };
-        save_rgb(&render_top_view(&view), &dir.join(format!("fulfilment_{file}.png")))?;
+        save_rgb(
+            &render_top_view(&view),
+            &dir.join(format!("fulfilment_{file}.png")),
+        )?;
     }
     Ok(())
 }

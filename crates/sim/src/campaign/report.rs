@@ -134,12 +134,14 @@ pub fn aggregate(sites: &[SiteResult]) -> Vec<TableRow> {
                 .iter()
                 .filter_map(|s| s.scores.iter().find(|(n, _)| n == name).map(|(_, sc)| sc))
                 .collect();
-            let ms = |k: fn(&Scores) -> f64| mean_std(&all.iter().map(|s| k(s)).collect::<Vec<_>>());
+            let ms =
+                |k: fn(&Scores) -> f64| mean_std(&all.iter().map(|s| k(s)).collect::<Vec<_>>());
             let (coverage_mean, coverage_std) = ms(|s| s.coverage);
             let (f_res_mean, f_res_std) = ms(|s| s.f_res);
             let (f_unc_mean, f_unc_std) = ms(|s| s.f_unc);
             let (f_mean, f_std) = ms(|s| s.f);
-            let (triplet_success_mean, triplet_success_std) = ms(|s| s.triplet_success.unwrap_or(f64::NAN));
+            let (triplet_success_mean, triplet_success_std) =
+                ms(|s| s.triplet_success.unwrap_or(f64::NAN));
             let (n_images_mean, n_images_std) = ms(|s| s.n_images as f64);
             let (rock_coverage_mean, rock_coverage_std) = ms(|s| s.rock_coverage);
             TableRow {
@@ -206,7 +208,13 @@ impl CampaignReport {
         let mut t = String::from(
             "strategy,coverage_mean,coverage_std,f_res_mean,f_res_std,f_unc_mean,f_unc_std,f_mean,f_std,triplet_success_mean,triplet_success_std,n_images_mean,n_images_std,rock_coverage_mean,rock_coverage_std\n",
         );
-        let v = |x: f64| if x.is_nan() { String::new() } else { format!("{x:.4}") };
+        let v = |x: f64| {
+            if x.is_nan() {
+                String::new()
+            } else {
+                format!("{x:.4}")
+            }
+        };
         for r in &self.rows {
             let _ = writeln!(
                 t,
@@ -241,7 +249,11 @@ impl CampaignReport {
             .iter()
             .map(|(a, r)| format!("{a:.1} deg {r:+.2}"))
             .collect();
-        let _ = writeln!(t, "ranking of materials, learned vs truth, per bin: {}", ranking.join(", "));
+        let _ = writeln!(
+            t,
+            "ranking of materials, learned vs truth, per bin: {}",
+            ranking.join(", ")
+        );
         for c in &self.curves {
             let _ = writeln!(
                 t,
@@ -268,7 +280,9 @@ fn fmt2(v: Option<&f64>) -> String {
 
 /// A sibling of `dir` to build the report in before it takes `dir`'s place.
 fn staging_dir(dir: &Path) -> PathBuf {
-    let name = dir.file_name().map_or_else(|| "report".into(), |n| n.to_string_lossy().into_owned());
+    let name = dir
+        .file_name()
+        .map_or_else(|| "report".into(), |n| n.to_string_lossy().into_owned());
     dir.with_file_name(format!(".{name}.partial-{}", std::process::id()))
 }
 
@@ -349,7 +363,11 @@ fn fill(report: &CampaignReport, dir: &Path) -> Result<()> {
             for (i, p) in s.plans.iter().enumerate() {
                 let base = sd.join(format!("iter{}", i + 1));
                 p.save(&base.with_extension("json"), true)?;
-                let qgc = export_qgc(p, &MissionOptions::for_autopilot(Autopilot::Px4), &QgcOptions::default())?;
+                let qgc = export_qgc(
+                    p,
+                    &MissionOptions::for_autopilot(Autopilot::Px4),
+                    &QgcOptions::default(),
+                )?;
                 write(&base.with_extension("plan"), &qgc)?;
             }
         }

@@ -31,12 +31,21 @@ fn image_id(source: u64, index: usize) -> u64 {
 
 /// Hash of a name, for seeds.
 fn name_hash(s: &str) -> u64 {
-    s.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3))
+    s.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3)
+    })
 }
 
 /// Sliding triplets (i, i+1, i+2) along a flight in order: how the Grid
 /// and the initial images are reconstructed triplet-wise.
-fn sliding_triplets(world: &World, mvs: &VirtualMvs, cfg: &CampaignConfig, cams: &[Camera], source: u64, seed: u64) -> Result<Vec<Flown>> {
+fn sliding_triplets(
+    world: &World,
+    mvs: &VirtualMvs,
+    cfg: &CampaignConfig,
+    cams: &[Camera],
+    source: u64,
+    seed: u64,
+) -> Result<Vec<Flown>> {
     (0..cams.len().saturating_sub(2))
         .map(|i| {
             fly_triplet(
@@ -45,7 +54,11 @@ fn sliding_triplets(world: &World, mvs: &VirtualMvs, cfg: &CampaignConfig, cams:
                 &world.site.mesh,
                 &world.caster,
                 [cams[i], cams[i + 1], cams[i + 2]],
-                [image_id(source, i), image_id(source, i + 1), image_id(source, i + 2)],
+                [
+                    image_id(source, i),
+                    image_id(source, i + 1),
+                    image_id(source, i + 2),
+                ],
                 mix64(seed ^ mix64(source << 40 | i as u64)),
             )
         })
@@ -56,8 +69,16 @@ fn sliding_triplets(world: &World, mvs: &VirtualMvs, cfg: &CampaignConfig, cams:
 fn grid_cameras(world: &World, cfg: &CampaignConfig) -> Result<Vec<Camera>> {
     let m = cfg.grid.margin_m;
     let fp = Aabb {
-        min: Point3::new(world.roi.min.x - m, world.roi.min.y - m, world.ground_min_z()),
-        max: Point3::new(world.roi.max.x + m, world.roi.max.y + m, world.ground_min_z()),
+        min: Point3::new(
+            world.roi.min.x - m,
+            world.roi.min.y - m,
+            world.ground_min_z(),
+        ),
+        max: Point3::new(
+            world.roi.max.x + m,
+            world.roi.max.y + m,
+            world.ground_min_z(),
+        ),
     };
     let params = GridParams {
         height_m: cfg.grid.height_m,
@@ -69,13 +90,19 @@ fn grid_cameras(world: &World, cfg: &CampaignConfig) -> Result<Vec<Camera>> {
         role: Role::Grid,
     };
     let views = grid_views(&fp, &params, world.intrinsics)?;
-    Ok(views.iter().map(|v| v.to_camera(world.intrinsics)).collect())
+    Ok(views
+        .iter()
+        .map(|v| v.to_camera(world.intrinsics))
+        .collect())
 }
 
 /// A plan holding `cams` as views of `role` (for the report's missions).
 fn plan_of(world: &World, cams: &[Camera], role: Role) -> Plan {
     let mut p = Plan::new(Some(world.site.origin));
-    p.waypoints = cams.iter().map(|c| vp_scene::plan::PlannedView::from_camera(c, role)).collect();
+    p.waypoints = cams
+        .iter()
+        .map(|c| vp_scene::plan::PlannedView::from_camera(c, role))
+        .collect();
     p
 }
 
@@ -83,6 +110,25 @@ fn plan_of(world: &World, cams: &[Camera], role: Role) -> Plan {
 struct StrategyRun {
     flown: Vec<Flown>,
     plans: Vec<Plan>,
+}
+
+/// One progress line per flown triplet: its planned angle bin and what the gate saw.
+fn triplet_line(plan: &Plan, t: u32, fl: &Flown) -> String {
+    let bin = plan
+        .waypoints
+        .iter()
+        .find(|w| w.triplet_id == Some(t))
+        .and_then(|w| w.angle_bin_deg)
+        .unwrap_or(f64::NAN);
+    let s = &fl.stats;
+    format!(
+        "    triplet {t} ({bin:.1} deg): {}; overlap {} px, matchable {:.2}, non-flat {:.2} at median {:.1} deg",
+        if fl.success() { "output" } else { "nothing" },
+        s.overlap_pixels,
+        s.matchable_share,
+        s.nonflat_share,
+        s.nonflat_median_angle_deg
+    )
 }
 
 /// Runs one triplet strategy from the initial flight.
@@ -103,7 +149,10 @@ fn run_strategy(
     let base = mix64(cfg.seed ^ mix64(site_seed) ^ name_hash(&strategy.name));
     let mut acquired: Vec<Acquired> = init.to_vec();
     let mut seen = init_seen.clone();
-    let mut out = StrategyRun { flown: Vec::new(), plans: Vec::new() };
+    let mut out = StrategyRun {
+        flown: Vec::new(),
+        plans: Vec::new(),
+    };
     let mut next_index = 0usize;
     let roi = RoiSpec::Region(Roi::from_aabb(&world.roi));
     for it in 0..strategy.iterations {
@@ -112,7 +161,11 @@ fn run_strategy(
             .iter()
             .map(|a| AcquiredView {
                 camera: a.sfm,
-                confidence: if strategy.prediction { a.confidence.clone() } else { None },
+                confidence: if strategy.prediction {
+                    a.confidence.clone()
+                } else {
+                    None
+                },
             })
             .collect();
         let mut pc = cfg.planner.clone();
@@ -126,9 +179,14 @@ fn run_strategy(
             origin: Some(world.site.origin),
         };
         let result = plan(&inputs).map_err(|e| {
-            SimError::Campaign(format!("site {site_seed}, {} iteration {}: {e}", strategy.name, it + 1))
+            SimError::Campaign(format!(
+                "site {site_seed}, {} iteration {}: {e}",
+                strategy.name,
+                it + 1
+            ))
         })?;
-        let mut triplets: std::collections::BTreeMap<u32, Vec<Camera>> = Default::default();
+        let mut triplets: std::collections::BTreeMap<u32, Vec<Camera>> =
+            std::collections::BTreeMap::default();
         let mut new_cams = Vec::new();
         for w in &result.plan.waypoints {
             let cam = w.to_camera(world.intrinsics);
@@ -143,24 +201,21 @@ fn run_strategy(
             };
             let i = next_index;
             next_index += 3;
-            let ids = [image_id(source, i), image_id(source, i + 1), image_id(source, i + 2)];
-            let fl = fly_triplet(mvs, &cfg.gate, &world.site.mesh, &world.caster, [*a, *b, *c], ids, mix64(base ^ mix64(i as u64)))?;
-            let bin = result
-                .plan
-                .waypoints
-                .iter()
-                .find(|w| w.triplet_id == Some(*t))
-                .and_then(|w| w.angle_bin_deg)
-                .unwrap_or(f64::NAN);
-            let s = &fl.stats;
-            progress(&format!(
-                "    triplet {t} ({bin:.1} deg): {}; overlap {} px, matchable {:.2}, non-flat {:.2} at median {:.1} deg",
-                if fl.success() { "output" } else { "nothing" },
-                s.overlap_pixels,
-                s.matchable_share,
-                s.nonflat_share,
-                s.nonflat_median_angle_deg
-            ));
+            let ids = [
+                image_id(source, i),
+                image_id(source, i + 1),
+                image_id(source, i + 2),
+            ];
+            let fl = fly_triplet(
+                mvs,
+                &cfg.gate,
+                &world.site.mesh,
+                &world.caster,
+                [*a, *b, *c],
+                ids,
+                mix64(base ^ mix64(i as u64)),
+            )?;
+            progress(&triplet_line(&result.plan, *t, &fl));
             out.flown.push(fl);
         }
         progress(&format!(
@@ -193,11 +248,23 @@ fn refs(v: &[Flown]) -> Vec<&Flown> {
 }
 
 /// Flies and evaluates every strategy on one held-out site.
-fn run_site(cfg: &CampaignConfig, forest: &Forest, strategies: &[Strategy], seed: u64, keep_artifacts: bool, curves: &mut CurveAccumulator, progress: &mut dyn FnMut(&str)) -> Result<(SiteResult, Option<SiteArtifacts>)> {
+fn run_site(
+    cfg: &CampaignConfig,
+    forest: &Forest,
+    strategies: &[Strategy],
+    seed: u64,
+    keep_artifacts: bool,
+    curves: &mut CurveAccumulator,
+    progress: &mut dyn FnMut(&str),
+) -> Result<(SiteResult, Option<SiteArtifacts>)> {
     let world = World::new(cfg, seed)?;
     let em = EvalMesh::new(&world, cfg)?;
     let mvs = VirtualMvs::new(cfg.profile.clone())?;
-    progress(&format!("held-out site {seed}: {} faces, {} evaluation faces in the ROI", world.site.mesh.n_faces(), em.len()));
+    progress(&format!(
+        "held-out site {seed}: {} faces, {} evaluation faces in the ROI",
+        world.site.mesh.n_faces(),
+        em.len()
+    ));
     let run_seed = mix64(cfg.seed ^ mix64(seed ^ 0x7369_7465));
 
     let init_cams = init_cameras(&world, cfg);
@@ -207,21 +274,50 @@ fn run_site(cfg: &CampaignConfig, forest: &Forest, strategies: &[Strategy], seed
     let init_flown = sliding_triplets(&world, &mvs, cfg, &init_cams, SOURCE_INIT, run_seed)?;
     let grid_cams = grid_cameras(&world, cfg)?;
     let grid_flown = sliding_triplets(&world, &mvs, cfg, &grid_cams, SOURCE_GRID, run_seed)?;
-    progress(&format!("  site {seed}: initial flight {} images, Grid {} images", init_cams.len(), grid_cams.len()));
+    progress(&format!(
+        "  site {seed}: initial flight {} images, Grid {} images",
+        init_cams.len(),
+        grid_cams.len()
+    ));
 
     let mut scores: Vec<(String, Scores)> = Vec::new();
     let mut maps: Vec<(String, Vec<f64>, Vec<Plan>)> = Vec::new();
     let (s, f) = evaluate(&em, &refs(&init_flown), cfg)?;
     scores.push(("Init".into(), s));
-    maps.push(("Init".into(), f, vec![plan_of(&world, &init_cams, Role::Initial)]));
+    maps.push((
+        "Init".into(),
+        f,
+        vec![plan_of(&world, &init_cams, Role::Initial)],
+    ));
     let (s, f) = evaluate(&em, &refs(&grid_flown), cfg)?;
     scores.push(("Grid".into(), s));
-    maps.push(("Grid".into(), f, vec![plan_of(&world, &grid_cams, Role::Grid)]));
+    maps.push((
+        "Grid".into(),
+        f,
+        vec![plan_of(&world, &grid_cams, Role::Grid)],
+    ));
     let mut combos = Vec::new();
     for (i, st) in strategies.iter().enumerate() {
-        let run = run_strategy(&world, &mvs, forest, cfg, st, 2 + i as u64, &init, &seen, curves, progress)?;
+        let run = run_strategy(
+            &world,
+            &mvs,
+            forest,
+            cfg,
+            st,
+            2 + i as u64,
+            &init,
+            &seen,
+            curves,
+            progress,
+        )?;
         let (s, f) = evaluate(&em, &refs(&run.flown), cfg)?;
-        progress(&format!("  site {seed} {}: coverage {:.1} %, f {:.1} %, success {:.0} %", st.name, s.coverage, s.f, s.triplet_success.unwrap_or(0.0)));
+        progress(&format!(
+            "  site {seed} {}: coverage {:.1} %, f {:.1} %, success {:.0} %",
+            st.name,
+            s.coverage,
+            s.f,
+            s.triplet_success.unwrap_or(0.0)
+        ));
         scores.push((st.name.clone(), s));
         let mut union = refs(&grid_flown);
         union.extend(run.flown.iter());
@@ -240,21 +336,37 @@ fn run_site(cfg: &CampaignConfig, forest: &Forest, strategies: &[Strategy], seed
         centroids: em.centroids.clone(),
         strategies: maps
             .into_iter()
-            .map(|(name, f, plans)| StrategyArtifacts { name, face_f: f, plans })
+            .map(|(name, f, plans)| StrategyArtifacts {
+                name,
+                face_f: f,
+                plans,
+            })
             .collect(),
     });
     Ok((SiteResult { seed, scores }, artifacts))
 }
 
 /// Runs the campaign with a trained forest (see [`run_campaign`]).
-pub fn run_campaign_with_forest(cfg: &CampaignConfig, forest: &Forest, progress: &mut dyn FnMut(&str)) -> Result<CampaignReport> {
+pub fn run_campaign_with_forest(
+    cfg: &CampaignConfig,
+    forest: &Forest,
+    progress: &mut dyn FnMut(&str),
+) -> Result<CampaignReport> {
     cfg.validate()?;
     let strategies = cfg.parsed_strategies()?;
     let mut curves = CurveAccumulator::default();
     let mut sites = Vec::new();
     let mut artifacts = None;
     for (i, &seed) in cfg.held_out_seeds.iter().enumerate() {
-        let (r, a) = run_site(cfg, forest, &strategies, seed, i == 0, &mut curves, progress)?;
+        let (r, a) = run_site(
+            cfg,
+            forest,
+            &strategies,
+            seed,
+            i == 0,
+            &mut curves,
+            progress,
+        )?;
         sites.push(r);
         if a.is_some() {
             artifacts = a;
@@ -275,7 +387,10 @@ pub fn run_campaign_with_forest(cfg: &CampaignConfig, forest: &Forest, progress:
 /// The whole campaign: trains the forest on the training sites, then flies
 /// and evaluates every strategy on every held-out site. `progress` hears
 /// one line per step.
-pub fn run_campaign(cfg: &CampaignConfig, progress: &mut dyn FnMut(&str)) -> Result<CampaignReport> {
+pub fn run_campaign(
+    cfg: &CampaignConfig,
+    progress: &mut dyn FnMut(&str),
+) -> Result<CampaignReport> {
     let (forest, stats) = train_forest_with_stats(cfg, progress)?;
     let mut report = run_campaign_with_forest(cfg, &forest, progress)?;
     report.training = Some(stats);

@@ -58,7 +58,10 @@ mod tests {
         let f = Strategy::parse("F5x4").unwrap();
         assert_eq!((f.iterations, f.per_iteration, f.prediction), (5, 4, true));
         let np = Strategy::parse("NP1x20").unwrap();
-        assert_eq!((np.iterations, np.per_iteration, np.prediction), (1, 20, false));
+        assert_eq!(
+            (np.iterations, np.per_iteration, np.prediction),
+            (1, 20, false)
+        );
         for bad in ["G5x4", "F5", "F0x4", "Fx4", "NP5x", "F5x4x1"] {
             assert!(Strategy::parse(bad).is_err(), "{bad}");
         }

@@ -46,7 +46,13 @@ pub struct TrainingStats {
 /// random distance and elevation, cameras on a circle perpendicular to the
 /// viewing direction, sized for a triangulation angle drawn log-uniformly
 /// between 2 deg and `max_angle_deg`, all looking at the focus.
-fn random_triplet(site: &Site, caster: &RayCaster, k: Intrinsics, cfg: &CampaignConfig, rng: &mut ChaCha8Rng) -> Option<[Camera; 3]> {
+fn random_triplet(
+    site: &Site,
+    caster: &RayCaster,
+    k: Intrinsics,
+    cfg: &CampaignConfig,
+    rng: &mut ChaCha8Rng,
+) -> Option<[Camera; 3]> {
     let t = &cfg.training;
     let rb = site.rock_bounds;
     let x = rng.random_range(rb.min.x - FOCUS_MARGIN_M..rb.max.x + FOCUS_MARGIN_M);
@@ -54,7 +60,9 @@ fn random_triplet(site: &Site, caster: &RayCaster, k: Intrinsics, cfg: &Campaign
     let top = site.mesh.bounds().max.z + 10.0;
     let hit = caster.closest_hit(&Point3::new(x, y, top), &-Vector3::z(), f64::INFINITY)?;
     let focus = hit.point;
-    let angle = (MIN_ANGLE_DEG.ln() + rng.random::<f64>() * (t.max_angle_deg.ln() - MIN_ANGLE_DEG.ln())).exp();
+    let angle = (MIN_ANGLE_DEG.ln()
+        + rng.random::<f64>() * (t.max_angle_deg.ln() - MIN_ANGLE_DEG.ln()))
+    .exp();
     let d = rng.random_range(t.distance_m[0]..=t.distance_m[1]);
     let el = rng.random_range(25f64..80.0).to_radians();
     let az = rng.random_range(0.0..std::f64::consts::TAU);
@@ -91,7 +99,13 @@ fn image_at_level(img: &RgbImage, level: u8) -> RgbImage {
 
 /// Flies the training triplets of one site and labels them; adds the
 /// labelled images to `set`.
-fn train_site(cfg: &CampaignConfig, seed: u64, set: &mut TrainingSet, stats: &mut TrainingStats, progress: &mut dyn FnMut(&str)) -> Result<()> {
+fn train_site(
+    cfg: &CampaignConfig,
+    seed: u64,
+    set: &mut TrainingSet,
+    stats: &mut TrainingStats,
+    progress: &mut dyn FnMut(&str),
+) -> Result<()> {
     let t = &cfg.training;
     let mut params = t.site.clone();
     params.seed = seed;
@@ -99,7 +113,7 @@ fn train_site(cfg: &CampaignConfig, seed: u64, set: &mut TrainingSet, stats: &mu
     let caster = RayCaster::new(&site.mesh);
     let k = Intrinsics::from_hfov(t.width, t.height, t.hfov_deg)?;
     let mvs = VirtualMvs::new(cfg.profile.clone())?;
-    let mut rng = ChaCha8Rng::seed_from_u64(mix64(cfg.seed ^ mix64(seed ^ 0x7472_6169_6e)));
+    let mut rng = ChaCha8Rng::seed_from_u64(mix64(cfg.seed ^ mix64(seed ^ 0x0074_7261_696e)));
     let mut rp = cfg.render.clone();
     rp.texture_seed = seed;
     let mut recs = Vec::new();
@@ -117,7 +131,15 @@ fn train_site(cfg: &CampaignConfig, seed: u64, set: &mut TrainingSet, stats: &mu
         }
         for &level in &t.levels {
             let tseed = mix64(cfg.seed ^ mix64(seed ^ mix64((n as u64) << 8 | u64::from(level))));
-            let (depth, _) = reconstruct_gated(&mvs, &cfg.gate, &site.mesh, &caster, [&cams[0], &cams[1], &cams[2]], level, tseed)?;
+            let (depth, _) = reconstruct_gated(
+                &mvs,
+                &cfg.gate,
+                &site.mesh,
+                &caster,
+                [&cams[0], &cams[1], &cams[2]],
+                level,
+                tseed,
+            )?;
             stats.triplets += 1;
             stats.successful_triplets += usize::from(depth.is_some());
             let depth = depth.unwrap_or_else(|| {
@@ -145,7 +167,9 @@ fn train_site(cfg: &CampaignConfig, seed: u64, set: &mut TrainingSet, stats: &mu
         }
         n += 1;
     }
-    progress(&format!("training site {seed}: {n} triplets flown, labelling"));
+    progress(&format!(
+        "training site {seed}: {n} triplets flown, labelling"
+    ));
     let meshes = MissingPartMeshes::new(&site.mesh, t.labels.mesh_iterations);
     let labels = generate_labels(&recs, Some(&meshes), &t.labels)?;
     for rl in &labels {
@@ -157,7 +181,9 @@ fn train_site(cfg: &CampaignConfig, seed: u64, set: &mut TrainingSet, stats: &mu
             .unwrap_or(1);
         for (name, label) in rl.names.iter().zip(&rl.labels) {
             let Some(img) = images.get(name) else {
-                return Err(SimError::InvalidArgument(format!("training: no image named {name}")));
+                return Err(SimError::InvalidArgument(format!(
+                    "training: no image named {name}"
+                )));
             };
             let img = image_at_level(img, level);
             stats.positives += label.count(vp_scene::raster::Label::Positive);
@@ -171,10 +197,16 @@ fn train_site(cfg: &CampaignConfig, seed: u64, set: &mut TrainingSet, stats: &mu
 
 /// Runs the training campaign of `cfg` and trains the forest; `progress`
 /// hears one line per site and one for the training.
-pub fn train_forest_with_stats(cfg: &CampaignConfig, progress: &mut dyn FnMut(&str)) -> Result<(Forest, TrainingStats)> {
+pub fn train_forest_with_stats(
+    cfg: &CampaignConfig,
+    progress: &mut dyn FnMut(&str),
+) -> Result<(Forest, TrainingStats)> {
     cfg.validate()?;
     let t = &cfg.training;
-    let mut set = TrainingSet::with_cap_per_label_image(t.max_per_class_per_label_image, mix64(cfg.seed ^ 0x6361_70));
+    let mut set = TrainingSet::with_cap_per_label_image(
+        t.max_per_class_per_label_image,
+        mix64(cfg.seed ^ 0x0063_6170),
+    );
     let mut stats = TrainingStats::default();
     for &seed in &t.site_seeds {
         train_site(cfg, seed, &mut set, &mut stats, progress)?;

@@ -125,17 +125,23 @@ fn point_noise(seed: u64, p: &Point3<f64>, sigma: f64) -> Vector3<f64> {
 }
 
 /// The planning mesh from the SfM state (see the module docs).
-pub fn planning_mesh(world: &World, seen: &SeenCounter, cfg: &CampaignConfig, seed: u64) -> Result<Mesh> {
+pub fn planning_mesh(
+    world: &World,
+    seen: &SeenCounter,
+    cfg: &CampaignConfig,
+    seed: u64,
+) -> Result<Mesh> {
     let faces = seen.known_faces(cfg.sfm.min_views);
     if faces.is_empty() {
         return Err(SimError::InvalidArgument(
-            "the acquired images see no surface point twice: the initial flight misses the site".into(),
+            "the acquired images see no surface point twice: the initial flight misses the site"
+                .into(),
         ));
     }
     let mut mesh = submesh(&world.site.mesh, &faces);
     let sigma = cfg.sfm.point_noise_m;
     if sigma > 0.0 {
-        let s = mix64(seed ^ 0x706d_6573_68);
+        let s = mix64(seed ^ 0x0070_6d65_7368);
         for v in &mut mesh.vertices {
             let n = point_noise(s, v, sigma);
             *v += n;
@@ -148,7 +154,7 @@ pub fn planning_mesh(world: &World, seen: &SeenCounter, cfg: &CampaignConfig, se
 
 /// The camera as SfM estimates it: true pose plus seeded position and rotation noise.
 pub fn sfm_camera(cam: &Camera, cfg: &CampaignConfig, seed: u64, index: u64) -> Camera {
-    let s = mix64(seed ^ mix64(index ^ 0x7366_6d));
+    let s = mix64(seed ^ mix64(index ^ 0x0073_666d));
     let g = |k: i64| gaussian(s, k, 0, 0);
     let dp = Vector3::new(g(0), g(1), g(2)) * cfg.sfm.position_noise_m;
     let dr = Vector3::new(g(3), g(4), g(5)) * cfg.sfm.rotation_noise_deg.to_radians();
@@ -204,9 +210,11 @@ pub fn acquire(
                 let mut rp = cfg.render.clone();
                 rp.texture_seed = world.site.params.seed;
                 let img = render(&world.site.mesh, &world.caster, cam, &rp)?;
-                let conf = forest.predict_image(&img.rgb, cfg.confidence_step).map_err(|e| {
-                    SimError::InvalidArgument(format!("confidence prediction: {e}"))
-                })?;
+                let conf = forest
+                    .predict_image(&img.rgb, cfg.confidence_step)
+                    .map_err(|e| {
+                        SimError::InvalidArgument(format!("confidence prediction: {e}"))
+                    })?;
                 curves.add(&world.site.mesh, cam, &img, &conf, &cfg.profile);
                 Some(conf)
             }
