@@ -26,6 +26,9 @@ struct Args {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Train on small procedural sites, fly a held-out site with the F, NP
+    /// and Grid strategies, print the paper's Table 1, write a report.
+    Demo(cmd::demo::DemoArgs),
     /// Procedural scenes: generate a site with materials.
     #[command(subcommand)]
     Scene(cmd::scene::SceneCommand),
@@ -55,7 +58,8 @@ enum Command {
     Plan(Box<cmd::plan::PlanArgs>),
     /// Print configuration files (`config --defaults`).
     Config(cmd::plan::ConfigArgs),
-    /// The simulated world: render images of procedural sites.
+    /// The simulated world: render images of procedural sites, run
+    /// closed-loop campaigns (`sim run --config`, `sim config --defaults`).
     #[command(subcommand)]
     Sim(cmd::render::SimCommand),
 }
@@ -74,6 +78,7 @@ fn run(args: Args, out: &mut dyn Write) -> anyhow::Result<()> {
         Command::Plan(c) => cmd::plan::run(*c, out),
         Command::Config(c) => cmd::plan::run_config(c, out),
         Command::Sim(c) => cmd::render::run(c, out),
+        Command::Demo(c) => cmd::demo::run_demo(&c, out),
     }
 }
 

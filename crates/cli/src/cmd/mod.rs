@@ -1,6 +1,7 @@
 //! One module per subcommand group.
 
 pub mod colmap;
+pub mod demo;
 pub mod depth;
 pub mod forest;
 pub mod labelgen;
@@ -42,10 +43,18 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
             };
         }
         // SimError::Scene is transparent: the chain skips the SceneError inside.
-        match cause.downcast_ref::<SimError>() {
-            Some(SimError::InvalidArgument(_)) => return 2,
-            Some(SimError::Scene(se)) => return scene_exit_code(se),
-            _ => {}
+        if let Some(se) = cause.downcast_ref::<SimError>() {
+            return match se {
+                SimError::Scene(se) => scene_exit_code(se),
+                _ if se.is_input_error() => 2,
+                _ => 1,
+            };
+        }
+        if let Some(fe) = cause.downcast_ref::<vp_forest::ForestError>() {
+            return match fe {
+                vp_forest::ForestError::Scene(se) => scene_exit_code(se),
+                _ => 2,
+            };
         }
     }
     1
