@@ -26,7 +26,9 @@ echo "== long runs: 100 uploads through a lossy UDP relay"
 cargo test --locked -p vp-mission --test udp_loopback -- --ignored --nocapture
 
 echo "== long runs: the paper's findings on held-out sites, campaign determinism (release)"
-cargo test --release --locked -p vp-sim --test campaign -- --ignored --skip not_yet_met --nocapture
+# --workspace (not -p vp-sim): the same feature set as the bench step below,
+# which then reuses this release build instead of compiling everything again.
+cargo test --release --locked --workspace --test campaign -- --ignored --skip not_yet_met --nocapture
 
 echo "== benchmarks, smoke run (each benchmark once)"
 cargo bench --workspace --locked -- --test
