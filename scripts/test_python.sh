@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Builds and installs the Python package (`pip install ./py`, maturin as the
+# build backend) into .venv and runs pytest on py/tests. The CLI-equality
+# tests need the vpctl binary: VPCTL_BIN (default: the debug build that
+# `cargo test --workspace` just made); VP_REQUIRE_VPCTL=1 turns a missing
+# binary into a failure instead of a skip (scripts/test.sh sets it).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+target="${CARGO_TARGET_DIR:-$PWD/target}"
+export VPCTL_BIN="${VPCTL_BIN:-$target/debug/vpctl}"
+if [ "${VP_REQUIRE_VPCTL:-0}" = "1" ] && [ ! -x "$VPCTL_BIN" ]; then
+  echo "test_python.sh: no vpctl binary at $VPCTL_BIN (run cargo test --workspace first)" >&2
+  exit 1
+fi
+
+if [ ! -x .venv/bin/python ]; then
+  python3 -m venv .venv
+fi
+py=.venv/bin/python
+$py -m pip install --quiet --disable-pip-version-check numpy pytest
+# The extension builds with the workspace's release profile into the same
+# target folder as cargo, so a second run only relinks what changed.
+CARGO_TARGET_DIR="$target" $py -m pip install --quiet --disable-pip-version-check --force-reinstall --no-deps ./py
+# Not from the repo root: `import vpctl` must find the installed package.
+cd py/tests && ../../$py -m pytest -q -p no:cacheprovider .
