@@ -187,6 +187,38 @@ pub fn from_py<T: DeserializeOwned + Default>(
     from_py_required(obj, what)
 }
 
+/// [`from_py`] for types whose serde form fills missing fields with
+/// defaults but would silently ignore unknown ones: a key that the type's
+/// default does not serialise is a `ValueError` naming it.
+pub fn from_py_strict<T: DeserializeOwned + Serialize + Default>(
+    obj: Option<&Bound<'_, PyAny>>,
+    what: &str,
+) -> PyResult<T> {
+    if let Some(dict) = obj.and_then(|o| o.cast::<pyo3::types::PyDict>().ok()) {
+        let known =
+            serde_json::to_value(T::default()).map_err(|e| value_error(format!("{what}: {e}")))?;
+        for key in dict.keys() {
+            let k: String = key.extract()?;
+            if known.get(&k).is_none() {
+                let mut names: Vec<&String> = known
+                    .as_object()
+                    .map(|o| o.keys().collect())
+                    .unwrap_or_default();
+                names.sort();
+                return Err(value_error(format!(
+                    "{what}: unknown parameter {k:?} (known: {})",
+                    names
+                        .iter()
+                        .map(|s| s.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )));
+            }
+        }
+    }
+    from_py(obj, what)
+}
+
 /// A Python object through JSON into a serde type.
 pub fn from_py_required<T: DeserializeOwned>(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<T> {
     let json = obj.py().import("json")?;

@@ -176,9 +176,9 @@ impl PyLabels {
     /// Reconstruction `i`: {id, names, labels: [(labels (H, W) uint8, angles
     /// (H, W) float32)] x 3, counts: [{measured, positive, negative_voted,
     /// negative_missing}] x 3}.
-    fn __getitem__<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Bound<'py, PyDict>> {
-        let r = self.0.get(i).ok_or_else(|| {
-            pyo3::exceptions::PyIndexError::new_err(format!("index {i} out of range"))
+    fn __getitem__<'py>(&self, py: Python<'py>, key: usize) -> PyResult<Bound<'py, PyDict>> {
+        let r = self.0.get(key).ok_or_else(|| {
+            pyo3::exceptions::PyIndexError::new_err(format!("index {key} out of range"))
         })?;
         let labels = PyList::empty(py);
         for img in &r.labels {

@@ -301,10 +301,12 @@ impl PyVehicle {
     fn __exit__(
         &self,
         py: Python<'_>,
-        _t: &Bound<'_, PyAny>,
-        _v: &Bound<'_, PyAny>,
-        _tb: &Bound<'_, PyAny>,
+        t: &Bound<'_, PyAny>,
+        v: &Bound<'_, PyAny>,
+        tb: &Bound<'_, PyAny>,
     ) -> PyResult<bool> {
+        // The exception, if any, propagates (return False).
+        let _ = (t, v, tb);
         self.close(py)?;
         Ok(false)
     }

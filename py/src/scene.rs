@@ -384,7 +384,7 @@ fn generate_site(
     faces: usize,
     params: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<PySite> {
-    let mut p: SiteParams = convert::from_py(params.map(|d| d.as_any()), "site parameters")?;
+    let mut p: SiteParams = convert::from_py_strict(params.map(|d| d.as_any()), "site parameters")?;
     p.seed = seed;
     p.target_faces = faces;
     let site = py.detach(|| procedural::generate_site(&p)).py()?;

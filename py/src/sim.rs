@@ -24,7 +24,7 @@ fn render<'py>(
     camera: PyRef<'_, PyCamera>,
     params: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let p: RenderParams = convert::from_py(params, "params")?;
+    let p: RenderParams = convert::from_py_strict(params, "params")?;
     let (m, c, cam) = (&mesh.0, &caster.0, &camera.0);
     let r = py.detach(|| vp_sim::render(m, c, cam, &p)).py()?;
     let face: Vec<i64> = r
