@@ -20,7 +20,6 @@ use crate::scene::{depth_map, PyCamera, PyColmap, PyMesh, PyRayCaster};
 /// a list of {bin, angle_deg, images}.
 #[pyfunction]
 #[pyo3(signature = (model, per_bin = 10, seed = 0, min_shared_points = 20, min_shared_share = 0.1, min_equilateral = 0.5, bin_edges = None))]
-#[allow(clippy::too_many_arguments)]
 fn sample_triplets<'py>(
     py: Python<'py>,
     model: PyRef<'_, PyColmap>,

@@ -120,7 +120,6 @@ fn py_build_mission(
 /// refusing to overwrite unless `force` (same bytes as `vpctl mission export`).
 #[pyfunction]
 #[pyo3(signature = (plan, format = "qgc", out = None, force = false, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true))]
-#[allow(clippy::too_many_arguments)]
 fn export(
     plan: PyRef<'_, PyPlan>,
     format: &str,
@@ -176,7 +175,6 @@ fn connect_options(heartbeat_timeout: f64, timeout_scale: f64) -> PyResult<Conne
 /// is released while waiting on the vehicle. Returns a report dict.
 #[pyfunction]
 #[pyo3(signature = (plan, url, heartbeat_timeout = 5.0, timeout_scale = 1.0, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true))]
-#[allow(clippy::too_many_arguments)]
 fn upload<'py>(
     py: Python<'py>,
     plan: PyRef<'_, PyPlan>,

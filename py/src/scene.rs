@@ -173,7 +173,6 @@ impl PyCamera {
     /// Intrinsics in pixels and the 4x4 `world_from_cam` transform.
     #[new]
     #[pyo3(signature = (width, height, fx, fy, cx, cy, world_from_cam))]
-    #[allow(clippy::too_many_arguments)]
     fn new(
         width: u32,
         height: u32,
