@@ -40,24 +40,27 @@ pub fn points_array<'py>(py: Python<'py>, pts: &[Point3<f64>]) -> Bound<'py, PyA
         .into_pyarray(py)
 }
 
+/// Two arrays returned together (e.g. labels and angles).
+pub type ArrayPair<'py, A, B> = (Bound<'py, A>, Bound<'py, B>);
+
 /// An (H, W) array from row-major data.
-pub fn image2<'py, T: numpy::Element>(
-    py: Python<'py>,
+pub fn image2<T: numpy::Element>(
+    py: Python<'_>,
     width: u32,
     height: u32,
     data: Vec<T>,
-) -> PyResult<Bound<'py, PyArray2<T>>> {
+) -> PyResult<Bound<'_, PyArray2<T>>> {
     Array2::from_shape_vec((height as usize, width as usize), data)
         .map(|a| a.into_pyarray(py))
         .map_err(|e| value_error(format!("image of {width}x{height}: {e}")))
 }
 
 /// An (H, W, C) array from row-major, channel-innermost data.
-pub fn image3<'py, T: numpy::Element>(
-    py: Python<'py>,
+pub fn image3<T: numpy::Element>(
+    py: Python<'_>,
     shape: (usize, usize, usize),
     data: Vec<T>,
-) -> PyResult<Bound<'py, PyArray3<T>>> {
+) -> PyResult<Bound<'_, PyArray3<T>>> {
     Array3::from_shape_vec(shape, data)
         .map(|a| a.into_pyarray(py))
         .map_err(|e| value_error(format!("array of shape {shape:?}: {e}")))
@@ -125,7 +128,7 @@ pub fn label_image(
 pub fn label_arrays<'py>(
     py: Python<'py>,
     img: &LabelImage,
-) -> PyResult<(Bound<'py, PyArray2<u8>>, Bound<'py, PyArray2<f32>>)> {
+) -> PyResult<ArrayPair<'py, PyArray2<u8>, PyArray2<f32>>> {
     let (w, h) = (img.width(), img.height());
     let mut labels = Vec::with_capacity((w * h) as usize);
     let mut angles = Vec::with_capacity((w * h) as usize);

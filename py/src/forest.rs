@@ -9,7 +9,7 @@ use vp_forest::{Forest, Scored, TrainParams, TrainingSet};
 use vp_scene::fsio;
 use vp_scene::raster::{AngleBins, ConfidenceImage};
 
-use crate::convert::{self, image3, label_image, rgb};
+use crate::convert::{self, image3, label_image, rgb, ArrayPair};
 use crate::errors::{value_error, IntoPy};
 
 /// Predicted MVS confidence of one image: b values per node of a grid with
@@ -186,7 +186,7 @@ impl PyForest {
         image: PyReadonlyArray3<'_, u8>,
         labels: PyReadonlyArray2<'_, u8>,
         angles: PyReadonlyArray2<'_, f32>,
-    ) -> PyResult<(Bound<'py, PyArray1<f32>>, Bound<'py, PyArray1<bool>>)> {
+    ) -> PyResult<ArrayPair<'py, PyArray1<f32>, PyArray1<bool>>> {
         let img = rgb(&image, "image")?;
         let lab = label_image(&labels, &angles, "labels")?;
         let s = py.detach(|| self.0.score_labels(&img, &lab)).py()?;

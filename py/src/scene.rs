@@ -14,7 +14,7 @@ use vp_scene::procedural::{self, Site, SiteParams};
 use vp_scene::raycast::RayCaster;
 use vp_scene::{fsio, Camera, Intrinsics, Material, Mesh};
 
-use crate::convert::{self, image2, points, points_array};
+use crate::convert::{self, image2, points, points_array, ArrayPair};
 use crate::errors::{value_error, IntoPy};
 
 /// A triangle mesh with optional per-face materials (world frame, metres).
@@ -252,7 +252,7 @@ impl PyCamera {
         &self,
         py: Python<'py>,
         pixels: PyReadonlyArray2<'_, f64>,
-    ) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>)> {
+    ) -> PyResult<ArrayPair<'py, PyArray2<f64>, PyArray2<f64>>> {
         let v = pixels.as_array();
         if v.ncols() != 2 {
             return Err(value_error(format!(
@@ -383,7 +383,7 @@ fn generate_site(
     faces: usize,
     params: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<PySite> {
-    let mut p: SiteParams = convert::from_py_strict(params.map(|d| d.as_any()), "site parameters")?;
+    let mut p: SiteParams = convert::from_py_strict(params.map(Bound::as_any), "site parameters")?;
     p.seed = seed;
     p.target_faces = faces;
     let site = py.detach(|| procedural::generate_site(&p)).py()?;
@@ -444,7 +444,7 @@ impl PyColmap {
 
 /// Reads a COLMAP depth map (.bin) as an (H, W) float32 array.
 #[pyfunction]
-fn read_depth_map<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyArray2<f32>>> {
+fn read_depth_map(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyArray2<f32>>> {
     let d = py.detach(|| colmap::read_depth_map(&path)).py()?;
     image2(py, d.width, d.height, d.data)
 }
@@ -554,7 +554,7 @@ impl PyRayCaster {
         &self,
         py: Python<'py>,
         camera: PyRef<'_, PyCamera>,
-    ) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<i64>>)> {
+    ) -> PyResult<ArrayPair<'py, PyArray2<f32>, PyArray2<i64>>> {
         let cam = &camera.0;
         let (depth, face) = py.detach(|| self.0.render_depth(cam));
         let face: Vec<i64> = face

@@ -279,8 +279,8 @@ fn outline(roi: &RoiSpec, pts: impl Iterator<Item = Point3<f64>>) -> Vec<[f64; 2
 fn load_acquired(model: &Path, conf_dir: Option<&Path>) -> Result<Vec<AcquiredView>> {
     let rec = colmap::read_model(model)?;
     // Errors name the confidence file or the image; the context names the model.
-    Ok(vp_planner::acquired_from_model(&rec, conf_dir)
-        .with_context(|| format!("acquired views of {}", model.display()))?)
+    vp_planner::acquired_from_model(&rec, conf_dir)
+        .with_context(|| format!("acquired views of {}", model.display()))
 }
 
 fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
