@@ -36,3 +36,72 @@ pub fn acquired_from_model(
     }
     Ok(views)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vp_scene::colmap::{CameraModel, ColmapCamera, ColmapImage};
+    use vp_scene::{Camera, Intrinsics};
+
+    fn model() -> Reconstruction {
+        let k = Intrinsics::from_hfov(40, 30, 60.0).unwrap();
+        let mut rec = Reconstruction::default();
+        rec.cameras.insert(
+            1,
+            ColmapCamera {
+                id: 1,
+                model: CameraModel::Pinhole,
+                width: 40,
+                height: 30,
+                params: vec![k.fx, k.fy, k.cx, k.cy],
+            },
+        );
+        for (id, x) in [(2u32, 5.0), (1, -5.0)] {
+            let cam = Camera::look_at(
+                k,
+                nalgebra::Point3::new(x, 0.0, 20.0),
+                nalgebra::Point3::new(x, 1.0, 0.0),
+            )
+            .unwrap();
+            rec.images.insert(
+                id,
+                ColmapImage {
+                    id,
+                    camera_id: 1,
+                    name: format!("img{id}.jpg"),
+                    cam_from_world: cam.cam_from_world(),
+                    points2d: Vec::new(),
+                },
+            );
+        }
+        rec
+    }
+
+    #[test]
+    fn views_follow_image_ids_and_missing_confidence_names_the_file() {
+        let rec = model();
+        let views = acquired_from_model(&rec, None).unwrap();
+        assert_eq!(views.len(), 2);
+        assert!(
+            (views[0].camera.center().x + 5.0).abs() < 1e-9,
+            "id 1 first"
+        );
+        assert!(views.iter().all(|v| v.confidence.is_none()));
+        let dir = tempfile::tempdir().unwrap();
+        let err = acquired_from_model(&rec, Some(dir.path())).unwrap_err();
+        assert!(err.to_string().contains("img1.vpconf"), "{err}");
+        assert!(err.is_input_error());
+        ConfidenceImage::constant(0.5)
+            .save(&confidence_path(dir.path(), "img1.jpg"))
+            .unwrap();
+        ConfidenceImage::constant(0.25)
+            .save(&confidence_path(dir.path(), "img2.jpg"))
+            .unwrap();
+        let views = acquired_from_model(&rec, Some(dir.path())).unwrap();
+        let c: Vec<f32> = views
+            .iter()
+            .map(|v| v.confidence.as_ref().unwrap().values()[0])
+            .collect();
+        assert_eq!(c, vec![0.5, 0.25]);
+    }
+}
