@@ -28,5 +28,8 @@ VP_REQUIRE_VPCTL=1 bash scripts/test_python.sh
 echo "== long runs: 100 uploads through a lossy UDP relay"
 cargo test --locked -p vp-mission --test udp_loopback -- --ignored --nocapture
 
+echo "== long runs: the paper's findings on held-out sites, campaign determinism (release)"
+cargo test --release --locked -p vp-sim --test campaign -- --ignored --skip not_yet_met --nocapture
+
 echo "== benchmarks, smoke run (each benchmark once)"
 cargo bench --workspace --locked -- --test

@@ -107,7 +107,12 @@ pub fn mission(e: &MissionError) -> PyErr {
 pub fn sim(e: &SimError) -> PyErr {
     match e {
         SimError::Scene(s) => scene(s),
+        SimError::Forest(f) => forest(f),
+        SimError::Planner(p) => planner(p),
+        SimError::Labelgen(l) => labelgen(l),
+        SimError::Mission(m) => mission(m),
         SimError::InvalidArgument(_) => PyValueError::new_err(message(e)),
+        SimError::Campaign(_) => PyRuntimeError::new_err(message(e)),
     }
 }
 

@@ -14,6 +14,7 @@
 
 use pyo3::prelude::*;
 
+mod campaign;
 mod convert;
 mod errors;
 mod forest;

@@ -1,6 +1,6 @@
 //! `vpctl.sim`: the simulated world (vp-sim): rendered images of a
 //! procedural site and a virtual MVS whose failures depend on material and
-//! triangulation angle.
+//! triangulation angle; closed-loop campaigns (see [`crate::campaign`]).
 
 use numpy::PyArray2;
 use pyo3::prelude::*;
@@ -105,5 +105,5 @@ impl PyVirtualMvs {
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyVirtualMvs>()?;
     m.add_function(wrap_pyfunction!(render, m)?)?;
-    Ok(())
+    crate::campaign::register(m)
 }

@@ -26,6 +26,9 @@ struct Args {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Train on small procedural sites, fly a held-out site with the F, NP
+    /// and Grid strategies, print the paper's Table 1, write a report.
+    Demo(cmd::demo::DemoArgs),
     /// Procedural scenes: generate a site with materials.
     #[command(subcommand)]
     Scene(cmd::scene::SceneCommand),
@@ -44,11 +47,19 @@ enum Command {
     /// Training labels without ground truth: triplet sampling and consistency voting.
     #[command(subcommand)]
     Labelgen(cmd::labelgen::LabelgenCommand),
+    /// Train the MVS confidence predictor from images and label images.
+    Train(cmd::forest::TrainArgs),
+    /// Predict confidence images (one channel per angle bin) with a trained model.
+    Predict(cmd::forest::PredictArgs),
+    /// Inspect, evaluate and configure confidence-predictor models.
+    #[command(subcommand)]
+    Forest(cmd::forest::ForestCommand),
     /// Plan the next camera triplets, or a grid flight (`plan grid`).
     Plan(Box<cmd::plan::PlanArgs>),
     /// Print configuration files (`config --defaults`).
     Config(cmd::plan::ConfigArgs),
-    /// The simulated world: render images of procedural sites.
+    /// The simulated world: render images of procedural sites, run
+    /// closed-loop campaigns (`sim run --config`, `sim config --defaults`).
     #[command(subcommand)]
     Sim(cmd::render::SimCommand),
 }
@@ -61,9 +72,13 @@ fn run(args: Args, out: &mut dyn Write) -> anyhow::Result<()> {
         Command::Depth(c) => cmd::depth::run(c, out),
         Command::Mission(c) => cmd::mission::run(c, out),
         Command::Labelgen(c) => cmd::labelgen::run(c, out),
+        Command::Train(c) => cmd::forest::train(&c, out),
+        Command::Predict(c) => cmd::forest::predict(&c, out),
+        Command::Forest(c) => cmd::forest::run(c, out),
         Command::Plan(c) => cmd::plan::run(*c, out),
         Command::Config(c) => cmd::plan::run_config(c, out),
         Command::Sim(c) => cmd::render::run(c, out),
+        Command::Demo(c) => cmd::demo::run_demo(&c, out),
     }
 }
 

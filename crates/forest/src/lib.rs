@@ -7,6 +7,8 @@
 //!   images and label images to a [`Forest`], with [`TrainParams`] (the paper's
 //!   defaults) and a seed; same inputs and seed give the same model bytes on
 //!   any number of threads.
+//! - [`load_label_dir`]: label images as `vpctl labelgen run` writes them,
+//!   paired with their images (scaled for pyramid levels).
 //! - [`Forest::predict_image`]: an RGB image to a b-channel
 //!   [`ConfidenceImage`] on a grid (paper: step 8).
 //! - [`Forest::save`] / [`Forest::load`]: versioned, checksummed model files
@@ -29,6 +31,7 @@
 mod dataset;
 pub mod error;
 pub mod lab;
+pub mod label_dir;
 pub mod metrics;
 pub mod model_io;
 mod params;
@@ -42,6 +45,7 @@ pub mod tree;
 pub use dataset::TrainingSet;
 pub use error::{ForestError, Result};
 pub use lab::LabPlanes;
+pub use label_dir::{load_label_dir, LabelledImage};
 pub use metrics::{accuracy, sparsification, Scored, Sparsification};
 pub use params::{TrainParams, TrainingSummary};
 pub use train::{train, train_with_progress};

@@ -71,6 +71,7 @@ fn bench(c: &mut Criterion) {
         r.triplet_gains.len(),
         r.visited
     );
+    eprintln!("  gains: {:?}", r.triplet_gains);
     for (m, s) in &r.module_time_s {
         eprintln!("  {m}: {s:.4} s");
     }

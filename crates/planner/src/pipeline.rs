@@ -21,8 +21,8 @@ use crate::fulfillment::{sample_triangles, Fulfillment};
 use crate::grid::{grid_views, GridParams};
 use crate::quality::Requirements;
 use crate::safety::Safety;
-use crate::surrogate::{link, sample_positions};
-use crate::triplet::{potential_values, Search};
+use crate::surrogate::{link_valued, sample_positions};
+use crate::triplet::{Potential, Search};
 
 /// Height of the default flight volume above the highest mesh point, metres.
 const DEFAULT_CEILING_M: f64 = 60.0;
@@ -326,8 +326,16 @@ fn m2(
         .iter()
         .map(|&t| (ful.tris[t].centroid, ful.tris[t].normal))
         .collect();
-    let links = link(&surrogates, &t_geo, cfg.inverse_fov_deg, caster);
-    let potential = potential_values(ful, selected, &surrogates, &links, cfg.camera.focal_px);
+    // f(t) only grows during a call (cameras are only added), so a link whose
+    // best hypothetical fulfilment does not exceed f(t) now never carries a
+    // potential gain: it is dropped before its segment test.
+    let pot = Potential::new(ful, cfg.camera.focal_px);
+    let (links, potential) =
+        link_valued(&surrogates, &t_geo, cfg.inverse_fov_deg, caster, |s, i| {
+            let t = selected[i];
+            let v = pot.value(&surrogates[s], t);
+            (v > ful.f(t)).then_some(v)
+        });
     Ok((surrogates, links, potential))
 }
 

@@ -93,10 +93,27 @@ pub fn link(
     fov_deg: f64,
     caster: &RayCaster,
 ) -> Vec<Vec<u32>> {
+    link_valued(surrogates, triangles, fov_deg, caster, |_, _| Some(())).0
+}
+
+/// [`link`], keeping only the links for which `value(surrogate, triangle)`
+/// (indices) is `Some`, returned per surrogate alongside the links.
+///
+/// # Performance
+/// `value` runs after the frustum test and before the segment test, so a
+/// link the caller has no use for costs no ray.
+pub fn link_valued<V: Send>(
+    surrogates: &[Point3<f64>],
+    triangles: &[(Point3<f64>, Vector3<f64>)],
+    fov_deg: f64,
+    caster: &RayCaster,
+    value: impl Fn(usize, usize) -> Option<V> + Sync,
+) -> (Vec<Vec<u32>>, Vec<Vec<V>>) {
     let tan = (0.5 * fov_deg).to_radians().tan();
-    let per_tri: Vec<Vec<u32>> = triangles
+    let per_tri: Vec<Vec<(u32, V)>> = triangles
         .par_iter()
-        .map(|(c, n)| {
+        .enumerate()
+        .map(|(t, (c, n))| {
             let (e1, e2) = basis(n);
             let origin = c + n * FACE_VISIBILITY_EPSILON;
             surrogates
@@ -107,18 +124,22 @@ pub fn link(
                     let z = v.dot(n);
                     z > 0.0 && v.dot(&e1).abs() <= z * tan && v.dot(&e2).abs() <= z * tan
                 })
-                .filter(|(_, s)| !caster.occluded(&origin, s))
-                .map(|(i, _)| i as u32)
+                .filter_map(|(i, s)| {
+                    let v = value(i, t)?;
+                    (!caster.occluded(&origin, s)).then_some((i as u32, v))
+                })
                 .collect()
         })
         .collect();
-    let mut per_surrogate = vec![Vec::new(); surrogates.len()];
-    for (t, ss) in per_tri.iter().enumerate() {
-        for &s in ss {
-            per_surrogate[s as usize].push(t as u32);
+    let mut links: Vec<Vec<u32>> = (0..surrogates.len()).map(|_| Vec::new()).collect();
+    let mut values: Vec<Vec<V>> = (0..surrogates.len()).map(|_| Vec::new()).collect();
+    for (t, ss) in per_tri.into_iter().enumerate() {
+        for (s, v) in ss {
+            links[s as usize].push(t as u32);
+            values[s as usize].push(v);
         }
     }
-    per_surrogate
+    (links, values)
 }
 
 #[cfg(test)]

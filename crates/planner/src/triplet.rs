@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
-use vp_scene::raycast::RayCaster;
+use vp_scene::raycast::{RayCaster, FACE_VISIBILITY_EPSILON};
 use vp_scene::{Camera, Intrinsics, Mesh};
 
 use crate::fulfillment::Fulfillment;
@@ -64,7 +64,7 @@ pub struct Search<'a> {
     /// Per surrogate, linked triangles (indices into `selected`).
     pub links: &'a [Vec<u32>],
     /// Per surrogate and link, the best hypothetical fulfilment over the
-    /// bins ([`potential_values`]); g_pot = max(0, that - f(t)).
+    /// bins ([`Potential::value`]); g_pot = max(0, that - f(t)).
     pub potential: &'a [Vec<f64>],
     /// Safety rules for the cameras.
     pub safety: &'a Safety,
@@ -102,44 +102,70 @@ fn half_cone(gamma_rad: f64) -> f64 {
 
 /// Geometry of the hypothetical equilateral triplet of one bin.
 struct BinGeometry {
-    gamma_deg: f64,
+    /// Bin index and centre angle, degrees.
+    bin: usize,
     sin_b: f64,
     cos_b: f64,
+    /// `cos_b^2`: camera distance d / cos_b squared is `d^2 / cos2_b`.
+    cos2_b: f64,
+    /// `sqrt(f^2 cos2_b min(3 s2, 3 - 1.5 s2)) / sigma`: sqrt of the smallest
+    /// information eigenvalue times the focus distance d.
+    sqrt_info_d: f64,
 }
 
-/// For every surrogate and linked triangle, the best fulfilment over the
-/// bins of the hypothetical equilateral triplet centred at the surrogate,
-/// facing the triangle, with the bin-centre angle at it (M3 g_pot without
-/// the `- f(t)`, which is the same for every bin). It depends on the
-/// acquired cameras only, so it is computed once per planning call.
+/// The best fulfilment over the bins of the hypothetical equilateral triplet
+/// centred at a surrogate, facing a triangle, with the bin-centre angle at
+/// it (M3 g_pot without the `- f(t)`, which is the same for every bin). It
+/// depends on the acquired cameras only, so M2 evaluates it once per link.
 ///
 /// The cameras look straight at t, where the information of each is
 /// `(f/D)^2 (I - u u^T) / sigma^2`; for the symmetric triplet the smallest
 /// eigenvalue of the sum is `min(3 k sin^2 b, k (3 - 1.5 sin^2 b))`,
 /// `k = f^2 / (sigma D)^2`, b the half-cone angle. Confidence comes from
 /// the acquired image closest to the surrogate among those observing t.
-pub fn potential_values(
-    ful: &Fulfillment,
-    selected: &[usize],
-    surrogates: &[Point3<f64>],
-    links: &[Vec<u32>],
+pub struct Potential<'a> {
+    ful: &'a Fulfillment,
     focal: f64,
-) -> Vec<Vec<f64>> {
-    let req = &ful.req;
-    let bins: Vec<BinGeometry> = (0..req.bins.len())
-        .map(|i| {
-            let gamma_deg = f64::from(req.bins.centre(i));
-            let (sin_b, cos_b) = half_cone(gamma_deg.to_radians()).sin_cos();
-            BinGeometry {
-                gamma_deg,
-                sin_b,
-                cos_b,
-            }
-        })
-        .collect();
-    let azimuths = AZIMUTHS_DEG.map(|a| a.to_radians().sin_cos());
-    let one = ConfCurve::one(&req.bins);
-    let value = |s: &Point3<f64>, t: usize| -> f64 {
+    bins: Vec<BinGeometry>,
+    azimuths: [(f64, f64); 3],
+    one: ConfCurve,
+    /// Centres of the acquired cameras (the closest-image rule reads them per link).
+    centres: Vec<Point3<f64>>,
+}
+
+impl<'a> Potential<'a> {
+    /// Precomputes the per-bin geometry for cameras of focal length `focal` px.
+    pub fn new(ful: &'a Fulfillment, focal: f64) -> Self {
+        let req = &ful.req;
+        let bins = (0..req.bins.len())
+            .map(|bin| {
+                let gamma = f64::from(req.bins.centre(bin)).to_radians();
+                let (sin_b, cos_b) = half_cone(gamma).sin_cos();
+                let s2 = sin_b * sin_b;
+                let cos2_b = cos_b * cos_b;
+                let info = focal * focal * cos2_b * (3.0 * s2).min(3.0 - 1.5 * s2);
+                BinGeometry {
+                    bin,
+                    sin_b,
+                    cos_b,
+                    cos2_b,
+                    sqrt_info_d: info.sqrt() / ful.sigma_px,
+                }
+            })
+            .collect();
+        Potential {
+            ful,
+            focal,
+            bins,
+            azimuths: AZIMUTHS_DEG.map(|a| a.to_radians().sin_cos()),
+            one: ConfCurve::one(&req.bins),
+            centres: ful.cameras.iter().map(Camera::center).collect(),
+        }
+    }
+
+    /// The value for surrogate position `s` and sampled triangle `t`.
+    pub fn value(&self, s: &Point3<f64>, t: usize) -> f64 {
+        let (ful, req) = (self.ful, &self.ful.req);
         let tri = &ful.tris[t];
         let to = s - tri.centroid;
         let d = to.norm();
@@ -150,45 +176,34 @@ pub fn potential_values(
         let (e1, e2) = frame(&-w);
         let curve = ful.acquired_curves[t]
             .iter()
-            .min_by(|a, b| {
-                let da = (ful.cameras[a.0 as usize].center() - s).norm_squared();
-                let db = (ful.cameras[b.0 as usize].center() - s).norm_squared();
-                da.total_cmp(&db).then(a.0.cmp(&b.0))
-            })
-            .map_or(&one, |x| &x.1);
+            .map(|x| ((self.centres[x.0 as usize] - s).norm_squared(), x.0, &x.1))
+            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+            .map_or(&self.one, |x| x.2);
         // n . u for u = w cos b + (e1 cos a + e2 sin a) sin b.
         let (nw, n1, n2) = (tri.normal.dot(&w), tri.normal.dot(&e1), tri.normal.dot(&e2));
-        let ring: [f64; 3] = azimuths.map(|(sa, ca)| n1 * ca + n2 * sa);
-        let ring_min = ring.iter().copied().fold(f64::INFINITY, f64::min);
+        let ring_min = self
+            .azimuths
+            .iter()
+            .map(|(sa, ca)| n1 * ca + n2 * sa)
+            .fold(f64::INFINITY, f64::min);
+        let (f2, d_sq) = (self.focal * self.focal, d * d);
         let mut best = 0.0f64;
-        for g in &bins {
-            let d2 = d * d / (g.cos_b * g.cos_b);
-            let k = focal * focal / (d2 * ful.sigma_px * ful.sigma_px);
-            let s2 = g.sin_b * g.sin_b;
-            let lmin = (3.0 * k * s2).min(k * (3.0 - 1.5 * s2));
+        for g in &self.bins {
             let cos_min = nw * g.cos_b + ring_min * g.sin_b;
-            let r_min = (focal * focal * cos_min / d2).max(0.0);
-            let q = req.alpha * req.f_res(r_min) + (1.0 - req.alpha) * req.f_unc_bound(lmin);
-            best = best.max(q * curve.at(&req.bins, g.gamma_deg));
+            let r_min = (f2 * cos_min * g.cos2_b / d_sq).max(0.0);
+            let f_unc = (req.accuracy * g.sqrt_info_d / d).min(1.0);
+            let q = req.alpha * req.f_res(r_min) + (1.0 - req.alpha) * f_unc;
+            // At a bin centre the interpolated curve is the bin's own value.
+            best = best.max(q * f64::from(curve.0[g.bin]));
         }
         best
-    };
-    surrogates
-        .par_iter()
-        .zip(links)
-        .map(|(s, links)| {
-            links
-                .iter()
-                .map(|&ti| value(s, selected[ti as usize]))
-                .collect()
-        })
-        .collect()
+    }
 }
 
 impl Search<'_> {
     /// g_pot(t) for surrogate `s` (index) and selected triangle `ti` (index
     /// into `selected`): `max(0, best - f(t))` with the precomputed best
-    /// hypothetical fulfilment (see [`potential_values`]).
+    /// hypothetical fulfilment (see [`Potential::value`]).
     fn potential_gain(&self, best: f64, t: usize) -> f64 {
         if self.ful.observers[t].len() + 3 < self.ful.min_cameras {
             return 0.0;
@@ -197,24 +212,38 @@ impl Search<'_> {
     }
 
     /// g(c3) = sum over T seen by all three cameras of max(f(t, c3) - f(t), 0).
+    ///
+    /// # Performance
+    /// Visibility is the M1 rule (in frustum, front-facing, unoccluded), but
+    /// the occlusion rays, the only costly part, are cast last and only for
+    /// triangles that would add a positive gain: most triangles fail the
+    /// frustum test of some camera or are already as fulfilled as this
+    /// triplet can make them. The sum is the same as testing every triangle.
     pub fn gain(&self, cams: &[Camera; 3]) -> f64 {
-        let vis: Vec<Vec<bool>> = cams
-            .iter()
-            .map(|c| self.caster.visible_faces(c, self.selected_mesh))
-            .collect();
         let ful = self.ful;
+        let centres = cams.map(|c| c.center());
         let mut g = 0.0;
         for (i, &t) in self.selected.iter().enumerate() {
-            if !(vis[0][i] && vis[1][i] && vis[2][i])
-                || ful.observers[t].len() + 3 < ful.min_cameras
-            {
+            if ful.observers[t].len() + 3 < ful.min_cameras {
+                continue;
+            }
+            let p = self.selected_mesh.face_centroid(i);
+            let n = self.selected_mesh.face_normal(i);
+            let seen = |k: usize| cams[k].in_frustum(&p) && n.dot(&(p - centres[k])) < 0.0;
+            if !(seen(0) && seen(1) && seen(2)) {
                 continue;
             }
             let tri = &ful.tris[t];
             let terms = cams.map(|c| CamTerm::new(&c, &tri.centroid, &tri.normal, ful.sigma_px));
             let (q, angle) = ful.req.score(&terms[0], &terms[1], &terms[2]);
-            let f = q * ful.curve[t].at(&ful.req.bins, angle);
-            g += (f - ful.f(t)).max(0.0);
+            let gain = q * ful.curve[t].at(&ful.req.bins, angle) - ful.f(t);
+            if !(gain > 0.0) {
+                continue;
+            }
+            let target = p + n * FACE_VISIBILITY_EPSILON;
+            if centres.iter().all(|c| !self.caster.occluded(c, &target)) {
+                g += gain;
+            }
         }
         g
     }

@@ -11,6 +11,43 @@ pub enum SimError {
     /// An error from vp-scene (file IO, formats, geometry).
     #[error(transparent)]
     Scene(#[from] SceneError),
+    /// An error from the forest (training, prediction, model files).
+    #[error("forest: {0}")]
+    Forest(#[from] vp_forest::ForestError),
+    /// An error from the planner.
+    #[error("planner: {0}")]
+    Planner(#[from] vp_planner::PlannerError),
+    /// An error from label generation.
+    #[error("label generation: {0}")]
+    Labelgen(#[from] vp_labelgen::LabelgenError),
+    /// A campaign step failed (the message names the site, strategy and step).
+    #[error("campaign: {0}")]
+    Campaign(String),
+    /// An error from the mission export.
+    #[error("mission: {0}")]
+    Mission(#[from] vp_mission::MissionError),
+}
+
+impl SimError {
+    /// Whether the user's input (a config, a file, an argument) is at fault
+    /// rather than the run: such errors exit with code 2 in `vpctl`.
+    pub fn is_input_error(&self) -> bool {
+        let scene = |e: &SceneError| match e {
+            SceneError::Io { source, .. } => source.kind() == std::io::ErrorKind::NotFound,
+            _ => true,
+        };
+        match self {
+            SimError::Scene(e)
+            | SimError::Forest(vp_forest::ForestError::Scene(e))
+            | SimError::Mission(vp_mission::MissionError::Scene(e)) => scene(e),
+            SimError::InvalidArgument(_)
+            | SimError::Forest(_)
+            | SimError::Mission(vp_mission::MissionError::InvalidInput(_)) => true,
+            SimError::Planner(e) => e.is_input_error(),
+            SimError::Labelgen(e) => e.is_input_error(),
+            SimError::Mission(_) | SimError::Campaign(_) => false,
+        }
+    }
 }
 
 /// Result with [`SimError`].

@@ -11,10 +11,14 @@
 //! - [`triangulation`]: triangulation angle and 3D uncertainty of a point seen
 //!   by a set of cameras.
 //!
+//! - [`campaign`]: closed-loop acquisition campaigns (training, flights with
+//!   every strategy of the paper, Table-1 evaluation, report).
+//!
 //! Every random choice is a pure hash of (seed, coordinates) ([`noise`]), so
 //! the output is bit-identical for a seed on any thread count.
 #![warn(missing_docs)]
 
+pub mod campaign;
 pub mod error;
 pub mod mvs;
 pub mod noise;

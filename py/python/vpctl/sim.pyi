@@ -1,6 +1,7 @@
-"""Rendering and a virtual MVS (vp-sim)."""
+"""Rendering, a virtual MVS and closed-loop campaigns (vp-sim)."""
 
-from typing import Any, Mapping, Optional, Sequence, Union
+from os import PathLike
+from typing import Any, Callable, Mapping, Optional, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -26,3 +27,11 @@ def render(
     camera: Camera,
     params: Optional[Mapping[str, Any]] = None,
 ) -> dict[str, npt.NDArray[Any]]: ...
+def campaign_config(
+    config: Union[Mapping[str, Any], str, PathLike[str], None] = None, preset: str = "demo"
+) -> dict[str, Any]: ...
+def run_campaign(
+    config: Union[Mapping[str, Any], str, PathLike[str], None] = None,
+    preset: str = "demo",
+    progress: Optional[Callable[[str], Any]] = None,
+) -> list[dict[str, Any]]: ...

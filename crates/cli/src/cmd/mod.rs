@@ -1,7 +1,9 @@
 //! One module per subcommand group.
 
 pub mod colmap;
+pub mod demo;
 pub mod depth;
+pub mod forest;
 pub mod labelgen;
 pub mod mesh;
 pub mod mission;
@@ -21,6 +23,12 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
         if let Some(le) = cause.downcast_ref::<vp_labelgen::LabelgenError>() {
             return if le.is_input_error() { 2 } else { 1 };
         }
+        if let Some(fe) = cause.downcast_ref::<vp_forest::ForestError>() {
+            return match fe {
+                vp_forest::ForestError::Scene(se) => scene_exit_code(se),
+                _ => 2,
+            };
+        }
         if let Some(pe) = cause.downcast_ref::<vp_planner::PlannerError>() {
             return if pe.is_input_error() { 2 } else { 1 };
         }
@@ -35,10 +43,18 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
             };
         }
         // SimError::Scene is transparent: the chain skips the SceneError inside.
-        match cause.downcast_ref::<SimError>() {
-            Some(SimError::InvalidArgument(_)) => return 2,
-            Some(SimError::Scene(se)) => return scene_exit_code(se),
-            _ => {}
+        if let Some(se) = cause.downcast_ref::<SimError>() {
+            return match se {
+                SimError::Scene(se) => scene_exit_code(se),
+                _ if se.is_input_error() => 2,
+                _ => 1,
+            };
+        }
+        if let Some(fe) = cause.downcast_ref::<vp_forest::ForestError>() {
+            return match fe {
+                vp_forest::ForestError::Scene(se) => scene_exit_code(se),
+                _ => 2,
+            };
         }
     }
     1

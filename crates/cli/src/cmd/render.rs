@@ -1,4 +1,5 @@
-//! `vpctl sim ...`: the simulated world (rendering of procedural sites).
+//! `vpctl sim ...`: the simulated world (rendering of procedural sites;
+//! `run` and `config` of closed-loop campaigns live in [`super::demo`]).
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -54,6 +55,26 @@ pub enum SimCommand {
         #[arg(long)]
         force: bool,
     },
+    /// Run a full closed-loop campaign from a TOML config (training sites,
+    /// held-out sites, strategies, evaluation): prints the paper's Table 1
+    /// and writes the report directory. `sim config --defaults` prints a
+    /// complete config to start from.
+    Run {
+        /// Campaign configuration (TOML); missing keys take the demo's values.
+        #[arg(long)]
+        config: PathBuf,
+        #[command(flatten)]
+        common: super::demo::CampaignArgs,
+    },
+    /// Print a complete campaign configuration (TOML, every key written out).
+    Config {
+        /// Print the defaults (the demo preset).
+        #[arg(long, conflicts_with = "paper")]
+        defaults: bool,
+        /// Print the paper preset (three held-out sites, F5x4, F1x20, NP5x4).
+        #[arg(long)]
+        paper: bool,
+    },
 }
 
 /// Parses "x,y,z" into three finite numbers.
@@ -91,6 +112,19 @@ fn camera(k: Intrinsics, from: [f64; 3], at: [f64; 3]) -> Result<Camera> {
 
 pub fn run(cmd: SimCommand, out: &mut dyn Write) -> Result<()> {
     match cmd {
+        SimCommand::Run { config, common } => {
+            let cfg = vp_sim::campaign::CampaignConfig::load(&config)?;
+            super::demo::run_config(&cfg, &common, out)
+        }
+        SimCommand::Config { defaults: _, paper } => {
+            let cfg = if paper {
+                vp_sim::campaign::CampaignConfig::paper()
+            } else {
+                vp_sim::campaign::CampaignConfig::demo()
+            };
+            write!(out, "{}", cfg.to_toml()?)?;
+            Ok(())
+        }
         SimCommand::Render {
             seed,
             faces,

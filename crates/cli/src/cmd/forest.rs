@@ -1,0 +1,305 @@
+//! `vpctl train`, `vpctl predict`, `vpctl forest ...`: the MVS confidence
+//! predictor (Semantic Texton Forest with angle-binned leaves).
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use clap::{Args, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use vp_forest::{
+    load_label_dir, sparsification, train_with_progress, Forest, Scored, TrainParams, TrainingSet,
+};
+use vp_scene::fsio;
+use vp_scene::raster::{load_rgb, ConfidenceImage};
+
+/// Arguments of `vpctl train`.
+#[derive(Debug, Args)]
+pub struct TrainArgs {
+    /// Folder of the training images, named as in the label file names.
+    #[arg(long)]
+    images: PathBuf,
+    /// Folder of label images, searched recursively for
+    /// `<image name>.vplabel` (the layout `vpctl labelgen run` writes). A label
+    /// image smaller than its image pairs with the image scaled to its size.
+    #[arg(long)]
+    labels: PathBuf,
+    /// Output model file.
+    #[arg(long)]
+    out: PathBuf,
+    /// TOML file of training parameters; missing fields keep the paper's
+    /// defaults (`vpctl forest defaults` prints them all).
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Number of trees (overrides the config).
+    #[arg(long)]
+    trees: Option<usize>,
+    /// Maximum tree depth (overrides the config).
+    #[arg(long)]
+    max_depth: Option<usize>,
+    /// Keep at most this many pixels of each class per label image (drawn at
+    /// random): bounds memory on large label sets.
+    #[arg(long)]
+    max_per_label_image: Option<usize>,
+    /// Seed: same data, parameters and seed give the same model bytes.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Overwrite the model file if it exists.
+    #[arg(long)]
+    force: bool,
+}
+
+/// Arguments of `vpctl predict`.
+#[derive(Debug, Args)]
+pub struct PredictArgs {
+    /// Model file written by `vpctl train`.
+    #[arg(long)]
+    model: PathBuf,
+    /// Output folder: `<image stem>.vpconf` per image (the name `vpctl plan
+    /// --confidence-dir` looks for) and `<image stem>.bin<i>.png` previews.
+    #[arg(long)]
+    out: PathBuf,
+    /// Grid step in pixels (the paper: 8).
+    #[arg(long, default_value_t = 8)]
+    step: u32,
+    /// Skip the PNG previews.
+    #[arg(long)]
+    no_previews: bool,
+    /// Overwrite output files that exist.
+    #[arg(long)]
+    force: bool,
+    /// Images to predict (files, or folders of .png/.jpg/.jpeg/.tif/.tiff).
+    #[arg(required = true)]
+    images: Vec<PathBuf>,
+}
+
+/// `vpctl forest ...` subcommands.
+#[derive(Debug, Subcommand)]
+pub enum ForestCommand {
+    /// Print a model's parameters, angle bins and training summary.
+    Info {
+        /// Model file.
+        model: PathBuf,
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Score a model on held-out label images: accuracy at confidence 0.5 and
+    /// sparsification (AUSC relative to the optimum, and random's).
+    Eval {
+        /// Model file.
+        #[arg(long)]
+        model: PathBuf,
+        /// Folder of the images.
+        #[arg(long)]
+        images: PathBuf,
+        /// Folder of label images (as for `vpctl train`).
+        #[arg(long)]
+        labels: PathBuf,
+    },
+    /// Print every training parameter with its default, as TOML.
+    Defaults,
+}
+
+/// Runs `vpctl train`.
+pub fn train(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
+    fsio::check_overwrite(&a.out, a.force)?;
+    let mut params = match &a.config {
+        Some(path) => read_params(path)?,
+        None => TrainParams::default(),
+    };
+    params.n_trees = a.trees.unwrap_or(params.n_trees);
+    params.max_depth = a.max_depth.unwrap_or(params.max_depth);
+    params.validate()?;
+
+    let labelled = load_label_dir(&a.images, &a.labels)?;
+    let mut set = match a.max_per_label_image {
+        Some(cap) => TrainingSet::with_cap_per_label_image(cap, a.seed),
+        None => TrainingSet::new(),
+    };
+    set.add_labelled(&labelled)?;
+    drop(labelled);
+    writeln!(
+        out,
+        "training set: {} images, {} label images, {} positive and {} negative pixels",
+        set.n_images(),
+        set.n_label_images(),
+        set.n_positive(),
+        set.n_negative()
+    )?;
+
+    let bar = ProgressBar::new(params.n_trees as u64).with_style(
+        ProgressStyle::with_template("training {bar:30} {pos}/{len} trees, {elapsed}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let forest = train_with_progress(&set, &params, a.seed, &|_| bar.inc(1))?;
+    bar.finish_and_clear();
+    forest.save(&a.out)?;
+    print_summary(&forest, out)?;
+    writeln!(out, "written: {}", a.out.display())?;
+    Ok(())
+}
+
+/// Runs `vpctl predict`. Every image is predicted before anything is
+/// written, so a bad image leaves no output behind.
+pub fn predict(a: &PredictArgs, out: &mut dyn Write) -> Result<()> {
+    let forest = Forest::load(&a.model)?;
+    let images = expand_images(&a.images)?;
+    let b = forest.bins().len();
+    let mut jobs = Vec::with_capacity(images.len());
+    let mut seen = std::collections::HashSet::new();
+    for path in &images {
+        let stem = path
+            .file_stem()
+            .map(PathBuf::from)
+            .with_context(|| format!("{}: not a file name", path.display()))?;
+        let conf = a.out.join(&stem).with_extension("vpconf");
+        if !seen.insert(conf.clone()) {
+            anyhow::bail!(
+                "{}: another input image has the same name stem, both would write {}",
+                path.display(),
+                conf.display()
+            );
+        }
+        let previews: Vec<PathBuf> = if a.no_previews {
+            Vec::new()
+        } else {
+            (0..b)
+                .map(|i| a.out.join(format!("{}.bin{i}.png", stem.display())))
+                .collect()
+        };
+        for p in std::iter::once(&conf).chain(&previews) {
+            fsio::check_overwrite(p, a.force)?;
+        }
+        jobs.push((path, conf, previews));
+    }
+    let mut predicted = Vec::with_capacity(jobs.len());
+    for (path, conf, previews) in jobs {
+        let image = load_rgb(path)?;
+        let c = forest
+            .predict_image(&image, a.step)
+            .with_context(|| format!("{}: prediction failed", path.display()))?;
+        predicted.push((path, c, conf, previews));
+    }
+    std::fs::create_dir_all(&a.out).map_err(|e| vp_scene::SceneError::io(&a.out, e))?;
+    for (path, c, conf, previews) in &predicted {
+        c.save(conf)?;
+        for (i, p) in previews.iter().enumerate() {
+            c.save_bin_png(i, p)?;
+        }
+        writeln!(
+            out,
+            "{}: {}x{} nodes x {b} bins, mean confidence {:.3} -> {}",
+            path.display(),
+            c.grid_size().0,
+            c.grid_size().1,
+            mean(c),
+            conf.display()
+        )?;
+    }
+    Ok(())
+}
+
+/// Runs `vpctl forest ...`.
+pub fn run(cmd: ForestCommand, out: &mut dyn Write) -> Result<()> {
+    match cmd {
+        ForestCommand::Info { model, json } => {
+            let forest = Forest::load(&model)?;
+            if json {
+                let v = serde_json::json!({
+                    "params": forest.params(),
+                    "summary": forest.summary(),
+                });
+                writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
+            } else {
+                writeln!(out, "model: {}", model.display())?;
+                print_summary(&forest, out)?;
+            }
+            Ok(())
+        }
+        ForestCommand::Eval {
+            model,
+            images,
+            labels,
+        } => eval(&model, &images, &labels, out),
+        ForestCommand::Defaults => {
+            write!(out, "{}", toml::to_string(&TrainParams::default())?)?;
+            Ok(())
+        }
+    }
+}
+
+fn eval(model: &Path, images: &Path, labels: &Path, out: &mut dyn Write) -> Result<()> {
+    let forest = Forest::load(model)?;
+    let mut scored: Vec<Scored> = Vec::new();
+    for li in load_label_dir(images, labels)? {
+        for (l, path) in li.labels.iter().zip(&li.label_paths) {
+            let s = forest
+                .score_labels(&li.image, l)
+                .with_context(|| format!("{}: scoring failed", path.display()))?;
+            scored.extend(s);
+        }
+    }
+    let acc = vp_forest::accuracy(&scored, 0.5)?;
+    let sp = sparsification(&scored, 20)?;
+    writeln!(out, "labelled pixels: {}", scored.len())?;
+    writeln!(out, "negative share: {:.4}", sp.error_rate)?;
+    writeln!(out, "accuracy: {acc:.4}")?;
+    writeln!(out, "relative AUSC: {:.3}", sp.relative_ausc)?;
+    writeln!(out, "random relative AUSC: {:.3}", sp.random_relative_ausc)?;
+    Ok(())
+}
+
+fn print_summary(forest: &Forest, out: &mut dyn Write) -> Result<()> {
+    let p = forest.params();
+    let s = forest.summary();
+    writeln!(
+        out,
+        "trees: {}, max depth {} (reached {}), nodes {}, leaves {}",
+        p.n_trees, p.max_depth, s.max_depth_reached, s.n_nodes, s.n_leaves
+    )?;
+    writeln!(out, "angle bin edges (deg): {:?}", forest.bins().edges())?;
+    writeln!(
+        out,
+        "trained on: {} positive, {} negative samples (seed {})",
+        s.n_positive, s.n_negative, s.seed
+    )?;
+    writeln!(out, "training accuracy: {:.4}", s.train_accuracy)?;
+    Ok(())
+}
+
+fn read_params(path: &Path) -> Result<TrainParams> {
+    let text = std::fs::read_to_string(path).map_err(|e| vp_scene::SceneError::io(path, e))?;
+    toml::from_str(&text).map_err(|e| {
+        vp_scene::SceneError::InvalidArgument(format!("{}: {e}", path.display())).into()
+    })
+}
+
+/// Files as given; folders expanded to their image files, sorted.
+fn expand_images(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
+    const EXTENSIONS: [&str; 5] = ["png", "jpg", "jpeg", "tif", "tiff"];
+    let mut out = Vec::new();
+    for p in paths {
+        if p.is_dir() {
+            let mut found: Vec<PathBuf> = std::fs::read_dir(p)
+                .map_err(|e| vp_scene::SceneError::io(p, e))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|f| {
+                    f.extension()
+                        .and_then(|e| e.to_str())
+                        .is_some_and(|e| EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
+                })
+                .collect();
+            found.sort();
+            out.extend(found);
+        } else {
+            out.push(p.clone());
+        }
+    }
+    Ok(out)
+}
+
+fn mean(c: &ConfidenceImage) -> f64 {
+    let v = c.values();
+    v.iter().map(|&x| f64::from(x)).sum::<f64>() / v.len().max(1) as f64
+}

@@ -1,0 +1,271 @@
+//! `vpctl train`, `vpctl predict`, `vpctl forest info|eval|defaults`: models,
+//! confidence images and exit codes on seeded synthetic textures.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use vp_forest::synthetic::{label_image, texture_image};
+use vp_scene::raster::{save_rgb, ConfidenceImage, Label};
+
+fn vpctl(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_vpctl"))
+        .args(args)
+        .output()
+        .expect("vpctl runs")
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+/// Noisy blocks succeed below 20 deg and fail above; smooth blocks fail.
+fn rule(noisy: bool, angle: f32) -> Label {
+    if noisy && angle < 20.0 {
+        Label::Positive
+    } else {
+        Label::Negative
+    }
+}
+
+/// Images `<dir>/images/i<k>.png` and labels in the labelgen layout
+/// `<dir>/labels/t000<k>/level1/i<k>.png.vplabel`; image `held` goes to
+/// `<dir>/held` instead, for evaluation.
+fn write_data(dir: &Path, n: u64, held: u64) -> (PathBuf, PathBuf, PathBuf, PathBuf) {
+    let paths = ["images", "labels", "held/images", "held/labels"].map(|p| dir.join(p));
+    for seed in 0..n {
+        let (images, labels) = if seed == held {
+            (&paths[2], &paths[3])
+        } else {
+            (&paths[0], &paths[1])
+        };
+        let level = labels.join(format!("t{seed:04}/level1"));
+        std::fs::create_dir_all(&level).unwrap();
+        std::fs::create_dir_all(images).unwrap();
+        let tex = texture_image(96, 64, 16, seed);
+        let name = format!("i{seed}.png");
+        save_rgb(&tex.image, &images.join(&name)).unwrap();
+        label_image(&tex, 3, 45.0, seed + 100, rule)
+            .save(&level.join(format!("{name}.vplabel")))
+            .unwrap();
+    }
+    let [a, b, c, d] = paths;
+    (a, b, c, d)
+}
+
+#[test]
+fn train_predict_and_eval_learn_texture_and_angle() {
+    let dir = tempfile::tempdir().unwrap();
+    let (images, labels, held_images, held_labels) = write_data(dir.path(), 4, 3);
+    let config = dir.path().join("forest.toml");
+    std::fs::write(
+        &config,
+        "n_tests = 200\nn_thresholds = 20\nn_node_samples = 400\nmin_samples_split = 20\n",
+    )
+    .unwrap();
+    let model = dir.path().join("m.vpforest");
+    let train = |out: &Path, extra: &[&str]| {
+        let mut args = vec![
+            "train",
+            "--images",
+            images.to_str().unwrap(),
+            "--labels",
+            labels.to_str().unwrap(),
+            "--config",
+            config.to_str().unwrap(),
+            "--trees",
+            "4",
+            "--max-depth",
+            "10",
+            "--seed",
+            "7",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        vpctl(&args)
+    };
+    let o = train(&model, &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        text(&o).contains("training set: 3 images, 3 label images"),
+        "{}",
+        text(&o)
+    );
+
+    // Same data and seed: same model bytes. An existing model is kept without --force.
+    let again = dir.path().join("m2.vpforest");
+    assert!(train(&again, &[]).status.success());
+    assert_eq!(
+        std::fs::read(&model).unwrap(),
+        std::fs::read(&again).unwrap()
+    );
+    let refused = train(&again, &[]);
+    assert_eq!(refused.status.code(), Some(2), "{}", text(&refused));
+
+    let o = vpctl(&["forest", "info", model.to_str().unwrap(), "--json"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let info: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(info["params"]["n_trees"], 4);
+    assert_eq!(info["params"]["n_tests"], 200);
+    assert_eq!(info["summary"]["seed"], 7);
+
+    // Held-out image: accuracy well above the 50% of a coin.
+    let o = vpctl(&[
+        "forest",
+        "eval",
+        "--model",
+        model.to_str().unwrap(),
+        "--images",
+        held_images.to_str().unwrap(),
+        "--labels",
+        held_labels.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let acc: f64 = text(&o)
+        .lines()
+        .find_map(|l| l.strip_prefix("accuracy: "))
+        .and_then(|v| v.parse().ok())
+        .expect("accuracy line");
+    assert!(acc > 0.85, "held-out accuracy {acc}\n{}", text(&o));
+
+    let conf_dir = dir.path().join("conf");
+    let o = vpctl(&[
+        "predict",
+        "--model",
+        model.to_str().unwrap(),
+        "--out",
+        conf_dir.to_str().unwrap(),
+        held_images.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(conf_dir.join("i3.bin0.png").exists() && conf_dir.join("i3.bin8.png").exists());
+    assert_confidence_learned(&conf_dir.join("i3.vpconf"), 3);
+}
+
+/// Noisy blocks are confident at 2.5 deg, not at 42.5 deg; smooth blocks
+/// are not confident at all (the planted rule).
+fn assert_confidence_learned(path: &Path, seed: u64) {
+    let c = ConfidenceImage::load(path).unwrap();
+    assert_eq!((c.width(), c.height(), c.step()), (96, 64, 8));
+    let tex = texture_image(96, 64, 16, seed);
+    let (mut noisy_low, mut noisy_high, mut smooth) = (vec![], vec![], vec![]);
+    let (gw, gh) = c.grid_size();
+    for j in 0..gh {
+        for i in 0..gw {
+            let (x, y) = c.node_pixel(i, j);
+            if tex.border_distance(x, y) < 4 {
+                continue;
+            }
+            let px = (f64::from(x), f64::from(y));
+            if tex.is_noisy(x, y) {
+                noisy_low.push(c.sample(px, 2.5));
+                noisy_high.push(c.sample(px, 42.5));
+            } else {
+                smooth.push(c.sample(px, 2.5));
+            }
+        }
+    }
+    let mean = |v: &[f32]| v.iter().sum::<f32>() / v.len() as f32;
+    assert!(
+        mean(&noisy_low) > 0.7,
+        "noisy at 2.5 deg: {}",
+        mean(&noisy_low)
+    );
+    assert!(
+        mean(&noisy_high) < 0.3,
+        "noisy at 42.5 deg: {}",
+        mean(&noisy_high)
+    );
+    assert!(mean(&smooth) < 0.3, "smooth: {}", mean(&smooth));
+}
+
+#[test]
+fn bad_inputs_exit_2_and_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let (images, labels, _, _) = write_data(dir.path(), 2, 99);
+    let model = dir.path().join("m.vpforest");
+
+    // A label whose image is missing: named, exit 2, no model.
+    std::fs::remove_file(images.join("i1.png")).unwrap();
+    let o = vpctl(&[
+        "train",
+        "--images",
+        images.to_str().unwrap(),
+        "--labels",
+        labels.to_str().unwrap(),
+        "--out",
+        model.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("i1.png.vplabel"), "{}", text(&o));
+    assert!(!model.exists());
+
+    // A bad config field is named.
+    let config = dir.path().join("bad.toml");
+    std::fs::write(&config, "n_trees = 3\nn_trea = 2\n").unwrap();
+    let o = vpctl(&[
+        "train",
+        "--images",
+        images.to_str().unwrap(),
+        "--labels",
+        labels.to_str().unwrap(),
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        model.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("bad.toml") && text(&o).contains("n_trea"),
+        "{}",
+        text(&o)
+    );
+
+    // A corrupt model: exit 2, no confidence images.
+    std::fs::write(&model, b"not a model").unwrap();
+    let conf_dir = dir.path().join("conf");
+    let o = vpctl(&[
+        "predict",
+        "--model",
+        model.to_str().unwrap(),
+        "--out",
+        conf_dir.to_str().unwrap(),
+        images.join("i0.png").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("m.vpforest"), "{}", text(&o));
+    assert!(!conf_dir.exists());
+}
+
+#[test]
+fn defaults_are_the_papers_and_round_trip() {
+    let o = vpctl(&["forest", "defaults"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let t = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        t.contains("n_trees = 20") && t.contains("max_depth = 20"),
+        "{t}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("d.toml");
+    std::fs::write(&path, t.as_bytes()).unwrap();
+    // The printed defaults are a valid config (training then fails only for
+    // the empty label folder, which is named).
+    let o = vpctl(&[
+        "train",
+        "--images",
+        dir.path().to_str().unwrap(),
+        "--labels",
+        dir.path().to_str().unwrap(),
+        "--config",
+        path.to_str().unwrap(),
+        "--out",
+        dir.path().join("m").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("no .vplabel files"), "{}", text(&o));
+}

@@ -1,0 +1,511 @@
+//! The campaign configuration: training sites, held-out sites, flights,
+//! strategies, SfM noise, the virtual MVS and the evaluation. TOML-loadable;
+//! missing keys take the defaults of [`CampaignConfig::demo`], unknown keys
+//! are refused (a typo must not silently fall back to a default).
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+use vp_forest::TrainParams;
+use vp_labelgen::LabelParams;
+use vp_planner::{CameraConfig, PlannerConfig};
+use vp_scene::procedural::SiteParams;
+
+use crate::error::{Result, SimError};
+use crate::mvs::MvsProfile;
+use crate::render::RenderParams;
+
+/// Everything a campaign needs. See the module docs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CampaignConfig {
+    /// Seed of every random choice of the campaign (sites have their own seeds).
+    pub seed: u64,
+    /// Seeds of the held-out sites flown and evaluated (never trained on).
+    pub held_out_seeds: Vec<u64>,
+    /// Triplet strategies, named as in the paper: `F<i>x<k>` plans k triplets
+    /// per iteration for i iterations with confidence prediction, `NP<i>x<k>`
+    /// the same without (confidence 1). Grid and Init are always evaluated,
+    /// and each strategy is also combined with Grid (`G+<name>`).
+    pub strategies: Vec<String>,
+    /// Shape of the held-out sites (the seed is taken from `held_out_seeds`).
+    pub site: SiteParams,
+    /// Margin around the rock's footprint that the region of interest adds, metres
+    /// (the paper: the rock and a few metres of the surrounding vegetation).
+    pub roi_margin_m: f64,
+    /// The virtual MVS (truth curves, noise).
+    pub profile: MvsProfile,
+    /// Triplet-level matching failure of the virtual MVS.
+    pub gate: MatchingGate,
+    /// Lighting of the rendered images.
+    pub render: RenderParams,
+    /// Training campaign.
+    pub training: TrainingConfig,
+    /// Initial flight (paper: 19 images in a grid at 50 m).
+    pub init: InitFlight,
+    /// The Grid baseline (paper: 80 % overlap).
+    pub grid: GridBaseline,
+    /// Simulated SfM: pose and point noise, views needed per point.
+    pub sfm: SfmConfig,
+    /// Planner parameters (the camera of every flight is `planner.camera`;
+    /// `n_triplets` and `seed` are set per strategy and iteration).
+    pub planner: PlannerConfig,
+    /// Grid step of the confidence prediction, pixels (paper: 8).
+    pub confidence_step: u32,
+    /// Evaluation (the paper's Table 1).
+    pub eval: EvalConfig,
+}
+
+/// Triplet-level matching failure [vpctl]: a dense matcher such as SURE does
+/// not fail pixel by pixel only. At wide angles "matching becomes much more
+/// difficult and only flat surfaces survive" (paper, Sec. 4): the whole
+/// triplet produces nothing. The virtual MVS models this on top of the
+/// per-pixel profile: a triplet yields no 3D output when, among the pixels
+/// that all three images see, the share whose profile success probability
+/// is at least `matchable_probability` is below `min_matchable_share`, or
+/// when the median triangulation angle of those pixels on non-flat materials
+/// (grass, trees) exceeds `max_nonflat_median_angle_deg`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MatchingGate {
+    /// Switch the gate off (pixel-level failures only).
+    pub enabled: bool,
+    /// Success probability from which a pixel counts as matchable.
+    pub matchable_probability: f64,
+    /// Smallest share of matchable overlapping pixels for any output.
+    pub min_matchable_share: f64,
+    /// Largest median angle on non-flat materials, degrees.
+    pub max_nonflat_median_angle_deg: f64,
+    /// The median-angle rule applies when at least this share of the
+    /// overlapping pixels is non-flat.
+    pub nonflat_min_share: f64,
+}
+
+impl Default for MatchingGate {
+    fn default() -> Self {
+        MatchingGate {
+            enabled: true,
+            matchable_probability: 0.4,
+            min_matchable_share: 0.5,
+            max_nonflat_median_angle_deg: 30.0,
+            nonflat_min_share: 0.3,
+        }
+    }
+}
+
+/// The offline training campaign (paper: Val Camonica training sites).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TrainingConfig {
+    /// Seeds of the training sites (must differ from every held-out seed).
+    pub site_seeds: Vec<u64>,
+    /// Shape of the training sites (seed from `site_seeds`).
+    pub site: SiteParams,
+    /// Random triplets per training site.
+    pub triplets_per_site: usize,
+    /// Largest triangulation angle a training triplet is drawn with, degrees
+    /// (angles are drawn uniformly in log space from 2 deg).
+    pub max_angle_deg: f64,
+    /// Distance of a training triplet's centre from its focus point, metres: [min, max].
+    pub distance_m: [f64; 2],
+    /// Image width of the training cameras, pixels.
+    pub width: u32,
+    /// Image height of the training cameras, pixels.
+    pub height: u32,
+    /// Horizontal field of view of the training cameras, degrees.
+    pub hfov_deg: f64,
+    /// Pyramid levels each triplet is reconstructed at (paper: 1, 2, 3).
+    pub levels: Vec<u8>,
+    /// Label generation parameters.
+    pub labels: LabelParams,
+    /// Labelled pixels kept per class and label image (bounds memory).
+    pub max_per_class_per_label_image: usize,
+    /// Forest parameters.
+    pub forest: TrainParams,
+}
+
+/// The initial flight: a nadir grid of `nx` x `ny` images, `spacing_m`
+/// apart, `height_m` above the lowest ground point, centred on the ROI.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct InitFlight {
+    /// Height above the lowest point of the site, metres (paper: 50).
+    pub height_m: f64,
+    /// Images along x.
+    pub nx: usize,
+    /// Images along y.
+    pub ny: usize,
+    /// Distance between neighbouring images, metres.
+    pub spacing_m: f64,
+}
+
+/// The Grid baseline: a nadir lawnmower over the ROI footprint plus a margin.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GridBaseline {
+    /// Height above the lowest point of the footprint, metres.
+    pub height_m: f64,
+    /// Front and side overlap (paper: 0.8).
+    pub overlap: f64,
+    /// Margin added around the ROI footprint, metres.
+    pub margin_m: f64,
+}
+
+/// The simulated structure from motion.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SfmConfig {
+    /// Standard deviation of camera position noise, metres.
+    pub position_noise_m: f64,
+    /// Standard deviation of camera rotation noise, degrees.
+    pub rotation_noise_deg: f64,
+    /// Standard deviation of point (planning-mesh vertex) noise, metres.
+    pub point_noise_m: f64,
+    /// Acquired images that must see a surface point for SfM to have it.
+    pub min_views: usize,
+}
+
+/// The evaluation of the paper's Table 1.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct EvalConfig {
+    /// ROI faces are split to this longest edge, metres (paper: 0.08).
+    pub split_edge_m: f64,
+    /// A reconstructed depth measures a face when it is at most this much
+    /// in front of the face's depth (or beyond it), metres (paper: 0.24).
+    pub depth_tolerance_m: f64,
+    /// c: cameras with successful depth a face needs to count as covered.
+    pub min_cameras: usize,
+}
+
+/// Sections default to the demo preset's values.
+macro_rules! default_from_demo {
+    ($($t:ident => $field:ident),* $(,)?) => {
+        $(impl Default for $t {
+            fn default() -> Self {
+                CampaignConfig::demo().$field
+            }
+        })*
+    };
+}
+
+default_from_demo!(
+    TrainingConfig => training,
+    InitFlight => init,
+    GridBaseline => grid,
+    SfmConfig => sfm,
+    EvalConfig => eval,
+);
+
+/// A procedural site of the given seed and face budget, `size` metres
+/// square, with a rock of `rock` = (length, width, height) metres.
+fn site(seed: u64, target_faces: usize, size: f64, n_trees: usize, rock: [f64; 3]) -> SiteParams {
+    SiteParams {
+        seed,
+        target_faces,
+        size,
+        n_trees,
+        rock_length: rock[0],
+        rock_width: rock[1],
+        rock_height: rock[2],
+        ..SiteParams::default()
+    }
+}
+
+impl Default for CampaignConfig {
+    /// The demo preset ([`CampaignConfig::demo`]).
+    fn default() -> Self {
+        Self::demo()
+    }
+}
+
+impl CampaignConfig {
+    /// What `vpctl demo` runs: two small training sites, one held-out site,
+    /// F3x3, NP3x3 and Grid, 240 x 160 px images; a few minutes on 2 cores.
+    pub fn demo() -> Self {
+        let camera = CameraConfig {
+            width: 240,
+            height: 160,
+            focal_px: 320.0,
+        };
+        CampaignConfig {
+            seed: 1,
+            held_out_seeds: vec![7],
+            strategies: vec!["F3x3".into(), "F1x9".into(), "NP3x3".into()],
+            site: site(0, 40_000, 44.0, 8, [12.0, 9.0, 2.5]),
+            roi_margin_m: 4.0,
+            profile: MvsProfile::sure_like(),
+            gate: MatchingGate::default(),
+            render: RenderParams::default(),
+            training: TrainingConfig {
+                site_seeds: vec![101, 102],
+                site: site(0, 20_000, 40.0, 6, [11.0, 8.0, 2.5]),
+                triplets_per_site: 14,
+                max_angle_deg: 60.0,
+                distance_m: [8.0, 20.0],
+                width: 160,
+                height: 120,
+                hfov_deg: 50.0,
+                levels: vec![1],
+                labels: LabelParams::default(),
+                max_per_class_per_label_image: 600,
+                forest: TrainParams {
+                    n_trees: 6,
+                    max_depth: 14,
+                    min_samples_split: 20,
+                    n_tests: 300,
+                    n_thresholds: 20,
+                    n_node_samples: 500,
+                    samples_per_class: 40_000,
+                    // The planner multiplies by the confidence: it must be
+                    // a calibrated probability, not class-balanced.
+                    balance_classes: false,
+                    ..TrainParams::default()
+                },
+            },
+            init: InitFlight {
+                height_m: 50.0,
+                nx: 4,
+                ny: 4,
+                spacing_m: 8.0,
+            },
+            grid: GridBaseline {
+                height_m: 20.0,
+                overlap: 0.8,
+                margin_m: 6.0,
+            },
+            sfm: SfmConfig {
+                position_noise_m: 0.05,
+                rotation_noise_deg: 0.05,
+                point_noise_m: 0.05,
+                min_views: 2,
+            },
+            planner: PlannerConfig {
+                gsd_m: 0.04,
+                accuracy_m: 0.04,
+                n_triangles: 1000,
+                n_surrogates: 1500,
+                n_selected: 100,
+                safety_distance_m: 4.0,
+                camera,
+                ..PlannerConfig::default()
+            },
+            confidence_step: 8,
+            eval: EvalConfig {
+                split_edge_m: 0.3,
+                depth_tolerance_m: 0.24,
+                min_cameras: 3,
+            },
+        }
+    }
+
+    /// The demo shrunk to seconds, for smoke tests (`vpctl demo --quick`):
+    /// tiny sites, one training site, one planning iteration, coarse evaluation.
+    pub fn quick() -> Self {
+        let mut c = Self::demo();
+        c.strategies = vec!["F1x2".into(), "NP1x2".into()];
+        c.site.target_faces = 12_000;
+        c.training.site_seeds = vec![101];
+        c.training.site.target_faces = 8_000;
+        c.training.triplets_per_site = 6;
+        c.training.forest.n_trees = 2;
+        c.training.forest.max_depth = 8;
+        c.training.forest.n_tests = 50;
+        c.training.forest.samples_per_class = 4_000;
+        c.init.nx = 3;
+        c.init.ny = 2;
+        c.grid.overlap = 0.7;
+        c.planner.n_triangles = 300;
+        c.planner.n_surrogates = 300;
+        c.planner.n_selected = 40;
+        c.eval.split_edge_m = 1.0;
+        c
+    }
+
+    /// The paper's experiment as far as the simulator allows: three
+    /// held-out sites, F5x4, F1x20, NP5x4, five training sites, 8 cm faces.
+    pub fn paper() -> Self {
+        let mut c = Self::demo();
+        c.held_out_seeds = vec![7, 8, 9];
+        c.strategies = vec!["F5x4".into(), "F1x20".into(), "NP5x4".into()];
+        c.site = site(0, 120_000, 50.0, 10, [17.0, 13.0, 2.5]);
+        c.training.site_seeds = vec![101, 102, 103, 104, 105];
+        c.training.triplets_per_site = 24;
+        c.training.levels = vec![1, 2];
+        c.training.forest.n_trees = 10;
+        c.training.forest.max_depth = 16;
+        c.training.forest.n_tests = 1000;
+        c.init = InitFlight {
+            height_m: 50.0,
+            nx: 5,
+            ny: 4,
+            spacing_m: 8.0,
+        };
+        c.planner.n_triangles = 2000;
+        c.planner.n_surrogates = 5000;
+        c.planner.n_selected = 200;
+        c.eval.split_edge_m = 0.08;
+        c
+    }
+
+    /// Parses a TOML text; `path` names the file in errors.
+    pub fn from_toml(text: &str, path: &Path) -> Result<Self> {
+        let cfg: CampaignConfig = toml::from_str(text).map_err(|e| {
+            SimError::InvalidArgument(format!("{}: {}", path.display(), e.to_string().trim()))
+        })?;
+        cfg.validate()
+            .map_err(|e| SimError::InvalidArgument(format!("{}: {e}", path.display())))?;
+        Ok(cfg)
+    }
+
+    /// Reads and parses a TOML file.
+    pub fn load(path: &Path) -> Result<Self> {
+        let bytes = vp_scene::fsio::read_file(path)?;
+        let text = String::from_utf8(bytes).map_err(|_| {
+            SimError::InvalidArgument(format!("{}: not UTF-8 text", path.display()))
+        })?;
+        Self::from_toml(&text, path)
+    }
+
+    /// The configuration as a complete TOML file (every key written out).
+    pub fn to_toml(&self) -> Result<String> {
+        toml::to_string(self)
+            .map_err(|e| SimError::InvalidArgument(format!("configuration to TOML: {e}")))
+    }
+
+    /// The strategies, parsed.
+    pub fn parsed_strategies(&self) -> Result<Vec<super::strategies::Strategy>> {
+        self.strategies
+            .iter()
+            .map(|s| super::strategies::Strategy::parse(s))
+            .collect()
+    }
+
+    /// Checks ranges and the leave-one-site-out rule; the error names the key.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |m: String| Err(SimError::InvalidArgument(m));
+        if self.held_out_seeds.is_empty() {
+            return bad("held_out_seeds is empty: name at least one site to fly".into());
+        }
+        if let Some(s) = self
+            .held_out_seeds
+            .iter()
+            .find(|s| self.training.site_seeds.contains(s))
+        {
+            return bad(format!(
+                "site seed {s} is both a training and a held-out site: the site flown must never be a training site"
+            ));
+        }
+        if self.training.site_seeds.is_empty() || self.training.triplets_per_site == 0 {
+            return bad("training: site_seeds and triplets_per_site must not be empty or 0".into());
+        }
+        let names = self.parsed_strategies()?;
+        let mut seen = std::collections::BTreeSet::new();
+        for n in &names {
+            if !seen.insert(n.name.clone()) {
+                return bad(format!("strategy {} is listed twice", n.name));
+            }
+        }
+        self.profile.validate()?;
+        self.render.validate()?;
+        self.planner
+            .validate()
+            .map_err(|e| SimError::InvalidArgument(format!("planner: {e}")))?;
+        self.training
+            .forest
+            .validate()
+            .map_err(|e| SimError::InvalidArgument(format!("training.forest: {e}")))?;
+        self.site.validate()?;
+        self.training.site.validate()?;
+        let t = &self.training;
+        if !(t.distance_m[0] > 0.0 && t.distance_m[1] >= t.distance_m[0]) {
+            return bad(format!(
+                "training.distance_m = {:?}: need 0 < min <= max",
+                t.distance_m
+            ));
+        }
+        if !(t.max_angle_deg > 2.0 && t.max_angle_deg < 120.0) {
+            return bad(format!(
+                "training.max_angle_deg = {} is outside (2, 120)",
+                t.max_angle_deg
+            ));
+        }
+        if t.width < 32 || t.height < 32 || !(t.hfov_deg > 1.0 && t.hfov_deg < 150.0) {
+            return bad("training: width/height must be >= 32 px and hfov_deg in (1, 150)".into());
+        }
+        if t.levels.is_empty()
+            || t.levels
+                .iter()
+                .any(|&l| !(1..=crate::mvs::MAX_LEVEL).contains(&l))
+        {
+            return bad(format!(
+                "training.levels = {:?}: need levels in 1..=6",
+                t.levels
+            ));
+        }
+        if self.init.nx * self.init.ny < 3
+            || !(self.init.height_m > 0.0 && self.init.spacing_m > 0.0)
+        {
+            return bad("init: need at least 3 images, positive height and spacing".into());
+        }
+        if !(0.0..0.99).contains(&self.grid.overlap) || !(self.grid.height_m > 0.0) {
+            return bad(format!(
+                "grid: overlap {} must be in [0, 0.99) and height {} positive",
+                self.grid.overlap, self.grid.height_m
+            ));
+        }
+        let e = &self.eval;
+        if !(e.split_edge_m >= 0.01) || !(e.depth_tolerance_m >= 0.0) || e.min_cameras == 0 {
+            return bad(
+                "eval: split_edge_m >= 0.01, depth_tolerance_m >= 0, min_cameras >= 1".into(),
+            );
+        }
+        if self.confidence_step == 0 {
+            return bad("confidence_step must be at least 1".into());
+        }
+        if self.sfm.min_views == 0 {
+            return bad("sfm.min_views must be at least 1".into());
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn presets_round_trip_through_toml_and_validate() {
+        for c in [
+            CampaignConfig::demo(),
+            CampaignConfig::paper(),
+            CampaignConfig::quick(),
+        ] {
+            c.validate().unwrap();
+            let text = c.to_toml().unwrap();
+            let back = CampaignConfig::from_toml(&text, Path::new("x.toml")).unwrap();
+            assert_eq!(back, c);
+        }
+        // An empty file is the demo.
+        assert_eq!(
+            CampaignConfig::from_toml("", Path::new("e.toml")).unwrap(),
+            CampaignConfig::demo()
+        );
+    }
+
+    #[test]
+    fn refuses_unknown_keys_and_training_on_the_held_out_site() {
+        let e = CampaignConfig::from_toml("sed = 3\n", Path::new("typo.toml")).unwrap_err();
+        let m = e.to_string();
+        assert!(m.contains("typo.toml") && m.contains("sed"), "{m}");
+        let e = CampaignConfig::from_toml(
+            "held_out_seeds = [101]\n[training]\nsite_seeds = [101, 102]\n",
+            Path::new("c.toml"),
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("never be a training site"), "{e}");
+        let e = CampaignConfig::from_toml("strategies = [\"G5x4\"]\n", Path::new("s.toml"))
+            .unwrap_err();
+        assert!(e.to_string().contains("G5x4"), "{e}");
+    }
+}

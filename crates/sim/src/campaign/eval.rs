@@ -1,0 +1,171 @@
+//! The evaluation of the paper's Table 1 on the true mesh.
+//!
+//! ROI faces are split to `eval.split_edge_m`. A camera of a successful
+//! triplet measures a face when the face's centroid projects into its depth
+//! map, the face is front-facing, and the reconstructed depth at that pixel
+//! is at most `eval.depth_tolerance_m` in front of the face's depth or
+//! beyond it (the paper's 24 cm rule; an occluder in front fails it).
+//! Coverage: faces measured by at least c distinct cameras. Per face and
+//! measuring triplet, f_res and f_unc follow DESIGN.md M1 with the true
+//! cameras (f_conf is what happened, so it is not applied); each face keeps
+//! the best triplet's f_res, f_unc and `alpha f_res + (1 - alpha) f_unc`,
+//! multiplied by f_cov; the table reports their means over the ROI faces.
+
+use nalgebra::{Point3, Vector3};
+use rayon::prelude::*;
+use serde::Serialize;
+use vp_planner::quality::{CamTerm, Requirements};
+use vp_scene::mesh_ops::{split_faces, submesh};
+use vp_scene::Material;
+
+use super::config::CampaignConfig;
+use super::fly::Flown;
+use super::world::{roi_faces, World};
+use crate::error::Result;
+
+/// The split ROI faces of the true mesh.
+pub struct EvalMesh {
+    /// Centroids.
+    pub centroids: Vec<Point3<f64>>,
+    /// Unit normals.
+    pub normals: Vec<Vector3<f64>>,
+    /// Whether each face is rock.
+    pub rock: Vec<bool>,
+}
+
+impl EvalMesh {
+    /// Splits the ROI faces of `world`'s true mesh.
+    pub fn new(world: &World, cfg: &CampaignConfig) -> Result<Self> {
+        let faces = roi_faces(&world.site.mesh, &world.roi);
+        let roi = submesh(&world.site.mesh, &faces);
+        let (split, _) = split_faces(&roi, cfg.eval.split_edge_m)?;
+        Ok(EvalMesh {
+            centroids: split.face_centroids(),
+            normals: split.face_normals(),
+            rock: (0..split.n_faces())
+                .map(|f| split.material(f) == Some(Material::Rock))
+                .collect(),
+        })
+    }
+
+    /// Number of faces.
+    pub fn len(&self) -> usize {
+        self.centroids.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.centroids.is_empty()
+    }
+}
+
+/// Table-1 figures of one image set, in percent (success in percent too).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
+pub struct Scores {
+    /// Share of ROI faces measured by at least c cameras.
+    pub coverage: f64,
+    /// Mean f_res (times f_cov).
+    pub f_res: f64,
+    /// Mean f_unc (times f_cov).
+    pub f_unc: f64,
+    /// Mean f.
+    pub f: f64,
+    /// Coverage of the rock faces alone.
+    pub rock_coverage: f64,
+    /// Triplets with any 3D output over triplets flown (None for none flown).
+    pub triplet_success: Option<f64>,
+    /// Distinct images.
+    pub n_images: usize,
+}
+
+/// Scores of `flown` on `em`; also returns each face's f (0..1) for maps.
+pub fn evaluate(
+    em: &EvalMesh,
+    flown: &[&Flown],
+    cfg: &CampaignConfig,
+) -> Result<(Scores, Vec<f64>)> {
+    let pc = &cfg.planner;
+    let req = Requirements {
+        r_desired: 1.0 / (pc.gsd_m * pc.gsd_m),
+        accuracy: pc.accuracy_m,
+        alpha: pc.alpha,
+        bins: pc.angle_bins()?,
+    };
+    let tol = cfg.eval.depth_tolerance_m;
+    let c_min = cfg.eval.min_cameras;
+    let ok: Vec<(&Flown, &[vp_scene::colmap::DepthMap; 3])> = flown
+        .iter()
+        .filter_map(|f| f.depth.as_ref().map(|d| (*f, d)))
+        .collect();
+    let per_face: Vec<(f64, f64, f64, bool)> = (0..em.len())
+        .into_par_iter()
+        .with_min_len(64)
+        .map(|i| {
+            let (p, n) = (em.centroids[i], em.normals[i]);
+            let mut ids: Vec<u64> = Vec::new();
+            let (mut best_res, mut best_unc, mut best_q) = (0f64, 0f64, 0f64);
+            for (fl, depth) in &ok {
+                let mut any = false;
+                for v in 0..3 {
+                    let cam = &fl.cams[v];
+                    let c = cam.center();
+                    if n.dot(&(c - p)) <= 0.0 {
+                        continue;
+                    }
+                    let Some(px) = cam.project_in_frame(&p) else {
+                        continue;
+                    };
+                    let d = &depth[v];
+                    let (x, y) = (px.x as usize, px.y as usize);
+                    if x >= d.width as usize || y >= d.height as usize {
+                        continue;
+                    }
+                    let z = f64::from(d.data[y * d.width as usize + x]);
+                    let face_z = (p - c).dot(&cam.axis());
+                    if z > 0.0 && z >= face_z - tol {
+                        any = true;
+                        ids.push(fl.ids[v]);
+                    }
+                }
+                if any {
+                    let t = fl.cams.map(|cam| CamTerm::new(&cam, &p, &n, pc.sigma_px));
+                    let r_min = t[0].r.min(t[1].r).min(t[2].r);
+                    let f_res = req.f_res(r_min);
+                    let f_unc = req.f_unc(&(t[0].info + t[1].info + t[2].info));
+                    best_res = best_res.max(f_res);
+                    best_unc = best_unc.max(f_unc);
+                    best_q = best_q.max(req.alpha * f_res + (1.0 - req.alpha) * f_unc);
+                }
+            }
+            ids.sort_unstable();
+            ids.dedup();
+            let covered = ids.len() >= c_min;
+            let cov = if covered { 1.0 } else { 0.0 };
+            (best_res * cov, best_unc * cov, best_q * cov, covered)
+        })
+        .collect();
+    let n = em.len().max(1) as f64;
+    let mean =
+        |k: fn(&(f64, f64, f64, bool)) -> f64| 100.0 * per_face.iter().map(k).sum::<f64>() / n;
+    let n_rock = em.rock.iter().filter(|&&r| r).count().max(1) as f64;
+    let rock_cov = per_face
+        .iter()
+        .zip(&em.rock)
+        .filter(|(f, &r)| r && f.3)
+        .count() as f64;
+    let mut images: Vec<u64> = flown.iter().flat_map(|f| f.ids).collect();
+    images.sort_unstable();
+    images.dedup();
+    let success = (!flown.is_empty())
+        .then(|| 100.0 * flown.iter().filter(|f| f.success()).count() as f64 / flown.len() as f64);
+    let scores = Scores {
+        coverage: mean(|f| if f.3 { 1.0 } else { 0.0 }),
+        f_res: mean(|f| f.0),
+        f_unc: mean(|f| f.1),
+        f: mean(|f| f.2),
+        rock_coverage: 100.0 * rock_cov / n_rock,
+        triplet_success: success,
+        n_images: images.len(),
+    };
+    Ok((scores, per_face.iter().map(|f| f.2).collect()))
+}

@@ -1,0 +1,377 @@
+//! The campaign's results: the Table-1 rows (mean and standard deviation
+//! over held-out sites), per-site scores, confidence curves, and the report
+//! directory (Markdown, CSV, JSON, plans, QGC missions, PNG plots).
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+use vp_mission::{export_qgc, Autopilot, MissionOptions, QgcOptions};
+use vp_scene::plan::Plan;
+use vp_scene::{Aabb, Mesh};
+
+use super::config::CampaignConfig;
+use super::curves::ConfidenceCurve;
+use super::eval::Scores;
+use super::training::TrainingStats;
+use crate::error::{Result, SimError};
+
+/// One row of the table: a strategy's figures over the held-out sites.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TableRow {
+    /// Strategy (`Init`, `Grid`, `F5x4`, `G+F5x4`, ...).
+    pub strategy: String,
+    /// Coverage of the ROI, percent: mean and standard deviation.
+    pub coverage_mean: f64,
+    /// See `coverage_mean`.
+    pub coverage_std: f64,
+    /// Mean f_res, percent.
+    pub f_res_mean: f64,
+    /// See `f_res_mean`.
+    pub f_res_std: f64,
+    /// Mean f_unc, percent.
+    pub f_unc_mean: f64,
+    /// See `f_unc_mean`.
+    pub f_unc_std: f64,
+    /// Mean f, percent.
+    pub f_mean: f64,
+    /// See `f_mean`.
+    pub f_std: f64,
+    /// Triplets with any 3D output, percent.
+    pub triplet_success_mean: f64,
+    /// See `triplet_success_mean`.
+    pub triplet_success_std: f64,
+    /// Images used.
+    pub n_images_mean: f64,
+    /// See `n_images_mean`.
+    pub n_images_std: f64,
+    /// Coverage of the rock alone, percent.
+    pub rock_coverage_mean: f64,
+    /// See `rock_coverage_mean`.
+    pub rock_coverage_std: f64,
+}
+
+/// Scores of every strategy on one held-out site.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SiteResult {
+    /// The site's seed.
+    pub seed: u64,
+    /// (strategy, scores) in table order.
+    pub scores: Vec<(String, Scores)>,
+}
+
+/// What the plots of one strategy need (first held-out site only).
+#[derive(Debug, Clone)]
+pub struct StrategyArtifacts {
+    /// Strategy name.
+    pub name: String,
+    /// f per evaluation face (0..1).
+    pub face_f: Vec<f64>,
+    /// Plans, one per iteration (empty for combinations).
+    pub plans: Vec<Plan>,
+}
+
+/// The first held-out site's data for plots and missions.
+#[derive(Debug, Clone)]
+pub struct SiteArtifacts {
+    /// Site seed.
+    pub seed: u64,
+    /// True mesh.
+    pub mesh: Mesh,
+    /// Region of interest.
+    pub roi: Aabb,
+    /// Evaluation face centroids.
+    pub centroids: Vec<nalgebra::Point3<f64>>,
+    /// Per strategy.
+    pub strategies: Vec<StrategyArtifacts>,
+}
+
+/// Everything a campaign produced.
+#[derive(Debug, Clone, Serialize)]
+pub struct CampaignReport {
+    /// The table (mean and standard deviation over held-out sites).
+    pub rows: Vec<TableRow>,
+    /// Per-site scores.
+    pub sites: Vec<SiteResult>,
+    /// Learned vs true confidence per material, with rank correlations.
+    pub curves: Vec<ConfidenceCurve>,
+    /// Per angle bin (deg), the rank correlation across materials of learned
+    /// against true confidence.
+    pub material_ranking: Vec<(f64, f64)>,
+    /// What training did (None when the forest was loaded).
+    pub training: Option<TrainingStats>,
+    /// The configuration that produced it.
+    pub config: CampaignConfig,
+    /// Plot and mission data of the first held-out site.
+    #[serde(skip)]
+    pub artifacts: Option<SiteArtifacts>,
+}
+
+/// Mean and sample standard deviation (0 for one value).
+fn mean_std(v: &[f64]) -> (f64, f64) {
+    let n = v.len() as f64;
+    if v.is_empty() {
+        return (f64::NAN, f64::NAN);
+    }
+    let m = v.iter().sum::<f64>() / n;
+    if v.len() < 2 {
+        return (m, 0.0);
+    }
+    let var = v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0);
+    (m, var.sqrt())
+}
+
+/// The table rows from per-site scores (row order of the first site).
+pub fn aggregate(sites: &[SiteResult]) -> Vec<TableRow> {
+    let Some(first) = sites.first() else {
+        return Vec::new();
+    };
+    first
+        .scores
+        .iter()
+        .map(|(name, _)| {
+            let all: Vec<&Scores> = sites
+                .iter()
+                .filter_map(|s| s.scores.iter().find(|(n, _)| n == name).map(|(_, sc)| sc))
+                .collect();
+            let ms =
+                |k: fn(&Scores) -> f64| mean_std(&all.iter().map(|s| k(s)).collect::<Vec<_>>());
+            let (coverage_mean, coverage_std) = ms(|s| s.coverage);
+            let (f_res_mean, f_res_std) = ms(|s| s.f_res);
+            let (f_unc_mean, f_unc_std) = ms(|s| s.f_unc);
+            let (f_mean, f_std) = ms(|s| s.f);
+            let (triplet_success_mean, triplet_success_std) =
+                ms(|s| s.triplet_success.unwrap_or(f64::NAN));
+            let (n_images_mean, n_images_std) = ms(|s| s.n_images as f64);
+            let (rock_coverage_mean, rock_coverage_std) = ms(|s| s.rock_coverage);
+            TableRow {
+                strategy: name.clone(),
+                coverage_mean,
+                coverage_std,
+                f_res_mean,
+                f_res_std,
+                f_unc_mean,
+                f_unc_std,
+                f_mean,
+                f_std,
+                triplet_success_mean,
+                triplet_success_std,
+                n_images_mean,
+                n_images_std,
+                rock_coverage_mean,
+                rock_coverage_std,
+            }
+        })
+        .collect()
+}
+
+impl CampaignReport {
+    /// The row of `strategy`, if any.
+    pub fn row(&self, strategy: &str) -> Option<&TableRow> {
+        self.rows.iter().find(|r| r.strategy == strategy)
+    }
+
+    /// The table as Markdown (percent, mean ± std over held-out sites).
+    pub fn table_markdown(&self) -> String {
+        let pm = |m: f64, s: f64| {
+            if m.is_nan() {
+                "-".to_string()
+            } else {
+                format!("{m:.1} ± {s:.1}")
+            }
+        };
+        let mut t = String::new();
+        let _ = writeln!(
+            t,
+            "| strategy | cov % | f_res % | f_unc % | f % | triplet success % | images | rock cov % |"
+        );
+        let _ = writeln!(t, "|---|---|---|---|---|---|---|---|");
+        for r in &self.rows {
+            let _ = writeln!(
+                t,
+                "| {} | {} | {} | {} | {} | {} | {} | {} |",
+                r.strategy,
+                pm(r.coverage_mean, r.coverage_std),
+                pm(r.f_res_mean, r.f_res_std),
+                pm(r.f_unc_mean, r.f_unc_std),
+                pm(r.f_mean, r.f_std),
+                pm(r.triplet_success_mean, r.triplet_success_std),
+                pm(r.n_images_mean, r.n_images_std),
+                pm(r.rock_coverage_mean, r.rock_coverage_std),
+            );
+        }
+        t
+    }
+
+    /// The table as CSV (one column per mean and per standard deviation).
+    pub fn table_csv(&self) -> String {
+        let mut t = String::from(
+            "strategy,coverage_mean,coverage_std,f_res_mean,f_res_std,f_unc_mean,f_unc_std,f_mean,f_std,triplet_success_mean,triplet_success_std,n_images_mean,n_images_std,rock_coverage_mean,rock_coverage_std\n",
+        );
+        let v = |x: f64| {
+            if x.is_nan() {
+                String::new()
+            } else {
+                format!("{x:.4}")
+            }
+        };
+        for r in &self.rows {
+            let _ = writeln!(
+                t,
+                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                r.strategy,
+                v(r.coverage_mean),
+                v(r.coverage_std),
+                v(r.f_res_mean),
+                v(r.f_res_std),
+                v(r.f_unc_mean),
+                v(r.f_unc_std),
+                v(r.f_mean),
+                v(r.f_std),
+                v(r.triplet_success_mean),
+                v(r.triplet_success_std),
+                v(r.n_images_mean),
+                v(r.n_images_std),
+                v(r.rock_coverage_mean),
+                v(r.rock_coverage_std),
+            );
+        }
+        t
+    }
+
+    /// Per material: the Spearman rank correlation of learned against true
+    /// confidence over the angle bins; per bin, the rank correlation across
+    /// materials; as text lines.
+    pub fn curves_summary(&self) -> String {
+        let mut t = String::new();
+        let ranking: Vec<String> = self
+            .material_ranking
+            .iter()
+            .map(|(a, r)| format!("{a:.1} deg {r:+.2}"))
+            .collect();
+        let _ = writeln!(
+            t,
+            "ranking of materials, learned vs truth, per bin: {}",
+            ranking.join(", ")
+        );
+        for c in &self.curves {
+            let _ = writeln!(
+                t,
+                "{:<7} spearman {:+.2} over {} bins ({} samples): learned {} -> {}, truth {} -> {} from {:.1} to {:.1} deg",
+                c.material,
+                c.spearman,
+                c.angle_deg.len(),
+                c.samples,
+                fmt2(c.learned.first()),
+                fmt2(c.learned.last()),
+                fmt2(c.truth.first()),
+                fmt2(c.truth.last()),
+                c.angle_deg.first().copied().unwrap_or(0.0),
+                c.angle_deg.last().copied().unwrap_or(0.0),
+            );
+        }
+        t
+    }
+}
+
+fn fmt2(v: Option<&f64>) -> String {
+    v.map_or_else(|| "-".into(), |x| format!("{x:.2}"))
+}
+
+/// A sibling of `dir` to build the report in before it takes `dir`'s place.
+fn staging_dir(dir: &Path) -> PathBuf {
+    let name = dir
+        .file_name()
+        .map_or_else(|| "report".into(), |n| n.to_string_lossy().into_owned());
+    dir.with_file_name(format!(".{name}.partial-{}", std::process::id()))
+}
+
+fn io_err(path: &Path, e: std::io::Error) -> SimError {
+    SimError::Scene(vp_scene::SceneError::Io {
+        path: path.to_path_buf(),
+        source: e,
+    })
+}
+
+fn write(path: &Path, text: &str) -> Result<()> {
+    std::fs::write(path, text).map_err(|e| io_err(path, e))
+}
+
+/// Writes the report directory `dir`: `table.md`, `table.csv`,
+/// `report.json`, `curves.csv`, `config.toml`, `plans/<strategy>/iter<i>.json`
+/// and `.plan` (QGroundControl missions via vp-mission), and the PNG plots
+/// (see [`super::plot`]). Refuses an existing `dir` unless `force`; the
+/// directory is built beside it and renamed into place, so a failure leaves
+/// no partial report.
+pub fn write_report(report: &CampaignReport, dir: &Path, force: bool) -> Result<()> {
+    if dir.exists() && !force {
+        return Err(SimError::InvalidArgument(format!(
+            "{} exists: pass --force to overwrite it",
+            dir.display()
+        )));
+    }
+    let stage = staging_dir(dir);
+    if stage.exists() {
+        std::fs::remove_dir_all(&stage).map_err(|e| io_err(&stage, e))?;
+    }
+    std::fs::create_dir_all(&stage).map_err(|e| io_err(&stage, e))?;
+    let built = fill(report, &stage);
+    if let Err(e) = built {
+        let _ = std::fs::remove_dir_all(&stage);
+        return Err(e);
+    }
+    if dir.exists() {
+        std::fs::remove_dir_all(dir).map_err(|e| io_err(dir, e))?;
+    }
+    std::fs::rename(&stage, dir).map_err(|e| io_err(dir, e))
+}
+
+fn fill(report: &CampaignReport, dir: &Path) -> Result<()> {
+    let mut md = String::from("# vpctl campaign report\n\n");
+    let _ = writeln!(
+        md,
+        "Held-out sites (never trained on): {:?}. Mean ± standard deviation over them, percent.\n",
+        report.config.held_out_seeds
+    );
+    md.push_str(&report.table_markdown());
+    md.push_str("\n## Learned confidence against the simulator's truth\n\n```\n");
+    md.push_str(&report.curves_summary());
+    md.push_str("```\n\nPlots: `confidence_<material>.png` (learned: blue, truth: red, x: angle 0-45 deg, y: 0-1), ");
+    md.push_str("`plan_<strategy>.png` (top view of the plan), `fulfilment_<strategy>.png` (per-face f, red 0 to green 1).\n");
+    write(&dir.join("table.md"), &md)?;
+    write(&dir.join("table.csv"), &report.table_csv())?;
+    let json = serde_json::to_string_pretty(report)
+        .map_err(|e| SimError::Campaign(format!("report to JSON: {e}")))?;
+    write(&dir.join("report.json"), &json)?;
+    write(&dir.join("config.toml"), &report.config.to_toml()?)?;
+    let mut csv = String::from("material,angle_deg,learned,truth\n");
+    for c in &report.curves {
+        for ((a, l), t) in c.angle_deg.iter().zip(&c.learned).zip(&c.truth) {
+            let _ = writeln!(csv, "{},{a},{l:.4},{t:.4}", c.material);
+        }
+    }
+    write(&dir.join("curves.csv"), &csv)?;
+    super::plot::write_curve_plots(&report.curves, dir)?;
+    if let Some(a) = &report.artifacts {
+        let plans = dir.join("plans");
+        for s in &a.strategies {
+            if s.plans.is_empty() {
+                continue;
+            }
+            let sd = plans.join(&s.name);
+            std::fs::create_dir_all(&sd).map_err(|e| io_err(&sd, e))?;
+            for (i, p) in s.plans.iter().enumerate() {
+                let base = sd.join(format!("iter{}", i + 1));
+                p.save(&base.with_extension("json"), true)?;
+                let qgc = export_qgc(
+                    p,
+                    &MissionOptions::for_autopilot(Autopilot::Px4),
+                    &QgcOptions::default(),
+                )?;
+                write(&base.with_extension("plan"), &qgc)?;
+            }
+        }
+        super::plot::write_site_plots(a, dir)?;
+    }
+    Ok(())
+}

@@ -1,0 +1,398 @@
+//! The campaign runner: per held-out site, the initial flight, the Grid
+//! baseline and every triplet strategy, each evaluated on its own images.
+
+use nalgebra::Point3;
+use vp_forest::Forest;
+use vp_planner::grid::{grid_views, GridParams};
+use vp_planner::{plan, AcquiredView, PlanInputs, RoiSpec};
+use vp_scene::mesh_ops::Roi;
+use vp_scene::plan::{Plan, Role};
+use vp_scene::{Aabb, Camera};
+
+use super::config::CampaignConfig;
+use super::curves::CurveAccumulator;
+use super::eval::{evaluate, EvalMesh, Scores};
+use super::fly::{fly_triplet, Flown};
+use super::report::{aggregate, CampaignReport, SiteArtifacts, SiteResult, StrategyArtifacts};
+use super::strategies::Strategy;
+use super::training::train_forest_with_stats;
+use super::world::{acquire, init_cameras, planning_mesh, Acquired, SeenCounter, World};
+use crate::error::{Result, SimError};
+use crate::mvs::VirtualMvs;
+use crate::noise::mix64;
+
+/// Source tags of image ids: init, grid, then one per strategy.
+const SOURCE_INIT: u64 = 0;
+const SOURCE_GRID: u64 = 1;
+
+fn image_id(source: u64, index: usize) -> u64 {
+    source << 32 | index as u64
+}
+
+/// Hash of a name, for seeds.
+fn name_hash(s: &str) -> u64 {
+    s.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3)
+    })
+}
+
+/// Sliding triplets (i, i+1, i+2) along a flight in order: how the Grid
+/// and the initial images are reconstructed triplet-wise.
+fn sliding_triplets(
+    world: &World,
+    mvs: &VirtualMvs,
+    cfg: &CampaignConfig,
+    cams: &[Camera],
+    source: u64,
+    seed: u64,
+) -> Result<Vec<Flown>> {
+    (0..cams.len().saturating_sub(2))
+        .map(|i| {
+            fly_triplet(
+                mvs,
+                &cfg.gate,
+                &world.site.mesh,
+                &world.caster,
+                [cams[i], cams[i + 1], cams[i + 2]],
+                [
+                    image_id(source, i),
+                    image_id(source, i + 1),
+                    image_id(source, i + 2),
+                ],
+                mix64(seed ^ mix64(source << 40 | i as u64)),
+            )
+        })
+        .collect()
+}
+
+/// The Grid baseline's cameras: nadir lawnmower over the ROI footprint plus margin.
+fn grid_cameras(world: &World, cfg: &CampaignConfig) -> Result<Vec<Camera>> {
+    let m = cfg.grid.margin_m;
+    let fp = Aabb {
+        min: Point3::new(
+            world.roi.min.x - m,
+            world.roi.min.y - m,
+            world.ground_min_z(),
+        ),
+        max: Point3::new(
+            world.roi.max.x + m,
+            world.roi.max.y + m,
+            world.ground_min_z(),
+        ),
+    };
+    let params = GridParams {
+        height_m: cfg.grid.height_m,
+        gsd_m: None,
+        front_overlap: cfg.grid.overlap,
+        side_overlap: cfg.grid.overlap,
+        pitch_deg: -90.0,
+        yaw_deg: 0.0,
+        role: Role::Grid,
+    };
+    let views = grid_views(&fp, &params, world.intrinsics)?;
+    Ok(views
+        .iter()
+        .map(|v| v.to_camera(world.intrinsics))
+        .collect())
+}
+
+/// A plan holding `cams` as views of `role` (for the report's missions).
+fn plan_of(world: &World, cams: &[Camera], role: Role) -> Plan {
+    let mut p = Plan::new(Some(world.site.origin));
+    p.waypoints = cams
+        .iter()
+        .map(|c| vp_scene::plan::PlannedView::from_camera(c, role))
+        .collect();
+    p
+}
+
+/// Everything one triplet strategy produced on one site.
+struct StrategyRun {
+    flown: Vec<Flown>,
+    plans: Vec<Plan>,
+}
+
+/// One progress line per flown triplet: its planned angle bin and what the gate saw.
+fn triplet_line(plan: &Plan, t: u32, fl: &Flown) -> String {
+    let bin = plan
+        .waypoints
+        .iter()
+        .find(|w| w.triplet_id == Some(t))
+        .and_then(|w| w.angle_bin_deg)
+        .unwrap_or(f64::NAN);
+    let s = &fl.stats;
+    format!(
+        "    triplet {t} ({bin:.1} deg): {}; overlap {} px, matchable {:.2}, non-flat {:.2} at median {:.1} deg",
+        if fl.success() { "output" } else { "nothing" },
+        s.overlap_pixels,
+        s.matchable_share,
+        s.nonflat_share,
+        s.nonflat_median_angle_deg
+    )
+}
+
+/// Runs one triplet strategy from the initial flight.
+#[allow(clippy::too_many_arguments)]
+fn run_strategy(
+    world: &World,
+    mvs: &VirtualMvs,
+    forest: &Forest,
+    cfg: &CampaignConfig,
+    strategy: &Strategy,
+    source: u64,
+    init: &[Acquired],
+    init_seen: &SeenCounter,
+    curves: &mut CurveAccumulator,
+    progress: &mut dyn FnMut(&str),
+) -> Result<StrategyRun> {
+    let site_seed = world.site.params.seed;
+    let base = mix64(cfg.seed ^ mix64(site_seed) ^ name_hash(&strategy.name));
+    let mut acquired: Vec<Acquired> = init.to_vec();
+    let mut seen = init_seen.clone();
+    let mut out = StrategyRun {
+        flown: Vec::new(),
+        plans: Vec::new(),
+    };
+    let mut next_index = 0usize;
+    let roi = RoiSpec::Region(Roi::from_aabb(&world.roi));
+    for it in 0..strategy.iterations {
+        let mesh = planning_mesh(world, &seen, cfg, mix64(base ^ it as u64))?;
+        let views: Vec<AcquiredView> = acquired
+            .iter()
+            .map(|a| AcquiredView {
+                camera: a.sfm,
+                confidence: if strategy.prediction {
+                    a.confidence.clone()
+                } else {
+                    None
+                },
+            })
+            .collect();
+        let mut pc = cfg.planner.clone();
+        pc.n_triplets = strategy.per_iteration;
+        pc.seed = mix64(base ^ 0x706c_616e ^ it as u64);
+        let inputs = PlanInputs {
+            mesh: &mesh,
+            acquired: &views,
+            roi: roi.clone(),
+            config: &pc,
+            origin: Some(world.site.origin),
+        };
+        let result = plan(&inputs).map_err(|e| {
+            SimError::Campaign(format!(
+                "site {site_seed}, {} iteration {}: {e}",
+                strategy.name,
+                it + 1
+            ))
+        })?;
+        let mut triplets: std::collections::BTreeMap<u32, Vec<Camera>> =
+            std::collections::BTreeMap::default();
+        let mut new_cams = Vec::new();
+        for w in &result.plan.waypoints {
+            let cam = w.to_camera(world.intrinsics);
+            new_cams.push(cam);
+            if let (Role::TripletMember, Some(t)) = (w.role, w.triplet_id) {
+                triplets.entry(t).or_default().push(cam);
+            }
+        }
+        for (t, cams) in &triplets {
+            let [a, b, c] = cams.as_slice() else {
+                continue;
+            };
+            let i = next_index;
+            next_index += 3;
+            let ids = [
+                image_id(source, i),
+                image_id(source, i + 1),
+                image_id(source, i + 2),
+            ];
+            let fl = fly_triplet(
+                mvs,
+                &cfg.gate,
+                &world.site.mesh,
+                &world.caster,
+                [*a, *b, *c],
+                ids,
+                mix64(base ^ mix64(i as u64)),
+            )?;
+            progress(&triplet_line(&result.plan, *t, &fl));
+            out.flown.push(fl);
+        }
+        progress(&format!(
+            "  site {site_seed} {} iteration {}/{}: {} triplets planned ({} images with bridges), {} of {} flown so far succeeded",
+            strategy.name,
+            it + 1,
+            strategy.iterations,
+            triplets.len(),
+            new_cams.len(),
+            out.flown.iter().filter(|f| f.success()).count(),
+            out.flown.len()
+        ));
+        out.plans.push(result.plan);
+        let last = it + 1 == strategy.iterations;
+        if !last {
+            let pred = strategy.prediction.then_some(forest);
+            let first = (source << 32) + 0x8000_0000 + acquired.len() as u64;
+            acquired.extend(acquire(world, &new_cams, pred, cfg, base, first, curves)?);
+            seen.add(world, &new_cams);
+        }
+        if triplets.is_empty() {
+            break;
+        }
+    }
+    Ok(out)
+}
+
+fn refs(v: &[Flown]) -> Vec<&Flown> {
+    v.iter().collect()
+}
+
+/// Flies and evaluates every strategy on one held-out site.
+fn run_site(
+    cfg: &CampaignConfig,
+    forest: &Forest,
+    strategies: &[Strategy],
+    seed: u64,
+    keep_artifacts: bool,
+    curves: &mut CurveAccumulator,
+    progress: &mut dyn FnMut(&str),
+) -> Result<(SiteResult, Option<SiteArtifacts>)> {
+    let world = World::new(cfg, seed)?;
+    let em = EvalMesh::new(&world, cfg)?;
+    let mvs = VirtualMvs::new(cfg.profile.clone())?;
+    progress(&format!(
+        "held-out site {seed}: {} faces, {} evaluation faces in the ROI",
+        world.site.mesh.n_faces(),
+        em.len()
+    ));
+    let run_seed = mix64(cfg.seed ^ mix64(seed ^ 0x7369_7465));
+
+    let init_cams = init_cameras(&world, cfg);
+    let init = acquire(&world, &init_cams, Some(forest), cfg, run_seed, 0, curves)?;
+    let mut seen = SeenCounter::new(&world.site.mesh);
+    seen.add(&world, &init_cams);
+    let init_flown = sliding_triplets(&world, &mvs, cfg, &init_cams, SOURCE_INIT, run_seed)?;
+    let grid_cams = grid_cameras(&world, cfg)?;
+    let grid_flown = sliding_triplets(&world, &mvs, cfg, &grid_cams, SOURCE_GRID, run_seed)?;
+    progress(&format!(
+        "  site {seed}: initial flight {} images, Grid {} images",
+        init_cams.len(),
+        grid_cams.len()
+    ));
+
+    let mut scores: Vec<(String, Scores)> = Vec::new();
+    let mut maps: Vec<(String, Vec<f64>, Vec<Plan>)> = Vec::new();
+    let (s, f) = evaluate(&em, &refs(&init_flown), cfg)?;
+    scores.push(("Init".into(), s));
+    maps.push((
+        "Init".into(),
+        f,
+        vec![plan_of(&world, &init_cams, Role::Initial)],
+    ));
+    let (s, f) = evaluate(&em, &refs(&grid_flown), cfg)?;
+    scores.push(("Grid".into(), s));
+    maps.push((
+        "Grid".into(),
+        f,
+        vec![plan_of(&world, &grid_cams, Role::Grid)],
+    ));
+    let mut combos = Vec::new();
+    for (i, st) in strategies.iter().enumerate() {
+        let run = run_strategy(
+            &world,
+            &mvs,
+            forest,
+            cfg,
+            st,
+            2 + i as u64,
+            &init,
+            &seen,
+            curves,
+            progress,
+        )?;
+        let (s, f) = evaluate(&em, &refs(&run.flown), cfg)?;
+        progress(&format!(
+            "  site {seed} {}: coverage {:.1} %, f {:.1} %, success {:.0} %",
+            st.name,
+            s.coverage,
+            s.f,
+            s.triplet_success.unwrap_or(0.0)
+        ));
+        scores.push((st.name.clone(), s));
+        let mut union = refs(&grid_flown);
+        union.extend(run.flown.iter());
+        let (cs, cf) = evaluate(&em, &union, cfg)?;
+        combos.push((format!("G+{}", st.name), cs, cf));
+        maps.push((st.name.clone(), f, run.plans));
+    }
+    for (name, s, f) in combos {
+        scores.push((name.clone(), s));
+        maps.push((name, f, Vec::new()));
+    }
+    let artifacts = keep_artifacts.then(|| SiteArtifacts {
+        seed,
+        mesh: world.site.mesh.clone(),
+        roi: world.roi,
+        centroids: em.centroids.clone(),
+        strategies: maps
+            .into_iter()
+            .map(|(name, f, plans)| StrategyArtifacts {
+                name,
+                face_f: f,
+                plans,
+            })
+            .collect(),
+    });
+    Ok((SiteResult { seed, scores }, artifacts))
+}
+
+/// Runs the campaign with a trained forest (see [`run_campaign`]).
+pub fn run_campaign_with_forest(
+    cfg: &CampaignConfig,
+    forest: &Forest,
+    progress: &mut dyn FnMut(&str),
+) -> Result<CampaignReport> {
+    cfg.validate()?;
+    let strategies = cfg.parsed_strategies()?;
+    let mut curves = CurveAccumulator::default();
+    let mut sites = Vec::new();
+    let mut artifacts = None;
+    for (i, &seed) in cfg.held_out_seeds.iter().enumerate() {
+        let (r, a) = run_site(
+            cfg,
+            forest,
+            &strategies,
+            seed,
+            i == 0,
+            &mut curves,
+            progress,
+        )?;
+        sites.push(r);
+        if a.is_some() {
+            artifacts = a;
+        }
+    }
+    let curves = curves.curves();
+    Ok(CampaignReport {
+        rows: aggregate(&sites),
+        sites,
+        material_ranking: super::curves::material_ranking(&curves),
+        curves,
+        training: None,
+        config: cfg.clone(),
+        artifacts,
+    })
+}
+
+/// The whole campaign: trains the forest on the training sites, then flies
+/// and evaluates every strategy on every held-out site. `progress` hears
+/// one line per step.
+pub fn run_campaign(
+    cfg: &CampaignConfig,
+    progress: &mut dyn FnMut(&str),
+) -> Result<CampaignReport> {
+    let (forest, stats) = train_forest_with_stats(cfg, progress)?;
+    let mut report = run_campaign_with_forest(cfg, &forest, progress)?;
+    report.training = Some(stats);
+    Ok(report)
+}

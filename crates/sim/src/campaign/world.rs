@@ -1,0 +1,244 @@
+//! The held-out world and what the simulated SfM knows about it.
+//!
+//! Planning mesh [vpctl]: the surface the planner plans on is rebuilt after
+//! every flight from what SfM has seen so far: every face of the true mesh
+//! whose centroid is visible (in the frame, front-facing, unoccluded) from at
+//! least `sfm.min_views` acquired images, its vertices moved by seeded
+//! Gaussian noise (`sfm.point_noise_m`). Faces stand in for the sparse
+//! points and their triangulation; unlike a 2.5D height field, the result
+//! keeps surfaces under tree canopies and overhangs as soon as two images
+//! have seen them, and lacks them until then. So the ground under trees is
+//! missing after the nadir initial flight and appears once oblique triplets
+//! look underneath.
+
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+use rayon::prelude::*;
+use vp_forest::Forest;
+use vp_scene::mesh_ops::submesh;
+use vp_scene::procedural::{generate_site, Site};
+use vp_scene::raster::ConfidenceImage;
+use vp_scene::raycast::RayCaster;
+use vp_scene::{Aabb, Camera, Intrinsics, Material, Mesh};
+
+use super::config::CampaignConfig;
+use super::curves::CurveAccumulator;
+use crate::error::{Result, SimError};
+use crate::noise::{gaussian, mix64};
+use crate::render::render;
+
+/// A held-out site with its ray caster and region of interest.
+pub struct World {
+    /// The true site.
+    pub site: Site,
+    /// Ray caster of the true mesh.
+    pub caster: RayCaster,
+    /// The region of interest: the rock's box grown by the margin, all heights.
+    pub roi: Aabb,
+    /// Camera of every flight.
+    pub intrinsics: Intrinsics,
+}
+
+impl World {
+    /// Generates the site of `seed` and its ROI.
+    pub fn new(cfg: &CampaignConfig, seed: u64) -> Result<Self> {
+        let mut params = cfg.site.clone();
+        params.seed = seed;
+        let site = generate_site(&params)?;
+        let caster = RayCaster::new(&site.mesh);
+        let rb = site.rock_bounds;
+        let m = cfg.roi_margin_m;
+        let b = site.mesh.bounds();
+        let roi = Aabb {
+            min: Point3::new(rb.min.x - m, rb.min.y - m, b.min.z - 1.0),
+            max: Point3::new(rb.max.x + m, rb.max.y + m, b.max.z + 1.0),
+        };
+        Ok(World {
+            site,
+            caster,
+            roi,
+            intrinsics: cfg.planner.camera.intrinsics(),
+        })
+    }
+
+    /// Lowest ground point of the site (flight heights refer to it).
+    pub fn ground_min_z(&self) -> f64 {
+        self.site.mesh.bounds().min.z
+    }
+}
+
+/// An acquired image: where it really was, where SfM thinks it was, and its
+/// predicted confidence (for F strategies).
+#[derive(Debug, Clone)]
+pub struct Acquired {
+    /// The true camera (renders, virtual MVS).
+    pub truth: Camera,
+    /// The camera as SfM estimated it (the planner's input).
+    pub sfm: Camera,
+    /// Predicted confidence, when the strategy predicts.
+    pub confidence: Option<ConfidenceImage>,
+}
+
+/// Per true face, how many acquired images see it: the SfM state.
+#[derive(Debug, Clone)]
+pub struct SeenCounter {
+    counts: Vec<u16>,
+}
+
+impl SeenCounter {
+    /// Nothing seen yet.
+    pub fn new(mesh: &Mesh) -> Self {
+        SeenCounter {
+            counts: vec![0; mesh.n_faces()],
+        }
+    }
+
+    /// Counts the faces `cams` see.
+    pub fn add(&mut self, world: &World, cams: &[Camera]) {
+        for cam in cams {
+            let vis = world.caster.visible_faces(cam, &world.site.mesh);
+            for (c, v) in self.counts.iter_mut().zip(vis) {
+                *c = c.saturating_add(u16::from(v));
+            }
+        }
+    }
+
+    /// Faces seen by at least `min_views` images.
+    pub fn known_faces(&self, min_views: usize) -> Vec<u32> {
+        self.counts
+            .iter()
+            .enumerate()
+            .filter(|(_, &c)| usize::from(c) >= min_views)
+            .map(|(f, _)| f as u32)
+            .collect()
+    }
+}
+
+/// Seeded Gaussian noise of a 3D position, a pure function of the position.
+fn point_noise(seed: u64, p: &Point3<f64>, sigma: f64) -> Vector3<f64> {
+    let q = |v: f64| (v * 1e4).round() as i64;
+    let (a, b, c) = (q(p.x), q(p.y), q(p.z));
+    Vector3::new(
+        gaussian(seed ^ 0x78, a, b, c),
+        gaussian(seed ^ 0x79, a, b, c),
+        gaussian(seed ^ 0x7a, a, b, c),
+    ) * sigma
+}
+
+/// The planning mesh from the SfM state (see the module docs).
+pub fn planning_mesh(
+    world: &World,
+    seen: &SeenCounter,
+    cfg: &CampaignConfig,
+    seed: u64,
+) -> Result<Mesh> {
+    let faces = seen.known_faces(cfg.sfm.min_views);
+    if faces.is_empty() {
+        return Err(SimError::InvalidArgument(
+            "the acquired images see no surface point twice: the initial flight misses the site"
+                .into(),
+        ));
+    }
+    let mut mesh = submesh(&world.site.mesh, &faces);
+    let sigma = cfg.sfm.point_noise_m;
+    if sigma > 0.0 {
+        let s = mix64(seed ^ 0x0070_6d65_7368);
+        for v in &mut mesh.vertices {
+            let n = point_noise(s, v, sigma);
+            *v += n;
+        }
+    }
+    // Noise can fold a sliver flat; drop what no longer validates.
+    let (clean, _) = mesh.cleaned();
+    Ok(clean)
+}
+
+/// The camera as SfM estimates it: true pose plus seeded position and rotation noise.
+pub fn sfm_camera(cam: &Camera, cfg: &CampaignConfig, seed: u64, index: u64) -> Camera {
+    let s = mix64(seed ^ mix64(index ^ 0x0073_666d));
+    let g = |k: i64| gaussian(s, k, 0, 0);
+    let dp = Vector3::new(g(0), g(1), g(2)) * cfg.sfm.position_noise_m;
+    let dr = Vector3::new(g(3), g(4), g(5)) * cfg.sfm.rotation_noise_deg.to_radians();
+    let pose = cam.world_from_cam;
+    let rot = UnitQuaternion::from_scaled_axis(dr) * pose.rotation;
+    let t = pose.translation.vector + dp;
+    Camera::new(
+        cam.intrinsics,
+        Isometry3::from_parts(Translation3::from(t), rot),
+    )
+}
+
+/// The initial flight: a nadir grid centred on the ROI (see [`super::config::InitFlight`]).
+pub fn init_cameras(world: &World, cfg: &CampaignConfig) -> Vec<Camera> {
+    let i = &cfg.init;
+    let cx = 0.5 * (world.roi.min.x + world.roi.max.x);
+    let cy = 0.5 * (world.roi.min.y + world.roi.max.y);
+    let z = world.ground_min_z() + i.height_m;
+    let mut cams = Vec::with_capacity(i.nx * i.ny);
+    for row in 0..i.ny {
+        for col in 0..i.nx {
+            // Serpentine order, as flown.
+            let c = if row % 2 == 0 { col } else { i.nx - 1 - col };
+            let x = cx + (c as f64 - 0.5 * (i.nx as f64 - 1.0)) * i.spacing_m;
+            let y = cy + (row as f64 - 0.5 * (i.ny as f64 - 1.0)) * i.spacing_m;
+            cams.push(Camera::from_yaw_pitch(
+                world.intrinsics,
+                Point3::new(x, y, z),
+                std::f64::consts::FRAC_PI_2,
+                -std::f64::consts::FRAC_PI_2,
+            ));
+        }
+    }
+    cams
+}
+
+/// Renders each camera's image and predicts its confidence (when a forest
+/// is given); adds the learned and true confidence per material to `curves`.
+pub fn acquire(
+    world: &World,
+    cams: &[Camera],
+    forest: Option<&Forest>,
+    cfg: &CampaignConfig,
+    seed: u64,
+    first_index: u64,
+    curves: &mut CurveAccumulator,
+) -> Result<Vec<Acquired>> {
+    let mut out = Vec::with_capacity(cams.len());
+    for (j, cam) in cams.iter().enumerate() {
+        let index = first_index + j as u64;
+        let confidence = match forest {
+            Some(forest) => {
+                let mut rp = cfg.render.clone();
+                rp.texture_seed = world.site.params.seed;
+                let img = render(&world.site.mesh, &world.caster, cam, &rp)?;
+                let conf = forest
+                    .predict_image(&img.rgb, cfg.confidence_step)
+                    .map_err(|e| {
+                        SimError::InvalidArgument(format!("confidence prediction: {e}"))
+                    })?;
+                curves.add(&world.site.mesh, cam, &img, &conf, &cfg.profile);
+                Some(conf)
+            }
+            None => None,
+        };
+        out.push(Acquired {
+            truth: *cam,
+            sfm: sfm_camera(cam, cfg, seed, index),
+            confidence,
+        });
+    }
+    Ok(out)
+}
+
+/// Faces of `mesh` whose centroid lies inside `roi`, and whether each is rock.
+pub fn roi_faces(mesh: &Mesh, roi: &Aabb) -> Vec<u32> {
+    (0..mesh.n_faces())
+        .into_par_iter()
+        .filter(|&f| roi.contains(&mesh.face_centroid(f)))
+        .map(|f| f as u32)
+        .collect()
+}
+
+/// Whether face `f` of `mesh` is rock.
+pub fn is_rock(mesh: &Mesh, f: usize) -> bool {
+    mesh.material(f) == Some(Material::Rock)
+}

@@ -1,0 +1,98 @@
+//! Issue 7's acceptance: the paper's qualitative findings on held-out sites
+//! (long: `#[ignore]`d, run in the named step of scripts/test.sh with
+//! `--release`), and determinism of the whole campaign.
+
+use vp_sim::campaign::{run_campaign, CampaignConfig, CampaignReport, TableRow};
+
+fn quiet(_: &str) {}
+
+fn row<'a>(r: &'a CampaignReport, name: &str) -> &'a TableRow {
+    r.row(name)
+        .unwrap_or_else(|| panic!("no row {name} in\n{}", r.table_markdown()))
+}
+
+/// The findings campaign: the demo preset with the paper's strategies on
+/// two held-out sites.
+fn findings_config() -> CampaignConfig {
+    let mut c = CampaignConfig::demo();
+    c.strategies = vec!["F5x4".into(), "F1x20".into(), "NP5x4".into()];
+    c.held_out_seeds = vec![7, 8];
+    c
+}
+
+#[test]
+#[ignore = "long: about 3 minutes in release; run by scripts/test.sh"]
+fn paper_findings_hold_on_held_out_sites() {
+    let cfg = findings_config();
+    let r = run_campaign(&cfg, &mut |m| eprintln!("{m}")).unwrap();
+    println!("{}", r.table_markdown());
+    println!("{}", r.curves_summary());
+    let f5 = row(&r, "F5x4");
+    let f1 = row(&r, "F1x20");
+    let np = row(&r, "NP5x4");
+    let grid = row(&r, "Grid");
+    // Triplet success: prediction keeps triplets matchable, NP goes too wide.
+    assert!(
+        f5.triplet_success_mean >= 90.0,
+        "F5x4 success {}",
+        f5.triplet_success_mean
+    );
+    assert!(
+        np.triplet_success_mean <= f5.triplet_success_mean - 20.0,
+        "NP5x4 success {} is not clearly below F5x4's {}",
+        np.triplet_success_mean,
+        f5.triplet_success_mean
+    );
+    // Fewer images than the Grid.
+    assert!(f5.n_images_mean < grid.n_images_mean);
+    // Combinations with F above every standalone strategy in overall f.
+    let best_alone = [f5, f1, np, grid, row(&r, "Init")]
+        .iter()
+        .map(|r| r.f_mean)
+        .fold(f64::NEG_INFINITY, f64::max);
+    for combo in ["G+F5x4", "G+F1x20"] {
+        let c = row(&r, combo);
+        assert!(
+            c.f_mean > best_alone,
+            "{combo} f {} is not above the best standalone f {best_alone}",
+            c.f_mean
+        );
+    }
+    // F with prediction beats NP in overall f.
+    assert!(f5.f_mean > np.f_mean && f1.f_mean > np.f_mean);
+    // Learned confidence follows the truth over the angle where the truth
+    // changes most (ground); every material's correlation is reported above.
+    let ground = r.curves.iter().find(|c| c.material == "ground").unwrap();
+    assert!(
+        ground.spearman >= 0.5,
+        "ground rank correlation {}",
+        ground.spearman
+    );
+}
+
+#[test]
+#[ignore = "not yet met: the simulated ROI has too few surfaces a nadir grid cannot see (see the report)"]
+fn not_yet_met_f5x4_covers_more_than_grid() {
+    let cfg = findings_config();
+    let r = run_campaign(&cfg, &mut quiet).unwrap();
+    println!("{}", r.table_markdown());
+    assert!(row(&r, "F5x4").coverage_mean > row(&r, "Grid").coverage_mean);
+}
+
+#[test]
+#[ignore = "long in debug builds; run by scripts/test.sh"]
+fn same_config_and_seed_give_the_same_table_bytes() {
+    let cfg = CampaignConfig::quick();
+    let a = run_campaign(&cfg, &mut quiet).unwrap();
+    let b = run_campaign(&cfg, &mut quiet).unwrap();
+    assert_eq!(a.table_csv(), b.table_csv());
+    assert_eq!(
+        serde_json::to_string(&a).unwrap(),
+        serde_json::to_string(&b).unwrap()
+    );
+    // A different campaign seed changes the flights (not only the bytes of a header).
+    let mut other = cfg.clone();
+    other.seed += 1;
+    let c = run_campaign(&other, &mut quiet).unwrap();
+    assert_ne!(a.table_csv(), c.table_csv());
+}
