@@ -23,8 +23,15 @@ def test_quick_campaign_table(quick_rows):
         assert any(n == s or n.startswith(s) for n in names), (s, names)
     for r in rows:
         for k in ("coverage_mean", "f_mean", "f_res_mean", "f_unc_mean"):
-            assert 0.0 <= r[k] <= 1.0, (k, r)
+            assert 0.0 <= r[k] <= 100.0, (k, r)  # percent, as in Table 1
         assert r["n_images_mean"] > 0
+    by = {r["strategy"]: r for r in rows}
+    # Grid combined with a strategy flies both image sets: more images,
+    # and no less coverage than Grid alone.
+    for s in cfg["strategies"]:
+        both = by["G+" + s]
+        assert both["n_images_mean"] == by["Grid"]["n_images_mean"] + by[s]["n_images_mean"]
+        assert both["coverage_mean"] >= by["Grid"]["coverage_mean"]
     assert len(lines) > 0 and all(isinstance(x, str) for x in lines)
 
 
