@@ -236,6 +236,35 @@ fn train(
         .map(PyForest)
 }
 
+/// Trains as `vpctl train` does: images from `images_dir`, label images
+/// `<image name>.vplabel` found under `labels_dir` (the layout `vpctl
+/// labelgen run` writes). Same files, parameters and seed: same model bytes.
+#[pyfunction]
+#[pyo3(signature = (images_dir, labels_dir, params = None, seed = 0, max_per_label_image = None))]
+fn train_dirs(
+    py: Python<'_>,
+    images_dir: PathBuf,
+    labels_dir: PathBuf,
+    params: Option<&Bound<'_, PyAny>>,
+    seed: u64,
+    max_per_label_image: Option<usize>,
+) -> PyResult<PyForest> {
+    let p: TrainParams = convert::from_py(params, "params")?;
+    p.validate().py()?;
+    py.detach(|| {
+        let labelled = vp_forest::load_label_dir(&images_dir, &labels_dir)?;
+        let mut set = match max_per_label_image {
+            Some(n) => TrainingSet::with_cap_per_label_image(n, seed),
+            None => TrainingSet::new(),
+        };
+        set.add_labelled(&labelled)?;
+        drop(labelled);
+        vp_forest::train(&set, &p, seed)
+    })
+    .py()
+    .map(PyForest)
+}
+
 /// The default training parameters (the paper's), as a dict.
 #[pyfunction]
 fn default_params(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
@@ -292,6 +321,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyForest>()?;
     m.add_class::<PyConfidence>()?;
     m.add_function(wrap_pyfunction!(train, m)?)?;
+    m.add_function(wrap_pyfunction!(train_dirs, m)?)?;
     m.add_function(wrap_pyfunction!(default_params, m)?)?;
     m.add_function(wrap_pyfunction!(accuracy, m)?)?;
     m.add_function(wrap_pyfunction!(sparsification, m)?)?;

@@ -4,13 +4,14 @@
 use std::path::PathBuf;
 
 use nalgebra::{Point2, Point3, Vector3};
-use numpy::{PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{PyArray1, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use vp_scene::clearance::Clearance;
 use vp_scene::colmap::{self, DepthMap, Reconstruction};
 use vp_scene::io::{self, MeshFormat};
 use vp_scene::procedural::{self, Site, SiteParams};
+use vp_scene::raster::{self, LabelImage};
 use vp_scene::raycast::RayCaster;
 use vp_scene::{fsio, Camera, Intrinsics, Material, Mesh};
 
@@ -465,6 +466,48 @@ pub fn depth_map(a: &PyReadonlyArray2<'_, f32>) -> DepthMap {
     }
 }
 
+/// Reads an image file (PNG, JPEG, TIFF) as an (H, W, 3) uint8 array.
+#[pyfunction]
+fn load_image(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyArray3<u8>>> {
+    let img = py.detach(|| raster::load_rgb(&path)).py()?;
+    convert::rgb_array(py, &img)
+}
+
+/// Writes an (H, W, 3) uint8 array as an image file (format from the
+/// extension); refuses to overwrite unless `force`.
+#[pyfunction]
+#[pyo3(signature = (path, image, force = false))]
+fn save_image(path: PathBuf, image: PyReadonlyArray3<'_, u8>, force: bool) -> PyResult<()> {
+    let img = convert::rgb(&image, "image")?;
+    fsio::check_overwrite(&path, force).py()?;
+    raster::save_rgb(&img, &path).py()
+}
+
+/// Writes labels (H, W) uint8 (0 unlabelled, 1 positive, 2 negative) and
+/// angles (H, W) float32 (degrees) as a `.vplabel` file.
+#[pyfunction]
+#[pyo3(signature = (path, labels, angles, force = false))]
+fn write_label_image(
+    path: PathBuf,
+    labels: PyReadonlyArray2<'_, u8>,
+    angles: PyReadonlyArray2<'_, f32>,
+    force: bool,
+) -> PyResult<()> {
+    let img = convert::label_image(&labels, &angles, "labels")?;
+    fsio::check_overwrite(&path, force).py()?;
+    img.save(&path).py()
+}
+
+/// Reads a `.vplabel` file as (labels (H, W) uint8, angles (H, W) float32).
+#[pyfunction]
+fn read_label_image(
+    py: Python<'_>,
+    path: PathBuf,
+) -> PyResult<ArrayPair<'_, PyArray2<u8>, PyArray2<f32>>> {
+    let img = LabelImage::load(&path).py()?;
+    convert::label_arrays(py, &img)
+}
+
 /// BVH over a mesh for batches of rays (CWBVH, obvhs).
 #[pyclass(name = "RayCaster", module = "vpctl.scene", frozen)]
 pub struct PyRayCaster(pub RayCaster);
@@ -655,5 +698,9 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(material_names, m)?)?;
     m.add_function(wrap_pyfunction!(read_depth_map, m)?)?;
     m.add_function(wrap_pyfunction!(write_depth_map, m)?)?;
+    m.add_function(wrap_pyfunction!(load_image, m)?)?;
+    m.add_function(wrap_pyfunction!(save_image, m)?)?;
+    m.add_function(wrap_pyfunction!(write_label_image, m)?)?;
+    m.add_function(wrap_pyfunction!(read_label_image, m)?)?;
     Ok(())
 }

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 import vpctl
+from conftest import run_cli
 
 TINY = {
     "n_trees": 3,
@@ -134,3 +135,27 @@ def test_metrics_exact_values():
     with pytest.raises(ValueError):
         vpctl.forest.accuracy(c, pos[:2])
     assert vpctl.forest.default_params()["n_trees"] == 20
+
+
+def test_train_and_predict_equal_cli(tmp_path):
+    images, labels = tmp_path / "images", tmp_path / "labels"
+    images.mkdir()
+    for s in (1, 2):
+        img, lab, ang = texture(s)
+        vpctl.scene.save_image(images / f"img{s}.png", img)
+        (labels / f"t{s}").mkdir(parents=True)
+        vpctl.scene.write_label_image(labels / f"t{s}" / f"img{s}.png.vplabel", lab, ang)
+        back_l, back_a = vpctl.scene.read_label_image(labels / f"t{s}" / f"img{s}.png.vplabel")
+        assert np.array_equal(back_l, lab) and np.array_equal(np.isnan(back_a), np.isnan(ang))
+        assert np.array_equal(vpctl.scene.load_image(images / f"img{s}.png"), img)
+    (tmp_path / "params.toml").write_text("".join(f"{k} = {v}\n" for k, v in TINY.items()))
+    run_cli("train", "--images", images, "--labels", labels, "--config", tmp_path / "params.toml",
+            "--seed", "7", "--out", tmp_path / "cli.vpforest")
+    forest = vpctl.forest.train_dirs(images, labels, params=TINY, seed=7)
+    assert forest.to_bytes() == (tmp_path / "cli.vpforest").read_bytes()
+    run_cli("predict", "--model", tmp_path / "cli.vpforest", "--out", tmp_path / "cli_conf", "--no-previews",
+            images / "img1.png")
+    forest.predict(vpctl.scene.load_image(images / "img1.png")).save(tmp_path / "py.vpconf")
+    assert (tmp_path / "py.vpconf").read_bytes() == (tmp_path / "cli_conf" / "img1.vpconf").read_bytes()
+    with pytest.raises(ValueError, match="no .vplabel"):
+        vpctl.forest.train_dirs(images, images, params=TINY)

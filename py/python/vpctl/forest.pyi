@@ -58,6 +58,13 @@ def train(
     seed: int = 0,
     max_per_class: Optional[int] = None,
 ) -> Forest: ...
+def train_dirs(
+    images_dir: _Path,
+    labels_dir: _Path,
+    params: Optional[Mapping[str, Any]] = None,
+    seed: int = 0,
+    max_per_label_image: Optional[int] = None,
+) -> Forest: ...
 def default_params() -> dict[str, Any]: ...
 def accuracy(confidence: npt.ArrayLike, positive: npt.ArrayLike, threshold: float = 0.5) -> float: ...
 def sparsification(
