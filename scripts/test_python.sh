@@ -7,8 +7,9 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-target="${CARGO_TARGET_DIR:-$PWD/target}"
-export VPCTL_BIN="${VPCTL_BIN:-$target/debug/vpctl}"
+# Absolute: pytest runs from py/tests.
+target="$(realpath -m "${CARGO_TARGET_DIR:-target}")"
+export VPCTL_BIN="$(realpath -m "${VPCTL_BIN:-$target/debug/vpctl}")"
 if [ "${VP_REQUIRE_VPCTL:-0}" = "1" ] && [ ! -x "$VPCTL_BIN" ]; then
   echo "test_python.sh: no vpctl binary at $VPCTL_BIN (run cargo test --workspace first)" >&2
   exit 1
