@@ -22,6 +22,9 @@ export VP_MAVSDK_PYTHON="$PWD/.venv/bin/python" VP_REQUIRE_MAVSDK=1
 echo "== cargo test"
 cargo test --workspace --locked
 
+echo "== python bindings: pip install ./py, then pytest py/tests (against the vpctl just built)"
+VP_REQUIRE_VPCTL=1 bash scripts/test_python.sh
+
 echo "== long runs: 100 uploads through a lossy UDP relay"
 cargo test --locked -p vp-mission --test udp_loopback -- --ignored --nocapture
 

@@ -12,6 +12,7 @@
 //! the paper's NP variant, confidence 1); the planner never sees the forest.
 #![warn(missing_docs)]
 
+pub mod acquired;
 pub mod config;
 pub mod error;
 pub mod flight_path;
@@ -25,6 +26,7 @@ pub mod triplet;
 
 mod pipeline;
 
+pub use acquired::acquired_from_model;
 pub use config::{CameraConfig, PlannerConfig};
 pub use error::{PlannerError, Result};
 pub use pipeline::{

@@ -11,7 +11,6 @@ use vp_planner::output::{write_frusta_ply, write_top_view_png, TopView};
 use vp_planner::{AcquiredView, PlanInputs, PlannerConfig, RoiSpec};
 use vp_scene::mesh_ops::Roi;
 use vp_scene::plan::{GeodeticOrigin, Plan, Role};
-use vp_scene::raster::ConfidenceImage;
 use vp_scene::{colmap, fsio, io, Mesh};
 
 /// Depth of the camera pyramids in the PLY, metres.
@@ -279,29 +278,9 @@ fn outline(roi: &RoiSpec, pts: impl Iterator<Item = Point3<f64>>) -> Vec<[f64; 2
 
 fn load_acquired(model: &Path, conf_dir: Option<&Path>) -> Result<Vec<AcquiredView>> {
     let rec = colmap::read_model(model)?;
-    let mut views = Vec::with_capacity(rec.images.len());
-    // COLMAP image ids follow capture order in practice; the last one is
-    // where the path starts.
-    for (&id, image) in &rec.images {
-        let camera = rec
-            .camera_of(id)
-            .with_context(|| format!("{}: image {id} ({})", model.display(), image.name))?;
-        let confidence = match conf_dir {
-            None => None,
-            Some(dir) => {
-                let path = dir.join(Path::new(&image.name).with_extension("vpconf"));
-                Some(ConfidenceImage::load(&path).with_context(|| {
-                    format!(
-                        "confidence image of image {id} ({}) in {}",
-                        image.name,
-                        dir.display()
-                    )
-                })?)
-            }
-        };
-        views.push(AcquiredView { camera, confidence });
-    }
-    Ok(views)
+    // Errors name the confidence file or the image; the context names the model.
+    vp_planner::acquired_from_model(&rec, conf_dir)
+        .with_context(|| format!("acquired views of {}", model.display()))
 }
 
 fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {

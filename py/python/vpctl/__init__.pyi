@@ -1,0 +1,8 @@
+from vpctl import forest as forest
+from vpctl import labelgen as labelgen
+from vpctl import mission as mission
+from vpctl import planner as planner
+from vpctl import scene as scene
+from vpctl import sim as sim
+
+__version__: str

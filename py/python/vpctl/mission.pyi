@@ -1,0 +1,67 @@
+"""MAVLink missions, QGC export, upload/download, a simulated vehicle (vp-mission)."""
+
+from os import PathLike
+from types import TracebackType
+from typing import Any, Optional, Union
+
+from vpctl.planner import Plan
+
+_Path = Union[str, PathLike[str]]
+
+class Mission:
+    @property
+    def items(self) -> list[dict[str, Any]]: ...
+    @property
+    def photos(self) -> int: ...
+    @property
+    def autopilot(self) -> str: ...
+    def to_wpl(self) -> str: ...
+    def __len__(self) -> int: ...
+
+class SimulatedVehicle:
+    def __init__(self, bind: str = "127.0.0.1:0", autopilot: str = "px4") -> None: ...
+    @property
+    def url(self) -> str: ...
+    def mission(self) -> list[dict[str, Any]]: ...
+    def upload_counts(self) -> tuple[int, int]: ...
+    def close(self) -> None: ...
+    def __enter__(self) -> SimulatedVehicle: ...
+    def __exit__(
+        self,
+        t: Optional[type[BaseException]],
+        v: Optional[BaseException],
+        tb: Optional[TracebackType],
+    ) -> bool: ...
+
+def build_mission(
+    plan: Plan,
+    autopilot: str = "px4",
+    hold: float = 2.0,
+    speed: Optional[float] = None,
+    takeoff: float = 20.0,
+    rtl: bool = True,
+) -> Mission: ...
+def export(
+    plan: Plan,
+    format: str = "qgc",
+    out: Optional[_Path] = None,
+    force: bool = False,
+    autopilot: str = "px4",
+    hold: float = 2.0,
+    speed: Optional[float] = None,
+    takeoff: float = 20.0,
+    rtl: bool = True,
+) -> str: ...
+def upload(
+    plan: Plan,
+    url: str,
+    heartbeat_timeout: float = 5.0,
+    timeout_scale: float = 1.0,
+    autopilot: str = "px4",
+    hold: float = 2.0,
+    speed: Optional[float] = None,
+    takeoff: float = 20.0,
+    rtl: bool = True,
+) -> dict[str, Any]: ...
+def download(url: str, heartbeat_timeout: float = 5.0, timeout_scale: float = 1.0) -> list[dict[str, Any]]: ...
+def clear(url: str, heartbeat_timeout: float = 5.0, timeout_scale: float = 1.0) -> None: ...

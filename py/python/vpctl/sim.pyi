@@ -1,0 +1,37 @@
+"""Rendering, a virtual MVS and closed-loop campaigns (vp-sim)."""
+
+from os import PathLike
+from typing import Any, Callable, Mapping, Optional, Sequence, Union
+
+import numpy as np
+import numpy.typing as npt
+
+from vpctl.scene import Camera, Mesh, RayCaster
+
+class VirtualMvs:
+    def __init__(self, profile: Union[str, Mapping[str, Any], None] = None) -> None: ...
+    @property
+    def profile(self) -> dict[str, Any]: ...
+    def reconstruct(
+        self,
+        mesh: Mesh,
+        caster: RayCaster,
+        cameras: Sequence[Camera],
+        level: int = 1,
+        seed: int = 0,
+    ) -> list[npt.NDArray[np.float32]]: ...
+
+def render(
+    mesh: Mesh,
+    caster: RayCaster,
+    camera: Camera,
+    params: Optional[Mapping[str, Any]] = None,
+) -> dict[str, npt.NDArray[Any]]: ...
+def campaign_config(
+    config: Union[Mapping[str, Any], str, PathLike[str], None] = None, preset: str = "demo"
+) -> dict[str, Any]: ...
+def run_campaign(
+    config: Union[Mapping[str, Any], str, PathLike[str], None] = None,
+    preset: str = "demo",
+    progress: Optional[Callable[[str], Any]] = None,
+) -> list[dict[str, Any]]: ...

@@ -1,0 +1,240 @@
+//! numpy and Python values to and from the crates' types. Shape and range
+//! checks only: every check raises `ValueError` naming the argument.
+
+use nalgebra::{Matrix4, Point3, Rotation3, Translation3, UnitQuaternion};
+use numpy::ndarray::{Array2, Array3};
+use numpy::{IntoPyArray, PyArray2, PyArray3, PyReadonlyArray2, PyReadonlyArray3};
+use pyo3::prelude::*;
+use pyo3::types::PyAnyMethods;
+use serde::de::DeserializeOwned;
+use serde::Serialize;
+use vp_scene::raster::{Label, LabelImage, RgbImage};
+
+use crate::errors::value_error;
+
+/// An (N, 3) float array as points; `what` names the argument in errors.
+pub fn points(a: &PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<Vec<Point3<f64>>> {
+    let v = a.as_array();
+    if v.ncols() != 3 {
+        return Err(value_error(format!(
+            "{what}: expected an (N, 3) array, got shape {:?}",
+            v.shape()
+        )));
+    }
+    let pts: Vec<Point3<f64>> = v
+        .rows()
+        .into_iter()
+        .map(|r| Point3::new(r[0], r[1], r[2]))
+        .collect();
+    if let Some(i) = pts.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+        return Err(value_error(format!("{what}: row {i} is not finite")));
+    }
+    Ok(pts)
+}
+
+/// Points as an (N, 3) float64 array.
+pub fn points_array<'py>(py: Python<'py>, pts: &[Point3<f64>]) -> Bound<'py, PyArray2<f64>> {
+    let flat: Vec<f64> = pts.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
+    Array2::from_shape_vec((pts.len(), 3), flat)
+        .unwrap_or_else(|_| Array2::zeros((0, 3)))
+        .into_pyarray(py)
+}
+
+/// Two arrays returned together (e.g. labels and angles).
+pub type ArrayPair<'py, A, B> = (Bound<'py, A>, Bound<'py, B>);
+
+/// An (H, W) array from row-major data.
+pub fn image2<T: numpy::Element>(
+    py: Python<'_>,
+    width: u32,
+    height: u32,
+    data: Vec<T>,
+) -> PyResult<Bound<'_, PyArray2<T>>> {
+    Array2::from_shape_vec((height as usize, width as usize), data)
+        .map(|a| a.into_pyarray(py))
+        .map_err(|e| value_error(format!("image of {width}x{height}: {e}")))
+}
+
+/// An (H, W, C) array from row-major, channel-innermost data.
+pub fn image3<T: numpy::Element>(
+    py: Python<'_>,
+    shape: (usize, usize, usize),
+    data: Vec<T>,
+) -> PyResult<Bound<'_, PyArray3<T>>> {
+    Array3::from_shape_vec(shape, data)
+        .map(|a| a.into_pyarray(py))
+        .map_err(|e| value_error(format!("array of shape {shape:?}: {e}")))
+}
+
+/// An (H, W, 3) uint8 array as an RGB image.
+pub fn rgb(a: &PyReadonlyArray3<'_, u8>, what: &str) -> PyResult<RgbImage> {
+    let v = a.as_array();
+    let (h, w, c) = v.dim();
+    if c != 3 || h == 0 || w == 0 {
+        return Err(value_error(format!(
+            "{what}: expected an (H, W, 3) uint8 array, got shape {:?}",
+            v.shape()
+        )));
+    }
+    let raw: Vec<u8> = v.iter().copied().collect();
+    RgbImage::from_raw(w as u32, h as u32, raw)
+        .ok_or_else(|| value_error(format!("{what}: {w}x{h} image does not fit its data")))
+}
+
+/// An RGB image as an (H, W, 3) uint8 array.
+pub fn rgb_array<'py>(py: Python<'py>, img: &RgbImage) -> PyResult<Bound<'py, PyArray3<u8>>> {
+    image3(
+        py,
+        (img.height() as usize, img.width() as usize, 3),
+        img.as_raw().clone(),
+    )
+}
+
+/// Labels (H, W) uint8 (0 unlabelled, 1 positive, 2 negative, as in
+/// `.vplabel` files) and angles (H, W) float32 in degrees as a label image.
+pub fn label_image(
+    labels: &PyReadonlyArray2<'_, u8>,
+    angles: &PyReadonlyArray2<'_, f32>,
+    what: &str,
+) -> PyResult<LabelImage> {
+    let (l, a) = (labels.as_array(), angles.as_array());
+    if l.dim() != a.dim() {
+        return Err(value_error(format!(
+            "{what}: labels {:?} and angles {:?} differ in shape",
+            l.shape(),
+            a.shape()
+        )));
+    }
+    let (h, w) = l.dim();
+    let mut img = LabelImage::new(w as u32, h as u32);
+    for ((y, x), &code) in l.indexed_iter() {
+        let label = match code {
+            0 => Label::Unlabelled,
+            1 => Label::Positive,
+            2 => Label::Negative,
+            other => {
+                return Err(value_error(format!(
+                    "{what}: label {other} at pixel ({x}, {y}); expected 0 (unlabelled), 1 (positive) or 2 (negative)"
+                )))
+            }
+        };
+        img.set(x as u32, y as u32, label, a[[y, x]])
+            .map_err(|e| value_error(format!("{what}: {e}")))?;
+    }
+    Ok(img)
+}
+
+/// A label image as (labels uint8, angles float32) arrays.
+pub fn label_arrays<'py>(
+    py: Python<'py>,
+    img: &LabelImage,
+) -> PyResult<ArrayPair<'py, PyArray2<u8>, PyArray2<f32>>> {
+    let (w, h) = (img.width(), img.height());
+    let mut labels = Vec::with_capacity((w * h) as usize);
+    let mut angles = Vec::with_capacity((w * h) as usize);
+    for y in 0..h {
+        for x in 0..w {
+            labels.push(img.label(x, y) as u8);
+            angles.push(img.angle(x, y));
+        }
+    }
+    Ok((image2(py, w, h, labels)?, image2(py, w, h, angles)?))
+}
+
+/// A 4x4 rigid transform (row-major nested sequence or array) as an isometry.
+pub fn isometry(m: &PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<nalgebra::Isometry3<f64>> {
+    let v = m.as_array();
+    if v.dim() != (4, 4) {
+        return Err(value_error(format!(
+            "{what}: expected a 4x4 matrix, got shape {:?}",
+            v.shape()
+        )));
+    }
+    let m4 = Matrix4::from_fn(|r, c| v[[r, c]]);
+    let rot = m4.fixed_view::<3, 3>(0, 0).into_owned();
+    let ortho = (rot.transpose() * rot - nalgebra::Matrix3::identity()).norm();
+    if !m4.iter().all(|x| x.is_finite()) || ortho > 1e-6 || rot.determinant() < 0.0 {
+        return Err(value_error(format!(
+            "{what}: the upper-left 3x3 block is not a rotation"
+        )));
+    }
+    let t = m4.fixed_view::<3, 1>(0, 3).into_owned();
+    Ok(nalgebra::Isometry3::from_parts(
+        Translation3::from(t),
+        UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(rot)),
+    ))
+}
+
+/// An isometry as a 4x4 float64 array.
+pub fn matrix_array<'py>(
+    py: Python<'py>,
+    iso: &nalgebra::Isometry3<f64>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let m = iso.to_homogeneous();
+    let flat: Vec<f64> = (0..4)
+        .flat_map(|r| (0..4).map(move |c| (r, c)))
+        .map(|(r, c)| m[(r, c)])
+        .collect();
+    image2(py, 4, 4, flat)
+}
+
+/// A Python object (dict, list, ...) through JSON into a serde type.
+/// `None` gives the type's default.
+pub fn from_py<T: DeserializeOwned + Default>(
+    obj: Option<&Bound<'_, PyAny>>,
+    what: &str,
+) -> PyResult<T> {
+    let Some(obj) = obj.filter(|o| !o.is_none()) else {
+        return Ok(T::default());
+    };
+    from_py_required(obj, what)
+}
+
+/// [`from_py`] for types whose serde form fills missing fields with
+/// defaults but would silently ignore unknown ones: a key that the type's
+/// default does not serialise is a `ValueError` naming it.
+pub fn from_py_strict<T: DeserializeOwned + Serialize + Default>(
+    obj: Option<&Bound<'_, PyAny>>,
+    what: &str,
+) -> PyResult<T> {
+    if let Some(dict) = obj.and_then(|o| o.cast::<pyo3::types::PyDict>().ok()) {
+        let known =
+            serde_json::to_value(T::default()).map_err(|e| value_error(format!("{what}: {e}")))?;
+        for key in dict.keys() {
+            let k: String = key.extract()?;
+            if known.get(&k).is_none() {
+                let mut names: Vec<&String> = known
+                    .as_object()
+                    .map(|o| o.keys().collect())
+                    .unwrap_or_default();
+                names.sort();
+                return Err(value_error(format!(
+                    "{what}: unknown parameter {k:?} (known: {})",
+                    names
+                        .iter()
+                        .map(|s| s.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )));
+            }
+        }
+    }
+    from_py(obj, what)
+}
+
+/// A Python object through JSON into a serde type.
+pub fn from_py_required<T: DeserializeOwned>(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<T> {
+    let json = obj.py().import("json")?;
+    let text: String = json
+        .call_method1("dumps", (obj,))
+        .map_err(|e| value_error(format!("{what}: not JSON-serialisable: {e}")))?
+        .extract()?;
+    serde_json::from_str(&text).map_err(|e| value_error(format!("{what}: {e}")))
+}
+
+/// A serde value as Python objects (through JSON: dicts, lists, numbers).
+pub fn to_py<'py, T: Serialize>(py: Python<'py>, value: &T) -> PyResult<Bound<'py, PyAny>> {
+    let text =
+        serde_json::to_string(value).map_err(|e| value_error(format!("not serialisable: {e}")))?;
+    py.import("json")?.call_method1("loads", (text,))
+}

@@ -1,0 +1,144 @@
+//! Rust errors to Python exceptions, with the Rust message.
+//!
+//! The mapping follows what a Python user expects: a file that cannot be
+//! opened, read or written is an `OSError` (its `FileNotFoundError` and
+//! `FileExistsError` subclasses where they apply), a bad value or malformed
+//! content is a `ValueError`, a vehicle that does not answer in time a
+//! `TimeoutError`, and a refusal of the algorithm itself a `RuntimeError`.
+
+use pyo3::exceptions::{
+    PyConnectionError, PyFileExistsError, PyFileNotFoundError, PyOSError, PyRuntimeError,
+    PyTimeoutError, PyValueError,
+};
+use pyo3::PyErr;
+use vp_forest::ForestError;
+use vp_labelgen::LabelgenError;
+use vp_mission::MissionError;
+use vp_planner::PlannerError;
+use vp_scene::SceneError;
+use vp_sim::SimError;
+
+/// The message of an error with its chain of causes, as the CLI prints it.
+fn message(e: &dyn std::error::Error) -> String {
+    let mut m = e.to_string();
+    let mut src = e.source();
+    while let Some(s) = src {
+        let s_text = s.to_string();
+        // thiserror's Io variants already embed the source's text.
+        if !m.contains(&s_text) {
+            m.push_str(": ");
+            m.push_str(&s_text);
+        }
+        src = s.source();
+    }
+    m
+}
+
+fn io_error(e: &SceneError, kind: std::io::ErrorKind) -> PyErr {
+    let m = message(e);
+    match kind {
+        std::io::ErrorKind::NotFound => PyFileNotFoundError::new_err(m),
+        std::io::ErrorKind::AlreadyExists => PyFileExistsError::new_err(m),
+        _ => PyOSError::new_err(m),
+    }
+}
+
+/// Converts a vp-scene error.
+pub fn scene(e: &SceneError) -> PyErr {
+    match e {
+        SceneError::Io { source, .. } => io_error(e, source.kind()),
+        SceneError::Image { source, .. } => match source {
+            image::ImageError::IoError(io) => io_error(e, io.kind()),
+            _ => PyValueError::new_err(message(e)),
+        },
+        SceneError::AlreadyExists { .. } => PyFileExistsError::new_err(message(e)),
+        SceneError::Parse { .. } | SceneError::InvalidMesh(_) | SceneError::InvalidArgument(_) => {
+            PyValueError::new_err(message(e))
+        }
+    }
+}
+
+/// Converts a vp-forest error.
+pub fn forest(e: &ForestError) -> PyErr {
+    match e {
+        ForestError::Scene(s) => scene(s),
+        ForestError::Model { .. }
+        | ForestError::InvalidParams(_)
+        | ForestError::InvalidInput(_) => PyValueError::new_err(message(e)),
+    }
+}
+
+/// Converts a vp-labelgen error.
+pub fn labelgen(e: &LabelgenError) -> PyErr {
+    match e {
+        LabelgenError::Scene(s) => scene(s),
+        _ => PyValueError::new_err(message(e)),
+    }
+}
+
+/// Converts a vp-planner error.
+pub fn planner(e: &PlannerError) -> PyErr {
+    match e {
+        PlannerError::Scene(s) => scene(s),
+        PlannerError::Config(_) | PlannerError::Input(_) => PyValueError::new_err(message(e)),
+        PlannerError::Refused(_) => PyRuntimeError::new_err(message(e)),
+        PlannerError::Output { .. } => PyOSError::new_err(message(e)),
+    }
+}
+
+/// Converts a vp-mission error.
+pub fn mission(e: &MissionError) -> PyErr {
+    match e {
+        MissionError::Scene(s) => scene(s),
+        MissionError::InvalidInput(_) | MissionError::BadUrl { .. } => {
+            PyValueError::new_err(message(e))
+        }
+        MissionError::Connect { .. } | MissionError::Link(_) => {
+            PyConnectionError::new_err(message(e))
+        }
+        MissionError::NoVehicle { .. } | MissionError::Timeout { .. } => {
+            PyTimeoutError::new_err(message(e))
+        }
+        _ => PyRuntimeError::new_err(message(e)),
+    }
+}
+
+/// Converts a vp-sim error.
+pub fn sim(e: &SimError) -> PyErr {
+    match e {
+        SimError::Scene(s) => scene(s),
+        SimError::Forest(f) => forest(f),
+        SimError::Planner(p) => planner(p),
+        SimError::Labelgen(l) => labelgen(l),
+        SimError::Mission(m) => mission(m),
+        SimError::InvalidArgument(_) => PyValueError::new_err(message(e)),
+        SimError::Campaign(_) => PyRuntimeError::new_err(message(e)),
+    }
+}
+
+/// Extension trait: `.py()?` on a crate result.
+pub trait IntoPy<T> {
+    /// The value, or the error as a Python exception.
+    fn py(self) -> pyo3::PyResult<T>;
+}
+
+macro_rules! into_py {
+    ($err:ty, $f:ident) => {
+        impl<T> IntoPy<T> for Result<T, $err> {
+            fn py(self) -> pyo3::PyResult<T> {
+                self.map_err(|e| $f(&e))
+            }
+        }
+    };
+}
+into_py!(SceneError, scene);
+into_py!(ForestError, forest);
+into_py!(LabelgenError, labelgen);
+into_py!(PlannerError, planner);
+into_py!(MissionError, mission);
+into_py!(SimError, sim);
+
+/// A `ValueError` with `msg`.
+pub fn value_error(msg: impl Into<String>) -> PyErr {
+    PyValueError::new_err(msg.into())
+}

@@ -1,0 +1,323 @@
+//! `vpctl.mission`: plans to MAVLink missions, QGC `.plan` / WPL export,
+//! upload and download with timeouts (the GIL released while waiting), and
+//! a simulated vehicle for notebooks and tests (vp-mission).
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use num_traits::ToPrimitive;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+use vp_mission::testing::{spawn_udp_vehicle, UdpVehicle, VehicleConfig};
+use vp_mission::{
+    build_mission, export_qgc, export_wpl, Autopilot, ConnectOptions, Mission, MissionItem,
+    MissionOptions, QgcOptions,
+};
+use vp_scene::fsio;
+
+use crate::errors::{value_error, IntoPy};
+use crate::planner::PyPlan;
+
+fn autopilot(name: &str) -> PyResult<Autopilot> {
+    match name.to_ascii_lowercase().as_str() {
+        "px4" => Ok(Autopilot::Px4),
+        "ardupilot" => Ok(Autopilot::ArduPilot),
+        other => Err(value_error(format!(
+            "autopilot {other:?}: expected \"px4\" or \"ardupilot\""
+        ))),
+    }
+}
+
+/// Mission options as `vpctl mission` builds them from its flags.
+fn options(
+    autopilot_name: &str,
+    hold: f32,
+    speed: Option<f32>,
+    takeoff: f32,
+    rtl: bool,
+) -> PyResult<MissionOptions> {
+    let mut o = MissionOptions::for_autopilot(autopilot(autopilot_name)?);
+    o.hold_time_s = hold;
+    o.speed_m_s = speed;
+    o.takeoff_alt_m = (takeoff > 0.0).then_some(takeoff);
+    o.return_to_launch = rtl;
+    Ok(o)
+}
+
+fn item_dict<'py>(py: Python<'py>, item: &MissionItem) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("command", format!("{:?}", item.command))?;
+    d.set_item("command_id", item.command.to_u32())?;
+    d.set_item("frame", format!("{:?}", item.frame))?;
+    d.set_item("params", item.params.to_vec())?;
+    d.set_item("x", item.x)?;
+    d.set_item("y", item.y)?;
+    d.set_item("z", item.z)?;
+    d.set_item("autocontinue", item.autocontinue)?;
+    Ok(d)
+}
+
+fn items_list<'py>(py: Python<'py>, items: &[MissionItem]) -> PyResult<Bound<'py, PyList>> {
+    let l = PyList::empty(py);
+    for it in items {
+        l.append(item_dict(py, it)?)?;
+    }
+    Ok(l)
+}
+
+/// A mission ready to upload or export.
+#[pyclass(name = "Mission", module = "vpctl.mission", frozen)]
+pub struct PyMission(Mission);
+
+#[pymethods]
+impl PyMission {
+    /// Items in sequence order: dicts of command, command_id, frame,
+    /// params, x, y, z, autocontinue.
+    #[getter]
+    fn items<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        items_list(py, &self.0.items)
+    }
+
+    /// Number of photo items.
+    #[getter]
+    fn photos(&self) -> usize {
+        self.0.photos
+    }
+
+    /// "Px4" or "ArduPilot".
+    #[getter]
+    fn autopilot(&self) -> String {
+        format!("{:?}", self.0.autopilot)
+    }
+
+    /// The mission as `QGC WPL 110` text.
+    fn to_wpl(&self) -> PyResult<String> {
+        export_wpl(&self.0).py()
+    }
+
+    fn __len__(&self) -> usize {
+        self.0.items.len()
+    }
+}
+
+/// Builds the MAVLink mission of a plan (options as `vpctl mission` flags).
+#[pyfunction]
+#[pyo3(name = "build_mission", signature = (plan, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true))]
+fn py_build_mission(
+    plan: PyRef<'_, PyPlan>,
+    autopilot: &str,
+    hold: f32,
+    speed: Option<f32>,
+    takeoff: f32,
+    rtl: bool,
+) -> PyResult<PyMission> {
+    let o = options(autopilot, hold, speed, takeoff, rtl)?;
+    build_mission(&plan.0, &o).py().map(PyMission)
+}
+
+/// The plan as export text: QGroundControl `.plan` JSON (`format="qgc"`)
+/// or `QGC WPL 110` (`"wpl"`); written to `out` when given, atomically,
+/// refusing to overwrite unless `force` (same bytes as `vpctl mission export`).
+#[pyfunction]
+#[pyo3(signature = (plan, format = "qgc", out = None, force = false, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true))]
+fn export(
+    plan: PyRef<'_, PyPlan>,
+    format: &str,
+    out: Option<PathBuf>,
+    force: bool,
+    autopilot: &str,
+    hold: f32,
+    speed: Option<f32>,
+    takeoff: f32,
+    rtl: bool,
+) -> PyResult<String> {
+    if let Some(p) = &out {
+        fsio::check_overwrite(p, force).py()?;
+    }
+    let o = options(autopilot, hold, speed, takeoff, rtl)?;
+    let text = match format {
+        "qgc" => export_qgc(&plan.0, &o, &QgcOptions::default()).py()?,
+        "wpl" => export_wpl(&build_mission(&plan.0, &o).py()?).py()?,
+        other => {
+            return Err(value_error(format!(
+                "format {other:?}: expected \"qgc\" or \"wpl\""
+            )))
+        }
+    };
+    if let Some(p) = &out {
+        use std::io::Write;
+        fsio::write_atomic(p, |w| w.write_all(text.as_bytes())).py()?;
+    }
+    Ok(text)
+}
+
+fn connect_options(heartbeat_timeout: f64, timeout_scale: f64) -> PyResult<ConnectOptions> {
+    if !(heartbeat_timeout.is_finite() && heartbeat_timeout > 0.0) {
+        return Err(value_error(format!(
+            "heartbeat_timeout = {heartbeat_timeout} s must be positive"
+        )));
+    }
+    if !(timeout_scale.is_finite() && timeout_scale > 0.0) {
+        return Err(value_error(format!(
+            "timeout_scale = {timeout_scale} must be positive"
+        )));
+    }
+    let d = ConnectOptions::default();
+    Ok(ConnectOptions {
+        heartbeat_timeout: Duration::from_secs_f64(heartbeat_timeout),
+        protocol: d.protocol.scaled(timeout_scale),
+        ..d
+    })
+}
+
+/// Connects to `url` (udpout:HOST:PORT, udpin:..., tcpout:..., serial:DEV:BAUD),
+/// uploads the plan's mission and verifies it by reading it back. The GIL
+/// is released while waiting on the vehicle. Returns a report dict.
+#[pyfunction]
+#[pyo3(signature = (plan, url, heartbeat_timeout = 5.0, timeout_scale = 1.0, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true))]
+fn upload<'py>(
+    py: Python<'py>,
+    plan: PyRef<'_, PyPlan>,
+    url: &str,
+    heartbeat_timeout: f64,
+    timeout_scale: f64,
+    autopilot: &str,
+    hold: f32,
+    speed: Option<f32>,
+    takeoff: f32,
+    rtl: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    let o = options(autopilot, hold, speed, takeoff, rtl)?;
+    let m = build_mission(&plan.0, &o).py()?;
+    let opts = connect_options(heartbeat_timeout, timeout_scale)?;
+    let (report, info) = py
+        .detach(|| vp_mission::upload(url, &m, &opts, &mut |_| {}))
+        .py()?;
+    let d = PyDict::new(py);
+    d.set_item("items", m.items.len())?;
+    d.set_item("photos", m.photos)?;
+    d.set_item("elapsed_s", report.upload.elapsed.as_secs_f64())?;
+    d.set_item("attempts", report.upload.attempts)?;
+    d.set_item("resends", report.upload.resends)?;
+    d.set_item("verified", report.verified)?;
+    d.set_item("system", info.target.system)?;
+    d.set_item("component", info.target.component)?;
+    Ok(d)
+}
+
+/// Connects to `url` and reads the vehicle's mission (item dicts); the GIL
+/// is released while waiting.
+#[pyfunction]
+#[pyo3(signature = (url, heartbeat_timeout = 5.0, timeout_scale = 1.0))]
+fn download<'py>(
+    py: Python<'py>,
+    url: &str,
+    heartbeat_timeout: f64,
+    timeout_scale: f64,
+) -> PyResult<Bound<'py, PyList>> {
+    let opts = connect_options(heartbeat_timeout, timeout_scale)?;
+    let (items, _, _) = py
+        .detach(|| vp_mission::download(url, &opts, &mut |_| {}))
+        .py()?;
+    items_list(py, &items)
+}
+
+/// Connects to `url` and deletes the vehicle's mission.
+#[pyfunction]
+#[pyo3(signature = (url, heartbeat_timeout = 5.0, timeout_scale = 1.0))]
+fn clear(py: Python<'_>, url: &str, heartbeat_timeout: f64, timeout_scale: f64) -> PyResult<()> {
+    let opts = connect_options(heartbeat_timeout, timeout_scale)?;
+    py.detach(|| vp_mission::clear(url, &opts)).py()?;
+    Ok(())
+}
+
+/// A simulated vehicle (the MAVLink mission protocol, vehicle side) on a
+/// loopback UDP port, for notebooks and tests without a drone. Stops when
+/// closed or garbage-collected.
+#[pyclass(name = "SimulatedVehicle", module = "vpctl.mission", frozen)]
+pub struct PyVehicle(std::sync::Mutex<Option<UdpVehicle>>);
+
+impl PyVehicle {
+    fn with<T>(&self, f: impl FnOnce(&UdpVehicle) -> T) -> PyResult<T> {
+        let g = self
+            .0
+            .lock()
+            .map_err(|_| pyo3::exceptions::PyRuntimeError::new_err("vehicle lock poisoned"))?;
+        g.as_ref()
+            .map(f)
+            .ok_or_else(|| value_error("the simulated vehicle is closed"))
+    }
+}
+
+#[pymethods]
+impl PyVehicle {
+    /// Listens on `bind` (port 0: any free port) as a PX4 or ArduPilot vehicle.
+    #[new]
+    #[pyo3(signature = (bind = "127.0.0.1:0", autopilot = "px4"))]
+    fn new(bind: &str, autopilot: &str) -> PyResult<Self> {
+        let cfg = VehicleConfig {
+            autopilot: self::autopilot(autopilot)?,
+            ..VehicleConfig::default()
+        };
+        let v = spawn_udp_vehicle(bind, cfg).py()?;
+        Ok(PyVehicle(std::sync::Mutex::new(Some(v))))
+    }
+
+    /// The URL a ground station connects with (`udpout:HOST:PORT`).
+    #[getter]
+    fn url(&self) -> PyResult<String> {
+        self.with(|v| format!("udpout:{}", v.addr()))
+    }
+
+    /// The stored mission (item dicts).
+    fn mission<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        let items = self.with(UdpVehicle::mission)?;
+        items_list(py, &items)
+    }
+
+    /// (completed, abandoned) uploads so far.
+    fn upload_counts(&self) -> PyResult<(u32, u32)> {
+        self.with(UdpVehicle::upload_counts)
+    }
+
+    /// Stops the vehicle (idempotent).
+    fn close(&self, py: Python<'_>) -> PyResult<()> {
+        let v = self
+            .0
+            .lock()
+            .map_err(|_| pyo3::exceptions::PyRuntimeError::new_err("vehicle lock poisoned"))?
+            .take();
+        // Joining the vehicle's thread can take a poll interval: without the GIL.
+        py.detach(move || drop(v));
+        Ok(())
+    }
+
+    fn __enter__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    fn __exit__(
+        &self,
+        py: Python<'_>,
+        t: &Bound<'_, PyAny>,
+        v: &Bound<'_, PyAny>,
+        tb: &Bound<'_, PyAny>,
+    ) -> PyResult<bool> {
+        // The exception, if any, propagates (return False).
+        let _ = (t, v, tb);
+        self.close(py)?;
+        Ok(false)
+    }
+}
+
+/// Registers the submodule.
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyMission>()?;
+    m.add_class::<PyVehicle>()?;
+    m.add_function(wrap_pyfunction!(py_build_mission, m)?)?;
+    m.add_function(wrap_pyfunction!(export, m)?)?;
+    m.add_function(wrap_pyfunction!(upload, m)?)?;
+    m.add_function(wrap_pyfunction!(download, m)?)?;
+    m.add_function(wrap_pyfunction!(clear, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,57 @@
+"""vpctl.sim.run_campaign: the table of `vpctl demo --quick`, from Python."""
+
+import json
+
+import pytest
+
+import vpctl
+from conftest import run_cli
+
+
+@pytest.fixture(scope="module")
+def quick_rows():
+    lines = []
+    rows = vpctl.sim.run_campaign(preset="quick", progress=lines.append)
+    return rows, lines
+
+
+def test_quick_campaign_table(quick_rows):
+    rows, lines = quick_rows
+    cfg = vpctl.sim.campaign_config(preset="quick")
+    names = [r["strategy"] for r in rows]
+    for s in cfg["strategies"]:
+        assert any(n == s or n.startswith(s) for n in names), (s, names)
+    for r in rows:
+        for k in ("coverage_mean", "f_mean", "f_res_mean", "f_unc_mean"):
+            assert 0.0 <= r[k] <= 100.0, (k, r)  # percent, as in Table 1
+        assert r["n_images_mean"] > 0
+    by = {r["strategy"]: r for r in rows}
+    # Grid combined with a strategy flies both image sets: more images,
+    # and no less coverage than Grid alone.
+    for s in cfg["strategies"]:
+        both = by["G+" + s]
+        assert both["n_images_mean"] == by["Grid"]["n_images_mean"] + by[s]["n_images_mean"]
+        assert both["coverage_mean"] >= by["Grid"]["coverage_mean"]
+    assert len(lines) > 0 and all(isinstance(x, str) for x in lines)
+
+
+def test_quick_campaign_equals_cli_demo(quick_rows, tmp_path):
+    run_cli("demo", "--quick", "--out", tmp_path / "report")
+    report = json.loads((tmp_path / "report" / "report.json").read_text())
+    assert quick_rows[0] == report["rows"]
+
+
+def test_campaign_config_overlay_and_bad_values(tmp_path):
+    cfg = vpctl.sim.campaign_config({"held_out_seeds": [11], "training": {"site_seeds": [3]}}, preset="quick")
+    assert cfg["held_out_seeds"] == [11] and cfg["training"]["site_seeds"] == [3]
+    assert cfg["training"]["triplets_per_site"] == vpctl.sim.campaign_config(preset="quick")["training"]["triplets_per_site"]
+    with pytest.raises(ValueError, match="held-out"):
+        vpctl.sim.run_campaign({"held_out_seeds": [101]}, preset="quick")
+    with pytest.raises(ValueError):
+        vpctl.sim.campaign_config({"no_such_key": 1})
+    with pytest.raises(ValueError, match="preset"):
+        vpctl.sim.campaign_config(preset="huge")
+    with pytest.raises(FileNotFoundError):
+        vpctl.sim.campaign_config(tmp_path / "missing.toml")
+    with pytest.raises(ZeroDivisionError):
+        vpctl.sim.run_campaign(preset="quick", progress=lambda line: 1 / 0)

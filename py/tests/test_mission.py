@@ -1,0 +1,110 @@
+"""vpctl.mission: export equals `vpctl mission export`; upload/download
+against the simulated vehicle with the GIL released."""
+
+import threading
+import time
+
+import pytest
+
+import vpctl
+from conftest import run_cli
+
+
+@pytest.fixture(scope="module")
+def plan_file(site, tmp_path_factory):
+    root = tmp_path_factory.mktemp("mission")
+    plan = vpctl.planner.plan_grid(site.mesh, height=50, overlap=0.5, origin=(46.0, 10.3, 400.0))
+    plan.save(root / "plan.json")
+    return root / "plan.json", plan
+
+
+@pytest.mark.parametrize("fmt", ["qgc", "wpl"])
+def test_export_equals_cli(plan_file, tmp_path, fmt):
+    path, plan = plan_file
+    run_cli("mission", "export", path, "--format", fmt, "--out", tmp_path / "cli", "--hold", "3")
+    text = vpctl.mission.export(plan, format=fmt, out=tmp_path / "py", hold=3.0)
+    assert (tmp_path / "py").read_bytes() == (tmp_path / "cli").read_bytes()
+    assert text == (tmp_path / "cli").read_text()
+    with pytest.raises(FileExistsError):
+        vpctl.mission.export(plan, format=fmt, out=tmp_path / "py")
+
+
+def test_build_mission_items(plan_file):
+    _, plan = plan_file
+    m = vpctl.mission.build_mission(plan)
+    assert m.photos == len(plan) and m.autopilot == "Px4"
+    names = [i["command"] for i in m.items]
+    assert names[-1] == "MAV_CMD_NAV_RETURN_TO_LAUNCH"
+    wps = [i for i in m.items if i["command"] == "MAV_CMD_NAV_WAYPOINT"]
+    assert len(wps) == len(plan)
+    assert all(abs(i["x"] / 1e7 - 46.0) < 0.01 for i in wps)
+    assert m.items[0]["command_id"] is not None
+    no_rtl = vpctl.mission.build_mission(plan, rtl=False, takeoff=0)
+    assert len(no_rtl) == len(m) - 2
+    assert m.to_wpl().startswith("QGC WPL 110")
+
+
+def test_upload_download_round_trip_through_simulated_vehicle(plan_file):
+    _, plan = plan_file
+    with vpctl.mission.SimulatedVehicle() as v:
+        report = vpctl.mission.upload(plan, v.url, heartbeat_timeout=3.0)
+        m = vpctl.mission.build_mission(plan)
+        assert report["verified"] and report["items"] == len(m)
+        assert v.upload_counts() == (1, 0)
+        got = vpctl.mission.download(v.url, heartbeat_timeout=3.0)
+        assert [i["command"] for i in got] == [i["command"] for i in m.items]
+        assert [(i["x"], i["y"]) for i in got] == [(i["x"], i["y"]) for i in m.items]
+        # params hold NaN ("unchanged"), which never compares equal: compare the rest.
+        key = lambda items: [(i["command"], i["frame"], i["x"], i["y"], str(i["z"])) for i in items]
+        assert key(v.mission()) == key(got)
+        vpctl.mission.clear(v.url, heartbeat_timeout=3.0)
+        assert v.mission() == []
+    with pytest.raises(ValueError, match="closed"):
+        v.url
+
+
+def test_waiting_for_a_vehicle_releases_the_gil_and_times_out(plan_file):
+    """A Python thread keeps running while upload waits for a heartbeat
+    that never comes; the wait ends in TimeoutError."""
+    _, plan = plan_file
+    ticks = [0]
+    stop = threading.Event()
+
+    def count():
+        while not stop.is_set():
+            ticks[0] += 1
+            time.sleep(0.001)
+
+    t = threading.Thread(target=count)
+    t.start()
+    try:
+        time.sleep(0.05)
+        before = ticks[0]
+        start = time.monotonic()
+        with pytest.raises(TimeoutError):
+            # Nothing listens on port 9 of loopback (discard): no heartbeat.
+            vpctl.mission.upload(plan, "udpout:127.0.0.1:9", heartbeat_timeout=0.6)
+        waited = time.monotonic() - start
+        during = ticks[0] - before
+    finally:
+        stop.set()
+        t.join()
+    assert waited >= 0.5
+    # With the GIL held the counter could not move at all during the wait.
+    assert during >= 50, during
+
+
+def test_bad_inputs(plan_file):
+    _, plan = plan_file
+    with pytest.raises(ValueError, match="autopilot"):
+        vpctl.mission.build_mission(plan, autopilot="dji")
+    with pytest.raises(ValueError, match="format"):
+        vpctl.mission.export(plan, format="kml")
+    with pytest.raises(ValueError, match="carrier-pigeon"):
+        vpctl.mission.download("carrier-pigeon:1")
+    with pytest.raises(ValueError, match="heartbeat_timeout"):
+        vpctl.mission.download("udpout:127.0.0.1:9", heartbeat_timeout=0)
+    with pytest.raises(ValueError):
+        vpctl.mission.SimulatedVehicle(autopilot="dji")
+    with pytest.raises(OSError):
+        vpctl.mission.SimulatedVehicle(bind="256.0.0.1:0")

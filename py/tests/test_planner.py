@@ -1,0 +1,130 @@
+"""vpctl.planner: plans from Python equal plans from `vpctl plan`."""
+
+import json
+
+import numpy as np
+import pytest
+
+import vpctl
+from conftest import run_cli
+
+CAMERA = {"width": 1200, "height": 800, "focal_px": 1800.0}
+
+
+@pytest.fixture(scope="module")
+def planning(site, tmp_path_factory):
+    """Site mesh, an initial grid flight as a COLMAP model, a small config
+    (as TOML file and as dict) and the rock's box."""
+    root = tmp_path_factory.mktemp("planner")
+    site.save(root / "site.ply")
+    lo, hi = site.rock_bounds
+    c = (lo + hi) / 2
+    footprint = [c[0] - 22, c[1] - 22, lo[2], c[0] + 22, c[1] + 22, hi[2]]
+    fv = site.flight_volume
+    cfg = {
+        "n_triangles": 300,
+        "n_surrogates": 600,
+        "n_selected": 60,
+        "n_triplets": 2,
+        "flight_volume": fv.tolist(),
+        "camera": CAMERA,
+    }
+    toml = "\n".join(
+        [f"{k} = {v}" for k, v in cfg.items() if k not in ("flight_volume", "camera")]
+        + [f"flight_volume = {fv.tolist()}", "[camera]"]
+        + [f"{k} = {v}" for k, v in CAMERA.items()]
+    )
+    (root / "plan.toml").write_text(toml + "\n")
+    initial = vpctl.planner.plan_grid(site.mesh, roi=footprint, height=50.0, overlap=0.8,
+                                      initial=True, config={"camera": CAMERA})
+    cams = vpctl.planner.plan_cameras(initial, config={"camera": CAMERA})
+    named = [(f"img_{i + 1:03}.jpg", cam) for i, cam in enumerate(cams)]
+    model = vpctl.labelgen.sparse_model(named, vpctl.scene.RayCaster(site.mesh), np.zeros((0, 3)))
+    model.save(root / "model", format="text")
+    return root, cfg, model, [*lo, *hi], cams
+
+
+def test_plan_equals_cli_plan(planning, site, tmp_path):
+    root, cfg, model, roi, _ = planning
+    roi_arg = ",".join(str(x) for x in roi)
+    run_cli("plan", "--mesh", root / "site.ply", "--cameras", root / "model", "--config", root / "plan.toml",
+            "--roi-box", roi_arg, "--out", tmp_path / "cli.json", "--no-timings")
+    r = vpctl.planner.plan(root / "site.ply", root / "model", config=root / "plan.toml", roi=roi)
+    r.plan.save(tmp_path / "py.json", no_timings=True)
+    assert (tmp_path / "py.json").read_bytes() == (tmp_path / "cli.json").read_bytes()
+    assert r.plan.to_json(no_timings=True) + "\n" == (tmp_path / "cli.json").read_text()
+    # The same config as a dict, the mesh and model as objects: the same plan.
+    r2 = vpctl.planner.plan(site.mesh, model, config=cfg, roi=roi)
+    assert r2.plan.to_json(no_timings=True) == r.plan.to_json(no_timings=True)
+
+
+def test_plan_result_numbers(planning, site):
+    root, cfg, model, roi, cams = planning
+    r = vpctl.planner.plan(site.mesh, cams, config=cfg, roi=roi)
+    plan = r.plan
+    members = [w for w in plan.waypoints if w["role"] == "triplet_member"]
+    assert len(members) == 3 * len(r.triplet_gains) and len(r.triplet_gains) <= 2
+    assert all(g > 0 for g in r.triplet_gains)
+    pos = plan.positions
+    assert pos.shape == (len(plan), 3) and plan.angles.shape == (len(plan), 2)
+    its = r.iterations
+    assert all(it["f_after"] >= it["f_before"] for it in its)
+    s = r.sampled
+    n = len(s["f"])
+    assert 0 < n <= cfg["n_triangles"] and s["centroid"].shape == (n, 3)
+    assert np.all((s["f"] >= 0) & (s["f"] <= 1))
+    assert np.count_nonzero(s["selected"]) <= cfg["n_selected"]
+    d = plan.to_dict()
+    safety = d["safety_distance_m"]
+    dist = vpctl.scene.Clearance(site.mesh).distance(pos)
+    assert np.all(dist >= safety - 1e-6)
+    lo, hi = np.array(cfg["flight_volume"])
+    assert np.all((pos >= lo - 1e-9) & (pos <= hi + 1e-9))
+    # Uniform confidence 1 is the NP variant: the same plan as no confidence.
+    ones = [vpctl.forest.ConfidenceImage.constant(1.0)] * len(cams)
+    r1 = vpctl.planner.plan(site.mesh, cams, confidence=ones, config=cfg, roi=roi)
+    assert r1.plan.to_json(no_timings=True) == plan.to_json(no_timings=True)
+
+
+def test_plan_file_round_trip(planning, site, tmp_path):
+    g = vpctl.planner.plan_grid(site.mesh, height=50, overlap=0.5, origin=(46.0, 10.3, 400.0))
+    g.save(tmp_path / "g.json")
+    back = vpctl.planner.Plan.load(tmp_path / "g.json")
+    assert back.to_json() == g.to_json()
+    assert vpctl.planner.Plan.from_json(g.to_json()).to_dict() == json.loads(g.to_json())
+    assert g.to_dict()["origin"] == {"lat_deg": 46.0, "lon_deg": 10.3, "alt_m": 400.0}
+    assert all(w["role"] == "grid" for w in g.waypoints)
+    with pytest.raises(FileExistsError):
+        g.save(tmp_path / "g.json")
+
+
+def test_grid_equals_cli(planning, tmp_path):
+    root = planning[0]
+    run_cli("plan", "grid", "--mesh", root / "site.ply", "--height", "50", "--overlap", "0.5",
+            "--out", tmp_path / "cli.json")
+    vpctl.planner.plan_grid(root / "site.ply", height=50, overlap=0.5).save(tmp_path / "py.json")
+    assert (tmp_path / "py.json").read_bytes() == (tmp_path / "cli.json").read_bytes()
+
+
+def test_config_defaults_and_bad_inputs(planning, site, tmp_path):
+    root, cfg, model, roi, cams = planning
+    d = vpctl.planner.default_config()
+    assert d["n_triangles"] == 2000 and d["n_triplets"] == 4
+    assert "n_triangles" in vpctl.planner.default_config_toml()
+    with pytest.raises(ValueError):
+        vpctl.planner.plan(site.mesh, cams, config={"n_triangles": 0})
+    with pytest.raises(ValueError, match="no_such"):
+        vpctl.planner.plan(site.mesh, cams, config={"no_such": 1})
+    with pytest.raises(FileNotFoundError):
+        vpctl.planner.plan(site.mesh, cams, config=tmp_path / "missing.toml")
+    with pytest.raises(ValueError, match="selects no face"):
+        vpctl.planner.plan(site.mesh, cams, config=cfg, roi=[500, 500, 0, 501, 501, 1])
+    with pytest.raises(ValueError):
+        vpctl.planner.plan(site.mesh, cams, confidence=[None], config=cfg)
+    with pytest.raises(FileNotFoundError, match="img_001.vpconf"):
+        (tmp_path / "conf").mkdir()
+        vpctl.planner.plan(site.mesh, model, confidence=tmp_path / "conf", config=cfg, roi=roi)
+    with pytest.raises(ValueError):
+        vpctl.planner.plan(site.mesh, 42)
+    with pytest.raises(ValueError):
+        vpctl.planner.plan_grid(site.mesh, origin=(100.0, 0.0, 0.0))
