@@ -26,7 +26,7 @@ echo "== python bindings: pip install ./py, then pytest py/tests (against the vp
 VP_REQUIRE_VPCTL=1 bash scripts/test_python.sh
 
 echo "== long runs: 100 uploads through a lossy UDP relay"
-cargo test --locked -p vp-mission --test udp_loopback -- --ignored --nocapture
+cargo test --locked --workspace --test udp_loopback -- --ignored --nocapture
 
 echo "== long runs: the paper's findings on held-out sites, campaign determinism (release)"
 # --workspace (not -p vp-sim): the same feature set as the bench step below,
