@@ -56,6 +56,21 @@ fn write_data(dir: &Path, n: u64, held: u64) -> (PathBuf, PathBuf, PathBuf, Path
     (a, b, c, d)
 }
 
+/// `vpctl train --images .. --labels .. --out .. [extra]`.
+fn train(images: &Path, labels: &Path, out: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "train",
+        "--images",
+        images.to_str().unwrap(),
+        "--labels",
+        labels.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    vpctl(&args)
+}
+
 #[test]
 fn train_predict_and_eval_learn_texture_and_angle() {
     let dir = tempfile::tempdir().unwrap();
@@ -67,28 +82,18 @@ fn train_predict_and_eval_learn_texture_and_angle() {
     )
     .unwrap();
     let model = dir.path().join("m.vpforest");
-    let train = |out: &Path, extra: &[&str]| {
-        let mut args = vec![
-            "train",
-            "--images",
-            images.to_str().unwrap(),
-            "--labels",
-            labels.to_str().unwrap(),
-            "--config",
-            config.to_str().unwrap(),
-            "--trees",
-            "4",
-            "--max-depth",
-            "10",
-            "--seed",
-            "7",
-            "--out",
-            out.to_str().unwrap(),
-        ];
-        args.extend_from_slice(extra);
-        vpctl(&args)
-    };
-    let o = train(&model, &[]);
+    let small = [
+        "--config",
+        config.to_str().unwrap(),
+        "--trees",
+        "4",
+        "--max-depth",
+        "10",
+        "--seed",
+        "7",
+    ];
+    let train_small = |out: &Path| train(&images, &labels, out, &small);
+    let o = train_small(&model);
     assert!(o.status.success(), "{}", text(&o));
     assert!(
         text(&o).contains("training set: 3 images, 3 label images"),
@@ -98,12 +103,12 @@ fn train_predict_and_eval_learn_texture_and_angle() {
 
     // Same data and seed: same model bytes. An existing model is kept without --force.
     let again = dir.path().join("m2.vpforest");
-    assert!(train(&again, &[]).status.success());
+    assert!(train_small(&again).status.success());
     assert_eq!(
         std::fs::read(&model).unwrap(),
         std::fs::read(&again).unwrap()
     );
-    let refused = train(&again, &[]);
+    let refused = train_small(&again);
     assert_eq!(refused.status.code(), Some(2), "{}", text(&refused));
 
     let o = vpctl(&["forest", "info", model.to_str().unwrap(), "--json"]);
@@ -191,15 +196,7 @@ fn bad_inputs_exit_2_and_write_nothing() {
 
     // A label whose image is missing: named, exit 2, no model.
     std::fs::remove_file(images.join("i1.png")).unwrap();
-    let o = vpctl(&[
-        "train",
-        "--images",
-        images.to_str().unwrap(),
-        "--labels",
-        labels.to_str().unwrap(),
-        "--out",
-        model.to_str().unwrap(),
-    ]);
+    let o = train(&images, &labels, &model, &[]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(text(&o).contains("i1.png.vplabel"), "{}", text(&o));
     assert!(!model.exists());
@@ -207,17 +204,12 @@ fn bad_inputs_exit_2_and_write_nothing() {
     // A bad config field is named.
     let config = dir.path().join("bad.toml");
     std::fs::write(&config, "n_trees = 3\nn_trea = 2\n").unwrap();
-    let o = vpctl(&[
-        "train",
-        "--images",
-        images.to_str().unwrap(),
-        "--labels",
-        labels.to_str().unwrap(),
-        "--config",
-        config.to_str().unwrap(),
-        "--out",
-        model.to_str().unwrap(),
-    ]);
+    let o = train(
+        &images,
+        &labels,
+        &model,
+        &["--config", config.to_str().unwrap()],
+    );
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(
         text(&o).contains("bad.toml") && text(&o).contains("n_trea"),
@@ -255,17 +247,12 @@ fn defaults_are_the_papers_and_round_trip() {
     std::fs::write(&path, t.as_bytes()).unwrap();
     // The printed defaults are a valid config (training then fails only for
     // the empty label folder, which is named).
-    let o = vpctl(&[
-        "train",
-        "--images",
-        dir.path().to_str().unwrap(),
-        "--labels",
-        dir.path().to_str().unwrap(),
-        "--config",
-        path.to_str().unwrap(),
-        "--out",
-        dir.path().join("m").to_str().unwrap(),
-    ]);
+    let o = train(
+        dir.path(),
+        dir.path(),
+        &dir.path().join("m"),
+        &["--config", path.to_str().unwrap()],
+    );
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(text(&o).contains("no .vplabel files"), "{}", text(&o));
 }
