@@ -4,7 +4,9 @@
 //! must overlap an earlier one by o_min (bridging views are inserted when
 //! not); every waypoint and every straight segment between consecutive
 //! waypoints keeps the safety distance, blocked segments climb, traverse and
-//! descend, or the plan is refused naming the segment.
+//! descend. A triplet that no such route reaches is dropped from the path
+//! (and named in [`Path::dropped_triplets`]); [`PathContext::make_safe`]
+//! alone refuses the waypoints naming the segment.
 
 use nalgebra::{Point2, Point3};
 use rayon::prelude::*;
@@ -78,8 +80,20 @@ pub struct PathContext<'a> {
 pub struct Path {
     /// Waypoints in flight order.
     pub waypoints: Vec<PlannedView>,
-    /// Images that could not be bridged to o_min overlap (index into `waypoints`).
+    /// Images that could not be bridged to o_min overlap (index into the
+    /// waypoints before safe routing inserted detours).
     pub unbridged: Vec<usize>,
+    /// Triplets left out because one of their images is unsafe or no safe
+    /// route reaches it.
+    pub dropped_triplets: Vec<u32>,
+}
+
+/// An unsafe waypoint, or a segment no climb-traverse-descend route makes safe.
+struct Blocked {
+    /// Index of the unsafe waypoint, or of the one the segment leads to.
+    to: usize,
+    /// What is wrong, for the user.
+    message: String,
 }
 
 fn cam_of(v: &PlannedView, k: Intrinsics) -> Camera {
@@ -184,31 +198,59 @@ impl PathContext<'_> {
             earlier.push(cam);
             out.waypoints.push(view);
         }
-        out.waypoints = self.make_safe(out.waypoints)?;
+        let mut views = std::mem::take(&mut out.waypoints);
+        out.waypoints = loop {
+            match self.route(&views) {
+                Ok(safe) => break safe,
+                Err(blocked) => {
+                    // Leave out what the blocked segment leads to: its whole
+                    // triplet (two images of it are of no use), or the one
+                    // bridging view. Terminates: every round removes a view.
+                    match views[blocked.to].triplet_id {
+                        Some(t) => {
+                            views.retain(|v| v.triplet_id != Some(t));
+                            out.dropped_triplets.push(t);
+                        }
+                        None => {
+                            views.remove(blocked.to);
+                        }
+                    }
+                }
+            }
+        };
         Ok(out)
     }
 
     /// Re-routes every blocked segment by climb-traverse-descend within the
-    /// altitude limit; refuses the plan when that fails.
-    pub fn make_safe(&self, waypoints: Vec<PlannedView>) -> Result<Vec<PlannedView>> {
+    /// altitude limit; refuses the waypoints when that fails.
+    pub fn make_safe(&self, waypoints: &[PlannedView]) -> Result<Vec<PlannedView>> {
+        self.route(waypoints)
+            .map_err(|b| PlannerError::Refused(b.message))
+    }
+
+    /// The waypoints with a detour inserted before every blocked segment,
+    /// or the first unsafe waypoint or segment without one.
+    fn route(&self, waypoints: &[PlannedView]) -> std::result::Result<Vec<PlannedView>, Blocked> {
         let s = self.safety;
+        let mut out: Vec<PlannedView> = Vec::with_capacity(waypoints.len());
         for (i, w) in waypoints.iter().enumerate() {
             let p = Point3::from(w.position);
             if !s.point_ok(&p) {
-                return Err(PlannerError::Refused(format!(
-                    "waypoint {i} at ({:.2}, {:.2}, {:.2}) is closer than {} m to the mesh or \
-                     outside the flight volume, geofence or altitude limits",
-                    p.x, p.y, p.z, s.distance
-                )));
+                return Err(Blocked {
+                    to: i,
+                    message: format!(
+                        "waypoint {i} at ({:.2}, {:.2}, {:.2}) is closer than {} m to the mesh or \
+                         outside the flight volume, geofence or altitude limits",
+                        p.x, p.y, p.z, s.distance
+                    ),
+                });
             }
-        }
-        let mut out: Vec<PlannedView> = Vec::with_capacity(waypoints.len());
-        for (i, w) in waypoints.into_iter().enumerate() {
             if let Some(prev) = out.last().cloned() {
                 let (a, b) = (Point3::from(prev.position), Point3::from(w.position));
                 if !s.segment_ok(&a, &b) {
-                    let detour = self.climb(&a, &b).ok_or_else(|| {
-                        PlannerError::Refused(format!(
+                    let detour = self.climb(&a, &b).ok_or_else(|| Blocked {
+                        to: i,
+                        message: format!(
                             "segment {} -> {i} from ({:.2}, {:.2}, {:.2}) to ({:.2}, {:.2}, {:.2}) \
                              comes closer than {} m to the mesh or leaves the geofence, and no \
                              climb-traverse-descend route below the altitude limit {} m is clear",
@@ -221,9 +263,9 @@ impl PathContext<'_> {
                             b.z,
                             s.distance,
                             s.altitude.max_m
-                        ))
+                        ),
                     })?;
-                    for (p, from) in detour.into_iter().zip([&prev, &w]) {
+                    for (p, from) in detour.into_iter().zip([&prev, w]) {
                         let mut v = from.clone();
                         v.position = p.into();
                         v.role = Role::Bridge;
@@ -234,7 +276,7 @@ impl PathContext<'_> {
                     }
                 }
             }
-            out.push(w);
+            out.push(w.clone());
         }
         Ok(out)
     }

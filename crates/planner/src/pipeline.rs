@@ -95,6 +95,9 @@ pub struct PlanResult {
     pub visited: Vec<usize>,
     /// Waypoint indices of images that could not be bridged to o_min overlap.
     pub unbridged: Vec<usize>,
+    /// Triplets planned but left out of the path: one of their images is
+    /// unsafe or no climb-traverse-descend route reaches it.
+    pub dropped_triplets: Vec<u32>,
     /// True when planning stopped before k triplets.
     pub cut_short: bool,
     /// Why.
@@ -446,6 +449,7 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
         triplet_gains: gains,
         visited,
         unbridged: path.unbridged,
+        dropped_triplets: path.dropped_triplets,
         cut_short: cut.is_some(),
         cut_short_reason: cut,
     })
@@ -493,7 +497,7 @@ pub fn plan_grid(
         min_overlap: cfg.min_overlap,
     };
     let mut plan = Plan::new(origin);
-    plan.waypoints = ctx.make_safe(views)?;
+    plan.waypoints = ctx.make_safe(&views)?;
     plan.geofence.clone_from(&safety.geofence);
     plan.altitude_limits = Some(safety.altitude);
     plan.safety_distance_m = Some(cfg.safety_distance_m);

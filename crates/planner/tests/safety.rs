@@ -164,7 +164,7 @@ fn blocked_segment_climbs_over_the_wall() {
         min_overlap: 0.5,
     };
     let out = ctx
-        .make_safe(vec![view(-20.0, 10.0), view(20.0, 10.0)])
+        .make_safe(&[view(-20.0, 10.0), view(20.0, 10.0)])
         .unwrap();
     assert_eq!(out.len(), 4, "climb and descend waypoints inserted");
     assert!(out[1].position[2] >= 25.0 && out[1].role == Role::Bridge);
@@ -191,7 +191,7 @@ fn blocked_segment_under_a_low_ceiling_refuses_the_plan_naming_it() {
         min_overlap: 0.5,
     };
     let e = ctx
-        .make_safe(vec![view(-30.0, 10.0), view(-20.0, 10.0), view(20.0, 10.0)])
+        .make_safe(&[view(-30.0, 10.0), view(-20.0, 10.0), view(20.0, 10.0)])
         .unwrap_err();
     let msg = e.to_string();
     assert!(matches!(e, PlannerError::Refused(_)), "{msg}");
@@ -199,4 +199,44 @@ fn blocked_segment_under_a_low_ceiling_refuses_the_plan_naming_it() {
         msg.contains("segment 1 -> 2") && msg.contains("altitude limit 22 m"),
         "{msg}"
     );
+}
+
+#[test]
+fn a_triplet_behind_an_unclimbable_wall_is_dropped_not_the_plan() {
+    let (mesh, mut cfg) = wall_scene();
+    cfg.altitude_limits = Some(AltitudeLimits {
+        min_m: 0.0,
+        max_m: 22.0,
+    });
+    let caster = RayCaster::new(&mesh);
+    let safety = safety_for(&mesh, &cfg);
+    let ctx = PathContext {
+        mesh: &mesh,
+        caster: &caster,
+        safety: &safety,
+        intrinsics: cfg.camera.intrinsics(),
+        // No bridging views: this test is about routing.
+        min_overlap: 0.0,
+    };
+    let in_triplet = |x: f64, t: u32| PlannedView {
+        triplet_id: Some(t),
+        ..view(x, 10.0)
+    };
+    let start = view(-35.0, 10.0).to_camera(cfg.camera.intrinsics());
+    let views = vec![
+        in_triplet(-30.0, 0),
+        in_triplet(-25.0, 0),
+        in_triplet(-20.0, 0),
+        in_triplet(20.0, 1),
+        in_triplet(25.0, 1),
+        in_triplet(30.0, 1),
+    ];
+    let path = ctx.build(&start, &[], views).unwrap();
+    assert_eq!(path.dropped_triplets, vec![1]);
+    let xs: Vec<f64> = path.waypoints.iter().map(|w| w.position[0]).collect();
+    assert_eq!(xs, vec![-30.0, -25.0, -20.0]);
+    let mut plan = Plan::new(None);
+    plan.waypoints = path.waypoints;
+    plan.altitude_limits = Some(safety.altitude);
+    assert_safe(&plan, &mesh, &cfg);
 }

@@ -343,6 +343,13 @@ fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
     if let (Some(a), Some(b)) = (r.iterations.first(), r.iterations.last()) {
         writeln!(out, "mean f: {:.4} -> {:.4}", a.f_before, b.f_after)?;
     }
+    if !r.dropped_triplets.is_empty() {
+        writeln!(
+            out,
+            "dropped triplets (unsafe or unreachable): {:?}",
+            r.dropped_triplets
+        )?;
+    }
     match &r.cut_short_reason {
         Some(why) => writeln!(out, "cut short: {why}")?,
         None => writeln!(out, "cut short: no")?,

@@ -219,12 +219,13 @@ fn run_strategy(
             out.flown.push(fl);
         }
         progress(&format!(
-            "  site {site_seed} {} iteration {}/{}: {} triplets planned ({} images with bridges), {} of {} flown so far succeeded",
+            "  site {site_seed} {} iteration {}/{}: {} triplets planned ({} images with bridges, {} dropped as unreachable), {} of {} flown so far succeeded",
             strategy.name,
             it + 1,
             strategy.iterations,
             triplets.len(),
             new_cams.len(),
+            result.dropped_triplets.len(),
             out.flown.iter().filter(|f| f.success()).count(),
             out.flown.len()
         ));
