@@ -49,6 +49,7 @@ pub(crate) mod part {
     pub const TERRAIN: u64 = 0x7465_7272_6169_6e00;
     pub const ROCK: u64 = 0x726f_636b_0000_0000;
     pub const TREES: u64 = 0x7472_6565_7300_0000;
+    pub const TREES_AT_ROCK: u64 = 0x726f_636b_7472_6565;
     pub const GRASS: u64 = 0x6772_6173_7300_0000;
     pub const MARKERS: u64 = 0x6d61_726b_6572_7300;
 }

@@ -51,8 +51,11 @@ pub struct SiteParams {
     pub target_faces: usize,
     /// Side of the square site, metres, centred on the origin.
     pub size: f64,
-    /// Number of trees.
+    /// Number of trees in the open, clear of the rock.
     pub n_trees: usize,
+    /// Number of trees fringing the rock, their canopies overhanging its
+    /// edge (none by default).
+    pub n_trees_at_rock: usize,
     /// Number of grass tufts; `None` sizes grass to about 12 % of the faces.
     pub n_grass_tufts: Option<usize>,
     /// Number of markers on posts around the rock.
@@ -79,6 +82,7 @@ impl Default for SiteParams {
             target_faces: 200_000,
             size: 60.0,
             n_trees: 6,
+            n_trees_at_rock: 0,
             n_grass_tufts: None,
             n_markers: 6,
             rock_length: 17.0,
@@ -123,8 +127,11 @@ impl SiteParams {
                 self.size
             ));
         }
-        if self.n_trees > MAX_TREES {
-            return bad(format!("n_trees = {} exceeds {MAX_TREES}", self.n_trees));
+        if self.n_trees.saturating_add(self.n_trees_at_rock) > MAX_TREES {
+            return bad(format!(
+                "n_trees + n_trees_at_rock = {} + {} exceeds {MAX_TREES}",
+                self.n_trees, self.n_trees_at_rock
+            ));
         }
         if self.n_markers > MAX_MARKERS {
             return bad(format!(
@@ -340,7 +347,8 @@ fn layout(params: &SiteParams, rock: &Rock) -> Result<Layout> {
     let marker_xy: Vec<(f64, f64)> = spots.iter().map(|s| (s.0, s.1)).collect();
     let trees = place_trees(
         &mut part_rng(seed, part::TREES, 0),
-        params.n_trees,
+        &mut part_rng(seed, part::TREES_AT_ROCK, 0),
+        (params.n_trees, params.n_trees_at_rock),
         half,
         rock,
         &marker_xy,

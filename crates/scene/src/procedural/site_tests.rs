@@ -224,6 +224,30 @@ fn trees_and_markers_stand_clear_and_markers_face_up() {
 }
 
 #[test]
+fn trees_at_the_rock_fringe_its_outline() {
+    let s = generate_site(&SiteParams {
+        seed: 5,
+        target_faces: 30_000,
+        n_trees: 4,
+        n_trees_at_rock: 4,
+        ..SiteParams::default()
+    })
+    .unwrap();
+    assert_eq!(s.trees.len(), 8);
+    let (at_rock, open) = s.trees.split_at(4);
+    for t in at_rock {
+        let [x, y] = t.position;
+        // The trunk stands outside the outline, at most 2 m from it.
+        assert!(s.rock.ellipse_r(x, y, 0.0) > 1.0, "{t:?}");
+        assert!(s.rock.ellipse_r(x, y, 2.0) <= 1.0 + 1e-9, "{t:?}");
+    }
+    for t in open {
+        let [x, y] = t.position;
+        assert!(s.rock.ellipse_r(x, y, t.reach() + 2.0) > 1.0, "{t:?}");
+    }
+}
+
+#[test]
 fn flight_volume_is_above_the_ground_and_covers_the_site() {
     let s = site(2, 10_000);
     let v = s.flight_volume;

@@ -71,43 +71,69 @@ impl TreeInfo {
     }
 }
 
-/// Places `n` trees in the square |x|, |y| <= `half` with their canopies
-/// inside it, at least 2 m (plus canopy reach) from the rock's nominal
-/// outline, 1 m from every marker's canopy-free circle and not overlapping
-/// each other by much (trunk distance >= 0.8 x the sum of reaches).
+/// Places `n_at_rock` trees fringing the rock, then `n` trees in the open,
+/// all inside the square |x|, |y| <= `half` with their canopies inside it,
+/// 1 m from every marker's canopy-free circle and not overlapping each other
+/// by much (trunk distance >= 0.8 x the sum of reaches).
+///
+/// Trees in the open stand at least 2 m (plus canopy reach) from the rock's
+/// nominal outline. Trees at the rock stand 0.5 to 2 m outside it, so their
+/// canopies overhang its edge and the ground around it, as around the
+/// paper's rock: what is under them a nadir flight cannot see. They draw
+/// from `rng_at_rock`, so sites without them keep their bytes.
 pub(crate) fn place_trees(
     rng: &mut ChaCha8Rng,
-    n: usize,
+    rng_at_rock: &mut ChaCha8Rng,
+    (n, n_at_rock): (usize, usize),
     half: f64,
     rock: &Rock,
     markers: &[(f64, f64)],
 ) -> Result<Vec<TreeInfo>> {
-    let mut trees: Vec<TreeInfo> = Vec::with_capacity(n);
-    let max_attempts = 500 * n + 1000;
-    let mut attempts = 0;
-    while trees.len() < n {
-        attempts += 1;
-        if attempts > max_attempts {
-            return Err(SceneError::InvalidArgument(format!(
-                "could place only {} of {n} trees: the site is too crowded",
-                trees.len()
-            )));
-        }
-        let (x, y) = (rng.random_range(-half..half), rng.random_range(-half..half));
-        let t = TreeInfo::random(rng, x, y);
+    let mut trees: Vec<TreeInfo> = Vec::with_capacity(n_at_rock + n);
+    let fits = |t: &TreeInfo, trees: &[TreeInfo]| {
+        let [x, y] = t.position;
         let reach = t.reach();
         let inside = x.abs() + reach + 0.5 <= half && y.abs() + reach + 0.5 <= half;
-        let clear_of_rock = rock.ellipse_r(x, y, reach + 2.0) > 1.0;
         let clear_of_markers = markers
             .iter()
             .all(|&(mx, my)| (mx - x).hypot(my - y) > reach + 1.0);
         let clear_of_trees = trees
             .iter()
             .all(|o| (o.position[0] - x).hypot(o.position[1] - y) > 0.8 * (reach + o.reach()));
-        if inside && clear_of_rock && clear_of_markers && clear_of_trees {
-            trees.push(t);
+        inside && clear_of_markers && clear_of_trees
+    };
+    let mut place = |rng: &mut ChaCha8Rng,
+                     count: usize,
+                     what: &str,
+                     candidate: &dyn Fn(&mut ChaCha8Rng) -> Option<TreeInfo>|
+     -> Result<()> {
+        let goal = trees.len() + count;
+        let max_attempts = 500 * count + 1000;
+        let mut attempts = 0;
+        while trees.len() < goal {
+            attempts += 1;
+            if attempts > max_attempts {
+                return Err(SceneError::InvalidArgument(format!(
+                    "could place only {} of {count} {what}: the site is too crowded",
+                    count + trees.len() - goal
+                )));
+            }
+            if let Some(t) = candidate(rng).filter(|t| fits(t, &trees)) {
+                trees.push(t);
+            }
         }
-    }
+        Ok(())
+    };
+    place(rng_at_rock, n_at_rock, "trees at the rock", &|rng| {
+        let angle = rng.random_range(0.0..std::f64::consts::TAU);
+        let (x, y) = rock.ring_point(angle, rng.random_range(0.5..2.0));
+        Some(TreeInfo::random(rng, x, y))
+    })?;
+    place(rng, n, "trees", &|rng| {
+        let (x, y) = (rng.random_range(-half..half), rng.random_range(-half..half));
+        let t = TreeInfo::random(rng, x, y);
+        (rock.ellipse_r(x, y, t.reach() + 2.0) > 1.0).then_some(t)
+    })?;
     Ok(trees)
 }
 
