@@ -348,11 +348,21 @@ impl CampaignConfig {
         c
     }
 
-    /// Parses a TOML text; `path` names the file in errors.
+    /// Parses a TOML text; `path` names the file in errors. Every missing
+    /// key, at any depth, takes the demo's value: a `[planner]` section that
+    /// names only `gsd_m` keeps the demo's camera, not the planner crate's.
     pub fn from_toml(text: &str, path: &Path) -> Result<Self> {
-        let cfg: CampaignConfig = toml::from_str(text).map_err(|e| {
+        let in_file = |e: toml::de::Error| {
             SimError::InvalidArgument(format!("{}: {}", path.display(), e.to_string().trim()))
-        })?;
+        };
+        // Parsed on its own first: syntax, type and unknown-key errors keep
+        // their line and column.
+        toml::from_str::<CampaignConfig>(text).map_err(in_file)?;
+        let given: toml::Table = toml::from_str(text).map_err(in_file)?;
+        let mut merged = toml::Table::try_from(Self::demo())
+            .map_err(|e| SimError::InvalidArgument(format!("demo configuration to TOML: {e}")))?;
+        overlay(&mut merged, given);
+        let cfg: CampaignConfig = merged.try_into().map_err(in_file)?;
         cfg.validate()
             .map_err(|e| SimError::InvalidArgument(format!("{}: {e}", path.display())))?;
         Ok(cfg)
@@ -470,6 +480,19 @@ impl CampaignConfig {
     }
 }
 
+/// Writes every key of `given` over `base`, descending into tables present
+/// in both (arrays and values are replaced whole).
+fn overlay(base: &mut toml::Table, given: toml::Table) {
+    for (key, value) in given {
+        match (base.get_mut(&key), value) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(g)) => overlay(b, g),
+            (_, value) => {
+                base.insert(key, value);
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -507,5 +530,24 @@ mod tests {
         let e = CampaignConfig::from_toml("strategies = [\"G5x4\"]\n", Path::new("s.toml"))
             .unwrap_err();
         assert!(e.to_string().contains("G5x4"), "{e}");
+    }
+
+    #[test]
+    fn a_partial_section_keeps_the_demo_values_of_its_other_keys() {
+        let c = CampaignConfig::from_toml(
+            "[planner]\ngsd_m = 0.08\n[site]\nn_trees_at_rock = 3\n",
+            Path::new("p.toml"),
+        )
+        .unwrap();
+        let demo = CampaignConfig::demo();
+        assert!((c.planner.gsd_m - 0.08).abs() < 1e-12);
+        assert_eq!(c.planner.camera, demo.planner.camera);
+        assert_eq!(c.planner.n_triangles, demo.planner.n_triangles);
+        assert_eq!(c.site.n_trees_at_rock, 3);
+        assert_eq!(c.site.target_faces, demo.site.target_faces);
+        // A wrong type still names the line.
+        let e = CampaignConfig::from_toml("[planner]\ngsd_m = \"x\"\n", Path::new("t.toml"))
+            .unwrap_err();
+        assert!(e.to_string().contains("line 2"), "{e}");
     }
 }
