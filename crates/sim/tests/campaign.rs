@@ -71,7 +71,7 @@ fn paper_findings_hold_on_held_out_sites() {
 }
 
 #[test]
-#[ignore = "not yet met: the simulated ROI has too few surfaces a nadir grid cannot see (see the report)"]
+#[ignore = "not yet met: see docs/campaign-findings.md"]
 fn not_yet_met_f5x4_covers_more_than_grid() {
     let cfg = findings_config();
     let r = run_campaign(&cfg, &mut quiet).unwrap();

@@ -14,12 +14,10 @@
 //!
 //! Everything is seeded: the same configuration gives the same table.
 //!
-//! Known gap: the paper's coverage finding (F5x4 above Grid) does not hold
-//! here. On the procedural sites a nadir grid sees almost every ROI face
-//! (trees stand at least 2 m clear of the rock), so Grid covers about 94 %;
-//! with 24 trees and a 6 m ROI margin Grid drops to about 65 % but F5x4's
-//! triplets do not reach under the canopies either (G+F5x4 adds 2 points).
-//! The test `not_yet_met_f5x4_covers_more_than_grid` records it.
+//! Known gap: the paper's coverage finding (F5x4 above Grid with fewer
+//! images) does not hold here; `docs/campaign-findings.md` explains why and
+//! keeps the experiments made so far. The test
+//! `not_yet_met_f5x4_covers_more_than_grid` records it.
 
 pub mod config;
 pub mod curves;
