@@ -151,73 +151,73 @@ fn view(x: f64, z: f64) -> PlannedView {
     }
 }
 
-#[test]
-fn blocked_segment_climbs_over_the_wall() {
-    let (mesh, cfg) = wall_scene();
-    let caster = RayCaster::new(&mesh);
-    let safety = safety_for(&mesh, &cfg);
+/// Runs `f` with the path builder of `mesh` and `cfg` (bridging views when
+/// an image overlaps no earlier one by `min_overlap`); `f` also gets the
+/// plan to fill, with the altitude limits set, for [`assert_safe`].
+fn with_path<R>(
+    mesh: &vp_scene::Mesh,
+    cfg: &PlannerConfig,
+    min_overlap: f64,
+    f: impl FnOnce(&PathContext, Plan) -> R,
+) -> R {
+    let caster = RayCaster::new(mesh);
+    let safety = safety_for(mesh, cfg);
     let ctx = PathContext {
-        mesh: &mesh,
+        mesh,
         caster: &caster,
         safety: &safety,
         intrinsics: cfg.camera.intrinsics(),
-        min_overlap: 0.5,
+        min_overlap,
     };
-    let out = ctx
-        .make_safe(&[view(-20.0, 10.0), view(20.0, 10.0)])
-        .unwrap();
-    assert_eq!(out.len(), 4, "climb and descend waypoints inserted");
-    assert!(out[1].position[2] >= 25.0 && out[1].role == Role::Bridge);
     let mut plan = Plan::new(None);
-    plan.waypoints = out;
     plan.altitude_limits = Some(safety.altitude);
-    assert_safe(&plan, &mesh, &cfg);
+    f(&ctx, plan)
+}
+
+/// The wall scene under a 22 m ceiling: the wall (20 m + the safety
+/// distance) cannot be climbed over.
+fn wall_under_low_ceiling() -> (vp_scene::Mesh, PlannerConfig) {
+    let (mesh, mut cfg) = wall_scene();
+    cfg.altitude_limits = Some(AltitudeLimits {
+        min_m: 0.0,
+        max_m: 22.0,
+    });
+    (mesh, cfg)
+}
+
+#[test]
+fn blocked_segment_climbs_over_the_wall() {
+    let (mesh, cfg) = wall_scene();
+    with_path(&mesh, &cfg, 0.5, |ctx, mut plan| {
+        let out = ctx
+            .make_safe(&[view(-20.0, 10.0), view(20.0, 10.0)])
+            .unwrap();
+        assert_eq!(out.len(), 4, "climb and descend waypoints inserted");
+        assert!(out[1].position[2] >= 25.0 && out[1].role == Role::Bridge);
+        plan.waypoints = out;
+        assert_safe(&plan, &mesh, &cfg);
+    });
 }
 
 #[test]
 fn blocked_segment_under_a_low_ceiling_refuses_the_plan_naming_it() {
-    let (mesh, mut cfg) = wall_scene();
-    cfg.altitude_limits = Some(AltitudeLimits {
-        min_m: 0.0,
-        max_m: 22.0,
+    let (mesh, cfg) = wall_under_low_ceiling();
+    with_path(&mesh, &cfg, 0.5, |ctx, _| {
+        let e = ctx
+            .make_safe(&[view(-30.0, 10.0), view(-20.0, 10.0), view(20.0, 10.0)])
+            .unwrap_err();
+        let msg = e.to_string();
+        assert!(matches!(e, PlannerError::Refused(_)), "{msg}");
+        assert!(
+            msg.contains("segment 1 -> 2") && msg.contains("altitude limit 22 m"),
+            "{msg}"
+        );
     });
-    let caster = RayCaster::new(&mesh);
-    let safety = safety_for(&mesh, &cfg);
-    let ctx = PathContext {
-        mesh: &mesh,
-        caster: &caster,
-        safety: &safety,
-        intrinsics: cfg.camera.intrinsics(),
-        min_overlap: 0.5,
-    };
-    let e = ctx
-        .make_safe(&[view(-30.0, 10.0), view(-20.0, 10.0), view(20.0, 10.0)])
-        .unwrap_err();
-    let msg = e.to_string();
-    assert!(matches!(e, PlannerError::Refused(_)), "{msg}");
-    assert!(
-        msg.contains("segment 1 -> 2") && msg.contains("altitude limit 22 m"),
-        "{msg}"
-    );
 }
 
 #[test]
 fn a_triplet_behind_an_unclimbable_wall_is_dropped_not_the_plan() {
-    let (mesh, mut cfg) = wall_scene();
-    cfg.altitude_limits = Some(AltitudeLimits {
-        min_m: 0.0,
-        max_m: 22.0,
-    });
-    let caster = RayCaster::new(&mesh);
-    let safety = safety_for(&mesh, &cfg);
-    let ctx = PathContext {
-        mesh: &mesh,
-        caster: &caster,
-        safety: &safety,
-        intrinsics: cfg.camera.intrinsics(),
-        // No bridging views: this test is about routing.
-        min_overlap: 0.0,
-    };
+    let (mesh, cfg) = wall_under_low_ceiling();
     let in_triplet = |x: f64, t: u32| PlannedView {
         triplet_id: Some(t),
         ..view(x, 10.0)
@@ -231,12 +231,13 @@ fn a_triplet_behind_an_unclimbable_wall_is_dropped_not_the_plan() {
         in_triplet(25.0, 1),
         in_triplet(30.0, 1),
     ];
-    let path = ctx.build(&start, &[], views).unwrap();
-    assert_eq!(path.dropped_triplets, vec![1]);
-    let xs: Vec<f64> = path.waypoints.iter().map(|w| w.position[0]).collect();
-    assert_eq!(xs, vec![-30.0, -25.0, -20.0]);
-    let mut plan = Plan::new(None);
-    plan.waypoints = path.waypoints;
-    plan.altitude_limits = Some(safety.altitude);
-    assert_safe(&plan, &mesh, &cfg);
+    // No bridging views (overlap 0): this test is about routing.
+    with_path(&mesh, &cfg, 0.0, |ctx, mut plan| {
+        let path = ctx.build(&start, &[], views).unwrap();
+        assert_eq!(path.dropped_triplets, vec![1]);
+        let xs: Vec<f64> = path.waypoints.iter().map(|w| w.position[0]).collect();
+        assert_eq!(xs, vec![-30.0, -25.0, -20.0]);
+        plan.waypoints = path.waypoints;
+        assert_safe(&plan, &mesh, &cfg);
+    });
 }
