@@ -81,7 +81,7 @@ pub struct Path {
     /// Waypoints in flight order.
     pub waypoints: Vec<PlannedView>,
     /// Images that could not be bridged to o_min overlap (index into the
-    /// waypoints before safe routing inserted detours).
+    /// ordered views before safe routing inserted detours or dropped triplets).
     pub unbridged: Vec<usize>,
     /// Triplets left out because one of their images is unsafe or no safe
     /// route reaches it.
