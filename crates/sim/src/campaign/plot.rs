@@ -1,9 +1,10 @@
-//! PNG plots of the report, drawn with the `image` crate (no text: the
-//! captions and legends live in `table.md`, which keeps the build free of
-//! font dependencies).
+//! PNG plots of the report, drawn with the `image` crate; titles, axis
+//! labels and legends in the 8 x 8 bitmap font of `font8x8` (no font files,
+//! no rasteriser).
 
 use std::path::Path;
 
+use font8x8::{UnicodeFonts, BASIC_FONTS};
 use image::Rgb;
 use vp_planner::output::{render_top_view, TopView};
 use vp_scene::plan::Plan;
@@ -36,7 +37,38 @@ fn line(img: &mut RgbImage, a: (f64, f64), b: (f64, f64), c: Rgb<u8>) {
     }
 }
 
-/// One material's learned (blue) and true (red) confidence over the angle.
+/// Side of a glyph of the bitmap font, pixels.
+const GLYPH: i64 = 8;
+const BLACK: Rgb<u8> = Rgb([0, 0, 0]);
+const TRUTH: Rgb<u8> = Rgb([220, 40, 40]);
+const LEARNED: Rgb<u8> = Rgb([40, 70, 220]);
+
+/// Writes `s` with its top-left corner at (x, y); characters outside basic
+/// Latin are drawn as `?`.
+fn text(img: &mut RgbImage, x: i64, y: i64, s: &str, c: Rgb<u8>) {
+    for (k, ch) in s.chars().enumerate() {
+        let glyph = BASIC_FONTS
+            .get(ch)
+            .or_else(|| BASIC_FONTS.get('?'))
+            .unwrap_or([0; 8]);
+        let left = x + GLYPH * k as i64;
+        for (row, bits) in (0..).zip(glyph) {
+            for col in 0..GLYPH {
+                if bits >> col & 1 == 1 {
+                    put(img, left + col, y + row, c);
+                }
+            }
+        }
+    }
+}
+
+/// Width of `s` in pixels.
+fn text_width(s: &str) -> i64 {
+    GLYPH * s.chars().count() as i64
+}
+
+/// One material's learned (blue) and true (red) confidence over the angle,
+/// with its title, axis labels and legend.
 pub fn curve_plot(c: &ConfidenceCurve) -> RgbImage {
     let mut img = RgbImage::from_pixel(W, H, Rgb([255, 255, 255]));
     let (x0, y0) = (f64::from(MARGIN), f64::from(H - MARGIN));
@@ -45,23 +77,53 @@ pub fn curve_plot(c: &ConfidenceCurve) -> RgbImage {
     for k in 0..=9 {
         let x = x0 + (x1 - x0) * f64::from(k) * 5.0 / X_MAX;
         line(&mut img, (x, y0), (x, y0 + 5.0), grey);
+        if k % 3 == 0 {
+            let label = format!("{}", 5 * k);
+            text(
+                &mut img,
+                x as i64 - text_width(&label) / 2,
+                y0 as i64 + 8,
+                &label,
+                BLACK,
+            );
+        }
     }
     for k in 0..=4 {
         let y = y0 + (y1 - y0) * f64::from(k) / 4.0;
         line(&mut img, (x0, y), (x1, y), grey);
     }
-    line(&mut img, (x0, y0), (x1, y0), Rgb([0, 0, 0]));
-    line(&mut img, (x0, y0), (x0, y1), Rgb([0, 0, 0]));
+    for (v, label) in [(0.0, "0"), (0.5, ".5"), (1.0, "1")] {
+        let y = y0 + (y1 - y0) * v;
+        text(
+            &mut img,
+            x0 as i64 - text_width(label) - 4,
+            y as i64 - 4,
+            label,
+            BLACK,
+        );
+    }
+    line(&mut img, (x0, y0), (x1, y0), BLACK);
+    line(&mut img, (x0, y0), (x0, y1), BLACK);
+    let title = format!("{}: MVS success vs angle", c.material);
+    text(&mut img, x0 as i64, 8, &title, BLACK);
+    let legend_x = x1 as i64 - text_width("learned");
+    text(&mut img, legend_x, y1 as i64 + 6, "learned", LEARNED);
+    text(&mut img, legend_x, y1 as i64 + 18, "truth", TRUTH);
+    let axis = "angle (deg)";
+    text(
+        &mut img,
+        x1 as i64 - text_width(axis),
+        y0 as i64 + 18,
+        axis,
+        BLACK,
+    );
     let to = |a: f64, v: f64| {
         (
             x0 + (x1 - x0) * a / X_MAX,
             y0 + (y1 - y0) * v.clamp(0.0, 1.0),
         )
     };
-    for (vals, colour) in [
-        (&c.truth, Rgb([220, 40, 40])),
-        (&c.learned, Rgb([40, 70, 220])),
-    ] {
+    for (vals, colour) in [(&c.truth, TRUTH), (&c.learned, LEARNED)] {
         for i in 1..vals.len() {
             line(
                 &mut img,
@@ -83,6 +145,16 @@ pub fn write_curve_plots(curves: &[ConfidenceCurve], dir: &Path) -> Result<()> {
         )?;
     }
     Ok(())
+}
+
+/// A caption on a white band along the top of a top view.
+fn caption(img: &mut RgbImage, s: &str) {
+    for y in 0..GLYPH as u32 + 8 {
+        for x in 0..img.width() {
+            put(img, i64::from(x), i64::from(y), Rgb([255, 255, 255]));
+        }
+    }
+    text(img, 6, 4, s, BLACK);
 }
 
 /// `plan_<strategy>.png` (every iteration's views over the true mesh) and
@@ -111,10 +183,15 @@ pub fn write_site_plots(a: &SiteArtifacts, dir: &Path) -> Result<()> {
                 plan: &all,
                 size: 640,
             };
-            save_rgb(
-                &render_top_view(&view),
-                &dir.join(format!("plan_{file}.png")),
-            )?;
+            let mut img = render_top_view(&view);
+            caption(
+                &mut img,
+                &format!(
+                    "{}: flight path; orange triplet views, cyan bridges, magenta grid",
+                    s.name
+                ),
+            );
+            save_rgb(&img, &dir.join(format!("plan_{file}.png")))?;
         }
         let pts: Vec<_> = a
             .centroids
@@ -130,10 +207,37 @@ pub fn write_site_plots(a: &SiteArtifacts, dir: &Path) -> Result<()> {
             plan: &empty,
             size: 640,
         };
-        save_rgb(
-            &render_top_view(&view),
-            &dir.join(format!("fulfilment_{file}.png")),
-        )?;
+        let mut img = render_top_view(&view);
+        caption(
+            &mut img,
+            &format!("{}: fulfilment f per face, red 0 .. green 1", s.name),
+        );
+        save_rgb(&img, &dir.join(format!("fulfilment_{file}.png")))?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn text_draws_the_glyphs_bits_left_to_right() {
+        let mut img = RgbImage::from_pixel(20, 10, Rgb([255, 255, 255]));
+        text(&mut img, 1, 1, "1", BLACK);
+        let inked: Vec<(u32, u32)> = (0..10)
+            .flat_map(|y| (0..20).map(move |x| (x, y)))
+            .filter(|&(x, y)| img.get_pixel(x, y) == &BLACK)
+            .collect();
+        let glyph = BASIC_FONTS.get('1').unwrap();
+        let bits: u32 = glyph.iter().map(|b| b.count_ones()).sum();
+        assert_eq!(inked.len() as u32, bits);
+        // Every inked pixel is inside the glyph cell at (1, 1).
+        assert!(inked
+            .iter()
+            .all(|&(x, y)| (1..9).contains(&x) && (1..9).contains(&y)));
+        // Off-image text is clipped, not a panic.
+        text(&mut img, 15, 8, "WWW", BLACK);
+        text(&mut img, -30, -30, "x", BLACK);
+    }
 }
