@@ -147,6 +147,13 @@ impl PyPlanResult {
         self.0.cut_short_reason.clone()
     }
 
+    /// Triplets planned but left out of the path: one of their images is
+    /// unsafe or no safe route reaches it.
+    #[getter]
+    fn dropped_triplets(&self) -> Vec<u32> {
+        self.0.dropped_triplets.clone()
+    }
+
     /// The sampled triangles: dict of centroid (N, 3), normal (N, 3), f (N,),
     /// selected (N,) bool, parent (N,) int64 (face of the input mesh).
     #[getter]

@@ -63,7 +63,9 @@ def test_plan_result_numbers(planning, site):
     r = vpctl.planner.plan(site.mesh, cams, config=cfg, roi=roi)
     plan = r.plan
     members = [w for w in plan.waypoints if w["role"] == "triplet_member"]
-    assert len(members) == 3 * len(r.triplet_gains) and len(r.triplet_gains) <= 2
+    flown = len(r.triplet_gains) - len(r.dropped_triplets)
+    assert len(members) == 3 * flown and len(r.triplet_gains) <= 2
+    assert all(0 <= t < len(r.triplet_gains) for t in r.dropped_triplets)
     assert all(g > 0 for g in r.triplet_gains)
     pos = plan.positions
     assert pos.shape == (len(plan), 3) and plan.angles.shape == (len(plan), 2)
