@@ -80,8 +80,7 @@ pub struct PathContext<'a> {
 pub struct Path {
     /// Waypoints in flight order.
     pub waypoints: Vec<PlannedView>,
-    /// Images that could not be bridged to o_min overlap (index into the
-    /// ordered views before safe routing inserted detours or dropped triplets).
+    /// Images that could not be bridged to o_min overlap (index into `waypoints`).
     pub unbridged: Vec<usize>,
     /// Triplets left out because one of their images is unsafe or no safe
     /// route reaches it.
@@ -159,6 +158,9 @@ impl PathContext<'_> {
         let mut remaining = views;
         let mut earlier: Vec<Camera> = captured.to_vec();
         let mut out = Path::default();
+        // Per ordered view: could it not be bridged to o_min overlap?
+        let mut unbridged: Vec<bool> = Vec::new();
+        let mut unbridged_next = false;
         let mut here = start.center();
         while !remaining.is_empty() {
             let next = remaining
@@ -188,36 +190,49 @@ impl PathContext<'_> {
                         for b in bridges {
                             out.waypoints
                                 .push(PlannedView::from_camera(&b, Role::Bridge));
+                            unbridged.push(false);
                             earlier.push(b);
                         }
                     }
-                    None => out.unbridged.push(out.waypoints.len()),
+                    None => unbridged_next = true,
                 }
             }
             here = cam.center();
             earlier.push(cam);
             out.waypoints.push(view);
+            unbridged.push(std::mem::take(&mut unbridged_next));
         }
         let mut views = std::mem::take(&mut out.waypoints);
-        out.waypoints = loop {
+        let (safe, at) = loop {
             match self.route(&views) {
-                Ok(safe) => break safe,
+                Ok(routed) => break routed,
                 Err(blocked) => {
                     // Leave out what the blocked segment leads to: its whole
                     // triplet (two images of it are of no use), or the one
                     // bridging view. Terminates: every round removes a view.
-                    match views[blocked.to].triplet_id {
+                    let gone: Vec<bool> = match views[blocked.to].triplet_id {
                         Some(t) => {
-                            views.retain(|v| v.triplet_id != Some(t));
                             out.dropped_triplets.push(t);
+                            views.iter().map(|v| v.triplet_id == Some(t)).collect()
                         }
-                        None => {
-                            views.remove(blocked.to);
-                        }
-                    }
+                        None => (0..views.len()).map(|i| i == blocked.to).collect(),
+                    };
+                    (views, unbridged) = views
+                        .into_iter()
+                        .zip(unbridged)
+                        .zip(gone)
+                        .filter(|(_, g)| !g)
+                        .map(|(kept, _)| kept)
+                        .unzip();
                 }
             }
         };
+        out.waypoints = safe;
+        out.unbridged = unbridged
+            .iter()
+            .zip(at)
+            .filter_map(|(&u, i)| u.then_some(i))
+            .collect();
         Ok(out)
     }
 
@@ -225,14 +240,20 @@ impl PathContext<'_> {
     /// altitude limit; refuses the waypoints when that fails.
     pub fn make_safe(&self, waypoints: &[PlannedView]) -> Result<Vec<PlannedView>> {
         self.route(waypoints)
+            .map(|(safe, _)| safe)
             .map_err(|b| PlannerError::Refused(b.message))
     }
 
     /// The waypoints with a detour inserted before every blocked segment,
-    /// or the first unsafe waypoint or segment without one.
-    fn route(&self, waypoints: &[PlannedView]) -> std::result::Result<Vec<PlannedView>, Blocked> {
+    /// and where each input waypoint now stands; or the first unsafe
+    /// waypoint or segment without a detour.
+    fn route(
+        &self,
+        waypoints: &[PlannedView],
+    ) -> std::result::Result<(Vec<PlannedView>, Vec<usize>), Blocked> {
         let s = self.safety;
         let mut out: Vec<PlannedView> = Vec::with_capacity(waypoints.len());
+        let mut at = Vec::with_capacity(waypoints.len());
         for (i, w) in waypoints.iter().enumerate() {
             let p = Point3::from(w.position);
             if !s.point_ok(&p) {
@@ -276,9 +297,10 @@ impl PathContext<'_> {
                     }
                 }
             }
+            at.push(out.len());
             out.push(w.clone());
         }
-        Ok(out)
+        Ok((out, at))
     }
 
     fn climb(&self, a: &Point3<f64>, b: &Point3<f64>) -> Option<[Point3<f64>; 2]> {

@@ -241,3 +241,23 @@ fn a_triplet_behind_an_unclimbable_wall_is_dropped_not_the_plan() {
         assert_safe(&plan, &mesh, &cfg);
     });
 }
+
+#[test]
+fn unbridged_images_are_named_by_their_place_in_the_routed_path() {
+    let (mesh, cfg) = wall_scene();
+    let start = view(-35.0, 10.0).to_camera(cfg.camera.intrinsics());
+    let views: Vec<PlannedView> = [-30.0, -25.0, 25.0, 30.0]
+        .into_iter()
+        .map(|x| view(x, 10.0))
+        .collect();
+    // No overlap can reach 101 %: every image after the first is unbridged.
+    with_path(&mesh, &cfg, 1.01, |ctx, _| {
+        let path = ctx.build(&start, &[], views).unwrap();
+        // The wall is climbed between -25 and 25: two detour waypoints there.
+        assert_eq!(path.waypoints.len(), 6);
+        assert_eq!(path.unbridged, vec![1, 4, 5]);
+        for &i in &path.unbridged {
+            assert_eq!(path.waypoints[i].role, Role::TripletMember);
+        }
+    });
+}
