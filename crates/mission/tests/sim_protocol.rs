@@ -16,6 +16,21 @@ const TARGET: Target = Target {
     component: 1,
 };
 
+/// Uploads `m` with the default protocol settings and reads it back.
+fn upload_verified(
+    link: &mut SimLink,
+    m: &Mission,
+) -> Result<vp_mission::TransferReport, MissionError> {
+    upload_over(
+        link,
+        TARGET,
+        m,
+        &ProtocolConfig::default(),
+        true,
+        &mut |_| {},
+    )
+}
+
 fn mission(n_views: usize, autopilot: Autopilot, seed: u64) -> Mission {
     let mut p = Plan::new(Some(GeodeticOrigin {
         lat_deg: 46.05,
@@ -124,15 +139,7 @@ fn same_seed_same_run() {
     let run = || {
         let m = mission(10, Autopilot::Px4, 3);
         let mut link = SimLink::new(vehicle(Autopilot::Px4), imp, 7);
-        let r = upload_over(
-            &mut link,
-            TARGET,
-            &m,
-            &ProtocolConfig::default(),
-            true,
-            &mut |_| {},
-        )
-        .unwrap();
+        let r = upload_verified(&mut link, &m).unwrap();
         (r, link.counts, link.now())
     };
     assert_eq!(run(), run());
@@ -142,15 +149,7 @@ fn same_seed_same_run() {
 fn ardupilot_home_at_seq_0_is_rewritten_and_verify_passes() {
     let m = mission(5, Autopilot::ArduPilot, 0);
     let mut link = SimLink::new(vehicle(Autopilot::ArduPilot), Impairment::default(), 1);
-    let r = upload_over(
-        &mut link,
-        TARGET,
-        &m,
-        &ProtocolConfig::default(),
-        true,
-        &mut |_| {},
-    )
-    .unwrap();
+    let r = upload_verified(&mut link, &m).unwrap();
     assert!(r.verified);
     let stored = link.vehicle.mission();
     assert_ne!(
@@ -169,15 +168,7 @@ fn rejection_is_reported_by_name() {
         ..VehicleConfig::default()
     });
     let mut link = SimLink::new(v, Impairment::default(), 1);
-    let e = upload_over(
-        &mut link,
-        TARGET,
-        &m,
-        &ProtocolConfig::default(),
-        true,
-        &mut |_| {},
-    )
-    .unwrap_err();
+    let e = upload_verified(&mut link, &m).unwrap_err();
     assert!(matches!(e, MissionError::Rejected { .. }));
     assert!(e.to_string().contains("MAV_MISSION_NO_SPACE"), "{e}");
     // Permanent: not retried, answered at once.
@@ -189,15 +180,7 @@ fn rejection_is_reported_by_name() {
         ..VehicleConfig::default()
     });
     let mut link = SimLink::new(v, Impairment::default(), 1);
-    let e = upload_over(
-        &mut link,
-        TARGET,
-        &m,
-        &ProtocolConfig::default(),
-        true,
-        &mut |_| {},
-    )
-    .unwrap_err();
+    let e = upload_verified(&mut link, &m).unwrap_err();
     assert!(e.to_string().contains("MAV_MISSION_DENIED"), "{e}");
 }
 
@@ -230,15 +213,7 @@ fn legacy_mission_request_is_answered_with_item_int() {
         ..VehicleConfig::default()
     });
     let mut link = SimLink::new(v, Impairment::default(), 1);
-    let r = upload_over(
-        &mut link,
-        TARGET,
-        &m,
-        &ProtocolConfig::default(),
-        true,
-        &mut |_| {},
-    )
-    .unwrap();
+    let r = upload_verified(&mut link, &m).unwrap();
     assert!(r.verified);
     assert_eq!(link.vehicle.mission(), &m.items[..]);
 }
