@@ -148,16 +148,11 @@ impl PathContext<'_> {
 
     /// Orders `views` greedily from `start`, inserts bridging views, then
     /// makes every segment safe.
-    pub fn build(
-        &self,
-        start: &Camera,
-        captured: &[Camera],
-        views: Vec<PlannedView>,
-    ) -> Result<Path> {
+    pub fn build(&self, start: &Camera, captured: &[Camera], views: Vec<PlannedView>) -> Path {
         let k = self.intrinsics;
         let mut remaining = views;
         let mut earlier: Vec<Camera> = captured.to_vec();
-        let mut out = Path::default();
+        let mut ordered: Vec<PlannedView> = Vec::new();
         // Per ordered view: could it not be bridged to o_min overlap?
         let mut unbridged: Vec<bool> = Vec::new();
         let mut unbridged_next = false;
@@ -188,8 +183,7 @@ impl PathContext<'_> {
                 match self.bridge(&closest, &cam) {
                     Some(bridges) => {
                         for b in bridges {
-                            out.waypoints
-                                .push(PlannedView::from_camera(&b, Role::Bridge));
+                            ordered.push(PlannedView::from_camera(&b, Role::Bridge));
                             unbridged.push(false);
                             earlier.push(b);
                         }
@@ -199,20 +193,42 @@ impl PathContext<'_> {
             }
             here = cam.center();
             earlier.push(cam);
-            out.waypoints.push(view);
+            ordered.push(view);
             unbridged.push(std::mem::take(&mut unbridged_next));
         }
-        let mut views = std::mem::take(&mut out.waypoints);
-        let (safe, at) = loop {
+        let (waypoints, unbridged, dropped_triplets) = self.route_dropping(ordered, unbridged);
+        Path {
+            waypoints,
+            unbridged,
+            dropped_triplets,
+        }
+    }
+
+    /// Routes `views` safely, leaving out what a blocked segment leads to:
+    /// its whole triplet (two images of it are of no use), or the one
+    /// bridging view. Returns the routed waypoints, the routed indices of the
+    /// views flagged in `unbridged`, and the dropped triplets. Terminates:
+    /// every round removes a view.
+    fn route_dropping(
+        &self,
+        mut views: Vec<PlannedView>,
+        mut unbridged: Vec<bool>,
+    ) -> (Vec<PlannedView>, Vec<usize>, Vec<u32>) {
+        let mut dropped = Vec::new();
+        loop {
             match self.route(&views) {
-                Ok(routed) => break routed,
+                Ok((safe, at)) => {
+                    let unbridged_at = unbridged
+                        .iter()
+                        .zip(at)
+                        .filter_map(|(&u, i)| u.then_some(i))
+                        .collect();
+                    return (safe, unbridged_at, dropped);
+                }
                 Err(blocked) => {
-                    // Leave out what the blocked segment leads to: its whole
-                    // triplet (two images of it are of no use), or the one
-                    // bridging view. Terminates: every round removes a view.
                     let gone: Vec<bool> = match views[blocked.to].triplet_id {
                         Some(t) => {
-                            out.dropped_triplets.push(t);
+                            dropped.push(t);
                             views.iter().map(|v| v.triplet_id == Some(t)).collect()
                         }
                         None => (0..views.len()).map(|i| i == blocked.to).collect(),
@@ -226,14 +242,7 @@ impl PathContext<'_> {
                         .unzip();
                 }
             }
-        };
-        out.waypoints = safe;
-        out.unbridged = unbridged
-            .iter()
-            .zip(at)
-            .filter_map(|(&u, i)| u.then_some(i))
-            .collect();
-        Ok(out)
+        }
     }
 
     /// Re-routes every blocked segment by climb-traverse-descend within the

@@ -423,7 +423,7 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
         min_overlap: cfg.min_overlap,
     };
     let captured: Vec<Camera> = inputs.acquired.iter().map(|a| a.camera).collect();
-    let path = ctx.build(&last.camera, &captured, views)?;
+    let path = ctx.build(&last.camera, &captured, views);
     let m4 = secs(tm.elapsed());
     times.insert("m4".into(), m4);
     if let Some(s) = iterations.last_mut() {

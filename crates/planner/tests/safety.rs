@@ -233,7 +233,7 @@ fn a_triplet_behind_an_unclimbable_wall_is_dropped_not_the_plan() {
     ];
     // No bridging views (overlap 0): this test is about routing.
     with_path(&mesh, &cfg, 0.0, |ctx, mut plan| {
-        let path = ctx.build(&start, &[], views).unwrap();
+        let path = ctx.build(&start, &[], views);
         assert_eq!(path.dropped_triplets, vec![1]);
         let xs: Vec<f64> = path.waypoints.iter().map(|w| w.position[0]).collect();
         assert_eq!(xs, vec![-30.0, -25.0, -20.0]);
@@ -252,7 +252,7 @@ fn unbridged_images_are_named_by_their_place_in_the_routed_path() {
         .collect();
     // No overlap can reach 101 %: every image after the first is unbridged.
     with_path(&mesh, &cfg, 1.01, |ctx, _| {
-        let path = ctx.build(&start, &[], views).unwrap();
+        let path = ctx.build(&start, &[], views);
         // The wall is climbed between -25 and 25: two detour waypoints there.
         assert_eq!(path.waypoints.len(), 6);
         assert_eq!(path.unbridged, vec![1, 4, 5]);
