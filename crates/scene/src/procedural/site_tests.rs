@@ -387,9 +387,12 @@ proptest::proptest! {
         target in 5_000usize..60_000,
         n_trees in 0usize..12,
         n_markers in 0usize..16,
-        tufts in proptest::option::of(0usize..300),
+        grass_share in proptest::option::of(0.0f64..0.2),
         yaw in -180.0f64..180.0,
     ) {
+        // Explicit tuft counts up to 20 % of the budget in blades: more
+        // is refused by design (the terrain must keep its share).
+        let tufts = grass_share.map(|g| (g * target as f64 / 7.0) as usize);
         let p = SiteParams {
             seed,
             target_faces: target,
