@@ -78,8 +78,12 @@ impl Clearance {
 
     /// Smallest distance between the surface and any point of the segment `a`-`b`.
     ///
+    /// Within parry's f32 GJK tolerances: up to about a millimetre more than
+    /// the truth, and near contact up to [`CONTACT_TOLERANCE_M`] less (seen:
+    /// 0 read at a 7 mm gap on a 35 m terrain).
+    ///
     /// # Performance
-    /// Exact but slow (thousands of queries/s); use
+    /// Slow (thousands of queries/s); use
     /// [`Clearance::segment_is_clear`] to check a safety distance.
     pub fn segment_distance(&self, a: &Point3<f64>, b: &Point3<f64>) -> f64 {
         let Some(tm) = &self.trimesh else {
@@ -99,6 +103,10 @@ impl Clearance {
     /// Whether every point of the segment `a`-`b` is at least `radius` from
     /// the surface: the capsule of that radius around the segment does not
     /// touch the mesh.
+    ///
+    /// Conservative: may see contact up to [`CONTACT_TOLERANCE_M`] early
+    /// (seen: 5 mm), never late (checked against an exact reference on
+    /// 18 000 segments).
     pub fn segment_is_clear(&self, a: &Point3<f64>, b: &Point3<f64>, radius: f64) -> bool {
         let Some(tm) = &self.trimesh else {
             return true;
@@ -110,6 +118,10 @@ impl Clearance {
         }
     }
 }
+
+/// How much closer than the truth the segment queries may report a
+/// surface near contact, metres.
+pub const CONTACT_TOLERANCE_M: f64 = 0.01;
 
 fn to_local(p: &Point3<f64>, offset: &Vector3<f64>) -> Vector {
     let q = p.coords - offset;
