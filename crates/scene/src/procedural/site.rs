@@ -20,13 +20,13 @@ use crate::mesh::{Aabb, Material, Mesh};
 
 /// Share of the face budget given to the rock, the object of interest: it
 /// gets a much finer mesh than the terrain.
-const ROCK_SHARE: f64 = 0.25;
+pub(super) const ROCK_SHARE: f64 = 0.25;
 /// Share of the face budget given to tree leaves (if there are trees).
-const LEAF_SHARE: f64 = 0.22;
+pub(super) const LEAF_SHARE: f64 = 0.22;
 /// Share of the face budget given to grass when the tuft count is automatic.
-const GRASS_SHARE: f64 = 0.12;
+pub(super) const GRASS_SHARE: f64 = 0.12;
 /// The terrain takes what is left, but at least this share.
-const MIN_TERRAIN_SHARE: f64 = 0.1;
+pub(super) const MIN_TERRAIN_SHARE: f64 = 0.1;
 /// Smallest and largest supported face budgets.
 const TARGET_RANGE: (usize, usize) = (5_000, 20_000_000);
 /// Largest tree count accepted (placement is quadratic in it).

@@ -380,7 +380,8 @@ fn bad_params_are_refused_with_the_field_named() {
 proptest::proptest! {
     #![proptest_config(proptest::prelude::ProptestConfig::with_cases(16))]
 
-    /// Any seed and mix of counts gives a valid mesh within 10 % of the budget.
+    /// Any seed and mix of counts gives a valid mesh within 10 % of the
+    /// budget, or is refused because the counts cannot fit it (and only then).
     #[test]
     fn any_seed_and_counts_give_a_valid_site_on_budget(
         seed in proptest::prelude::any::<u64>(),
@@ -390,8 +391,7 @@ proptest::proptest! {
         grass_share in proptest::option::of(0.0f64..0.2),
         yaw in -180.0f64..180.0,
     ) {
-        // Explicit tuft counts up to 20 % of the budget in blades: more
-        // is refused by design (the terrain must keep its share).
+        // Explicit tuft counts up to 20 % of the budget in blades.
         let tufts = grass_share.map(|g| (g * target as f64 / 7.0) as usize);
         let p = SiteParams {
             seed,
@@ -402,7 +402,26 @@ proptest::proptest! {
             rock_yaw_deg: yaw,
             ..SiteParams::default()
         };
-        let s = generate_site(&p).unwrap();
+        // Faces the fixed parts may take at most (a tuft has up to 9 blades).
+        let n_tufts = tufts.unwrap_or_else(|| {
+            (super::site::GRASS_SHARE * target as f64 / super::grass::MEAN_BLADES as f64).round()
+                as usize
+        });
+        let worst = n_trees * super::vegetation::WOOD_FACES
+            + 9 * n_tufts
+            + n_markers * super::markers::MARKER_FACES;
+        let shares = super::site::ROCK_SHARE
+            + super::site::LEAF_SHARE
+            + super::site::MIN_TERRAIN_SHARE;
+        let fits = worst as f64 + shares * target as f64 <= 0.99 * target as f64;
+        let s = match generate_site(&p) {
+            Ok(s) => s,
+            Err(SceneError::InvalidArgument(m)) if m.contains("leave too few") => {
+                proptest::prop_assert!(!fits, "refused although the counts fit: {m}");
+                return Ok(());
+            }
+            Err(e) => return Err(proptest::test_runner::TestCaseError::fail(e.to_string())),
+        };
         s.mesh.validate().unwrap();
         let ratio = s.mesh.n_faces() as f64 / target as f64;
         proptest::prop_assert!((ratio - 1.0).abs() < 0.10, "{}", s.summary());
