@@ -103,10 +103,12 @@ proptest! {
                     }
                     let sum: f64 = hit.bary.iter().sum();
                     prop_assert!((sum - 1.0).abs() < 1e-9 && hit.bary.iter().all(|&b| b > -1e-3));
-                    // The barycentrics weight the face's own vertices, in order.
+                    // The barycentrics weight the face's own vertices, in order
+                    // (to the distance's tolerance: f32 round-off grows at grazing
+                    // incidence).
                     let [a, b, c] = mesh.triangle(hit.face as usize);
                     let p = Point3::from(a.coords * hit.bary[0] + b.coords * hit.bary[1] + c.coords * hit.bary[2]);
-                    prop_assert!((p - hit.point).norm() < 1e-3, "{p} vs {}", hit.point);
+                    prop_assert!((p - hit.point).norm() < 1e-3 * t.max(1.0), "{p} vs {}", hit.point);
                 }
                 None => {
                     // A miss by brute force may be a graze the f32 BVH hits; it
