@@ -74,7 +74,11 @@ fn segment_segment_distance(
         } else {
             let b = d1.dot(&d2);
             let denom = a * e - b * b;
-            let mut s = if denom > 1e-18 { ((b * f - c * e) / denom).clamp(0.0, 1.0) } else { 0.0 };
+            let mut s = if denom > 1e-18 {
+                ((b * f - c * e) / denom).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
             let mut t = (b * s + f) / e;
             if t < 0.0 {
                 t = 0.0;
@@ -234,6 +238,3 @@ fn empty_mesh_is_clear_everywhere() {
     assert!(c.distance(&Point3::origin()).is_infinite());
     assert!(c.segment_is_clear(&Point3::origin(), &Point3::new(1.0, 0.0, 0.0), 100.0));
 }
-
-
-
