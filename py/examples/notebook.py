@@ -62,7 +62,7 @@ for t in range(len(images) // 3):
 # %% Train a tiny forest and predict confidence images.
 tiny = {"n_trees": 3, "max_depth": 8, "min_samples_split": 10, "n_tests": 60,
         "n_thresholds": 10, "n_node_samples": 200, "samples_per_class": 4000}
-forest = vpctl.forest.train(images, labels, angles, params=tiny, seed=1, max_per_class=2000)
+forest = vpctl.forest.train(images, labels, angles, params=tiny, seed=1, max_per_label_image=4000)
 forest.save(out / "tiny.vpforest", force=True)
 conf = [forest.predict(img, step=8) for img in images]
 conf += [vpctl.forest.ConfidenceImage.constant(1.0)] * (len(cams) - len(conf))

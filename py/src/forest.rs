@@ -203,7 +203,7 @@ impl PyForest {
 /// parameters (n_trees, max_depth, ...; default the paper's). Same inputs
 /// and seed, same model bytes.
 #[pyfunction]
-#[pyo3(signature = (images, labels, angles, params = None, seed = 0, max_per_class = None))]
+#[pyo3(signature = (images, labels, angles, params = None, seed = 0, max_per_label_image = None))]
 fn train(
     py: Python<'_>,
     images: Vec<PyReadonlyArray3<'_, u8>>,
@@ -211,7 +211,7 @@ fn train(
     angles: Vec<PyReadonlyArray2<'_, f32>>,
     params: Option<&Bound<'_, PyAny>>,
     seed: u64,
-    max_per_class: Option<usize>,
+    max_per_label_image: Option<usize>,
 ) -> PyResult<PyForest> {
     if images.len() != labels.len() || images.len() != angles.len() {
         return Err(value_error(format!(
@@ -222,7 +222,7 @@ fn train(
         )));
     }
     let p: TrainParams = convert::from_py(params, "params")?;
-    let mut set = match max_per_class {
+    let mut set = match max_per_label_image {
         Some(n) => TrainingSet::with_cap_per_label_image(n, seed),
         None => TrainingSet::new(),
     };

@@ -37,13 +37,15 @@ impl TrainingSet {
         Self::default()
     }
 
-    /// An empty set that keeps at most `max_per_class` positive and as many
-    /// negative pixels of each label image, drawn at random (seeded by
-    /// `seed` and the label image's position): bounds memory when label
-    /// images are large and many.
-    pub fn with_cap_per_label_image(max_per_class: usize, seed: u64) -> Self {
+    /// An empty set that keeps at most `max_pixels` labelled pixels of each
+    /// label image, a uniform random subset (seeded by `seed` and the label
+    /// image's position): bounds memory when label images are large and
+    /// many. Uniform keeps each image's class ratio, so the leaves' rates
+    /// stay calibrated probabilities; a cap per class would pull every
+    /// confidence towards 0.5 wherever both classes exceed it.
+    pub fn with_cap_per_label_image(max_pixels: usize, seed: u64) -> Self {
         TrainingSet {
-            cap: Some((max_per_class, seed)),
+            cap: Some((max_pixels, seed)),
             ..Self::default()
         }
     }
@@ -78,31 +80,25 @@ impl TrainingSet {
         }
         let image_index = self.images.len() as u32;
         for l in labels {
-            let mut pixels: [Vec<Sample>; 2] = [Vec::new(), Vec::new()];
-            for (x, y, label, angle) in l.labelled() {
-                let positive = label == Label::Positive;
-                pixels[usize::from(positive)].push(Sample {
+            let mut all: Vec<Sample> = l
+                .labelled()
+                .map(|(x, y, label, angle)| Sample {
                     image: image_index,
                     base: planes.base(x, y) as u32,
                     angle,
-                    positive,
-                });
-            }
-            for class in &mut pixels {
-                if let Some((cap, seed)) = self.cap {
-                    if class.len() > cap {
-                        let mut rng = ChaCha8Rng::seed_from_u64(
-                            seed ^ (self.n_label_images as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15),
-                        );
-                        let mut keep =
-                            rand::seq::index::sample(&mut rng, class.len(), cap).into_vec();
-                        keep.sort_unstable();
-                        *class = keep.into_iter().map(|i| class[i]).collect();
-                    }
+                    positive: label == Label::Positive,
+                })
+                .collect();
+            if let Some((cap, seed)) = self.cap {
+                if all.len() > cap {
+                    let mut rng = ChaCha8Rng::seed_from_u64(
+                        seed ^ (self.n_label_images as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15),
+                    );
+                    let mut keep = rand::seq::index::sample(&mut rng, all.len(), cap).into_vec();
+                    keep.sort_unstable();
+                    all = keep.into_iter().map(|i| all[i]).collect();
                 }
             }
-            let [neg, pos] = pixels;
-            let mut all: Vec<Sample> = neg.into_iter().chain(pos).collect();
             all.sort_by_key(|s| s.base);
             self.samples.extend(all);
             self.n_label_images += 1;

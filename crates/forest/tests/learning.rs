@@ -207,12 +207,27 @@ fn unusable_training_input_is_rejected_with_a_reason() {
 }
 
 #[test]
-fn per_label_image_cap_bounds_the_samples_kept() {
+fn per_label_image_cap_bounds_the_samples_and_keeps_the_class_ratio() {
     let img = texture_image(64, 64, 16, 2);
-    let labels = label_image(&img, 1, 40.0, 2, texture_rule);
-    let mut set = TrainingSet::with_cap_per_label_image(100, 9);
+    // Four positives to one negative, as a well-matched surface gives.
+    let mut labels = LabelImage::new(64, 64);
+    for y in 0..64 {
+        for x in 0..64 {
+            let l = if (x + y) % 5 == 0 {
+                Label::Negative
+            } else {
+                Label::Positive
+            };
+            labels.set(x, y, l, 10.0).unwrap();
+        }
+    }
+    let mut set = TrainingSet::with_cap_per_label_image(500, 9);
     set.add_image(&img.image, &[labels.clone(), labels])
         .unwrap();
     assert_eq!(set.n_label_images(), 2);
-    assert_eq!((set.n_positive(), set.n_negative()), (200, 200));
+    assert_eq!(set.n_positive() + set.n_negative(), 1000);
+    // A uniform subset keeps the share near 0.8 (a per-class cap would make
+    // it 0.5 and every learned confidence uncalibrated).
+    let share = set.n_positive() as f64 / 1000.0;
+    assert!((share - 0.8).abs() < 0.05, "positive share {share}");
 }

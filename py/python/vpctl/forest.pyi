@@ -56,7 +56,7 @@ def train(
     angles: Sequence[npt.ArrayLike],
     params: Optional[Mapping[str, Any]] = None,
     seed: int = 0,
-    max_per_class: Optional[int] = None,
+    max_per_label_image: Optional[int] = None,
 ) -> Forest: ...
 def train_dirs(
     images_dir: _Path,

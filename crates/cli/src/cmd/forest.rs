@@ -37,8 +37,8 @@ pub struct TrainArgs {
     /// Maximum tree depth (overrides the config).
     #[arg(long)]
     max_depth: Option<usize>,
-    /// Keep at most this many pixels of each class per label image (drawn at
-    /// random): bounds memory on large label sets.
+    /// Keep at most this many labelled pixels per label image (a uniform
+    /// random subset, so the class ratio holds): bounds memory on large label sets.
     #[arg(long)]
     max_per_label_image: Option<usize>,
     /// Seed: same data, parameters and seed give the same model bytes.

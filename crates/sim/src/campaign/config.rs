@@ -118,8 +118,9 @@ pub struct TrainingConfig {
     pub levels: Vec<u8>,
     /// Label generation parameters.
     pub labels: LabelParams,
-    /// Labelled pixels kept per class and label image (bounds memory).
-    pub max_per_class_per_label_image: usize,
+    /// Labelled pixels kept per label image, a uniform subset that keeps
+    /// the class ratio (bounds memory).
+    pub max_per_label_image: usize,
     /// Forest parameters.
     pub forest: TrainParams,
 }
@@ -248,7 +249,7 @@ impl CampaignConfig {
                 hfov_deg: 50.0,
                 levels: vec![1],
                 labels: LabelParams::default(),
-                max_per_class_per_label_image: 600,
+                max_per_label_image: 1200,
                 forest: TrainParams {
                     n_trees: 6,
                     max_depth: 14,

@@ -203,10 +203,8 @@ pub fn train_forest_with_stats(
 ) -> Result<(Forest, TrainingStats)> {
     cfg.validate()?;
     let t = &cfg.training;
-    let mut set = TrainingSet::with_cap_per_label_image(
-        t.max_per_class_per_label_image,
-        mix64(cfg.seed ^ 0x0063_6170),
-    );
+    let mut set =
+        TrainingSet::with_cap_per_label_image(t.max_per_label_image, mix64(cfg.seed ^ 0x0063_6170));
     let mut stats = TrainingStats::default();
     for &seed in &t.site_seeds {
         train_site(cfg, seed, &mut set, &mut stats, progress)?;
