@@ -29,6 +29,9 @@ pub struct TrainParams {
     pub n_node_samples: usize,
     /// At most this many training samples of each class are drawn from the
     /// training set (the paper's "about 4 million patches per class").
+    /// Without `balance_classes`, up to twice as many are drawn uniformly
+    /// over both classes instead, so the class ratio and with it the
+    /// calibration of the confidences hold.
     pub samples_per_class: usize,
     /// Each tree trains on a bootstrap sample (with replacement) of this
     /// fraction of the drawn samples.

@@ -60,14 +60,27 @@ pub fn train_with_progress(
         )));
     }
     let mut rng = ChaCha8Rng::seed_from_u64(mix(seed, 0x5e1e_c7ed));
-    for class in &mut classes {
-        if class.len() > params.samples_per_class {
-            let mut keep =
-                rand::seq::index::sample(&mut rng, class.len(), params.samples_per_class)
-                    .into_vec();
+    let mut draw = |v: &mut Vec<u32>, n: usize| {
+        if v.len() > n {
+            let mut keep = rand::seq::index::sample(&mut rng, v.len(), n).into_vec();
             keep.sort_unstable();
-            *class = keep.into_iter().map(|i| class[i]).collect();
+            *v = keep.into_iter().map(|i| v[i]).collect();
         }
+    };
+    if params.balance_classes {
+        for class in &mut classes {
+            draw(class, params.samples_per_class);
+        }
+    } else {
+        // Uniform over both classes: the drawn set keeps the labels' class
+        // ratio, so the leaves estimate calibrated probabilities (drawing
+        // per class would pull them towards 0.5).
+        let mut all: Vec<u32> = (0..set.samples.len() as u32).collect();
+        draw(&mut all, 2 * params.samples_per_class);
+        let (pos, neg): (Vec<u32>, Vec<u32>) = all
+            .into_iter()
+            .partition(|&i| set.samples[i as usize].positive);
+        classes = [neg, pos];
     }
     let counts = [classes[0].len() as f64, classes[1].len() as f64];
     let weights = if params.balance_classes {

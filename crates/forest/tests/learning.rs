@@ -206,13 +206,12 @@ fn unusable_training_input_is_rejected_with_a_reason() {
         .contains("n_trees"));
 }
 
-#[test]
-fn per_label_image_cap_bounds_the_samples_and_keeps_the_class_ratio() {
-    let img = texture_image(64, 64, 16, 2);
-    // Four positives to one negative, as a well-matched surface gives.
-    let mut labels = LabelImage::new(64, 64);
-    for y in 0..64 {
-        for x in 0..64 {
+/// Four positives to one negative, unrelated to the texture (as a
+/// well-matched surface gives): a calibrated forest predicts about 0.8.
+fn four_to_one_labels(w: u32, h: u32) -> LabelImage {
+    let mut labels = LabelImage::new(w, h);
+    for y in 0..h {
+        for x in 0..w {
             let l = if (x + y) % 5 == 0 {
                 Label::Negative
             } else {
@@ -221,6 +220,13 @@ fn per_label_image_cap_bounds_the_samples_and_keeps_the_class_ratio() {
             labels.set(x, y, l, 10.0).unwrap();
         }
     }
+    labels
+}
+
+#[test]
+fn per_label_image_cap_bounds_the_samples_and_keeps_the_class_ratio() {
+    let img = texture_image(64, 64, 16, 2);
+    let labels = four_to_one_labels(64, 64);
     let mut set = TrainingSet::with_cap_per_label_image(500, 9);
     set.add_image(&img.image, &[labels.clone(), labels])
         .unwrap();
@@ -230,4 +236,35 @@ fn per_label_image_cap_bounds_the_samples_and_keeps_the_class_ratio() {
     // it 0.5 and every learned confidence uncalibrated).
     let share = set.n_positive() as f64 / 1000.0;
     assert!((share - 0.8).abs() < 0.05, "positive share {share}");
+}
+
+#[test]
+fn unbalanced_training_predicts_the_label_rate_whatever_samples_per_class_keeps() {
+    let img = texture_image(64, 64, 16, 3);
+    let mut set = TrainingSet::new();
+    set.add_image(&img.image, &[four_to_one_labels(64, 64)])
+        .unwrap();
+    // 3277 positives and 819 negatives: drawing 500 of each would make the
+    // drawn set half positive and the forest predict about 0.5.
+    let params = TrainParams {
+        samples_per_class: 500,
+        balance_classes: false,
+        ..small_params()
+    };
+    let forest = train(&set, &params, 5).unwrap();
+    let planes = LabPlanes::from_rgb(&img.image);
+    let pixels: Vec<(u32, u32)> = (0..64).flat_map(|y| (0..64).map(move |x| (x, y))).collect();
+    let conf = forest.predict_pixels(&planes, &pixels).unwrap();
+    let bin = forest.bins().bin_of(10.0).unwrap();
+    let b = forest.bins().len();
+    let mean = pixels
+        .iter()
+        .enumerate()
+        .map(|(i, _)| f64::from(conf[i * b + bin]))
+        .sum::<f64>()
+        / pixels.len() as f64;
+    assert!(
+        (mean - 0.8).abs() < 0.06,
+        "mean confidence {mean}, labels say 0.8"
+    );
 }
