@@ -12,12 +12,11 @@ fn row<'a>(r: &'a CampaignReport, name: &str) -> &'a TableRow {
 }
 
 /// The combinations with F (G+F5x4, G+F1x20) above every standalone
-/// strategy in overall f, and F with prediction above NP.
-fn combinations_with_f_lead_and_f_beats_np(r: &CampaignReport) {
-    let (f5, f1, np) = (row(r, "F5x4"), row(r, "F1x20"), row(r, "NP5x4"));
-    let best_alone = [f5, f1, np, row(r, "Grid"), row(r, "Init")]
+/// strategy in overall f.
+fn combinations_with_f_lead(r: &CampaignReport) {
+    let best_alone = ["F5x4", "F1x20", "NP5x4", "Grid", "Init"]
         .iter()
-        .map(|r| r.f_mean)
+        .map(|s| row(r, s).f_mean)
         .fold(f64::NEG_INFINITY, f64::max);
     for combo in ["G+F5x4", "G+F1x20"] {
         let c = row(r, combo);
@@ -27,7 +26,6 @@ fn combinations_with_f_lead_and_f_beats_np(r: &CampaignReport) {
             c.f_mean
         );
     }
-    assert!(f5.f_mean > np.f_mean && f1.f_mean > np.f_mean);
 }
 
 /// The findings campaign: the demo preset with the paper's strategies on
@@ -61,7 +59,10 @@ fn paper_findings_hold_on_held_out_sites() {
     );
     // Fewer images than the Grid.
     assert!(f5.n_images_mean < grid.n_images_mean);
-    combinations_with_f_lead_and_f_beats_np(&r);
+    combinations_with_f_lead(&r);
+    // F with prediction above NP in overall f.
+    let f1 = row(&r, "F1x20");
+    assert!(f5.f_mean > np.f_mean && f1.f_mean > np.f_mean);
     // Learned confidence follows the truth over the angle where the truth
     // changes most (ground); every material's correlation is reported above.
     let ground = r.curves.iter().find(|c| c.material == "ground").unwrap();
@@ -75,8 +76,9 @@ fn paper_findings_hold_on_held_out_sites() {
 /// The demo on the paper-scaled site of `examples/paper-site.toml`
 /// (vegetation at the rock, the paper's field of view and footprint-to-ROI
 /// ratio, a safe Grid taking more images than F5x4): the coverage finding,
-/// which the demo world does not show, and the others but one: NP5x4's
-/// triplets succeed about as often as F5x4's here (docs/campaign-findings.md).
+/// which the demo world does not show, and the combinations' lead. Not the
+/// NP findings: NP5x4's triplets succeed about as often as F5x4's here and
+/// its f is level with F1x20's (docs/campaign-findings.md).
 #[test]
 #[ignore = "long: about 75 s in release; run by scripts/test.sh"]
 fn f5x4_covers_more_than_grid_with_fewer_images_on_the_paper_scaled_site() {
@@ -95,7 +97,7 @@ fn f5x4_covers_more_than_grid_with_fewer_images_on_the_paper_scaled_site() {
     );
     assert!(f5.n_images_mean < grid.n_images_mean);
     assert!(f5.triplet_success_mean >= 90.0);
-    combinations_with_f_lead_and_f_beats_np(&r);
+    combinations_with_f_lead(&r);
 }
 
 #[test]
