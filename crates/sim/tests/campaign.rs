@@ -38,7 +38,7 @@ fn findings_config() -> CampaignConfig {
 }
 
 #[test]
-#[ignore = "long: about 3 minutes in release; run by scripts/test.sh"]
+#[ignore = "long: about 40 s in release; run by scripts/test.sh"]
 fn paper_findings_hold_on_held_out_sites() {
     let cfg = findings_config();
     let r = run_campaign(&cfg, &mut |m| eprintln!("{m}")).unwrap();
@@ -63,14 +63,18 @@ fn paper_findings_hold_on_held_out_sites() {
     // F with prediction above NP in overall f.
     let f1 = row(&r, "F1x20");
     assert!(f5.f_mean > np.f_mean && f1.f_mean > np.f_mean);
-    // Learned confidence follows the truth over the angle where the truth
-    // changes most (ground); every material's correlation is reported above.
-    let ground = r.curves.iter().find(|c| c.material == "ground").unwrap();
-    assert!(
-        ground.spearman >= 0.5,
-        "ground rank correlation {}",
-        ground.spearman
-    );
+    // Every material's learned confidence falls with the angle as its truth
+    // does (rank correlation over the bins; a forest whose confidences are
+    // pulled towards 0.5 fails this for the rock).
+    assert_eq!(r.curves.len(), 5, "{}", r.curves_summary());
+    for c in &r.curves {
+        assert!(
+            c.spearman >= 0.5,
+            "{} rank correlation {}",
+            c.material,
+            c.spearman
+        );
+    }
 }
 
 /// The demo on the paper-scaled site of `examples/paper-site.toml`
