@@ -62,9 +62,9 @@ pub fn scene(e: &SceneError) -> PyErr {
 pub fn forest(e: &ForestError) -> PyErr {
     match e {
         ForestError::Scene(s) => scene(s),
-        ForestError::Model { .. }
-        | ForestError::InvalidParams(_)
-        | ForestError::InvalidInput(_) => PyValueError::new_err(message(e)),
+        ForestError::InvalidParams(_) | ForestError::InvalidInput(_) => {
+            PyValueError::new_err(message(e))
+        }
     }
 }
 

@@ -10,8 +10,8 @@ use pyo3::types::PyDict;
 use vp_planner::grid::GridParams;
 use vp_planner::{AcquiredView, PlanInputs, PlanResult, PlannerConfig, RoiSpec};
 use vp_scene::colmap;
-use vp_scene::mesh_ops::Roi;
 use vp_scene::plan::{GeodeticOrigin, Plan, Role};
+use vp_scene::roi::Roi;
 use vp_scene::{io, Mesh};
 
 use crate::convert::{self, points_array};
@@ -209,10 +209,7 @@ fn roi_of(obj: Option<&Bound<'_, PyAny>>) -> PyResult<RoiSpec> {
         return Ok(RoiSpec::All);
     };
     if let Ok(b) = obj.extract::<[f64; 6]>() {
-        return Ok(RoiSpec::Region(Roi::Box {
-            min: [b[0], b[1], b[2]],
-            max: [b[3], b[4], b[5]],
-        }));
+        return Ok(RoiSpec::Region(Roi::from_box(b).py()?));
     }
     let roi: Roi = convert::from_py_required(obj, "roi")?;
     Ok(RoiSpec::Region(roi))

@@ -282,19 +282,7 @@ impl PyCamera {
 }
 
 fn intrinsics(width: u32, height: u32, fx: f64, fy: f64, cx: f64, cy: f64) -> PyResult<Intrinsics> {
-    if width == 0 || height == 0 || !(fx > 0.0 && fy > 0.0) || !(cx.is_finite() && cy.is_finite()) {
-        return Err(value_error(format!(
-            "camera intrinsics {width}x{height}, f = ({fx}, {fy}), c = ({cx}, {cy}): sizes and focal lengths must be positive"
-        )));
-    }
-    Ok(Intrinsics {
-        width,
-        height,
-        fx,
-        fy,
-        cx,
-        cy,
-    })
+    Intrinsics::new(width, height, fx, fy, cx, cy).py()
 }
 
 /// A procedural site: mesh with materials, rock bounds, flight volume, origin.

@@ -156,6 +156,6 @@ def test_train_and_predict_equal_cli(tmp_path):
     run_cli("predict", "--model", tmp_path / "cli.vpforest", "--out", tmp_path / "cli_conf", "--no-previews",
             images / "img1.png")
     forest.predict(vpctl.scene.load_image(images / "img1.png")).save(tmp_path / "py.vpconf")
-    assert (tmp_path / "py.vpconf").read_bytes() == (tmp_path / "cli_conf" / "img1.vpconf").read_bytes()
+    assert (tmp_path / "py.vpconf").read_bytes() == (tmp_path / "cli_conf" / "img1.png.vpconf").read_bytes()
     with pytest.raises(ValueError, match="no .vplabel"):
         vpctl.forest.train_dirs(images, images, params=TINY)

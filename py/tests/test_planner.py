@@ -123,7 +123,7 @@ def test_config_defaults_and_bad_inputs(planning, site, tmp_path):
         vpctl.planner.plan(site.mesh, cams, config=cfg, roi=[500, 500, 0, 501, 501, 1])
     with pytest.raises(ValueError):
         vpctl.planner.plan(site.mesh, cams, confidence=[None], config=cfg)
-    with pytest.raises(FileNotFoundError, match="img_001.vpconf"):
+    with pytest.raises(FileNotFoundError, match=r"img_001\.jpg\.vpconf"):
         (tmp_path / "conf").mkdir()
         vpctl.planner.plan(site.mesh, model, confidence=tmp_path / "conf", config=cfg, roi=roi)
     with pytest.raises(ValueError):

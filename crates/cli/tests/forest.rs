@@ -147,8 +147,8 @@ fn train_predict_and_eval_learn_texture_and_angle() {
         held_images.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", text(&o));
-    assert!(conf_dir.join("i3.bin0.png").exists() && conf_dir.join("i3.bin8.png").exists());
-    assert_confidence_learned(&conf_dir.join("i3.vpconf"), 3);
+    assert!(conf_dir.join("i3.png.bin0.png").exists() && conf_dir.join("i3.png.bin8.png").exists());
+    assert_confidence_learned(&conf_dir.join("i3.png.vpconf"), 3);
 }
 
 /// Noisy blocks are confident at 2.5 deg, not at 42.5 deg; smooth blocks
@@ -255,4 +255,49 @@ fn defaults_are_the_papers_and_round_trip() {
     );
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(text(&o).contains("no .vplabel files"), "{}", text(&o));
+}
+
+/// Regression: `vpctl predict` wrote `<stem>.vpconf` (dropping the image's
+/// extension and sub-folders) while the planner looked for the COLMAP image
+/// name with its extension replaced, and training dropped the sub-folders of
+/// label files, so an image named `sub/dir/img.v2.JPG` could be neither
+/// trained on nor planned with. One naming rule now serves all of them.
+#[test]
+fn image_names_with_sub_folders_and_dots_survive_train_and_predict() {
+    let dir = tempfile::tempdir().unwrap();
+    let name = "sub/dir/img.v2.JPG";
+    let images = dir.path().join("images");
+    let labels = dir.path().join("labels/t0000/level1");
+    std::fs::create_dir_all(images.join("sub/dir")).unwrap();
+    let tex = texture_image(96, 64, 16, 5);
+    save_rgb(&tex.image, &images.join(name)).unwrap();
+    let label = label_image(&tex, 3, 45.0, 105, rule);
+    let label_file = vp_scene::image_files::label_file(&labels, name).unwrap();
+    std::fs::create_dir_all(label_file.parent().unwrap()).unwrap();
+    label.save(&label_file).unwrap();
+
+    let model = dir.path().join("m.vpforest");
+    let o = train(
+        &images,
+        &dir.path().join("labels"),
+        &model,
+        &["--trees", "2"],
+    );
+    assert!(o.status.success(), "{}", text(&o));
+
+    let conf = dir.path().join("conf");
+    let o = vpctl(&[
+        "predict",
+        "--model",
+        model.to_str().unwrap(),
+        "--out",
+        conf.to_str().unwrap(),
+        "--no-previews",
+        images.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    // The file the planner reads for the COLMAP image `sub/dir/img.v2.JPG`.
+    let wanted = vp_scene::image_files::confidence_file(&conf, name).unwrap();
+    assert_eq!(wanted, conf.join("sub/dir/img.v2.JPG.vpconf"));
+    assert!(wanted.exists(), "{}", text(&o));
 }

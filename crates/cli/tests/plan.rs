@@ -210,7 +210,7 @@ fn bad_inputs_exit_2_without_output() {
         &p("x.json"),
     ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("img_001.vpconf"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("img_001.jpg.vpconf"), "{}", stderr(&o));
     assert!(!dir.path().join("x.json").exists());
 }
 

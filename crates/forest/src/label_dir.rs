@@ -1,19 +1,18 @@
 //! Training data on disk, laid out as `vpctl labelgen run` writes it: label
-//! images `<labels dir>/**/<image name>.vplabel` (one per image of each
-//! triplet and pyramid level) next to a folder of the images themselves.
+//! images `<labels dir>/<triplet>/level<L>/<image name>.vplabel` (one per
+//! image of each triplet and pyramid level; the image name may hold
+//! sub-folders) next to a folder of the images themselves.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use image::imageops::{self, FilterType};
+use vp_scene::image_files::{image_name_of_label, LABEL_EXTENSION};
 use vp_scene::raster::{load_rgb, LabelImage, RgbImage};
 use vp_scene::SceneError;
 
 use crate::error::{ForestError, Result};
 use crate::TrainingSet;
-
-/// Extension of label image files.
-pub const LABEL_EXTENSION: &str = "vplabel";
 
 /// Image name and label size (largest first): the order of the groups.
 type GroupKey = (String, std::cmp::Reverse<(u32, u32)>);
@@ -54,7 +53,7 @@ pub fn load_label_dir(images_dir: &Path, labels_dir: &Path) -> Result<Vec<Labell
     paths.sort();
     let mut groups: BTreeMap<GroupKey, Vec<(PathBuf, LabelImage)>> = BTreeMap::new();
     for path in paths {
-        let name = image_name(&path)?;
+        let name = image_name(labels_dir, &path)?;
         let label = LabelImage::load(&path)?;
         let size = std::cmp::Reverse((label.width(), label.height()));
         groups.entry((name, size)).or_default().push((path, label));
@@ -115,18 +114,15 @@ impl TrainingSet {
     }
 }
 
-/// `<name>.vplabel` -> `<name>`.
-fn image_name(path: &Path) -> Result<String> {
-    path.file_stem()
-        .and_then(|s| s.to_str())
-        .filter(|s| !s.is_empty())
-        .map(str::to_owned)
-        .ok_or_else(|| {
-            ForestError::InvalidInput(format!(
-                "{}: a label file name must be <image name>.{LABEL_EXTENSION}",
-                path.display()
-            ))
-        })
+/// The image a label file under `root` belongs to (the one naming rule:
+/// [`vp_scene::image_files::image_name_of_label`]).
+fn image_name(root: &Path, path: &Path) -> Result<String> {
+    image_name_of_label(root, path).ok_or_else(|| {
+        ForestError::InvalidInput(format!(
+            "{}: a label file name must be <image name>.{LABEL_EXTENSION}",
+            path.display()
+        ))
+    })
 }
 
 fn find_label_files(dir: &Path, out: &mut Vec<PathBuf>) -> Result<()> {

@@ -28,6 +28,7 @@
 //! (default 2): an empty bin reads p. Prediction averages the trees.
 #![warn(missing_docs)]
 
+pub mod batch;
 mod dataset;
 pub mod error;
 pub mod lab;
@@ -42,6 +43,7 @@ pub mod synthetic;
 mod train;
 pub mod tree;
 
+pub use batch::{predict_files, BatchOptions, Predicted};
 pub use dataset::TrainingSet;
 pub use error::{ForestError, Result};
 pub use lab::LabPlanes;

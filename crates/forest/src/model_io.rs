@@ -10,7 +10,7 @@
 //! | h | header, JSON: `{"params": TrainParams, "summary": TrainingSummary}`; the params hold the bin edges |
 //! | 4 | number of trees (u32) |
 //! | per tree | node count n (u32), leaf count l (u32), n nodes of 13 bytes, l x (2 + 2b) leaf counts (u32) |
-//! | 8 | FNV-1a 64 ([`vp_scene::raster::fnv1a64`]) of all preceding bytes |
+//! | 8 | FNV-1a 64 ([`vp_scene::binfile::fnv1a64`]) of all preceding bytes |
 //!
 //! A node: kind (u8: 0 split, 1 leaf), channel (u8), op (u8), offset1 dx,
 //! dy, offset2 dx, dy (i8 each), threshold (i16), child (u32: left child of
@@ -18,12 +18,11 @@
 //! total, then (positive, negative) per angle bin. Confidences are derived
 //! from the counts when loading, so the file holds no redundant floats.
 
-use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use serde::{Deserialize, Serialize};
-use vp_scene::fsio::{read_file, write_atomic};
-use vp_scene::raster::fnv1a64;
+use vp_scene::binfile::{checksummed, ByteReader};
+use vp_scene::fsio::{read_file, write_file_atomic};
 
 use crate::error::{ForestError, Result};
 use crate::params::{TrainParams, TrainingSummary, MAX_DEPTH_LIMIT};
@@ -53,42 +52,38 @@ impl Forest {
         };
         // Serialising plain numbers and strings cannot fail.
         let json = serde_json::to_vec(&header).unwrap_or_default();
-        let mut out = Vec::new();
-        out.extend_from_slice(&MAGIC);
-        out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
-        out.extend_from_slice(&(json.len() as u32).to_le_bytes());
-        out.extend_from_slice(&json);
-        out.extend_from_slice(&(self.trees().len() as u32).to_le_bytes());
-        for tree in self.trees() {
-            out.extend_from_slice(&(tree.nodes().len() as u32).to_le_bytes());
-            out.extend_from_slice(&(tree.n_leaves() as u32).to_le_bytes());
-            for n in tree.nodes() {
-                let t = &n.test;
-                out.extend_from_slice(&[
-                    u8::from(n.is_leaf),
-                    t.channel,
-                    t.op as u8,
-                    t.offset1.0 as u8,
-                    t.offset1.1 as u8,
-                    t.offset2.0 as u8,
-                    t.offset2.1 as u8,
-                ]);
-                out.extend_from_slice(&n.threshold.to_le_bytes());
-                out.extend_from_slice(&n.child.to_le_bytes());
+        checksummed(MAGIC, FORMAT_VERSION, |out| {
+            out.extend_from_slice(&(json.len() as u32).to_le_bytes());
+            out.extend_from_slice(&json);
+            out.extend_from_slice(&(self.trees().len() as u32).to_le_bytes());
+            for tree in self.trees() {
+                out.extend_from_slice(&(tree.nodes().len() as u32).to_le_bytes());
+                out.extend_from_slice(&(tree.n_leaves() as u32).to_le_bytes());
+                for n in tree.nodes() {
+                    let t = &n.test;
+                    out.extend_from_slice(&[
+                        u8::from(n.is_leaf),
+                        t.channel,
+                        t.op as u8,
+                        t.offset1.0 as u8,
+                        t.offset1.1 as u8,
+                        t.offset2.0 as u8,
+                        t.offset2.1 as u8,
+                    ]);
+                    out.extend_from_slice(&n.threshold.to_le_bytes());
+                    out.extend_from_slice(&n.child.to_le_bytes());
+                }
+                for c in tree.raw_counts() {
+                    out.extend_from_slice(&c.to_le_bytes());
+                }
             }
-            for c in tree.raw_counts() {
-                out.extend_from_slice(&c.to_le_bytes());
-            }
-        }
-        out.extend_from_slice(&fnv1a64(&out).to_le_bytes());
-        out
+        })
     }
 
     /// Writes the model atomically (a failed write leaves no file). Replaces
     /// an existing file: callers check with `fsio::check_overwrite` first.
     pub fn save(&self, path: &Path) -> Result<()> {
-        let bytes = self.to_bytes();
-        Ok(write_atomic(path, |w| w.write_all(&bytes))?)
+        Ok(write_file_atomic(path, &self.to_bytes())?)
     }
 
     /// Reads a model file.
@@ -98,51 +93,15 @@ impl Forest {
 
     /// Parses a model; `path` only names the source in errors.
     pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Forest> {
-        let mut r = Reader {
+        let mut r = Reader(ByteReader::open_checksummed(
+            path,
             bytes,
-            pos: 0,
-            path: path.to_path_buf(),
-        };
-        if bytes.is_empty() {
-            return Err(r.error(0, "empty file, not a vp-forest model"));
-        }
-        if bytes.len() < 8 || bytes[..8] != MAGIC {
-            return Err(r.error(0, "not a vp-forest model (bad magic number)"));
-        }
-        if bytes.len() < 12 {
-            return Err(r.error(
-                bytes.len(),
-                "truncated model: the file ends inside the header",
-            ));
-        }
-        let version = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
-        if version != FORMAT_VERSION {
-            return Err(r.error(
-                8,
-                &format!(
-                    "model format version {version}; this build reads version {FORMAT_VERSION}"
-                ),
-            ));
-        }
-        if bytes.len() < 12 + 8 {
-            return Err(r.error(
-                bytes.len(),
-                "truncated model: the file ends inside the header",
-            ));
-        }
-        let body = bytes.len() - 8;
-        let mut stored = [0u8; 8];
-        stored.copy_from_slice(&bytes[body..]);
-        if u64::from_le_bytes(stored) != fnv1a64(&bytes[..body]) {
-            return Err(r.error(
-                body,
-                "checksum mismatch: the model is truncated or corrupted",
-            ));
-        }
-        r.bytes = &bytes[..body];
-        r.pos = 12;
+            MAGIC,
+            FORMAT_VERSION,
+            "vp-forest model",
+        )?);
         let header_len = r.u32("header length")? as usize;
-        let at = r.pos;
+        let at = r.0.pos();
         let header: Header = serde_json::from_slice(r.take(header_len, "header")?)
             .map_err(|e| r.error(at, &format!("model header: {e}")))?;
         header
@@ -154,7 +113,7 @@ impl Forest {
         if !weights.iter().all(|w| w.is_finite() && *w > 0.0) {
             return Err(r.error(at, "model header: class weights must be positive"));
         }
-        let at = r.pos;
+        let at = r.0.pos();
         let n_trees = r.u32("tree count")? as usize;
         if n_trees != params.n_trees {
             return Err(r.error(
@@ -167,30 +126,19 @@ impl Forest {
         for t in 0..n_trees {
             trees.push(r.tree(t, b, weights, params.pseudo_count)?);
         }
-        if r.pos != r.bytes.len() {
-            return Err(r.error(
-                r.pos,
-                &format!(
-                    "{} unexpected bytes after the last tree",
-                    r.bytes.len() - r.pos
-                ),
-            ));
-        }
+        r.0.finish("the last tree")?;
         Ok(Forest::from_parts(params, header.summary, trees))
     }
 }
 
-/// Bounds-checked reader whose errors name the file and byte offset.
-struct Reader<'a> {
-    bytes: &'a [u8],
-    pos: usize,
-    path: PathBuf,
-}
+/// The model's body reader: the shared little-endian reader plus the
+/// model's own element parsers.
+struct Reader<'a>(ByteReader<'a>);
 
 impl<'a> Reader<'a> {
     /// Reads tree `t` (b angle bins) and checks it.
     fn tree(&mut self, t: usize, b: usize, weights: [f64; 2], pseudo_count: f64) -> Result<Tree> {
-        let at = self.pos;
+        let at = self.0.pos();
         let n_nodes = self.u32("node count")? as usize;
         let n_leaves = self.u32("leaf count")? as usize;
         let raw = self.take(n_nodes.saturating_mul(NODE_BYTES), "nodes")?;
@@ -239,26 +187,14 @@ impl<'a> Reader<'a> {
     }
 
     fn error(&self, offset: usize, message: &str) -> ForestError {
-        ForestError::Model {
-            path: self.path.clone(),
-            offset: offset as u64,
-            message: message.to_string(),
-        }
+        self.0.error_at(offset, message).into()
     }
 
     fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8]> {
-        match self.pos.checked_add(n).filter(|&e| e <= self.bytes.len()) {
-            Some(end) => {
-                let s = &self.bytes[self.pos..end];
-                self.pos = end;
-                Ok(s)
-            }
-            None => Err(self.error(self.pos, &format!("the file ends inside the {what}"))),
-        }
+        Ok(self.0.take(n, what)?)
     }
 
     fn u32(&mut self, what: &str) -> Result<u32> {
-        let s = self.take(4, what)?;
-        Ok(u32::from_le_bytes([s[0], s[1], s[2], s[3]]))
+        Ok(self.0.u32(what)?)
     }
 }

@@ -5,7 +5,8 @@ use std::path::Path;
 use proptest::prelude::*;
 use vp_forest::synthetic::{label_image, texture_image};
 use vp_forest::{train, Forest, TrainParams, TrainingSet};
-use vp_scene::raster::{fnv1a64, Label};
+use vp_scene::binfile::fnv1a64;
+use vp_scene::raster::Label;
 
 fn model_bytes() -> Vec<u8> {
     let img = texture_image(48, 48, 16, 4);

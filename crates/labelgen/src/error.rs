@@ -38,9 +38,7 @@ impl LabelgenError {
     /// machine, e.g. a disk error): the CLI exits with 2 for these.
     pub fn is_input_error(&self) -> bool {
         match self {
-            LabelgenError::Scene(SceneError::Io { source, .. }) => {
-                source.kind() == std::io::ErrorKind::NotFound
-            }
+            LabelgenError::Scene(e) => e.is_input_error(),
             _ => true,
         }
     }

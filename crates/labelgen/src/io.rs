@@ -162,8 +162,8 @@ pub fn load_reconstructions(
 }
 
 /// Path of the label file of one view.
-pub fn label_path(out_dir: &Path, id: &str, image: &str) -> PathBuf {
-    out_dir.join(id).join(format!("{image}.vplabel"))
+pub fn label_path(out_dir: &Path, id: &str, image: &str) -> Result<PathBuf> {
+    Ok(vp_scene::image_files::label_file(&out_dir.join(id), image)?)
 }
 
 /// Writes every label image and `summary.json` under `out_dir`, each file
@@ -174,7 +174,7 @@ pub fn write_labels(out_dir: &Path, labels: &[ReconLabels], force: bool) -> Resu
     let mut files = Vec::new();
     for rl in labels {
         for (name, img) in rl.names.iter().zip(&rl.labels) {
-            files.push((label_path(out_dir, &rl.id, name), img));
+            files.push((label_path(out_dir, &rl.id, name)?, img));
         }
     }
     fsio::check_overwrite(&summary_path, force)?;

@@ -6,8 +6,9 @@
 //! back in a few operations, so a reconstruction costs 12 bytes per pixel
 //! (depth, sigma, angle) in memory.
 
-use nalgebra::{Matrix3, Point2, Point3, Vector3};
+use nalgebra::{Point2, Point3, Vector3};
 use vp_scene::colmap::DepthMap;
+use vp_scene::triangulation::{point_covariance, sigma_along, triangulation_angle_deg};
 use vp_scene::{Aabb, Camera};
 
 use crate::error::{LabelgenError, Result};
@@ -87,44 +88,16 @@ impl TripletReconstruction {
     }
 }
 
-/// Largest pairwise angle, in degrees, between the rays from `p` to the
-/// camera centres: the triangulation angle of DESIGN.md.
-pub fn triangulation_angle(centres: &[Point3<f64>], p: &Point3<f64>) -> f64 {
-    let mut best = 0.0f64;
-    for (i, a) in centres.iter().enumerate() {
-        for b in &centres[i + 1..] {
-            let (u, v) = (a - p, b - p);
-            let ang = u.angle(&v);
-            if ang.is_finite() {
-                best = best.max(ang);
-            }
-        }
-    }
-    best.to_degrees()
-}
-
-/// Standard deviation along unit direction `dir` of the point `p`
-/// triangulated from `cameras` under pixel noise `sigma_px`, by first-order
-/// propagation: `Sigma = (sum_i J_i^T J_i / sigma_px^2)^-1`. Cameras that do
-/// not have `p` in front are left out; `None` when the rest cannot fix the
-/// point in 3D (e.g. fewer than two, or all rays parallel).
-pub fn sigma_along(
+/// Standard deviation along unit direction `dir` of `p` triangulated from
+/// `cameras` (see [`vp_scene::triangulation`]); `None` when they cannot fix
+/// the point.
+pub(crate) fn sigma_along_ray(
     cameras: &[Camera],
     p: &Point3<f64>,
     dir: &Vector3<f64>,
     sigma_px: f64,
 ) -> Option<f64> {
-    let mut info = Matrix3::zeros();
-    for c in cameras {
-        if c.world_from_cam.inverse_transform_point(p).z <= 0.0 {
-            continue;
-        }
-        let j = c.projection_jacobian(p);
-        info += j.transpose() * j;
-    }
-    let cov = (info / (sigma_px * sigma_px)).try_inverse()?;
-    let var = dir.dot(&(cov * dir));
-    (var.is_finite() && var > 0.0).then(|| var.sqrt())
+    point_covariance(cameras, p, sigma_px).map(|cov| sigma_along(&cov, dir))
 }
 
 /// Length of the ray through pixel centre (x, y) per unit of depth: depth
@@ -183,9 +156,9 @@ impl<'a> Prepared<'a> {
                 let (x, y) = (idx % w, idx / w);
                 let p = pixel_point(&v.camera, x, y, f64::from(d));
                 let (_, dir) = v.camera.ray(&Point2::new(x as f64 + 0.5, y as f64 + 0.5));
-                if let Some(s) = sigma_along(&cameras, &p, &dir, params.sigma_px) {
+                if let Some(s) = sigma_along_ray(&cameras, &p, &dir, params.sigma_px) {
                     sigma[idx] = s as f32;
-                    angle[idx] = triangulation_angle(&centres, &p) as f32;
+                    angle[idx] = triangulation_angle_deg(&p, &centres) as f32;
                     bounds.grow(&p);
                 }
             }
@@ -339,24 +312,13 @@ mod tests {
     }
 
     #[test]
-    fn angle_is_largest_pairwise() {
-        let p = Point3::origin();
-        let c = [
-            Point3::new(1.0, 0.0, 1.0),
-            Point3::new(-1.0, 0.0, 1.0),
-            Point3::new(0.0, 0.0, 1.0),
-        ];
-        assert!((triangulation_angle(&c, &p) - 90.0).abs() < 1e-9);
-    }
-
-    #[test]
     fn sigma_shrinks_with_wider_baseline() {
         let p = Point3::origin();
         let dir = (p - cam(0.0).center()).normalize();
-        let narrow = sigma_along(&[cam(-1.0), cam(0.0), cam(1.0)], &p, &dir, 1.0).unwrap();
-        let wide = sigma_along(&[cam(-10.0), cam(0.0), cam(10.0)], &p, &dir, 1.0).unwrap();
+        let narrow = sigma_along_ray(&[cam(-1.0), cam(0.0), cam(1.0)], &p, &dir, 1.0).unwrap();
+        let wide = sigma_along_ray(&[cam(-10.0), cam(0.0), cam(10.0)], &p, &dir, 1.0).unwrap();
         assert!(wide < narrow / 5.0, "wide {wide} narrow {narrow}");
         // A single camera cannot fix depth.
-        assert!(sigma_along(&[cam(0.0)], &p, &dir, 1.0).is_none());
+        assert!(sigma_along_ray(&[cam(0.0)], &p, &dir, 1.0).is_none());
     }
 }

@@ -20,7 +20,9 @@ use vp_scene::mesh_ops::shrink_and_expand;
 use vp_scene::raycast::RayCaster;
 use vp_scene::Mesh;
 
-use crate::measurement::{pixel_point, ray_scale, sigma_along, triangulation_angle, Prepared};
+use vp_scene::triangulation::triangulation_angle_deg;
+
+use crate::measurement::{pixel_point, ray_scale, sigma_along_ray, Prepared};
 use crate::params::LabelParams;
 
 /// The surface meshes of stage 3: the input mesh (for visibility) and its
@@ -83,7 +85,7 @@ pub(crate) fn candidates(
         if visible {
             out.push(Candidate {
                 idx,
-                angle: triangulation_angle(&qp.centres, &x) as f32,
+                angle: triangulation_angle_deg(&x, &qp.centres) as f32,
             });
         }
     }
@@ -112,7 +114,7 @@ pub(crate) fn is_missing(
     let (o, dir) = view
         .camera
         .ray(&Point2::new(x as f64 + 0.5, y as f64 + 0.5));
-    let Some(sigma) = sigma_along(&qp.cameras, &p, &dir, params.sigma_px) else {
+    let Some(sigma) = sigma_along_ray(&qp.cameras, &p, &dir, params.sigma_px) else {
         return false;
     };
     let bound = params.k_sigma * sigma;

@@ -58,6 +58,15 @@ impl Default for LabelParams {
 }
 
 impl LabelParams {
+    /// Reads a TOML parameter file (any subset of the keys; the rest keep
+    /// their defaults) and validates it. The old JSON form is refused with a
+    /// message saying so.
+    pub fn load(path: &std::path::Path) -> Result<Self> {
+        let params: LabelParams = vp_scene::config_file::load_toml(path)?;
+        params.validate()?;
+        Ok(params)
+    }
+
     /// Checks every value is in its valid range.
     pub fn validate(&self) -> Result<()> {
         let bad = |what: &str, v: f64| {

@@ -32,7 +32,7 @@ use vp_scene::colmap::Reconstruction;
 use vp_scene::{fsio, Location, SceneError};
 
 use crate::error::{LabelgenError, Result};
-use crate::measurement::triangulation_angle;
+use vp_scene::triangulation::triangulation_angle_deg;
 
 /// Parameters of triplet sampling.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -92,7 +92,7 @@ pub fn median_angle(centres: &[Point3<f64>; 3], points: &[Point3<f64>]) -> Optio
     let mut angles: Vec<(f64, usize)> = points
         .iter()
         .enumerate()
-        .map(|(i, p)| (triangulation_angle(centres, p), i))
+        .map(|(i, p)| (triangulation_angle_deg(p, centres), i))
         .collect();
     if angles.is_empty() {
         return None;
@@ -253,14 +253,7 @@ pub fn write_triplet_list(path: &Path, triplets: &[Triplet]) -> Result<()> {
 
 /// Reads a triplet list; errors name the file and the line.
 pub fn read_triplet_list(path: &Path) -> Result<Vec<Triplet>> {
-    let bytes = fsio::read_file(path)?;
-    let text = String::from_utf8(bytes).map_err(|e| {
-        SceneError::parse(
-            path,
-            Location::Byte(e.utf8_error().valid_up_to() as u64),
-            "not UTF-8 text",
-        )
-    })?;
+    let text = fsio::read_text(path)?;
     let mut out = Vec::new();
     for (n, line) in text.lines().enumerate() {
         let line = line.trim_end_matches('\r');

@@ -86,6 +86,19 @@ pub enum MissionError {
     },
 }
 
+impl MissionError {
+    /// Whether the user's input is at fault (exit code 2 in `vpctl`): a bad
+    /// plan or argument, a malformed connection URL, a missing file. A
+    /// vehicle that does not answer, refuses or misbehaves is not.
+    pub fn is_input_error(&self) -> bool {
+        match self {
+            MissionError::Scene(e) => e.is_input_error(),
+            MissionError::InvalidInput(_) | MissionError::BadUrl { .. } => true,
+            _ => false,
+        }
+    }
+}
+
 fn format_secs(d: Duration) -> String {
     format!("{:.2}", d.as_secs_f64())
 }

@@ -11,9 +11,9 @@ use std::time::Duration;
 use criterion::{criterion_group, criterion_main, Criterion};
 use vp_planner::grid::{grid_views, GridParams};
 use vp_planner::{plan, AcquiredView, PlanInputs, PlannerConfig, RoiSpec};
-use vp_scene::mesh_ops::Roi;
 use vp_scene::plan::Role;
 use vp_scene::procedural::{generate_site, SiteParams};
+use vp_scene::roi::Roi;
 use vp_scene::{Aabb, Intrinsics};
 
 fn bench(c: &mut Criterion) {

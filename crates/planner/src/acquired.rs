@@ -2,24 +2,19 @@
 //! one way `vpctl plan` and the Python bindings turn files into
 //! [`AcquiredView`]s, so that both plan from the same inputs.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use vp_scene::colmap::Reconstruction;
+use vp_scene::image_files::confidence_file;
 use vp_scene::raster::ConfidenceImage;
 
 use crate::error::Result;
 use crate::pipeline::AcquiredView;
 
-/// Where the confidence image of `image_name` lives in `dir`:
-/// `<dir>/<image name with extension .vpconf>`.
-pub fn confidence_path(dir: &Path, image_name: &str) -> PathBuf {
-    dir.join(Path::new(image_name).with_extension("vpconf"))
-}
-
 /// One view per image of `rec`, in image-id order (COLMAP ids follow
 /// capture order in practice, so the last view is where the path starts),
 /// each with its confidence image from `confidence_dir` (see
-/// [`confidence_path`]) or none (the paper's NP variant). A missing or
+/// [`vp_scene::image_files::confidence_file`]) or none (the paper's NP variant). A missing or
 /// malformed confidence file is an error naming the file.
 pub fn acquired_from_model(
     rec: &Reconstruction,
@@ -30,7 +25,7 @@ pub fn acquired_from_model(
         let camera = rec.camera_of(id)?;
         let confidence = match confidence_dir {
             None => None,
-            Some(dir) => Some(ConfidenceImage::load(&confidence_path(dir, &image.name))?),
+            Some(dir) => Some(ConfidenceImage::load(&confidence_file(dir, &image.name)?)?),
         };
         views.push(AcquiredView { camera, confidence });
     }
@@ -89,13 +84,13 @@ mod tests {
         assert!(views.iter().all(|v| v.confidence.is_none()));
         let dir = tempfile::tempdir().unwrap();
         let err = acquired_from_model(&rec, Some(dir.path())).unwrap_err();
-        assert!(err.to_string().contains("img1.vpconf"), "{err}");
+        assert!(err.to_string().contains("img1.jpg.vpconf"), "{err}");
         assert!(err.is_input_error());
         ConfidenceImage::constant(0.5)
-            .save(&confidence_path(dir.path(), "img1.jpg"))
+            .save(&confidence_file(dir.path(), "img1.jpg").unwrap())
             .unwrap();
         ConfidenceImage::constant(0.25)
-            .save(&confidence_path(dir.path(), "img2.jpg"))
+            .save(&confidence_file(dir.path(), "img2.jpg").unwrap())
             .unwrap();
         let views = acquired_from_model(&rec, Some(dir.path())).unwrap();
         let c: Vec<f32> = views

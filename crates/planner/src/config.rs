@@ -187,16 +187,7 @@ impl PlannerConfig {
 
     /// Parses TOML text; `path` only names the source in errors.
     pub fn from_toml(text: &str, path: &Path) -> Result<Self> {
-        let cfg: PlannerConfig = toml::from_str(text).map_err(|e| {
-            let place = e
-                .span()
-                .map(|s| {
-                    let line = text[..s.start.min(text.len())].matches('\n').count() + 1;
-                    format!("line {line}: ")
-                })
-                .unwrap_or_default();
-            PlannerError::Config(format!("{}: {place}{}", path.display(), e.message()))
-        })?;
+        let cfg: PlannerConfig = vp_scene::config_file::parse_toml(text, path)?;
         cfg.validate()
             .map_err(|e| PlannerError::Config(format!("{}: {e}", path.display())))?;
         Ok(cfg)
@@ -204,15 +195,7 @@ impl PlannerConfig {
 
     /// Reads and validates a TOML config file.
     pub fn load(path: &Path) -> Result<Self> {
-        let bytes = vp_scene::fsio::read_file(path)?;
-        let text = String::from_utf8(bytes).map_err(|e| {
-            PlannerError::Config(format!(
-                "{}: byte {}: not UTF-8 text",
-                path.display(),
-                e.utf8_error().valid_up_to()
-            ))
-        })?;
-        Self::from_toml(&text, path)
+        Self::from_toml(&vp_scene::fsio::read_text(path)?, path)
     }
 
     /// The angle bins: b equal bins over [0, gamma_max).

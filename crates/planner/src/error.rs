@@ -32,10 +32,8 @@ impl PlannerError {
     /// Whether the user's input is at fault (exit code 2 in `vpctl`).
     pub fn is_input_error(&self) -> bool {
         match self {
-            PlannerError::Scene(SceneError::Io { source, .. }) => {
-                source.kind() == std::io::ErrorKind::NotFound
-            }
-            PlannerError::Scene(_) | PlannerError::Config(_) | PlannerError::Input(_) => true,
+            PlannerError::Scene(e) => e.is_input_error(),
+            PlannerError::Config(_) | PlannerError::Input(_) => true,
             PlannerError::Refused(_) | PlannerError::Output { .. } => false,
         }
     }

@@ -6,12 +6,13 @@ use std::time::{Duration, Instant};
 use nalgebra::{Point3, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use vp_scene::mesh_ops::{submesh, Roi};
+use vp_scene::mesh_ops::submesh;
 use vp_scene::plan::{
     AltitudeLimits, GeodeticOrigin, IterationStatistics, Plan, PlannedView, Role,
 };
 use vp_scene::raster::ConfidenceImage;
 use vp_scene::raycast::RayCaster;
+use vp_scene::roi::Roi;
 use vp_scene::{Aabb, Camera, Mesh};
 
 use crate::config::PlannerConfig;

@@ -3,6 +3,9 @@
 
 use nalgebra::{Matrix3, Point3, Vector3};
 use vp_scene::raster::AngleBins;
+use vp_scene::triangulation::{
+    camera_information, largest_pairwise_angle_deg, smallest_eigenvalue,
+};
 use vp_scene::Camera;
 
 /// What one camera contributes to a triangle's quality, precomputed once.
@@ -21,40 +24,15 @@ pub struct CamTerm {
 impl CamTerm {
     /// Terms of a real camera at point `p` with unit normal `n`.
     pub fn new(cam: &Camera, p: &Point3<f64>, n: &Vector3<f64>, sigma_px: f64) -> Self {
-        let j = cam.projection_jacobian(p);
-        let info = j.transpose() * j / (sigma_px * sigma_px);
-        Self::from_info(cam.resolution_at(p, n), info, &(cam.center() - p))
-    }
-
-    fn from_info(r: f64, info: Matrix3<f64>, to_cam: &Vector3<f64>) -> Self {
-        // J^T J has rank 2; its largest eigenvalue is at most its trace,
-        // and for a pinhole camera close to it: the trace is a valid bound.
-        let info_max = info.trace();
+        let info = camera_information(cam, p, sigma_px);
         CamTerm {
-            r,
+            r: cam.resolution_at(p, n),
             info,
-            info_max,
-            dir: to_cam.normalize(),
+            // J^T J has rank 2; its largest eigenvalue is at most its trace,
+            // and for a pinhole camera close to it: the trace is a valid bound.
+            info_max: info.trace(),
+            dir: (cam.center() - p).normalize(),
         }
-    }
-
-    /// Terms of a hypothetical camera at `c` with focal length `f` px looking
-    /// straight at `p` (M3 potential gains): on the optical axis the
-    /// information is `(f / d)^2 (I - u u^T) / sigma^2`.
-    pub fn looking_at(
-        c: &Point3<f64>,
-        f: f64,
-        p: &Point3<f64>,
-        n: &Vector3<f64>,
-        sigma_px: f64,
-    ) -> Self {
-        let to = c - p;
-        let d2 = to.norm_squared();
-        let u = to / d2.sqrt();
-        let cos = n.dot(&u);
-        let r = if cos > 0.0 { f * f * cos / d2 } else { 0.0 };
-        let info = (Matrix3::identity() - u * u.transpose()) * (f * f / d2 / (sigma_px * sigma_px));
-        Self::from_info(r, info, &to)
     }
 }
 
@@ -100,34 +78,8 @@ impl Requirements {
         let r_min = a.r.min(b.r).min(c.r);
         let q = self.alpha * self.f_res(r_min)
             + (1.0 - self.alpha) * self.f_unc(&(a.info + b.info + c.info));
-        (q, triplet_angle_deg(&a.dir, &b.dir, &c.dir))
+        (q, largest_pairwise_angle_deg(&[a.dir, b.dir, c.dir]))
     }
-}
-
-/// Smallest eigenvalue of a symmetric 3x3 matrix, in closed form
-/// (trigonometric solution of the characteristic cubic; O. K. Smith 1961).
-///
-/// # Performance
-/// About ten times faster than an iterative decomposition; f_unc calls it
-/// for every triplet M1 and M3 score.
-pub fn smallest_eigenvalue(a: &Matrix3<f64>) -> f64 {
-    let p1 = a[(0, 1)].powi(2) + a[(0, 2)].powi(2) + a[(1, 2)].powi(2);
-    if p1 == 0.0 {
-        return a[(0, 0)].min(a[(1, 1)]).min(a[(2, 2)]);
-    }
-    let q = a.trace() / 3.0;
-    let p2 = (a[(0, 0)] - q).powi(2) + (a[(1, 1)] - q).powi(2) + (a[(2, 2)] - q).powi(2) + 2.0 * p1;
-    let p = (p2 / 6.0).sqrt();
-    let b = (a - Matrix3::identity() * q) / p;
-    let r = (0.5 * b.determinant()).clamp(-1.0, 1.0);
-    let phi = r.acos() / 3.0;
-    q + 2.0 * p * (phi + 2.0 * std::f64::consts::FRAC_PI_3).cos()
-}
-
-/// Largest pairwise angle between three unit directions, degrees.
-pub fn triplet_angle_deg(a: &Vector3<f64>, b: &Vector3<f64>, c: &Vector3<f64>) -> f64 {
-    let min_dot = a.dot(b).min(a.dot(c)).min(b.dot(c));
-    min_dot.clamp(-1.0, 1.0).acos().to_degrees()
 }
 
 /// A triangle's confidence as a function of the triangulation angle: b
@@ -164,29 +116,5 @@ impl ConfCurve {
     /// Largest value: an upper bound of the confidence at any angle.
     pub fn max(&self) -> f64 {
         f64::from(self.0.iter().copied().fold(0.0f32, f32::max))
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn closed_form_eigenvalue_matches_decomposition() {
-        let mats = [
-            Matrix3::new(4.0, 1.0, 0.5, 1.0, 3.0, 0.2, 0.5, 0.2, 1.0),
-            Matrix3::new(2.0, 0.0, 0.0, 0.0, 5.0, 0.0, 0.0, 0.0, 1.5),
-            // Rank 2 plus a little, like a sum of camera informations.
-            Matrix3::new(1e8, 2e7, 0.0, 2e7, 5e7, 1e3, 0.0, 1e3, 1e4),
-        ];
-        for m in mats {
-            let want = m
-                .symmetric_eigenvalues()
-                .iter()
-                .copied()
-                .fold(f64::INFINITY, f64::min);
-            let got = smallest_eigenvalue(&m);
-            assert!((got - want).abs() <= 1e-9 * m.norm(), "{got} vs {want}");
-        }
     }
 }

@@ -3,9 +3,9 @@
 
 use nalgebra::{Point2, Point3, Vector3};
 use vp_scene::clearance::Clearance;
-use vp_scene::mesh_ops::point_in_polygon;
 use vp_scene::plan::AltitudeLimits;
 use vp_scene::raycast::RayCaster;
+use vp_scene::roi::point_in_polygon;
 use vp_scene::{Aabb, Mesh};
 
 /// Margin added to the safety distance in the `f32` clearance checks, so

@@ -424,7 +424,7 @@ mod tests {
                     w * beta.cos() + (e1 * ca + e2 * sa) * beta.sin()
                 })
                 .collect();
-            let got = crate::quality::triplet_angle_deg(&u[0], &u[1], &u[2]);
+            let got = vp_scene::triangulation::largest_pairwise_angle_deg(&u);
             assert!((got - gamma).abs() < 1e-9, "{got} vs {gamma}");
         }
     }

@@ -4,8 +4,8 @@ mod common;
 
 use common::{initial_views, plan_rock, site, test_config};
 use vp_planner::{strip_timings, PlanInputs, PlannerConfig, PlannerError, RoiSpec};
-use vp_scene::mesh_ops::Roi;
 use vp_scene::raster::ConfidenceImage;
+use vp_scene::roi::Roi;
 
 #[test]
 fn initial_flight_has_about_the_papers_image_count() {

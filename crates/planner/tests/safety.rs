@@ -9,10 +9,10 @@ use proptest::prelude::*;
 use vp_planner::flight_path::PathContext;
 use vp_planner::{safety_for, PlanInputs, PlannerConfig, PlannerError, RoiSpec};
 use vp_scene::clearance::Clearance;
-use vp_scene::mesh_ops::{point_in_polygon, Roi};
 use vp_scene::plan::{AltitudeLimits, Plan, PlannedView, Role};
 use vp_scene::procedural::shapes;
 use vp_scene::raycast::RayCaster;
+use vp_scene::roi::{point_in_polygon, Roi};
 
 /// Exact distances (parry), not the bounded checks the planner uses.
 fn assert_safe(plan: &Plan, mesh: &vp_scene::Mesh, cfg: &PlannerConfig) {

@@ -31,6 +31,35 @@ pub struct Intrinsics {
 }
 
 impl Intrinsics {
+    /// Intrinsics from their values, checked: positive sizes, positive
+    /// finite focal lengths, a finite principal point. The one validating
+    /// constructor (readers and bindings build through it).
+    pub fn new(width: u32, height: u32, fx: f64, fy: f64, cx: f64, cy: f64) -> Result<Self> {
+        if width == 0 || height == 0 {
+            return Err(SceneError::InvalidArgument(format!(
+                "camera size {width}x{height}: both must be positive"
+            )));
+        }
+        if !(fx.is_finite() && fy.is_finite() && fx > 0.0 && fy > 0.0) {
+            return Err(SceneError::InvalidArgument(format!(
+                "focal length ({fx}, {fy}) is not positive and finite"
+            )));
+        }
+        if !(cx.is_finite() && cy.is_finite()) {
+            return Err(SceneError::InvalidArgument(format!(
+                "principal point ({cx}, {cy}) is not finite"
+            )));
+        }
+        Ok(Intrinsics {
+            width,
+            height,
+            fx,
+            fy,
+            cx,
+            cy,
+        })
+    }
+
     /// Intrinsics with square pixels, the principal point at the image centre
     /// and the given horizontal field of view in degrees.
     pub fn from_hfov(width: u32, height: u32, hfov_deg: f64) -> Result<Self> {

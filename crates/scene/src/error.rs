@@ -94,6 +94,21 @@ pub enum SceneError {
 }
 
 impl SceneError {
+    /// Whether the user's input is at fault (exit code 2 in `vpctl`): a
+    /// missing or malformed file, a bad argument, refusing to overwrite. An
+    /// I/O failure on a file that exists (permissions, a full disk) is not.
+    pub fn is_input_error(&self) -> bool {
+        let not_found = |e: &std::io::Error| e.kind() == std::io::ErrorKind::NotFound;
+        match self {
+            SceneError::Io { source, .. } => not_found(source),
+            SceneError::Image {
+                source: image::ImageError::IoError(e),
+                ..
+            } => not_found(e),
+            _ => true,
+        }
+    }
+
     /// Shorthand for [`SceneError::Io`].
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         SceneError::Io {

@@ -5,7 +5,7 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::Path;
 
-use crate::error::{Result, SceneError};
+use crate::error::{Location, Result, SceneError};
 
 /// Refuses to go on when `path` exists and `force` is false.
 pub fn check_overwrite(path: &Path, force: bool) -> Result<()> {
@@ -51,9 +51,31 @@ where
     Ok(())
 }
 
+/// [`write_atomic`] of a whole buffer.
+pub fn write_file_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    write_atomic(path, |w| w.write_all(bytes))
+}
+
 /// Reads a whole file, naming it in the error.
 pub fn read_file(path: &Path) -> Result<Vec<u8>> {
     std::fs::read(path).map_err(|e| SceneError::io(path, e))
+}
+
+/// Reads a whole text file: UTF-8, with a leading byte-order mark (as some
+/// Windows editors write) dropped. Invalid UTF-8 is an error naming the byte.
+pub fn read_text(path: &Path) -> Result<String> {
+    let bytes = read_file(path)?;
+    let mut text = String::from_utf8(bytes).map_err(|e| {
+        SceneError::parse(
+            path,
+            Location::Byte(e.utf8_error().valid_up_to() as u64),
+            "not UTF-8 text",
+        )
+    })?;
+    if text.starts_with('\u{feff}') {
+        text.drain(..'\u{feff}'.len_utf8());
+    }
+    Ok(text)
 }
 
 #[cfg(test)]

@@ -5,7 +5,8 @@
 //! ([`io`] for PLY/OBJ, [`colmap`] for COLMAP models and depth maps), ray
 //! casting for visibility ([`raycast`], obvhs CWBVH), clearance to obstacles
 //! ([`clearance`], parry3d), the mesh operations of the paper
-//! ([`mesh_ops`]), raster types ([`raster`]), the plan file ([`plan`]) and
+//! ([`mesh_ops`]), triangulation angle and uncertainty ([`triangulation`]),
+//! raster types ([`raster`]), the plan file ([`plan`]) and
 //! deterministic procedural scenes ([`procedural`]) that feed every crate's
 //! tests and the simulator.
 //!
@@ -13,11 +14,14 @@
 //! (`world_from_cam`).
 #![warn(missing_docs)]
 
+pub mod binfile;
 pub mod camera;
 pub mod clearance;
 pub mod colmap;
+pub mod config_file;
 pub mod error;
 pub mod fsio;
+pub mod image_files;
 pub mod io;
 pub mod mesh;
 pub mod mesh_ops;
@@ -26,6 +30,8 @@ pub mod plan;
 pub mod procedural;
 pub mod raster;
 pub mod raycast;
+pub mod roi;
+pub mod triangulation;
 
 pub use camera::{Camera, Intrinsics};
 pub use error::{Location, Result, SceneError};

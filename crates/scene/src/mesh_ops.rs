@@ -1,15 +1,13 @@
 //! Mesh operations of the paper: face splitting (M1), shrinking and expanding
-//! (labelgen stage 3) and region-of-interest selection.
+//! (labelgen stage 3) and submeshes. Region-of-interest selection is in
+//! [`crate::roi`].
 
 use std::collections::HashMap;
 
-use nalgebra::{Point2, Point3, Vector3};
-use serde::{Deserialize, Serialize};
+use nalgebra::{Point3, Vector3};
 
-use crate::camera::Camera;
 use crate::error::{Result, SceneError};
-use crate::mesh::{Aabb, Mesh};
-use crate::raycast::RayCaster;
+use crate::mesh::Mesh;
 
 /// Splits faces until no edge is longer than `max_edge` (M1: "split until the
 /// max edge length <= the average edge length before splitting").
@@ -132,119 +130,6 @@ pub fn shrink_and_expand(mesh: &Mesh, iterations: usize) -> ShrunkExpanded {
             materials: mesh.materials.clone(),
         },
     }
-}
-
-/// A region of interest: which faces the quality requirements apply to.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case")]
-pub enum Roi {
-    /// Faces whose centroid lies inside an axis-aligned box.
-    Box {
-        /// Smallest corner (x, y, z).
-        min: [f64; 3],
-        /// Largest corner (x, y, z).
-        max: [f64; 3],
-    },
-    /// Faces whose centroid lies inside a ground polygon (x, y; even-odd
-    /// rule) and within a height range.
-    Polygon {
-        /// Polygon corners (x, y) in metres, in order; closed implicitly.
-        polygon: Vec<[f64; 2]>,
-        /// Lowest centroid height.
-        z_min: f64,
-        /// Highest centroid height.
-        z_max: f64,
-    },
-    /// Faces visible in one image whose centroid projects inside a polygon
-    /// drawn in that image.
-    ImagePolygon {
-        /// The image's camera.
-        camera: Camera,
-        /// Polygon corners in pixels, in order; closed implicitly.
-        polygon: Vec<[f64; 2]>,
-    },
-}
-
-impl Roi {
-    /// A box ROI from an [`Aabb`].
-    pub fn from_aabb(b: &Aabb) -> Roi {
-        Roi::Box {
-            min: b.min.into(),
-            max: b.max.into(),
-        }
-    }
-
-    /// Indices of the faces of `mesh` inside the region. `caster` must be
-    /// built from `mesh` (used only by [`Roi::ImagePolygon`]).
-    pub fn select(&self, mesh: &Mesh, caster: &RayCaster) -> Result<Vec<u32>> {
-        let inside: Vec<bool> = match self {
-            Roi::Box { min, max } => {
-                let b = Aabb {
-                    min: Point3::from(*min),
-                    max: Point3::from(*max),
-                };
-                (0..mesh.n_faces())
-                    .map(|f| b.contains(&mesh.face_centroid(f)))
-                    .collect()
-            }
-            Roi::Polygon {
-                polygon,
-                z_min,
-                z_max,
-            } => {
-                check_polygon(polygon)?;
-                (0..mesh.n_faces())
-                    .map(|f| {
-                        let c = mesh.face_centroid(f);
-                        c.z >= *z_min
-                            && c.z <= *z_max
-                            && point_in_polygon(&Point2::new(c.x, c.y), polygon)
-                    })
-                    .collect()
-            }
-            Roi::ImagePolygon { camera, polygon } => {
-                check_polygon(polygon)?;
-                let visible = caster.visible_faces(camera, mesh);
-                (0..mesh.n_faces())
-                    .map(|f| {
-                        visible[f]
-                            && camera
-                                .project(&mesh.face_centroid(f))
-                                .is_some_and(|px| point_in_polygon(&px, polygon))
-                    })
-                    .collect()
-            }
-        };
-        Ok(inside
-            .iter()
-            .enumerate()
-            .filter_map(|(f, &i)| i.then_some(f as u32))
-            .collect())
-    }
-}
-
-fn check_polygon(polygon: &[[f64; 2]]) -> Result<()> {
-    if polygon.len() < 3 || polygon.iter().flatten().any(|c| !c.is_finite()) {
-        return Err(SceneError::InvalidArgument(format!(
-            "region-of-interest polygon needs at least 3 finite corners, got {}",
-            polygon.len()
-        )));
-    }
-    Ok(())
-}
-
-/// Even-odd point-in-polygon test.
-pub fn point_in_polygon(p: &Point2<f64>, polygon: &[[f64; 2]]) -> bool {
-    let mut inside = false;
-    let n = polygon.len();
-    for i in 0..n {
-        let [xi, yi] = polygon[i];
-        let [xj, yj] = polygon[(i + n - 1) % n];
-        if (yi > p.y) != (yj > p.y) && p.x < (xj - xi) * (p.y - yi) / (yj - yi) + xi {
-            inside = !inside;
-        }
-    }
-    inside
 }
 
 /// The faces `faces` of `mesh` as a mesh of their own (unused vertices dropped,

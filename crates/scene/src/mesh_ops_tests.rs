@@ -5,6 +5,9 @@ use nalgebra::Point3;
 use super::*;
 use crate::camera::Intrinsics;
 use crate::mesh::Material;
+use crate::raycast::RayCaster;
+use crate::roi::Roi;
+use crate::Camera;
 
 /// Closed octahedron with radius `r`, outward faces.
 fn octahedron(r: f64) -> Mesh {

@@ -341,15 +341,7 @@ impl Plan {
 
     /// Reads a plan file.
     pub fn load(path: &Path) -> Result<Self> {
-        let bytes = fsio::read_file(path)?;
-        let text = std::str::from_utf8(&bytes).map_err(|e| {
-            SceneError::parse(
-                path,
-                Location::Byte(e.valid_up_to() as u64),
-                "not UTF-8 text",
-            )
-        })?;
-        Plan::from_json(text, path)
+        Plan::from_json(&fsio::read_text(path)?, path)
     }
 
     /// Writes the plan as pretty JSON, atomically; refuses to overwrite

@@ -348,3 +348,27 @@ proptest! {
         }
     }
 }
+
+/// Regression: a track element naming an image that does not exist was
+/// blamed on images.txt ("2D point observes 3D point 10, whose track does
+/// not list it") because the images were checked first; the broken line is
+/// in points3D.txt.
+#[test]
+fn broken_track_is_blamed_on_points3d() {
+    let (_tmp, dir) = copy_model("hand/colmap_txt");
+    let path = dir.join("points3D.txt");
+    let content = fs::read_to_string(&path).unwrap();
+    let n = content.lines().position(|l| l.starts_with("10 ")).unwrap() + 1;
+    let line = content.lines().nth(n - 1).unwrap();
+    // POINT3D_ID X Y Z R G B ERROR then (IMAGE_ID, POINT2D_IDX) pairs: break the first image id.
+    let mut fields: Vec<String> = line.split_whitespace().map(str::to_string).collect();
+    fields[8] = "99".to_string();
+    set_line(&path, n, &fields.join(" "));
+    assert_eq!(
+        message(&dir),
+        format!(
+            "{}: line {n}: point 10: track refers to unknown image 99",
+            path.display()
+        )
+    );
+}

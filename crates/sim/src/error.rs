@@ -32,20 +32,14 @@ impl SimError {
     /// Whether the user's input (a config, a file, an argument) is at fault
     /// rather than the run: such errors exit with code 2 in `vpctl`.
     pub fn is_input_error(&self) -> bool {
-        let scene = |e: &SceneError| match e {
-            SceneError::Io { source, .. } => source.kind() == std::io::ErrorKind::NotFound,
-            _ => true,
-        };
         match self {
-            SimError::Scene(e)
-            | SimError::Forest(vp_forest::ForestError::Scene(e))
-            | SimError::Mission(vp_mission::MissionError::Scene(e)) => scene(e),
-            SimError::InvalidArgument(_)
-            | SimError::Forest(_)
-            | SimError::Mission(vp_mission::MissionError::InvalidInput(_)) => true,
+            SimError::Scene(e) => e.is_input_error(),
+            SimError::InvalidArgument(_) => true,
+            SimError::Forest(e) => e.is_input_error(),
+            SimError::Mission(e) => e.is_input_error(),
             SimError::Planner(e) => e.is_input_error(),
             SimError::Labelgen(e) => e.is_input_error(),
-            SimError::Mission(_) | SimError::Campaign(_) => false,
+            SimError::Campaign(_) => false,
         }
     }
 }

@@ -8,8 +8,6 @@
 //!   resolution ([`mvs::MvsProfile`]: SURE-like and PMVS-like presets), in
 //!   spatially coherent blobs, with depth noise from the triplet's first-order
 //!   3D uncertainty and a share of outliers.
-//! - [`triangulation`]: triangulation angle and 3D uncertainty of a point seen
-//!   by a set of cameras.
 //!
 //! - [`campaign`]: closed-loop acquisition campaigns (training, flights with
 //!   every strategy of the paper, Table-1 evaluation, report).
@@ -24,7 +22,6 @@ pub mod mvs;
 pub mod noise;
 pub mod render;
 pub mod texture;
-pub mod triangulation;
 
 #[cfg(test)]
 mod render_tests;

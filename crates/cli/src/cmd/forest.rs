@@ -8,10 +8,10 @@ use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use vp_forest::{
-    load_label_dir, sparsification, train_with_progress, Forest, Scored, TrainParams, TrainingSet,
+    load_label_dir, predict_files, sparsification, train_with_progress, BatchOptions, Forest,
+    Scored, TrainParams, TrainingSet,
 };
 use vp_scene::fsio;
-use vp_scene::raster::{load_rgb, ConfidenceImage};
 
 /// Arguments of `vpctl train`.
 #[derive(Debug, Args)]
@@ -55,8 +55,9 @@ pub struct PredictArgs {
     /// Model file written by `vpctl train`.
     #[arg(long)]
     model: PathBuf,
-    /// Output folder: `<image stem>.vpconf` per image (the name `vpctl plan
-    /// --confidence-dir` looks for) and `<image stem>.bin<i>.png` previews.
+    /// Output folder: `<image name>.vpconf` per image (the name `vpctl plan
+    /// --confidence-dir` looks for; an image found in a sub-folder of a given
+    /// folder keeps that sub-folder) and `<image name>.bin<i>.png` previews.
     #[arg(long)]
     out: PathBuf,
     /// Grid step in pixels (the paper: 8).
@@ -68,7 +69,8 @@ pub struct PredictArgs {
     /// Overwrite output files that exist.
     #[arg(long)]
     force: bool,
-    /// Images to predict (files, or folders of .png/.jpg/.jpeg/.tif/.tiff).
+    /// Images to predict: files, or folders searched recursively for
+    /// .png/.jpg/.jpeg/.tif/.tiff/.pgm/.ppm (named relative to the folder, as COLMAP names them).
     #[arg(required = true)]
     images: Vec<PathBuf>,
 }
@@ -140,61 +142,24 @@ pub fn train(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
     Ok(())
 }
 
-/// Runs `vpctl predict`. Every image is predicted before anything is
-/// written, so a bad image leaves no output behind.
+/// Runs `vpctl predict` (the library's [`vp_forest::predict_files`]).
 pub fn predict(a: &PredictArgs, out: &mut dyn Write) -> Result<()> {
     let forest = Forest::load(&a.model)?;
-    let images = expand_images(&a.images)?;
+    let images = vp_scene::image_files::find_images(&a.images)?;
+    let options = BatchOptions {
+        step: a.step,
+        previews: !a.no_previews,
+        force: a.force,
+    };
     let b = forest.bins().len();
-    let mut jobs = Vec::with_capacity(images.len());
-    let mut seen = std::collections::HashSet::new();
-    for path in &images {
-        let stem = path
-            .file_stem()
-            .map(PathBuf::from)
-            .with_context(|| format!("{}: not a file name", path.display()))?;
-        let conf = a.out.join(&stem).with_extension("vpconf");
-        if !seen.insert(conf.clone()) {
-            anyhow::bail!(
-                "{}: another input image has the same name stem, both would write {}",
-                path.display(),
-                conf.display()
-            );
-        }
-        let previews: Vec<PathBuf> = if a.no_previews {
-            Vec::new()
-        } else {
-            (0..b)
-                .map(|i| a.out.join(format!("{}.bin{i}.png", stem.display())))
-                .collect()
-        };
-        for p in std::iter::once(&conf).chain(&previews) {
-            fsio::check_overwrite(p, a.force)?;
-        }
-        jobs.push((path, conf, previews));
-    }
-    let mut predicted = Vec::with_capacity(jobs.len());
-    for (path, conf, previews) in jobs {
-        let image = load_rgb(path)?;
-        let c = forest
-            .predict_image(&image, a.step)
-            .with_context(|| format!("{}: prediction failed", path.display()))?;
-        predicted.push((path, c, conf, previews));
-    }
-    std::fs::create_dir_all(&a.out).map_err(|e| vp_scene::SceneError::io(&a.out, e))?;
-    for (path, c, conf, previews) in &predicted {
-        c.save(conf)?;
-        for (i, p) in previews.iter().enumerate() {
-            c.save_bin_png(i, p)?;
-        }
+    for p in predict_files(&forest, &images, &a.out, &options)? {
+        let (gw, gh) = p.confidence.grid_size();
         writeln!(
             out,
-            "{}: {}x{} nodes x {b} bins, mean confidence {:.3} -> {}",
-            path.display(),
-            c.grid_size().0,
-            c.grid_size().1,
-            mean(c),
-            conf.display()
+            "{}: {gw}x{gh} nodes x {b} bins, mean confidence {:.3} -> {}",
+            p.image.display(),
+            p.mean_confidence(),
+            p.confidence_file.display()
         )?;
     }
     Ok(())
@@ -269,37 +234,5 @@ fn print_summary(forest: &Forest, out: &mut dyn Write) -> Result<()> {
 }
 
 fn read_params(path: &Path) -> Result<TrainParams> {
-    let text = std::fs::read_to_string(path).map_err(|e| vp_scene::SceneError::io(path, e))?;
-    toml::from_str(&text).map_err(|e| {
-        vp_scene::SceneError::InvalidArgument(format!("{}: {e}", path.display())).into()
-    })
-}
-
-/// Files as given; folders expanded to their image files, sorted.
-fn expand_images(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
-    const EXTENSIONS: [&str; 5] = ["png", "jpg", "jpeg", "tif", "tiff"];
-    let mut out = Vec::new();
-    for p in paths {
-        if p.is_dir() {
-            let mut found: Vec<PathBuf> = std::fs::read_dir(p)
-                .map_err(|e| vp_scene::SceneError::io(p, e))?
-                .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|f| {
-                    f.extension()
-                        .and_then(|e| e.to_str())
-                        .is_some_and(|e| EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
-                })
-                .collect();
-            found.sort();
-            out.extend(found);
-        } else {
-            out.push(p.clone());
-        }
-    }
-    Ok(out)
-}
-
-fn mean(c: &ConfidenceImage) -> f64 {
-    let v = c.values();
-    v.iter().map(|&x| f64::from(x)).sum::<f64>() / v.len().max(1) as f64
+    Ok(vp_scene::config_file::load_toml(path)?)
 }

@@ -1,7 +1,7 @@
 //! `vpctl labelgen ...`: training labels without ground truth.
 
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
@@ -28,6 +28,8 @@ pub enum LabelgenCommand {
     /// Writes <out-dir>/<triplet id>/level<L>/<image name>.vplabel and
     /// <out-dir>/summary.json.
     Run(RunArgs),
+    /// Print every label parameter with its default, as TOML (for `run --config`).
+    Defaults,
 }
 
 /// Arguments of `labelgen triplets`.
@@ -81,10 +83,10 @@ pub struct RunArgs {
     /// Output folder for label images and summary.json.
     #[arg(long)]
     out_dir: PathBuf,
-    /// Label parameters as JSON (any subset of alpha_min_deg, s_min,
-    /// sigma_px, k_sigma, min_support, max_splat_radius, mesh_iterations).
-    #[arg(long)]
-    params: Option<PathBuf>,
+    /// Label parameters as TOML (any subset of the keys `vpctl labelgen
+    /// defaults` prints).
+    #[arg(long, visible_alias = "params")]
+    config: Option<PathBuf>,
     /// Overwrite existing label files.
     #[arg(long)]
     force: bool,
@@ -94,6 +96,10 @@ pub fn run(cmd: LabelgenCommand, out: &mut dyn Write) -> Result<()> {
     match cmd {
         LabelgenCommand::Triplets(a) => sample(&a, out),
         LabelgenCommand::Run(a) => label(&a, out),
+        LabelgenCommand::Defaults => {
+            write!(out, "{}", toml::to_string(&LabelParams::default())?)?;
+            Ok(())
+        }
     }
 }
 
@@ -124,20 +130,11 @@ fn sample(a: &TripletsArgs, out: &mut dyn Write) -> Result<()> {
     Ok(())
 }
 
-fn read_params(path: Option<&Path>) -> Result<LabelParams> {
-    let Some(path) = path else {
-        return Ok(LabelParams::default());
-    };
-    let bytes = fsio::read_file(path)?;
-    let params: LabelParams = serde_json::from_slice(&bytes).map_err(|e| {
-        vp_scene::SceneError::parse(path, vp_scene::Location::Line(e.line()), e.to_string())
-    })?;
-    params.validate()?;
-    Ok(params)
-}
-
 fn label(a: &RunArgs, out: &mut dyn Write) -> Result<()> {
-    let params = read_params(a.params.as_deref())?;
+    let params = match &a.config {
+        Some(path) => LabelParams::load(path)?,
+        None => LabelParams::default(),
+    };
     let model = colmap::read_model(&a.model)?;
     let list = triplets::read_triplet_list(&a.triplets)?;
     let recs = io::load_reconstructions(&model, &list, &a.depth_dir)

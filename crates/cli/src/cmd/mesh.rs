@@ -7,7 +7,7 @@ use anyhow::Result;
 use clap::Subcommand;
 use vp_scene::io::{self, MeshFormat};
 use vp_scene::meshing::{mesh_from_points, MeshingParams};
-use vp_scene::{colmap, fsio, Material, SceneError};
+use vp_scene::{colmap, fsio, Material};
 
 /// Mesh subcommands.
 #[derive(Debug, Subcommand)]
@@ -74,7 +74,7 @@ pub fn run(cmd: MeshCommand, out: &mut dyn Write) -> Result<()> {
             };
             let (mesh, report) = mesh_from_points(&pts, &params)?;
             if mesh.n_faces() == 0 {
-                return Err(SceneError::InvalidArgument(format!(
+                return Err(super::UsageError(format!(
                     "no surface could be built from {} points (need at least 3 spread in x-y \
                      within --max-edge {max_edge} m)",
                     report.input_points

@@ -138,7 +138,7 @@ impl LinkArgs {
     fn options(&self) -> Result<ConnectOptions> {
         anyhow::ensure!(
             self.heartbeat_timeout.is_finite() && self.heartbeat_timeout > 0.0,
-            vp_scene::SceneError::InvalidArgument(format!(
+            super::UsageError(format!(
                 "--heartbeat-timeout must be positive, got {}",
                 self.heartbeat_timeout
             ))

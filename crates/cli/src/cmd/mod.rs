@@ -11,58 +11,51 @@ pub mod plan;
 pub mod render;
 pub mod scene;
 
+use std::error::Error;
+
+use vp_forest::ForestError;
+use vp_labelgen::LabelgenError;
 use vp_mission::MissionError;
+use vp_planner::PlannerError;
 use vp_scene::SceneError;
 use vp_sim::SimError;
+
+/// A wrong use of the command line that only the CLI can see (conflicting
+/// or missing flags): exit code 2, like every input error.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct UsageError(pub String);
 
 /// Exit code for an error: 2 when the user's input is at fault (bad file,
 /// bad argument, refusing to overwrite, missing file, bad URL), 1 otherwise
 /// (I/O failures, a vehicle that does not answer or rejects the mission).
+/// The outermost library error in the chain decides.
 pub fn exit_code(e: &anyhow::Error) -> u8 {
-    for cause in e.chain() {
-        if let Some(le) = cause.downcast_ref::<vp_labelgen::LabelgenError>() {
-            return if le.is_input_error() { 2 } else { 1 };
-        }
-        if let Some(fe) = cause.downcast_ref::<vp_forest::ForestError>() {
-            return match fe {
-                vp_forest::ForestError::Scene(se) => scene_exit_code(se),
-                _ => 2,
-            };
-        }
-        if let Some(pe) = cause.downcast_ref::<vp_planner::PlannerError>() {
-            return if pe.is_input_error() { 2 } else { 1 };
-        }
-        if let Some(se) = cause.downcast_ref::<SceneError>() {
-            return scene_exit_code(se);
-        }
-        if let Some(me) = cause.downcast_ref::<MissionError>() {
-            return match me {
-                MissionError::Scene(se) => scene_exit_code(se),
-                MissionError::InvalidInput(_) | MissionError::BadUrl { .. } => 2,
-                _ => 1,
-            };
-        }
-        // SimError::Scene is transparent: the chain skips the SceneError inside.
-        if let Some(se) = cause.downcast_ref::<SimError>() {
-            return match se {
-                SimError::Scene(se) => scene_exit_code(se),
-                _ if se.is_input_error() => 2,
-                _ => 1,
-            };
-        }
-        if let Some(fe) = cause.downcast_ref::<vp_forest::ForestError>() {
-            return match fe {
-                vp_forest::ForestError::Scene(se) => scene_exit_code(se),
-                _ => 2,
-            };
-        }
-    }
-    1
+    e.chain()
+        .find_map(is_input_error)
+        .map_or(1, |input| if input { 2 } else { 1 })
 }
 
-fn scene_exit_code(e: &SceneError) -> u8 {
-    match e {
-        SceneError::Io { source, .. } if source.kind() != std::io::ErrorKind::NotFound => 1,
-        _ => 2,
-    }
+/// Whether `e` is an input error, if it is one of the libraries' errors.
+fn is_input_error(e: &(dyn Error + 'static)) -> Option<bool> {
+    (e.downcast_ref::<SceneError>()
+        .map(SceneError::is_input_error))
+    .or_else(|| {
+        e.downcast_ref::<ForestError>()
+            .map(ForestError::is_input_error)
+    })
+    .or_else(|| {
+        e.downcast_ref::<LabelgenError>()
+            .map(LabelgenError::is_input_error)
+    })
+    .or_else(|| {
+        e.downcast_ref::<PlannerError>()
+            .map(PlannerError::is_input_error)
+    })
+    .or_else(|| {
+        e.downcast_ref::<MissionError>()
+            .map(MissionError::is_input_error)
+    })
+    .or_else(|| e.downcast_ref::<SimError>().map(SimError::is_input_error))
+    .or_else(|| e.downcast_ref::<UsageError>().map(|_| true))
 }

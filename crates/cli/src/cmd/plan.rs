@@ -9,8 +9,8 @@ use nalgebra::Point3;
 use vp_planner::grid::GridParams;
 use vp_planner::output::{write_frusta_ply, write_top_view_png, TopView};
 use vp_planner::{AcquiredView, PlanInputs, PlannerConfig, RoiSpec};
-use vp_scene::mesh_ops::Roi;
 use vp_scene::plan::{GeodeticOrigin, Plan, Role};
+use vp_scene::roi::Roi;
 use vp_scene::{colmap, fsio, io, Mesh};
 
 /// Depth of the camera pyramids in the PLY, metres.
@@ -169,23 +169,12 @@ impl Common {
 
     fn roi(&self) -> Result<RoiSpec> {
         if let Some(b) = &self.roi_box {
-            return Ok(RoiSpec::Region(Roi::Box {
-                min: [b[0], b[1], b[2]],
-                max: [b[3], b[4], b[5]],
-            }));
+            return Ok(RoiSpec::Region(Roi::from_box(*b)?));
         }
-        let Some(path) = &self.roi else {
-            return Ok(RoiSpec::All);
-        };
-        let bytes = fsio::read_file(path)?;
-        let roi: Roi = serde_json::from_slice(&bytes).map_err(|e| {
-            vp_scene::SceneError::parse(
-                path,
-                vp_scene::Location::Line(e.line()),
-                format!("column {}: not a region of interest: {e}", e.column()),
-            )
-        })?;
-        Ok(RoiSpec::Region(roi))
+        Ok(match &self.roi {
+            Some(path) => RoiSpec::Region(Roi::load(path)?),
+            None => RoiSpec::All,
+        })
     }
 
     fn origin(&self) -> Result<Option<GeodeticOrigin>> {

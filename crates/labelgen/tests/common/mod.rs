@@ -6,11 +6,11 @@
 use nalgebra::{Point2, Point3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use vp_labelgen::measurement::sigma_along;
 use vp_labelgen::{TripletReconstruction, View};
 use vp_scene::colmap::DepthMap;
 use vp_scene::procedural::{box_mesh, heightfield};
 use vp_scene::raycast::RayCaster;
+use vp_scene::triangulation::{point_covariance, sigma_along};
 use vp_scene::{Camera, Intrinsics, Mesh};
 
 /// What a pixel of a synthesised depthmap really is.
@@ -164,7 +164,8 @@ pub fn reconstruct(
                     continue;
                 }
                 let (_, dir) = cam.ray(&px);
-                let sigma = sigma_along(&scaled, &p, &dir, 1.0).unwrap_or(0.0);
+                let sigma =
+                    point_covariance(&scaled, &p, 1.0).map_or(0.0, |cov| sigma_along(&cov, &dir));
                 let ray_len = d / dir.dot(&cam.axis());
                 if let Some((_, f)) = blobs.iter().find(|(c, _)| inside(c, x, y)) {
                     // Wrong means wrong beyond what the triplet's geometry can

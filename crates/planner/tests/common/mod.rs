@@ -3,9 +3,9 @@
 
 use vp_planner::grid::{grid_views, GridParams};
 use vp_planner::{AcquiredView, PlanInputs, PlanResult, PlannerConfig, RoiSpec};
-use vp_scene::mesh_ops::Roi;
 use vp_scene::plan::Role;
 use vp_scene::procedural::{generate_site, Site, SiteParams};
+use vp_scene::roi::Roi;
 use vp_scene::{Aabb, Intrinsics};
 
 /// A small site (about `faces` faces).

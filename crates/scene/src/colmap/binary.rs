@@ -22,147 +22,10 @@ use nalgebra::{Point2, Point3};
 use super::model::{
     pose_from_qt, qt_from_pose, CameraModel, ColmapCamera, ColmapImage, Point2D, Point3D,
 };
-use super::reconstruction::Reconstruction;
-use super::text::Located;
+use super::reconstruction::{insert_unique, Located, Reconstruction};
+use crate::binfile::ByteReader;
 use crate::error::{Location, Result, SceneError};
 use crate::fsio;
-
-/// A little-endian cursor whose errors name the file, the element being read
-/// and the byte offset.
-struct Reader<'a> {
-    path: &'a Path,
-    data: &'a [u8],
-    pos: usize,
-    /// Kind and index of the element being read, for error locations.
-    element: Option<(&'static str, usize)>,
-}
-
-impl<'a> Reader<'a> {
-    fn new(path: &'a Path, data: &'a [u8]) -> Self {
-        Reader {
-            path,
-            data,
-            pos: 0,
-            element: None,
-        }
-    }
-
-    fn left(&self) -> usize {
-        self.data.len() - self.pos
-    }
-
-    /// The current element, found at `byte`, as an error location.
-    fn place(&self, byte: usize) -> Location {
-        match self.element {
-            Some((kind, index)) => Location::Element {
-                kind: kind.to_string(),
-                index,
-                byte: Some(byte as u64),
-            },
-            None => Location::Byte(byte as u64),
-        }
-    }
-
-    fn err_at(&self, byte: usize, message: impl Into<String>) -> SceneError {
-        SceneError::parse(self.path, self.place(byte), message)
-    }
-
-    fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8]> {
-        if self.left() < n {
-            return Err(self.err_at(
-                self.pos,
-                format!(
-                    "file truncated: {what} needs {n} bytes, only {} left",
-                    self.left()
-                ),
-            ));
-        }
-        let s = &self.data[self.pos..self.pos + n];
-        self.pos += n;
-        Ok(s)
-    }
-
-    fn array<const N: usize>(&mut self, what: &str) -> Result<[u8; N]> {
-        let mut a = [0u8; N];
-        a.copy_from_slice(self.take(N, what)?);
-        Ok(a)
-    }
-
-    fn u8(&mut self, what: &str) -> Result<u8> {
-        Ok(self.array::<1>(what)?[0])
-    }
-
-    fn u32(&mut self, what: &str) -> Result<u32> {
-        Ok(u32::from_le_bytes(self.array(what)?))
-    }
-
-    fn i32(&mut self, what: &str) -> Result<i32> {
-        Ok(i32::from_le_bytes(self.array(what)?))
-    }
-
-    fn u64(&mut self, what: &str) -> Result<u64> {
-        Ok(u64::from_le_bytes(self.array(what)?))
-    }
-
-    fn f64(&mut self, what: &str) -> Result<f64> {
-        Ok(f64::from_le_bytes(self.array(what)?))
-    }
-
-    fn finite(&mut self, what: &str) -> Result<f64> {
-        let at = self.pos;
-        let v = self.f64(what)?;
-        if v.is_finite() {
-            Ok(v)
-        } else {
-            Err(self.err_at(at, format!("{what} is {v}, expected a finite number")))
-        }
-    }
-
-    /// A count of items of `item_bytes` bytes each that must fit in the rest
-    /// of the file: catches truncation early and never allocates for a
-    /// corrupt count.
-    fn count(&mut self, what: &str, item_bytes: usize) -> Result<usize> {
-        let at = self.pos;
-        let n = self.u64(what)?;
-        let fits = usize::try_from(n)
-            .ok()
-            .filter(|&n| n.checked_mul(item_bytes).is_some_and(|b| b <= self.left()));
-        fits.ok_or_else(|| {
-            self.err_at(
-                at,
-                format!(
-                    "file truncated or corrupt: {what} is {n}, but only {} bytes follow \
-                     (at least {item_bytes} per item)",
-                    self.left()
-                ),
-            )
-        })
-    }
-
-    fn cstring(&mut self, what: &str) -> Result<String> {
-        let at = self.pos;
-        let rest = &self.data[self.pos..];
-        let Some(len) = rest.iter().position(|&b| b == 0) else {
-            return Err(self.err_at(at, format!("file truncated: {what} has no terminating NUL")));
-        };
-        let s = std::str::from_utf8(&rest[..len])
-            .map_err(|_| self.err_at(at, format!("{what} is not UTF-8")))?
-            .to_string();
-        self.pos += len + 1;
-        Ok(s)
-    }
-
-    fn finish(&mut self) -> Result<()> {
-        self.element = None;
-        if self.left() > 0 {
-            return Err(self.err_at(
-                self.pos,
-                format!("{} unexpected bytes after the last element", self.left()),
-            ));
-        }
-        Ok(())
-    }
-}
 
 /// Smallest encoded sizes, for the count checks.
 const CAMERA_MIN: usize = 4 + 4 + 8 + 8;
@@ -201,18 +64,17 @@ pub fn parse_cameras_binary(path: &Path, data: &[u8]) -> Result<BTreeMap<u32, Co
 }
 
 fn parse_cameras_located(path: &Path, data: &[u8]) -> Result<Located<u32, ColmapCamera>> {
-    let mut r = Reader::new(path, data);
+    let mut r = ByteReader::new(path, data);
     let n = r.count("number of cameras", CAMERA_MIN)?;
-    let mut cameras = BTreeMap::new();
-    let mut places = BTreeMap::new();
+    let mut located = (BTreeMap::new(), BTreeMap::new());
     for i in 0..n {
-        r.element = Some(("camera", i));
-        let start = r.pos;
+        r.set_element(Some(("camera", i)));
+        let start = r.pos();
         let id = r.u32("camera id")?;
-        let at = r.pos;
+        let at = r.pos();
         let model_id = r.i32("model id")?;
         let model = CameraModel::from_id(model_id).ok_or_else(|| {
-            r.err_at(
+            r.error_at(
                 at,
                 format!(
                     "camera {id}: unknown camera model id {model_id} (known: 0 to {})",
@@ -232,13 +94,11 @@ fn parse_cameras_located(path: &Path, data: &[u8]) -> Result<Located<u32, Colmap
             height,
             params,
         };
-        if cameras.insert(id, cam).is_some() {
-            return Err(r.err_at(start, format!("duplicate camera id {id}")));
-        }
-        places.insert(id, r.place(start));
+        insert_unique(&mut located, "camera", id, cam, r.place(start))
+            .map_err(|m| r.error_at(start, m))?;
     }
-    r.finish()?;
-    Ok((cameras, places))
+    r.finish("the last element")?;
+    Ok(located)
 }
 
 /// Reads `images.bin`.
@@ -252,15 +112,14 @@ pub fn parse_images_binary(path: &Path, data: &[u8]) -> Result<BTreeMap<u32, Col
 }
 
 fn parse_images_located(path: &Path, data: &[u8]) -> Result<Located<u32, ColmapImage>> {
-    let mut r = Reader::new(path, data);
+    let mut r = ByteReader::new(path, data);
     let n = r.count("number of images", IMAGE_MIN)?;
-    let mut images = BTreeMap::new();
-    let mut places = BTreeMap::new();
+    let mut located = (BTreeMap::new(), BTreeMap::new());
     for i in 0..n {
-        r.element = Some(("image", i));
-        let start = r.pos;
+        r.set_element(Some(("image", i)));
+        let start = r.pos();
         let id = r.u32("image id")?;
-        let pose_at = r.pos;
+        let pose_at = r.pos();
         let mut qt = [0.0; 7];
         for (v, what) in qt
             .iter_mut()
@@ -269,7 +128,7 @@ fn parse_images_located(path: &Path, data: &[u8]) -> Result<Located<u32, ColmapI
             *v = r.finite(what)?;
         }
         let cam_from_world = pose_from_qt([qt[0], qt[1], qt[2], qt[3]], [qt[4], qt[5], qt[6]])
-            .map_err(|m| r.err_at(pose_at, format!("image {id}: {m}")))?;
+            .map_err(|m| r.error_at(pose_at, format!("image {id}: {m}")))?;
         let camera_id = r.u32("camera id")?;
         let name = r.cstring("image name")?;
         let np = r.count("number of 2D points", POINT2D)?;
@@ -279,8 +138,8 @@ fn parse_images_located(path: &Path, data: &[u8]) -> Result<Located<u32, ColmapI
             let y = r.f64("2D point y")?;
             let pid = r.u64("2D point's 3D point id")?;
             if !(x.is_finite() && y.is_finite()) {
-                return Err(r.err_at(
-                    r.pos - POINT2D,
+                return Err(r.error_at(
+                    r.pos() - POINT2D,
                     format!("image {id}: 2D point {k} at ({x}, {y})"),
                 ));
             }
@@ -296,13 +155,11 @@ fn parse_images_located(path: &Path, data: &[u8]) -> Result<Located<u32, ColmapI
             cam_from_world,
             points2d,
         };
-        if images.insert(id, image).is_some() {
-            return Err(r.err_at(start, format!("duplicate image id {id}")));
-        }
-        places.insert(id, r.place(start));
+        insert_unique(&mut located, "image", id, image, r.place(start))
+            .map_err(|m| r.error_at(start, m))?;
     }
-    r.finish()?;
-    Ok((images, places))
+    r.finish("the last element")?;
+    Ok(located)
 }
 
 /// Reads `points3D.bin`.
@@ -316,13 +173,12 @@ pub fn parse_points3d_binary(path: &Path, data: &[u8]) -> Result<BTreeMap<u64, P
 }
 
 fn parse_points3d_located(path: &Path, data: &[u8]) -> Result<Located<u64, Point3D>> {
-    let mut r = Reader::new(path, data);
+    let mut r = ByteReader::new(path, data);
     let n = r.count("number of points", POINT3D_MIN)?;
-    let mut points = BTreeMap::new();
-    let mut places = BTreeMap::new();
+    let mut located = (BTreeMap::new(), BTreeMap::new());
     for i in 0..n {
-        r.element = Some(("point", i));
-        let start = r.pos;
+        r.set_element(Some(("point", i)));
+        let start = r.pos();
         let id = r.u64("point id")?;
         let xyz = Point3::new(r.finite("x")?, r.finite("y")?, r.finite("z")?);
         let rgb = [r.u8("red")?, r.u8("green")?, r.u8("blue")?];
@@ -339,13 +195,11 @@ fn parse_points3d_located(path: &Path, data: &[u8]) -> Result<Located<u64, Point
             error,
             track,
         };
-        if points.insert(id, point).is_some() {
-            return Err(r.err_at(start, format!("duplicate point id {id}")));
-        }
-        places.insert(id, r.place(start));
+        insert_unique(&mut located, "point", id, point, r.place(start))
+            .map_err(|m| r.error_at(start, m))?;
     }
-    r.finish()?;
-    Ok((points, places))
+    r.finish("the last element")?;
+    Ok(located)
 }
 
 fn put_u64(out: &mut Vec<u8>, v: u64) {

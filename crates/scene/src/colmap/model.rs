@@ -116,6 +116,19 @@ impl CameraModel {
         Self::ALL.into_iter().find(|m| m.name() == name)
     }
 
+    /// Checks a parameter count against [`CameraModel::num_params`]; the
+    /// one message every reader and check uses.
+    pub fn check_param_count(self, found: usize) -> std::result::Result<(), String> {
+        if found == self.num_params() {
+            Ok(())
+        } else {
+            Err(format!(
+                "{self} expects {} parameters, found {found}",
+                self.num_params()
+            ))
+        }
+    }
+
     /// Number of parameters COLMAP stores for the model.
     pub fn num_params(self) -> usize {
         match self {
@@ -190,14 +203,9 @@ impl ColmapCamera {
                 what()
             )));
         }
-        if self.params.len() != self.model.num_params() {
-            return Err(SceneError::InvalidArgument(format!(
-                "{}: expected {} parameters, found {}",
-                what(),
-                self.model.num_params(),
-                self.params.len()
-            )));
-        }
+        self.model
+            .check_param_count(self.params.len())
+            .map_err(|m| SceneError::InvalidArgument(format!("camera {}: {m}", self.id)))?;
         let (Ok(width), Ok(height)) = (u32::try_from(self.width), u32::try_from(self.height))
         else {
             return Err(SceneError::InvalidArgument(format!(
@@ -213,25 +221,11 @@ impl ColmapCamera {
         } else {
             (p[0], p[1], p[2], p[3])
         };
-        if !(fx > 0.0 && fy > 0.0 && fx.is_finite() && fy.is_finite()) {
-            return Err(SceneError::InvalidArgument(format!(
-                "{}: focal length ({fx}, {fy}) is not positive and finite",
-                what()
-            )));
-        }
-        if !(cx.is_finite() && cy.is_finite()) {
-            return Err(SceneError::InvalidArgument(format!(
-                "{}: principal point ({cx}, {cy}) is not finite",
-                what()
-            )));
-        }
-        Ok(Intrinsics {
-            width,
-            height,
-            fx,
-            fy,
-            cx,
-            cy,
+        Intrinsics::new(width, height, fx, fy, cx, cy).map_err(|e| match e {
+            SceneError::InvalidArgument(m) => {
+                SceneError::InvalidArgument(format!("{}: {m}", what()))
+            }
+            other => other,
         })
     }
 }
@@ -398,7 +392,8 @@ mod tests {
             .pinhole()
             .unwrap_err();
         assert!(
-            err.to_string().contains("expected 4 parameters, found 3"),
+            err.to_string()
+                .contains("camera 1: PINHOLE expects 4 parameters, found 3"),
             "{err}"
         );
         let err = cam(CameraModel::SimplePinhole, vec![0.0, 320.0, 240.0])

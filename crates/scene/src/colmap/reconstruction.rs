@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 
 use super::model::{ColmapCamera, ColmapImage, Point3D};
 use crate::camera::Camera;
-use crate::error::{Result, SceneError};
+use crate::error::{Location, Result, SceneError};
 
 /// A COLMAP sparse model.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -137,17 +137,32 @@ impl Reconstruction {
             })
         };
         for cam in self.cameras.values() {
-            if cam.params.len() != cam.model.num_params() {
-                return bad(
-                    ModelFile::Cameras,
-                    u64::from(cam.id),
-                    format!(
-                        "{} expects {} parameters, found {}",
-                        cam.model,
-                        cam.model.num_params(),
-                        cam.params.len()
-                    ),
-                );
+            if let Err(m) = cam.model.check_param_count(cam.params.len()) {
+                return bad(ModelFile::Cameras, u64::from(cam.id), m);
+            }
+        }
+        // Track elements naming an image or 2D point that does not exist are
+        // points3D problems: check them before the images' references, which
+        // would otherwise blame images for a broken track.
+        for point in self.points.values() {
+            for &(image_id, idx) in &point.track {
+                let Some(image) = self.images.get(&image_id) else {
+                    return bad(
+                        ModelFile::Points,
+                        point.id,
+                        format!("track refers to unknown image {image_id}"),
+                    );
+                };
+                if image.points2d.get(idx as usize).is_none() {
+                    return bad(
+                        ModelFile::Points,
+                        point.id,
+                        format!(
+                            "track refers to 2D point {idx} of image {image_id}, which has only {}",
+                            image.points2d.len()
+                        ),
+                    );
+                }
             }
         }
         for image in self.images.values() {
@@ -188,22 +203,13 @@ impl Reconstruction {
         }
         for point in self.points.values() {
             for &(image_id, idx) in &point.track {
-                let Some(image) = self.images.get(&image_id) else {
-                    return bad(
-                        ModelFile::Points,
-                        point.id,
-                        format!("track refers to unknown image {image_id}"),
-                    );
-                };
-                let Some(p2) = image.points2d.get(idx as usize) else {
-                    return bad(
-                        ModelFile::Points,
-                        point.id,
-                        format!(
-                            "track refers to 2D point {idx} of image {image_id}, which has only {}",
-                            image.points2d.len()
-                        ),
-                    );
+                // Existence was checked above.
+                let Some(p2) = self
+                    .images
+                    .get(&image_id)
+                    .and_then(|im| im.points2d.get(idx as usize))
+                else {
+                    continue;
                 };
                 if p2.point3d_id != Some(point.id) {
                     return bad(
@@ -222,4 +228,27 @@ impl Reconstruction {
         }
         None
     }
+}
+
+/// Elements by id, and where each was found in its file: what the text and
+/// binary readers both return, so that [`Reconstruction::check`]'s findings
+/// can be placed.
+pub(crate) type Located<K, V> = (BTreeMap<K, V>, BTreeMap<K, Location>);
+
+/// Inserts an element read at `place`, refusing an id seen before: the one
+/// duplicate check of both readers. The error is the message; each reader
+/// places it.
+pub(crate) fn insert_unique<K: Ord + Copy + std::fmt::Display, V>(
+    located: &mut Located<K, V>,
+    kind: &str,
+    id: K,
+    value: V,
+    place: Location,
+) -> std::result::Result<(), String> {
+    if located.0.contains_key(&id) {
+        return Err(format!("duplicate {kind} id {id}"));
+    }
+    located.0.insert(id, value);
+    located.1.insert(id, place);
+    Ok(())
 }

@@ -21,7 +21,7 @@ use nalgebra::{Point2, Point3};
 use super::model::{
     pose_from_qt, qt_from_pose, CameraModel, ColmapCamera, ColmapImage, Point2D, Point3D,
 };
-use super::reconstruction::Reconstruction;
+use super::reconstruction::{insert_unique, Located, Reconstruction};
 use crate::error::{Location, Result, SceneError};
 use crate::fsio;
 
@@ -100,36 +100,18 @@ fn data_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
         .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'))
 }
 
-fn read_text_file(path: &Path) -> Result<String> {
-    let bytes = fsio::read_file(path)?;
-    let mut text = String::from_utf8(bytes).map_err(|e| {
-        SceneError::parse(
-            path,
-            Location::Byte(e.utf8_error().valid_up_to() as u64),
-            "not UTF-8 text",
-        )
-    })?;
-    if text.starts_with('\u{feff}') {
-        text.drain(..3);
-    }
-    Ok(text)
-}
-
-/// Elements by id, and where each was found in its file.
-pub(crate) type Located<K, V> = (BTreeMap<K, V>, BTreeMap<K, Location>);
-
 /// Reads `cameras.txt`.
 pub fn read_cameras_text(path: &Path) -> Result<BTreeMap<u32, ColmapCamera>> {
-    parse_cameras(path, &read_text_file(path)?)
+    parse_cameras(path, &fsio::read_text(path)?)
 }
 
 /// Reads the three text files, with each element's line.
 pub(crate) fn read_located(
     [cams, ims, pts]: &[std::path::PathBuf; 3],
 ) -> Result<(Reconstruction, [BTreeMap<u64, Location>; 3])> {
-    let (cameras, cp) = parse_cameras_located(cams, &read_text_file(cams)?)?;
-    let (images, ip) = parse_images_located(ims, &read_text_file(ims)?)?;
-    let (points, pp) = parse_points3d_located(pts, &read_text_file(pts)?)?;
+    let (cameras, cp) = parse_cameras_located(cams, &fsio::read_text(cams)?)?;
+    let (images, ip) = parse_images_located(ims, &fsio::read_text(ims)?)?;
+    let (points, pp) = parse_points3d_located(pts, &fsio::read_text(pts)?)?;
     let widen =
         |m: BTreeMap<u32, Location>| m.into_iter().map(|(k, v)| (u64::from(k), v)).collect();
     Ok((
@@ -149,8 +131,7 @@ pub fn parse_cameras(path: &Path, text: &str) -> Result<BTreeMap<u32, ColmapCame
 
 /// As [`parse_cameras`], also giving each camera's line.
 pub(crate) fn parse_cameras_located(path: &Path, text: &str) -> Result<Located<u32, ColmapCamera>> {
-    let mut cameras = BTreeMap::new();
-    let mut places = BTreeMap::new();
+    let mut located = (BTreeMap::new(), BTreeMap::new());
     for (n, line) in data_lines(text) {
         let mut f = Fields::new(path, n, line);
         let id: u32 = f.next("CAMERA_ID")?;
@@ -174,13 +155,9 @@ pub(crate) fn parse_cameras_located(path: &Path, text: &str) -> Result<Located<u
             }
             params.push(v);
         }
-        if params.len() != model.num_params() {
-            return Err(f.err(format!(
-                "camera {id}: {model} expects {} parameters, found {}",
-                model.num_params(),
-                params.len()
-            )));
-        }
+        model
+            .check_param_count(params.len())
+            .map_err(|m| f.err(format!("camera {id}: {m}")))?;
         let cam = ColmapCamera {
             id,
             model,
@@ -188,17 +165,14 @@ pub(crate) fn parse_cameras_located(path: &Path, text: &str) -> Result<Located<u
             height,
             params,
         };
-        if cameras.insert(id, cam).is_some() {
-            return Err(f.err(format!("duplicate camera id {id}")));
-        }
-        places.insert(id, Location::Line(n));
+        insert_unique(&mut located, "camera", id, cam, Location::Line(n)).map_err(|m| f.err(m))?;
     }
-    Ok((cameras, places))
+    Ok(located)
 }
 
 /// Reads `images.txt`.
 pub fn read_images_text(path: &Path) -> Result<BTreeMap<u32, ColmapImage>> {
-    parse_images(path, &read_text_file(path)?)
+    parse_images(path, &fsio::read_text(path)?)
 }
 
 /// Parses the content of an `images.txt`; `path` names it in errors.
@@ -208,8 +182,7 @@ pub fn parse_images(path: &Path, text: &str) -> Result<BTreeMap<u32, ColmapImage
 
 /// As [`parse_images`], also giving each image's line.
 pub(crate) fn parse_images_located(path: &Path, text: &str) -> Result<Located<u32, ColmapImage>> {
-    let mut images = BTreeMap::new();
-    let mut places = BTreeMap::new();
+    let mut located = (BTreeMap::new(), BTreeMap::new());
     let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l.trim()));
     while let Some((n, line)) = lines.next() {
         if line.is_empty() || line.starts_with('#') {
@@ -268,17 +241,14 @@ pub(crate) fn parse_images_located(path: &Path, text: &str) -> Result<Located<u3
             cam_from_world,
             points2d,
         };
-        if images.insert(id, image).is_some() {
-            return Err(f.err(format!("duplicate image id {id}")));
-        }
-        places.insert(id, Location::Line(n));
+        insert_unique(&mut located, "image", id, image, Location::Line(n)).map_err(|m| f.err(m))?;
     }
-    Ok((images, places))
+    Ok(located)
 }
 
 /// Reads `points3D.txt`.
 pub fn read_points3d_text(path: &Path) -> Result<BTreeMap<u64, Point3D>> {
-    parse_points3d(path, &read_text_file(path)?)
+    parse_points3d(path, &fsio::read_text(path)?)
 }
 
 /// Parses the content of a `points3D.txt`; `path` names it in errors.
@@ -288,8 +258,7 @@ pub fn parse_points3d(path: &Path, text: &str) -> Result<BTreeMap<u64, Point3D>>
 
 /// As [`parse_points3d`], also giving each point's line.
 pub(crate) fn parse_points3d_located(path: &Path, text: &str) -> Result<Located<u64, Point3D>> {
-    let mut points = BTreeMap::new();
-    let mut places = BTreeMap::new();
+    let mut located = (BTreeMap::new(), BTreeMap::new());
     for (n, line) in data_lines(text) {
         let mut f = Fields::new(path, n, line);
         let id: u64 = f.next("POINT3D_ID")?;
@@ -314,12 +283,9 @@ pub(crate) fn parse_points3d_located(path: &Path, text: &str) -> Result<Located<
             error,
             track,
         };
-        if points.insert(id, point).is_some() {
-            return Err(f.err(format!("duplicate point id {id}")));
-        }
-        places.insert(id, Location::Line(n));
+        insert_unique(&mut located, "point", id, point, Location::Line(n)).map_err(|m| f.err(m))?;
     }
-    Ok((points, places))
+    Ok(located)
 }
 
 /// Shortest text that parses back to exactly `v` (Rust's float printing

@@ -358,7 +358,7 @@ impl CampaignConfig {
         };
         // Parsed on its own first: syntax, type and unknown-key errors keep
         // their line and column.
-        toml::from_str::<CampaignConfig>(text).map_err(in_file)?;
+        vp_scene::config_file::parse_toml::<CampaignConfig>(text, path)?;
         let given: toml::Table = toml::from_str(text).map_err(in_file)?;
         let mut merged = toml::Table::try_from(Self::demo())
             .map_err(|e| SimError::InvalidArgument(format!("demo configuration to TOML: {e}")))?;
@@ -371,11 +371,7 @@ impl CampaignConfig {
 
     /// Reads and parses a TOML file.
     pub fn load(path: &Path) -> Result<Self> {
-        let bytes = vp_scene::fsio::read_file(path)?;
-        let text = String::from_utf8(bytes).map_err(|_| {
-            SimError::InvalidArgument(format!("{}: not UTF-8 text", path.display()))
-        })?;
-        Self::from_toml(&text, path)
+        Self::from_toml(&vp_scene::fsio::read_text(path)?, path)
     }
 
     /// The configuration as a complete TOML file (every key written out).

@@ -5,8 +5,8 @@ use nalgebra::Point3;
 use vp_forest::Forest;
 use vp_planner::grid::{grid_views, GridParams};
 use vp_planner::{plan, AcquiredView, PlanInputs, RoiSpec};
-use vp_scene::mesh_ops::Roi;
 use vp_scene::plan::{Plan, Role};
+use vp_scene::roi::Roi;
 use vp_scene::{Aabb, Camera};
 
 use super::config::CampaignConfig;

@@ -10,7 +10,7 @@ use vp_scene::{Camera, Material, Mesh};
 use super::profile::MvsProfile;
 use crate::error::{Result, SimError};
 use crate::noise::{gaussian, hash3, mix64, uniform_field, unit};
-use crate::triangulation::{point_covariance, sigma_along, triangulation_angle_deg};
+use vp_scene::triangulation::{point_covariance, sigma_along, triangulation_angle_deg};
 
 /// Deepest pyramid level accepted (level L has 2^-(L-1) of the resolution).
 pub const MAX_LEVEL: u8 = 6;
@@ -293,7 +293,7 @@ impl Run<'_> {
             return truth;
         }
         let refs = [&self.cams[0], &self.cams[1], &self.cams[2]];
-        let Some(cov) = point_covariance(&refs, &p, self.mvs.profile.sigma_px) else {
+        let Some(cov) = point_covariance(refs, &p, self.mvs.profile.sigma_px) else {
             return truth;
         };
         let profile = &self.mvs.profile;

@@ -10,7 +10,7 @@ use vp_scene::{Camera, Material, Mesh};
 
 use super::{level_camera, MvsProfile, MvsView, PixelStatus, VirtualMvs};
 use crate::test_scenes::{intrinsics, tiled_plane, triplet, uniform_plane};
-use crate::triangulation::{point_geometry, triangulation_angle_deg};
+use vp_scene::triangulation::{point_geometry, triangulation_angle_deg};
 
 fn refs(t: &[Camera; 3]) -> [&Camera; 3] {
     [&t[0], &t[1], &t[2]]

@@ -3,6 +3,7 @@
 #![allow(clippy::float_cmp)]
 
 use super::*;
+use crate::binfile::fnv1a64;
 
 fn labels_fixture() -> LabelImage {
     let mut l = LabelImage::new(5, 4);
