@@ -4,7 +4,8 @@ on a real rectified pair with ground-truth disparity and on a rendered pair.
 
     python3 -m venv .venv && .venv/bin/pip install -r benches/peer/requirements-mvs.txt
     cargo build --release -p vpctl
-    .venv/bin/python benches/peer/mvs_vs_sgbm.py [--pairs motorcycle,rendered] [--keep DIR]
+    apt-get install opencv-doc   # the Aloe pair (optional)
+    .venv/bin/python benches/peer/mvs_vs_sgbm.py [--pairs motorcycle,aloe,rendered] [--keep DIR]
 
 Pairs:
 - motorcycle: Middlebury 2014 "Motorcycle" (Scharstein et al., GCPR 2014),
@@ -12,6 +13,12 @@ Pairs:
   disparity, as shipped inside the scikit-image wheel
   (`skimage.data.stereo_motorcycle()`, no download). Calibration from its
   docstring: f = 994.978 px, doffs = 31.086 px, baseline = 193.001 mm.
+- aloe: Middlebury 2006 "Aloe", left/right JPEGs and the 8-bit left
+  ground-truth disparity as shipped by Debian's opencv-doc
+  (/usr/share/doc/opencv-doc/examples/data; `apt-get install opencv-doc`),
+  downsampled to half size by default; no calibration ships with it, so an
+  arbitrary f, B (d = f B / Z) is used, which changes no correspondence.
+  Skipped with a message when opencv-doc is not installed.
 - rendered: two views of a procedural site rendered by `vpctl sim render`
   (exact depth), the right camera moved by --baseline metres along the left
   camera's x axis with the same orientation: a rectified pair whose
@@ -82,6 +89,39 @@ def load_motorcycle():
     return Pair("motorcycle", left, right, gt.astype(np.float64),
                 f=994.978, baseline=0.193001, cx=311.193 + 0.5, cy=254.877 + 0.5, doffs=31.086,
                 note=f"Middlebury 2014 Motorcycle, quarter size, from scikit-image {skimage.__version__}")
+
+
+OPENCV_DATA = "/usr/share/doc/opencv-doc/examples/data"
+
+
+def load_aloe(scale):
+    """Middlebury 2006 "Aloe" (Hirschmueller & Scharstein, CVPR 2007), full
+    size 1282x1110, as shipped by Debian's opencv-doc in its samples data:
+    aloeL.jpg / aloeR.jpg (JPEG) and aloeGT.png (8-bit left disparity in
+    pixels, 0 = unknown). No calibration ships with it: any f and B with
+    d = f B / Z describe the same rectified pair (a projective change of the
+    3D frame leaves every correspondence unchanged), so f = 1000 px and
+    B = 1 are used; doffs = 0. `scale` < 1 downsamples by area averaging and
+    scales the disparities with it."""
+    import cv2
+
+    paths = [os.path.join(OPENCV_DATA, n) for n in ("aloeL.jpg", "aloeR.jpg", "aloeGT.png")]
+    missing = [p for p in paths if not os.path.exists(p)]
+    if missing:
+        raise FileNotFoundError(f"{missing[0]} is missing (apt-get install opencv-doc)")
+    left, right = (read_png(p) for p in paths[:2])
+    gt8 = cv2.imread(paths[2], cv2.IMREAD_GRAYSCALE).astype(np.float64)
+    gt = np.where(gt8 > 0, gt8, np.nan)
+    if scale != 1.0:
+        h, w = gt.shape
+        size = (int(round(w * scale)), int(round(h * scale)))
+        left = cv2.resize(left, size, interpolation=cv2.INTER_AREA)
+        right = cv2.resize(right, size, interpolation=cv2.INTER_AREA)
+        # Nearest GT sample (no mixing across depth edges), disparity scaled.
+        gt = cv2.resize(gt, size, interpolation=cv2.INTER_NEAREST) * scale
+    h, w = gt.shape
+    return Pair("aloe", left, right, gt, f=1000.0, baseline=1.0, cx=0.5 * w, cy=0.5 * h, doffs=0.0,
+                note=f"Middlebury 2006 Aloe from Debian opencv-doc ({OPENCV_DATA}), scale {scale}")
 
 
 def read_colmap_depth(path):
@@ -275,7 +315,8 @@ def fmt(s):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--pairs", default="motorcycle,rendered")
+    ap.add_argument("--pairs", default="motorcycle,aloe,rendered")
+    ap.add_argument("--aloe-scale", type=float, default=0.5, help="downsampling of the Aloe pair (1 = full 1282x1110)")
     ap.add_argument("--vpctl", default=None, help="vpctl binary (default target/release/vpctl)")
     ap.add_argument("--mvs-arg", action="append", default=[], help="extra argument for `vpctl mvs run` (repeat)")
     ap.add_argument("--margin", type=int, default=4, help="px added to each side of the GT disparity range")
@@ -305,13 +346,19 @@ def main():
     for name in [p.strip() for p in args.pairs.split(",") if p.strip()]:
         if name == "motorcycle":
             pair = load_motorcycle()
+        elif name == "aloe":
+            try:
+                pair = load_aloe(args.aloe_scale)
+            except FileNotFoundError as e:
+                print(f"aloe pair SKIPPED: {e}")
+                continue
         elif name == "rendered":
             if not os.path.exists(vpctl):
                 print(f"rendered pair SKIPPED: {vpctl} does not exist (cargo build --release -p vpctl)")
                 continue
             pair = render_pair(vpctl, tmp, args)
         else:
-            sys.exit(f"unknown pair {name!r} (motorcycle, rendered)")
+            sys.exit(f"unknown pair {name!r} (motorcycle, aloe, rendered)")
         h, w = pair.gt.shape
         lo, hi = search_range(pair, args.margin)
         print(f"\n== {pair.name}: {w}x{h}, {pair.note}")
