@@ -6,8 +6,9 @@ on real photos (median relative depth error <= 1 %, >= 80 % of points within
 2 %), to check a Rust test against.
 
     .venv/bin/pip install -r benches/peer/requirements-mvs.txt
-    cp -r tests/data/real-mvs/visp-cube /tmp/ws && vpctl mvs run --workspace /tmp/ws
-    .venv/bin/python benches/peer/sparse_agreement.py --workspace /tmp/ws --depth-maps /tmp/ws/stereo/depth_maps
+    .venv/bin/python benches/peer/sparse_agreement.py --run-vpctl [--min-angle 10 --max-error 1]
+    # or depth maps made otherwise:
+    .venv/bin/python benches/peer/sparse_agreement.py --workspace WS --depth-maps WS/stereo/depth_maps
 
 For every image with a depth map and every sparse point the image observes
 (filtered: seen in >= --min-track distinct images, reprojection error <=
@@ -129,14 +130,46 @@ def summary(errs):
             f"within 2 % {100 * (errs <= 0.02).mean():5.1f} %")
 
 
+def run_vpctl(args):
+    import shutil
+    import subprocess
+    import tempfile
+    import time
+
+    vpctl = args.run_vpctl or os.path.join(os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target")),
+                                           "release", "vpctl")
+    if not os.path.exists(vpctl):
+        sys.exit(f"vp-mvs NOT RUN: {vpctl} does not exist (cargo build --release -p vpctl)")
+    r = subprocess.run([vpctl, "mvs", "run", "--help"], capture_output=True, text=True)
+    if r.returncode != 0:
+        sys.exit(f"vp-mvs NOT RUN: `vpctl mvs run` is not available in this build "
+                 f"({(r.stderr or r.stdout).strip().splitlines()[0]})")
+    ws = os.path.join(tempfile.mkdtemp(prefix="sparse_agreement_"), "ws")
+    shutil.copytree(args.workspace, ws)
+    cmd = [vpctl, "mvs", "run", "--workspace", ws]
+    t0 = time.perf_counter()
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0:
+        sys.exit(f"{' '.join(cmd)} failed (exit {r.returncode}):\n{r.stderr[-2000:]}")
+    print(f"ran: {' '.join(cmd)}  [{time.perf_counter() - t0:.1f} s]")
+    return os.path.join(ws, "stereo", "depth_maps")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--workspace", default=os.path.join(ROOT, "tests", "data", "real-mvs", "visp-cube"))
-    ap.add_argument("--depth-maps", required=True, help="folder of <image>.geometric.bin / .photometric.bin to score")
+    ap.add_argument("--depth-maps", help="folder of <image>.geometric.bin / .photometric.bin to score")
+    ap.add_argument("--run-vpctl", nargs="?", const="", default=None, metavar="VPCTL",
+                    help="copy the workspace to a temporary folder, run `VPCTL mvs run --workspace` on it "
+                         "(default binary target/release/vpctl) and score its depth maps")
     ap.add_argument("--min-track", type=int, default=3)
     ap.add_argument("--max-error", type=float, default=2.0)
     ap.add_argument("--min-angle", type=float, default=0.0)
     args = ap.parse_args()
+    if args.run_vpctl is not None:
+        args.depth_maps = run_vpctl(args)
+    if not args.depth_maps:
+        sys.exit("nothing to score: give --depth-maps DIR or --run-vpctl")
 
     images, points = read_model(os.path.join(args.workspace, "sparse"))
     for n, im in images.items():
@@ -144,17 +177,16 @@ def main():
     print(f"model {args.workspace}/sparse: {len(images)} images, {len(points)} points; "
           f"filter: track >= {args.min_track}, error <= {args.max_error} px, angle >= {args.min_angle} deg")
     all_errs = []
-    if args.depth_maps:
-        for n in sorted(images):
-            for kind in ("geometric", "photometric"):
-                p = os.path.join(args.depth_maps, f"{n}.{kind}.bin")
-                if os.path.exists(p):
-                    errs = score_image(images[n], read_depth(p), points, args)
-                    print(f"  {n} ({kind}): {summary(errs)}")
-                    all_errs.append(errs)
-                    break
+    for n in sorted(images):
+        for kind in ("geometric", "photometric"):
+            p = os.path.join(args.depth_maps, f"{n}.{kind}.bin")
+            if os.path.exists(p):
+                errs = score_image(images[n], read_depth(p), points, args)
+                print(f"  {n} ({kind}): {summary(errs)}")
+                all_errs.append(errs)
+                break
     if not all_errs:
-        sys.exit("nothing to score: give --depth-maps DIR")
+        sys.exit(f"no depth map of any model image under {args.depth_maps}")
     print(f"overall: {summary(np.concatenate(all_errs))}")
 
 
