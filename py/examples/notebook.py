@@ -84,7 +84,7 @@ with vpctl.mission.SimulatedVehicle() as vehicle:
     report = vpctl.mission.upload(plan, vehicle.url)
     print("uploaded", report["items"], "items; verified:", report["verified"])
 
-# %% Plot: top view of the mesh, the sampled fulfilment and the planned path.
+# %% Plot: top view of the mesh, the sampled fulfillment and the planned path.
 try:
     import matplotlib
 

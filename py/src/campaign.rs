@@ -10,49 +10,15 @@ use vp_sim::campaign::{self, CampaignConfig};
 use crate::convert;
 use crate::errors::{value_error, IntoPy};
 
-fn preset(name: &str) -> PyResult<CampaignConfig> {
-    match name {
-        "demo" => Ok(CampaignConfig::demo()),
-        "quick" => Ok(CampaignConfig::quick()),
-        "paper" => Ok(CampaignConfig::paper()),
-        other => Err(value_error(format!(
-            "preset {other:?}: expected \"demo\", \"quick\" or \"paper\""
-        ))),
-    }
-}
-
-/// Lays `over` onto `base` key by key, recursing into tables, so that a dict
-/// may name only the keys it changes (`{"training": {"site_seeds": [3]}}`).
-fn overlay(base: &mut serde_json::Value, over: serde_json::Value) {
-    match (base, over) {
-        (serde_json::Value::Object(b), serde_json::Value::Object(o)) => {
-            for (k, v) in o {
-                match b.get_mut(&k) {
-                    Some(slot) => overlay(slot, v),
-                    None => {
-                        b.insert(k, v);
-                    }
-                }
-            }
-        }
-        (slot, v) => *slot = v,
-    }
-}
-
 /// The configuration: a preset, changed by a dict, or a TOML file.
 fn config(obj: Option<&Bound<'_, PyAny>>, preset_name: &str) -> PyResult<CampaignConfig> {
-    let base = preset(preset_name)?;
+    let base = CampaignConfig::preset(preset_name).py()?;
     let Some(obj) = obj.filter(|o| !o.is_none()) else {
         return Ok(base);
     };
     if obj.is_instance_of::<PyDict>() {
         let over: serde_json::Value = convert::from_py_required(obj, "config")?;
-        let mut v = serde_json::to_value(&base).map_err(|e| value_error(format!("config: {e}")))?;
-        overlay(&mut v, over);
-        let cfg: CampaignConfig =
-            serde_json::from_value(v).map_err(|e| value_error(format!("config: {e}")))?;
-        cfg.validate().py()?;
-        return Ok(cfg);
+        return base.with_overrides(over).py();
     }
     let path: PathBuf = obj
         .extract()

@@ -3,12 +3,11 @@
 //! a simulated vehicle for notebooks and tests (vp-mission).
 
 use std::path::PathBuf;
-use std::time::Duration;
 
 use num_traits::ToPrimitive;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
-use vp_mission::testing::{spawn_udp_vehicle, UdpVehicle, VehicleConfig};
+use vp_mission::sim_vehicle::{spawn_udp_vehicle, UdpVehicle, VehicleConfig};
 use vp_mission::{
     build_mission, export_qgc, export_wpl, Autopilot, ConnectOptions, Mission, MissionItem,
     MissionOptions, QgcOptions,
@@ -36,12 +35,7 @@ fn options(
     takeoff: f32,
     rtl: bool,
 ) -> PyResult<MissionOptions> {
-    let mut o = MissionOptions::for_autopilot(autopilot(autopilot_name)?);
-    o.hold_time_s = hold;
-    o.speed_m_s = speed;
-    o.takeoff_alt_m = (takeoff > 0.0).then_some(takeoff);
-    o.return_to_launch = rtl;
-    Ok(o)
+    MissionOptions::from_user(autopilot(autopilot_name)?, hold, speed, takeoff, rtl).py()
 }
 
 fn item_dict<'py>(py: Python<'py>, item: &MissionItem) -> PyResult<Bound<'py, PyDict>> {
@@ -152,22 +146,7 @@ fn export(
 }
 
 fn connect_options(heartbeat_timeout: f64, timeout_scale: f64) -> PyResult<ConnectOptions> {
-    if !(heartbeat_timeout.is_finite() && heartbeat_timeout > 0.0) {
-        return Err(value_error(format!(
-            "heartbeat_timeout = {heartbeat_timeout} s must be positive"
-        )));
-    }
-    if !(timeout_scale.is_finite() && timeout_scale > 0.0) {
-        return Err(value_error(format!(
-            "timeout_scale = {timeout_scale} must be positive"
-        )));
-    }
-    let d = ConnectOptions::default();
-    Ok(ConnectOptions {
-        heartbeat_timeout: Duration::from_secs_f64(heartbeat_timeout),
-        protocol: d.protocol.scaled(timeout_scale),
-        ..d
-    })
+    ConnectOptions::from_user(heartbeat_timeout, timeout_scale).py()
 }
 
 /// Connects to `url` (udpout:HOST:PORT, udpin:..., tcpout:..., serial:DEV:BAUD),

@@ -61,7 +61,7 @@ enum Command {
     /// The simulated world: render images of procedural sites, run
     /// closed-loop campaigns (`sim run --config`, `sim config --defaults`).
     #[command(subcommand)]
-    Sim(cmd::render::SimCommand),
+    Sim(cmd::sim::SimCommand),
 }
 
 fn run(args: Args, out: &mut dyn Write) -> anyhow::Result<()> {
@@ -77,7 +77,7 @@ fn run(args: Args, out: &mut dyn Write) -> anyhow::Result<()> {
         Command::Forest(c) => cmd::forest::run(c, out),
         Command::Plan(c) => cmd::plan::run(*c, out),
         Command::Config(c) => cmd::plan::run_config(c, out),
-        Command::Sim(c) => cmd::render::run(c, out),
+        Command::Sim(c) => cmd::sim::run(c, out),
         Command::Demo(c) => cmd::demo::run_demo(&c, out),
     }
 }

@@ -56,8 +56,8 @@ fn quick_demo_prints_the_table_and_writes_the_report() {
         "config.toml",
         "confidence_rock.png",
         "plan_F1x2.png",
-        "fulfilment_Grid.png",
-        "fulfilment_Gplus_F1x2.png",
+        "fulfillment_Grid.png",
+        "fulfillment_Gplus_F1x2.png",
         "plans/F1x2/iter1.json",
         "plans/NP1x2/iter1.plan",
         "plans/Grid/iter1.plan",
@@ -97,9 +97,14 @@ fn quick_demo_prints_the_table_and_writes_the_report() {
 #[test]
 fn sim_config_prints_a_loadable_config_and_sim_run_checks_it() {
     let dir = tempfile::tempdir().unwrap();
-    let o = vpctl(&["sim", "config", "--defaults"]);
+    let o = vpctl(&["sim", "config"]);
     assert!(o.status.success());
     let toml = text(&o.stdout);
+    let quick = vpctl(&["sim", "config", "--preset", "quick"]);
+    assert!(quick.status.success() && text(&quick.stdout) != toml);
+    let o2 = vpctl(&["sim", "config", "--preset", "nope"]);
+    assert_eq!(o2.status.code(), Some(2));
+    assert!(text(&o2.stderr).contains("expected one of demo, quick, paper"));
     assert!(toml.contains("held_out_seeds") && toml.contains("[training.forest]"));
     // A typo in the config: exit 2, the message names the file and the key.
     let bad = dir.path().join("bad.toml");

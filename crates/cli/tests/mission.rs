@@ -3,7 +3,7 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
-use vp_mission::testing::{spawn_udp_vehicle, VehicleConfig};
+use vp_mission::sim_vehicle::{spawn_udp_vehicle, VehicleConfig};
 use vp_scene::plan::{GeodeticOrigin, Plan, PlannedView, Role};
 
 fn vpctl(args: &[&str]) -> Output {

@@ -120,6 +120,37 @@ impl MissionOptions {
             first_capture_seq: 1,
         }
     }
+
+    /// The options a user sets (`vpctl mission` flags, the Python keywords)
+    /// over [`MissionOptions::for_autopilot`]: hold time and speed must be
+    /// non-negative and finite; `takeoff_m` 0 means no takeoff item.
+    pub fn from_user(
+        autopilot: Autopilot,
+        hold_s: f32,
+        speed_m_s: Option<f32>,
+        takeoff_m: f32,
+        return_to_launch: bool,
+    ) -> crate::Result<Self> {
+        let bad = |what: &str, v: f32| {
+            crate::MissionError::InvalidInput(format!("{what} = {v} must be a finite number >= 0"))
+        };
+        let ok = |v: f32| v.is_finite() && v >= 0.0;
+        if !ok(hold_s) {
+            return Err(bad("hold", hold_s));
+        }
+        if let Some(s) = speed_m_s.filter(|s| !(ok(*s) && *s > 0.0)) {
+            return Err(bad("speed (> 0)", s));
+        }
+        if !ok(takeoff_m) {
+            return Err(bad("takeoff", takeoff_m));
+        }
+        let mut o = Self::for_autopilot(autopilot);
+        o.hold_time_s = hold_s;
+        o.speed_m_s = speed_m_s;
+        o.takeoff_alt_m = (takeoff_m > 0.0).then_some(takeoff_m);
+        o.return_to_launch = return_to_launch;
+        Ok(o)
+    }
 }
 
 /// One mission item: the content of a MISSION_ITEM_INT without addressing.

@@ -8,7 +8,7 @@
 //! - [`link`]: real connections (`udpin`, `udpout`, `tcpout`, `serial`) and
 //!   the heartbeat handshake.
 //! - [`qgc`] and [`wpl`]: QGroundControl `.plan` and `QGC WPL 110` export.
-//! - [`testing`]: a vehicle-side mission server, a virtual-time link and a
+//! - [`sim_vehicle`]: the simulated vehicle (`vpctl mission vehicle`): a vehicle-side mission server, a virtual-time link and a
 //!   lossy UDP relay, for tests and the simulator.
 //!
 //! Entry points for a command line: [`export_qgc`], [`export_wpl`],
@@ -21,7 +21,7 @@ pub mod items;
 pub mod link;
 pub mod protocol;
 pub mod qgc;
-pub mod testing;
+pub mod sim_vehicle;
 pub mod wpl;
 
 use std::time::Duration;
@@ -45,6 +45,29 @@ pub struct ConnectOptions {
     pub target_system: Option<u8>,
     /// Protocol timing.
     pub protocol: ProtocolConfig,
+}
+
+impl ConnectOptions {
+    /// The options a user sets: the heartbeat wait in seconds and a factor
+    /// on every protocol timeout (1 = the MAVLink spec's), both positive.
+    pub fn from_user(heartbeat_timeout_s: f64, timeout_scale: f64) -> Result<Self> {
+        if !(heartbeat_timeout_s.is_finite() && heartbeat_timeout_s > 0.0) {
+            return Err(MissionError::InvalidInput(format!(
+                "heartbeat timeout = {heartbeat_timeout_s} s must be positive"
+            )));
+        }
+        if !(timeout_scale.is_finite() && timeout_scale > 0.0) {
+            return Err(MissionError::InvalidInput(format!(
+                "timeout scale = {timeout_scale} must be positive"
+            )));
+        }
+        let d = ConnectOptions::default();
+        Ok(ConnectOptions {
+            heartbeat_timeout: Duration::from_secs_f64(heartbeat_timeout_s),
+            protocol: d.protocol.scaled(timeout_scale),
+            ..d
+        })
+    }
 }
 
 impl Default for ConnectOptions {

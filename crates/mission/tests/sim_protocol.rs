@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use mavlink::dialects::common::MavMissionResult;
 use vp_mission::protocol::{self, ProtocolConfig, Target};
-use vp_mission::testing::{Impairment, MissionServer, SimLink, VehicleConfig};
+use vp_mission::sim_vehicle::{Impairment, MissionServer, SimLink, VehicleConfig};
 use vp_mission::{
     build_mission, upload_over, Autopilot, Link, Mission, MissionError, MissionOptions,
 };

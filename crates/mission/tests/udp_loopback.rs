@@ -5,7 +5,7 @@
 use std::time::{Duration, Instant};
 
 use mavlink::dialects::common::MavMissionResult;
-use vp_mission::testing::{spawn_udp_vehicle, Impairment, UdpRelay, VehicleConfig};
+use vp_mission::sim_vehicle::{spawn_udp_vehicle, Impairment, UdpRelay, VehicleConfig};
 use vp_mission::{
     build_mission, connect, download, upload, upload_over, Autopilot, ConnectOptions, Mission,
     MissionError, MissionOptions, ProtocolConfig,

@@ -1,7 +1,7 @@
 //! `vp-planner`: view planning for multi-view stereo after Mostegel et al.
 //!
 //! [`plan`] runs the paper's pipeline on a mesh and the acquired views:
-//! [`fulfillment`] (M1, quality fulfilment f(t) of sampled triangles),
+//! [`fulfillment`] (M1, quality fulfillment f(t) of sampled triangles),
 //! [`surrogate`] (M2, free-space surrogate cameras linked by inverse
 //! visibility), [`triplet`] (M3, best camera triplet, k times) and
 //! [`flight_path`] (M4, order, overlap, bridging views, safe segments).
@@ -31,5 +31,5 @@ pub use config::{CameraConfig, PlannerConfig};
 pub use error::{PlannerError, Result};
 pub use pipeline::{
     plan, plan_grid, safety_for, strip_timings, AcquiredView, PlanInputs, PlanResult, RoiSpec,
-    SampledFulfilment,
+    SampledFulfillment,
 };

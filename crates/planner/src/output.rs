@@ -82,7 +82,7 @@ pub struct TopView<'a> {
     /// The scene mesh.
     pub mesh: &'a Mesh,
     /// Sampled triangles' centroids with their f(t), drawn over the mesh.
-    pub fulfilment: &'a [(Point3<f64>, f64)],
+    pub fulfillment: &'a [(Point3<f64>, f64)],
     /// ROI outline corners (x, y), closed implicitly.
     pub roi_outline: &'a [[f64; 2]],
     /// The plan.
@@ -212,7 +212,7 @@ pub fn render_top_view(view: &TopView) -> RgbImage {
         cv.triangle(t, Rgb([g, g, g]));
     }
     let r = (0.004 * f64::from(w.max(h))).ceil().max(1.0) as i64;
-    for (p, f) in view.fulfilment {
+    for (p, f) in view.fulfillment {
         let q = cv.px(p.x, p.y);
         cv.dot(q, r, ramp(*f));
     }

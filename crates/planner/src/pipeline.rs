@@ -62,9 +62,9 @@ pub struct PlanInputs<'a> {
     pub origin: Option<GeodeticOrigin>,
 }
 
-/// One sampled triangle and its final fulfilment.
+/// One sampled triangle and its final fulfillment.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SampledFulfilment {
+pub struct SampledFulfillment {
     /// Face of the input mesh it was split from.
     pub parent: u32,
     /// Centroid.
@@ -89,7 +89,7 @@ pub struct PlanResult {
     /// Input-mesh faces of the selected triangles T.
     pub selected_faces: Vec<u32>,
     /// Every sampled triangle with its final f(t).
-    pub sampled: Vec<SampledFulfilment>,
+    pub sampled: Vec<SampledFulfillment>,
     /// Gains g(c3) of the planned triplets, in planning order.
     pub triplet_gains: Vec<f64>,
     /// Surrogates visited by M3 in each iteration.
@@ -194,10 +194,10 @@ fn m1(
 }
 
 /// Per-triangle results of a call.
-fn sampled_results(ful: &Fulfillment, selected: &[usize]) -> Vec<SampledFulfilment> {
+fn sampled_results(ful: &Fulfillment, selected: &[usize]) -> Vec<SampledFulfillment> {
     let in_t: std::collections::HashSet<usize> = selected.iter().copied().collect();
     (0..ful.tris.len())
-        .map(|t| SampledFulfilment {
+        .map(|t| SampledFulfillment {
             parent: ful.tris[t].parent,
             centroid: ful.tris[t].centroid,
             normal: ful.tris[t].normal,
@@ -311,7 +311,7 @@ fn m3_loop(
     None
 }
 
-/// Surrogate positions, their links to T and the hypothetical fulfilment per link.
+/// Surrogate positions, their links to T and the hypothetical fulfillment per link.
 type M2Out = (Vec<Point3<f64>>, Vec<Vec<u32>>, Vec<Vec<f64>>);
 
 /// M2: free-space surrogates linked by inverse visibility, and the part of
@@ -331,7 +331,7 @@ fn m2(
         .map(|&t| (ful.tris[t].centroid, ful.tris[t].normal))
         .collect();
     // f(t) only grows during a call (cameras are only added), so a link whose
-    // best hypothetical fulfilment does not exceed f(t) now never carries a
+    // best hypothetical fulfillment does not exceed f(t) now never carries a
     // potential gain: it is dropped before its segment test.
     let pot = Potential::new(ful, cfg.camera.focal_px);
     let (links, potential) =

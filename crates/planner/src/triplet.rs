@@ -30,7 +30,7 @@ const CHUNK: usize = 4;
 pub struct Candidate {
     /// The three cameras (roll 0, looking at the focus).
     pub cameras: [Camera; 3],
-    /// g(c3): summed fulfilment gain over the selected triangles.
+    /// g(c3): summed fulfillment gain over the selected triangles.
     pub gain: f64,
     /// Angle bin the triplet was built for.
     pub bin: usize,
@@ -63,7 +63,7 @@ pub struct Search<'a> {
     pub surrogates: &'a [Point3<f64>],
     /// Per surrogate, linked triangles (indices into `selected`).
     pub links: &'a [Vec<u32>],
-    /// Per surrogate and link, the best hypothetical fulfilment over the
+    /// Per surrogate and link, the best hypothetical fulfillment over the
     /// bins ([`Potential::value`]); g_pot = max(0, that - f(t)).
     pub potential: &'a [Vec<f64>],
     /// Safety rules for the cameras.
@@ -113,7 +113,7 @@ struct BinGeometry {
     sqrt_info_d: f64,
 }
 
-/// The best fulfilment over the bins of the hypothetical equilateral triplet
+/// The best fulfillment over the bins of the hypothetical equilateral triplet
 /// centred at a surrogate, facing a triangle, with the bin-centre angle at
 /// it (M3 g_pot without the `- f(t)`, which is the same for every bin). It
 /// depends on the acquired cameras only, so M2 evaluates it once per link.
@@ -203,7 +203,7 @@ impl<'a> Potential<'a> {
 impl Search<'_> {
     /// g_pot(t) for surrogate `s` (index) and selected triangle `ti` (index
     /// into `selected`): `max(0, best - f(t))` with the precomputed best
-    /// hypothetical fulfilment (see [`Potential::value`]).
+    /// hypothetical fulfillment (see [`Potential::value`]).
     fn potential_gain(&self, best: f64, t: usize) -> f64 {
         if self.ful.observers[t].len() + 3 < self.ful.min_cameras {
             return 0.0;

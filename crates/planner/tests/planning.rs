@@ -15,7 +15,7 @@ fn initial_flight_has_about_the_papers_image_count() {
 }
 
 #[test]
-fn planning_raises_mean_fulfilment_on_the_roi() {
+fn planning_raises_mean_fulfillment_on_the_roi() {
     let s = site(1, 30_000);
     let cfg = test_config(&s);
     let acquired = initial_views(&s);

@@ -112,7 +112,7 @@ pub struct PlannedView {
     /// Triplet this view belongs to, for `Role::TripletMember`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub triplet_id: Option<u32>,
-    /// Fulfilment gain the planner expected from the view's triplet.
+    /// Fulfillment gain the planner expected from the view's triplet.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub expected_gain: Option<f64>,
     /// Triangulation-angle bin centre (deg) the triplet was planned for.
@@ -164,9 +164,9 @@ pub struct AltitudeLimits {
 pub struct IterationStatistics {
     /// 0-based iteration number.
     pub iteration: u32,
-    /// Mean fulfilment f(t) over the sampled triangles before the iteration.
+    /// Mean fulfillment f(t) over the sampled triangles before the iteration.
     pub f_before: f64,
-    /// Mean fulfilment after adding the iteration's views.
+    /// Mean fulfillment after adding the iteration's views.
     pub f_after: f64,
     /// Share of sampled triangles covered (f_cov = 1) after the iteration.
     pub coverage: f64,
@@ -206,7 +206,7 @@ pub struct Plan {
     /// Minimum distance from every view and path segment to the mesh, metres.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub safety_distance_m: Option<f64>,
-    /// Planning figures (fulfilment, coverage, timings).
+    /// Planning figures (fulfillment, coverage, timings).
     #[serde(default)]
     pub statistics: PlanStatistics,
     /// True when planning stopped early (time budget, no positive gain).

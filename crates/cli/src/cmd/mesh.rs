@@ -5,8 +5,8 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Subcommand;
+use vp_scene::height_field::{mesh_from_points, MeshingParams};
 use vp_scene::io::{self, MeshFormat};
-use vp_scene::meshing::{mesh_from_points, MeshingParams};
 use vp_scene::{colmap, fsio, Material};
 
 /// Mesh subcommands.

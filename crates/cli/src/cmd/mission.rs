@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
-use vp_mission::testing::{spawn_udp_vehicle, VehicleConfig};
+use vp_mission::sim_vehicle::{spawn_udp_vehicle, VehicleConfig};
 use vp_mission::{
     build_mission, export_qgc, export_wpl, Autopilot, ConnectOptions, MissionItem, MissionOptions,
     Progress, QgcOptions,
@@ -112,13 +112,14 @@ pub struct MissionArgs {
 }
 
 impl MissionArgs {
-    fn options(&self) -> MissionOptions {
-        let mut o = MissionOptions::for_autopilot(self.autopilot.into());
-        o.hold_time_s = self.hold;
-        o.speed_m_s = self.speed;
-        o.takeoff_alt_m = (self.takeoff > 0.0).then_some(self.takeoff);
-        o.return_to_launch = !self.no_rtl;
-        o
+    fn options(&self) -> Result<MissionOptions> {
+        Ok(MissionOptions::from_user(
+            self.autopilot.into(),
+            self.hold,
+            self.speed,
+            self.takeoff,
+            !self.no_rtl,
+        )?)
     }
 }
 
@@ -136,17 +137,7 @@ pub struct LinkArgs {
 
 impl LinkArgs {
     fn options(&self) -> Result<ConnectOptions> {
-        anyhow::ensure!(
-            self.heartbeat_timeout.is_finite() && self.heartbeat_timeout > 0.0,
-            super::UsageError(format!(
-                "--heartbeat-timeout must be positive, got {}",
-                self.heartbeat_timeout
-            ))
-        );
-        Ok(ConnectOptions {
-            heartbeat_timeout: Duration::from_secs_f64(self.heartbeat_timeout),
-            ..ConnectOptions::default()
-        })
+        Ok(ConnectOptions::from_user(self.heartbeat_timeout, 1.0)?)
     }
 }
 
@@ -163,7 +154,7 @@ pub fn run(cmd: MissionCommand, out: &mut dyn Write) -> Result<()> {
                 fsio::check_overwrite(p, force)?;
             }
             let plan = Plan::load(&plan)?;
-            let opts = mission.options();
+            let opts = mission.options()?;
             let text = match format {
                 ExportFormat::Qgc => export_qgc(&plan, &opts, &QgcOptions::default())?,
                 ExportFormat::Wpl => export_wpl(&build_mission(&plan, &opts)?)?,
@@ -191,7 +182,7 @@ fn upload(
     out: &mut dyn Write,
 ) -> Result<()> {
     let plan = Plan::load(plan_path)?;
-    let m = build_mission(&plan, &mission.options())?;
+    let m = build_mission(&plan, &mission.options()?)?;
     writeln!(
         out,
         "mission: {} items ({} photos) for {:?}",

@@ -8,8 +8,8 @@ pub mod labelgen;
 pub mod mesh;
 pub mod mission;
 pub mod plan;
-pub mod render;
 pub mod scene;
+pub mod sim;
 
 use std::error::Error;
 

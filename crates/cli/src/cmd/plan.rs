@@ -226,7 +226,7 @@ impl Common {
         if let Some(p) = &self.png {
             let view = TopView {
                 mesh,
-                fulfilment: f,
+                fulfillment: f,
                 roi_outline: roi,
                 plan,
                 size: TOP_VIEW_SIZE,

@@ -3,7 +3,7 @@
 //! The protocol code runs over the [`Link`] trait (send a message, receive
 //! one with a timeout, read a monotonic clock), so it can be driven by a
 //! real MAVLink connection ([`crate::link::MavLink`]) or by the virtual-time
-//! simulator in [`crate::testing::sim`]; the network part stays thin.
+//! simulator in [`crate::sim_vehicle::sim`]; the network part stays thin.
 //!
 //! # Timeouts and retries
 //! Defaults follow the MAVLink mission protocol: 1500 ms for a reply to a

@@ -8,7 +8,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 use vp_forest::TrainParams;
 use vp_labelgen::LabelParams;
-use vp_planner::{CameraConfig, PlannerConfig};
+use vp_planner::PlannerConfig;
 use vp_scene::procedural::SiteParams;
 
 use crate::error::{Result, SimError};
@@ -198,21 +198,6 @@ default_from_demo!(
     EvalConfig => eval,
 );
 
-/// A procedural site of the given seed and face budget, `size` metres
-/// square, with a rock of `rock` = (length, width, height) metres.
-fn site(seed: u64, target_faces: usize, size: f64, n_trees: usize, rock: [f64; 3]) -> SiteParams {
-    SiteParams {
-        seed,
-        target_faces,
-        size,
-        n_trees,
-        rock_length: rock[0],
-        rock_width: rock[1],
-        rock_height: rock[2],
-        ..SiteParams::default()
-    }
-}
-
 impl Default for CampaignConfig {
     /// The demo preset ([`CampaignConfig::demo`]).
     fn default() -> Self {
@@ -221,151 +206,30 @@ impl Default for CampaignConfig {
 }
 
 impl CampaignConfig {
-    /// What `vpctl demo` runs: two small training sites, one held-out site,
-    /// F3x3, NP3x3 and Grid, 240 x 160 px images; a few minutes on 2 cores.
-    pub fn demo() -> Self {
-        let camera = CameraConfig {
-            width: 240,
-            height: 160,
-            focal_px: 320.0,
-        };
-        CampaignConfig {
-            seed: 1,
-            held_out_seeds: vec![7],
-            strategies: vec!["F3x3".into(), "F1x9".into(), "NP3x3".into()],
-            site: site(0, 40_000, 44.0, 8, [12.0, 9.0, 2.5]),
-            roi_margin_m: 4.0,
-            profile: MvsProfile::sure_like(),
-            gate: MatchingGate::default(),
-            render: RenderParams::default(),
-            training: TrainingConfig {
-                site_seeds: vec![101, 102],
-                site: site(0, 20_000, 40.0, 6, [11.0, 8.0, 2.5]),
-                triplets_per_site: 14,
-                max_angle_deg: 60.0,
-                distance_m: [8.0, 20.0],
-                width: 160,
-                height: 120,
-                hfov_deg: 50.0,
-                levels: vec![1],
-                labels: LabelParams::default(),
-                max_per_label_image: 1200,
-                forest: TrainParams {
-                    n_trees: 6,
-                    max_depth: 14,
-                    min_samples_split: 20,
-                    n_tests: 300,
-                    n_thresholds: 20,
-                    n_node_samples: 500,
-                    samples_per_class: 40_000,
-                    // The planner multiplies by the confidence: it must be
-                    // a calibrated probability, not class-balanced.
-                    balance_classes: false,
-                    ..TrainParams::default()
-                },
-            },
-            init: InitFlight {
-                height_m: 50.0,
-                nx: 4,
-                ny: 4,
-                spacing_m: 8.0,
-            },
-            grid: GridBaseline {
-                height_m: 20.0,
-                overlap: 0.8,
-                margin_m: 6.0,
-            },
-            sfm: SfmConfig {
-                position_noise_m: 0.05,
-                rotation_noise_deg: 0.05,
-                point_noise_m: 0.05,
-                min_views: 2,
-            },
-            planner: PlannerConfig {
-                gsd_m: 0.04,
-                accuracy_m: 0.04,
-                n_triangles: 1000,
-                n_surrogates: 1500,
-                n_selected: 100,
-                safety_distance_m: 4.0,
-                camera,
-                ..PlannerConfig::default()
-            },
-            confidence_step: 8,
-            eval: EvalConfig {
-                split_edge_m: 0.3,
-                depth_tolerance_m: 0.24,
-                min_cameras: 3,
-            },
-        }
-    }
-
-    /// The demo shrunk to seconds, for smoke tests (`vpctl demo --quick`):
-    /// tiny sites, one training site, one planning iteration, coarse evaluation.
-    pub fn quick() -> Self {
-        let mut c = Self::demo();
-        c.strategies = vec!["F1x2".into(), "NP1x2".into()];
-        c.site.target_faces = 12_000;
-        c.training.site_seeds = vec![101];
-        c.training.site.target_faces = 8_000;
-        c.training.triplets_per_site = 6;
-        c.training.forest.n_trees = 2;
-        c.training.forest.max_depth = 8;
-        c.training.forest.n_tests = 50;
-        c.training.forest.samples_per_class = 4_000;
-        c.init.nx = 3;
-        c.init.ny = 2;
-        c.grid.overlap = 0.7;
-        c.planner.n_triangles = 300;
-        c.planner.n_surrogates = 300;
-        c.planner.n_selected = 40;
-        c.eval.split_edge_m = 1.0;
-        c
-    }
-
-    /// The paper's experiment as far as the simulator allows: three
-    /// held-out sites, F5x4, F1x20, NP5x4, five training sites, 8 cm faces.
-    pub fn paper() -> Self {
-        let mut c = Self::demo();
-        c.held_out_seeds = vec![7, 8, 9];
-        c.strategies = vec!["F5x4".into(), "F1x20".into(), "NP5x4".into()];
-        c.site = site(0, 120_000, 50.0, 10, [17.0, 13.0, 2.5]);
-        c.training.site_seeds = vec![101, 102, 103, 104, 105];
-        c.training.triplets_per_site = 24;
-        c.training.levels = vec![1, 2];
-        c.training.forest.n_trees = 10;
-        c.training.forest.max_depth = 16;
-        c.training.forest.n_tests = 1000;
-        c.init = InitFlight {
-            height_m: 50.0,
-            nx: 5,
-            ny: 4,
-            spacing_m: 8.0,
-        };
-        c.planner.n_triangles = 2000;
-        c.planner.n_surrogates = 5000;
-        c.planner.n_selected = 200;
-        c.eval.split_edge_m = 0.08;
-        c
-    }
-
     /// Parses a TOML text; `path` names the file in errors. Every missing
     /// key, at any depth, takes the demo's value: a `[planner]` section that
     /// names only `gsd_m` keeps the demo's camera, not the planner crate's.
     pub fn from_toml(text: &str, path: &Path) -> Result<Self> {
-        let in_file = |e: toml::de::Error| {
-            SimError::InvalidArgument(format!("{}: {}", path.display(), e.to_string().trim()))
-        };
         // Parsed on its own first: syntax, type and unknown-key errors keep
         // their line and column.
         vp_scene::config_file::parse_toml::<CampaignConfig>(text, path)?;
-        let given: toml::Table = toml::from_str(text).map_err(in_file)?;
-        let mut merged = toml::Table::try_from(Self::demo())
-            .map_err(|e| SimError::InvalidArgument(format!("demo configuration to TOML: {e}")))?;
-        overlay(&mut merged, given);
-        let cfg: CampaignConfig = merged.try_into().map_err(in_file)?;
-        cfg.validate()
-            .map_err(|e| SimError::InvalidArgument(format!("{}: {e}", path.display())))?;
+        let given: serde_json::Value = vp_scene::config_file::parse_toml(text, path)?;
+        Self::demo()
+            .with_overrides(given)
+            .map_err(|e| SimError::InvalidArgument(format!("{}: {e}", path.display())))
+    }
+
+    /// This configuration with `overrides` laid over it key by key,
+    /// descending into tables present in both (arrays and values are
+    /// replaced whole), then validated: what a TOML file and a Python dict
+    /// that name only the keys they change both go through.
+    pub fn with_overrides(&self, overrides: serde_json::Value) -> Result<Self> {
+        let mut merged = serde_json::to_value(self)
+            .map_err(|e| SimError::InvalidArgument(format!("configuration: {e}")))?;
+        overlay(&mut merged, overrides);
+        let cfg: CampaignConfig = serde_json::from_value(merged)
+            .map_err(|e| SimError::InvalidArgument(format!("configuration: {e}")))?;
+        cfg.validate()?;
         Ok(cfg)
     }
 
@@ -477,16 +341,21 @@ impl CampaignConfig {
     }
 }
 
-/// Writes every key of `given` over `base`, descending into tables present
+/// Writes every key of `given` over `base`, descending into objects present
 /// in both (arrays and values are replaced whole).
-fn overlay(base: &mut toml::Table, given: toml::Table) {
-    for (key, value) in given {
-        match (base.get_mut(&key), value) {
-            (Some(toml::Value::Table(b)), toml::Value::Table(g)) => overlay(b, g),
-            (_, value) => {
-                base.insert(key, value);
+fn overlay(base: &mut serde_json::Value, given: serde_json::Value) {
+    match (base, given) {
+        (serde_json::Value::Object(b), serde_json::Value::Object(g)) => {
+            for (key, value) in g {
+                match b.get_mut(&key) {
+                    Some(slot) => overlay(slot, value),
+                    None => {
+                        b.insert(key, value);
+                    }
+                }
             }
         }
+        (slot, value) => *slot = value,
     }
 }
 

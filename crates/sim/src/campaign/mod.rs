@@ -25,6 +25,7 @@ pub mod curves;
 pub mod eval;
 pub mod fly;
 pub mod plot;
+mod presets;
 pub mod report;
 mod run;
 pub mod strategies;
@@ -36,6 +37,7 @@ pub use config::{
 };
 pub use curves::ConfidenceCurve;
 pub use eval::Scores;
+pub use presets::PRESETS;
 pub use report::{write_report, CampaignReport, SiteResult, TableRow};
 pub use run::{run_campaign, run_campaign_with_forest};
 pub use strategies::Strategy;

@@ -158,7 +158,7 @@ fn caption(img: &mut RgbImage, s: &str) {
 }
 
 /// `plan_<strategy>.png` (every iteration's views over the true mesh) and
-/// `fulfilment_<strategy>.png` (per evaluation face f, red 0 to green 1).
+/// `fulfillment_<strategy>.png` (per evaluation face f, red 0 to green 1).
 pub fn write_site_plots(a: &SiteArtifacts, dir: &Path) -> Result<()> {
     let roi = [
         [a.roi.min.x, a.roi.min.y],
@@ -178,7 +178,7 @@ pub fn write_site_plots(a: &SiteArtifacts, dir: &Path) -> Result<()> {
         if !s.plans.is_empty() {
             let view = TopView {
                 mesh: &a.mesh,
-                fulfilment: &[],
+                fulfillment: &[],
                 roi_outline: &roi,
                 plan: &all,
                 size: 640,
@@ -202,7 +202,7 @@ pub fn write_site_plots(a: &SiteArtifacts, dir: &Path) -> Result<()> {
             .collect();
         let view = TopView {
             mesh: &a.mesh,
-            fulfilment: &pts,
+            fulfillment: &pts,
             roi_outline: &roi,
             plan: &empty,
             size: 640,
@@ -210,9 +210,9 @@ pub fn write_site_plots(a: &SiteArtifacts, dir: &Path) -> Result<()> {
         let mut img = render_top_view(&view);
         caption(
             &mut img,
-            &format!("{}: fulfilment f per face, red 0 .. green 1", s.name),
+            &format!("{}: fulfillment f per face, red 0 .. green 1", s.name),
         );
-        save_rgb(&img, &dir.join(format!("fulfilment_{file}.png")))?;
+        save_rgb(&img, &dir.join(format!("fulfillment_{file}.png")))?;
     }
     Ok(())
 }

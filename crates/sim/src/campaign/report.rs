@@ -337,7 +337,7 @@ fn fill(report: &CampaignReport, dir: &Path) -> Result<()> {
     md.push_str("\n## Learned confidence against the simulator's truth\n\n```\n");
     md.push_str(&report.curves_summary());
     md.push_str("```\n\nPlots: `confidence_<material>.png` (learned: blue, truth: red, x: angle 0-45 deg, y: 0-1), ");
-    md.push_str("`plan_<strategy>.png` (top view of the plan), `fulfilment_<strategy>.png` (per-face f, red 0 to green 1).\n");
+    md.push_str("`plan_<strategy>.png` (top view of the plan), `fulfillment_<strategy>.png` (per-face f, red 0 to green 1).\n");
     write(&dir.join("table.md"), &md)?;
     write(&dir.join("table.csv"), &report.table_csv())?;
     let json = serde_json::to_string_pretty(report)

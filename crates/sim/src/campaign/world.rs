@@ -18,7 +18,7 @@ use vp_scene::mesh_ops::submesh;
 use vp_scene::procedural::{generate_site, Site};
 use vp_scene::raster::ConfidenceImage;
 use vp_scene::raycast::RayCaster;
-use vp_scene::{Aabb, Camera, Intrinsics, Material, Mesh};
+use vp_scene::{Aabb, Camera, Intrinsics, Mesh};
 
 use super::config::CampaignConfig;
 use super::curves::CurveAccumulator;
@@ -236,9 +236,4 @@ pub fn roi_faces(mesh: &Mesh, roi: &Aabb) -> Vec<u32> {
         .filter(|&f| roi.contains(&mesh.face_centroid(f)))
         .map(|f| f as u32)
         .collect()
-}
-
-/// Whether face `f` of `mesh` is rock.
-pub fn is_rock(mesh: &Mesh, f: usize) -> bool {
-    mesh.material(f) == Some(Material::Rock)
 }

@@ -68,11 +68,12 @@ pub enum SimCommand {
     },
     /// Print a complete campaign configuration (TOML, every key written out).
     Config {
-        /// Print the defaults (the demo preset).
-        #[arg(long, conflicts_with = "paper")]
-        defaults: bool,
-        /// Print the paper preset (three held-out sites, F5x4, F1x20, NP5x4).
-        #[arg(long)]
+        /// Which preset: demo (what `vpctl demo` runs), quick (seconds) or
+        /// paper (three held-out sites, F5x4, F1x20, NP5x4).
+        #[arg(long, default_value = "demo")]
+        preset: String,
+        /// The paper preset (same as `--preset paper`).
+        #[arg(long, conflicts_with = "preset")]
         paper: bool,
     },
 }
@@ -116,12 +117,9 @@ pub fn run(cmd: SimCommand, out: &mut dyn Write) -> Result<()> {
             let cfg = vp_sim::campaign::CampaignConfig::load(&config)?;
             super::demo::run_config(&cfg, &common, out)
         }
-        SimCommand::Config { defaults: _, paper } => {
-            let cfg = if paper {
-                vp_sim::campaign::CampaignConfig::paper()
-            } else {
-                vp_sim::campaign::CampaignConfig::demo()
-            };
+        SimCommand::Config { preset, paper } => {
+            let name = if paper { "paper" } else { preset.as_str() };
+            let cfg = vp_sim::campaign::CampaignConfig::preset(name)?;
             write!(out, "{}", cfg.to_toml()?)?;
             Ok(())
         }
