@@ -9,7 +9,7 @@ use vp_scene::image_files::confidence_file;
 use vp_scene::raster::ConfidenceImage;
 
 use crate::error::Result;
-use crate::pipeline::AcquiredView;
+use crate::inputs::AcquiredView;
 
 /// One view per image of `rec`, in image-id order (COLMAP ids follow
 /// capture order in practice, so the last view is where the path starts),

@@ -6,10 +6,14 @@
 
 use nalgebra::Point3;
 use serde::{Deserialize, Serialize};
-use vp_scene::plan::{PlannedView, Role};
-use vp_scene::{Aabb, Camera, Intrinsics};
+use vp_scene::plan::{GeodeticOrigin, Plan, PlannedView, Role};
+use vp_scene::raycast::RayCaster;
+use vp_scene::{Aabb, Camera, Intrinsics, Mesh};
 
+use crate::config::PlannerConfig;
 use crate::error::{PlannerError, Result};
+use crate::flight_path::PathContext;
+use crate::inputs::{safety_for, RoiSpec};
 
 /// Parameters of a grid flight.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -151,6 +155,45 @@ pub fn grid_views(
         }
     }
     Ok(views)
+}
+
+/// A grid flight over the region of interest's footprint, checked against
+/// the safety rules of `cfg` (every waypoint and segment), as a plan.
+pub fn plan_grid(
+    mesh: &Mesh,
+    roi: &RoiSpec,
+    params: &GridParams,
+    cfg: &PlannerConfig,
+    origin: Option<GeodeticOrigin>,
+) -> Result<Plan> {
+    cfg.validate()?;
+    if mesh.n_faces() == 0 {
+        return Err(PlannerError::Input("the mesh has no faces".into()));
+    }
+    let caster = RayCaster::new(mesh);
+    let faces = roi.faces(mesh, &caster)?;
+    let mut fp = Aabb::empty();
+    for &f in &faces {
+        for p in mesh.triangle(f as usize) {
+            fp.grow(&p);
+        }
+    }
+    let k = cfg.camera.intrinsics();
+    let views = grid_views(&fp, params, k)?;
+    let safety = safety_for(mesh, cfg);
+    let ctx = PathContext {
+        mesh,
+        caster: &caster,
+        safety: &safety,
+        intrinsics: k,
+        min_overlap: cfg.min_overlap,
+    };
+    let mut plan = Plan::new(origin);
+    plan.waypoints = ctx.make_safe(&views)?;
+    plan.geofence.clone_from(&safety.geofence);
+    plan.altitude_limits = Some(safety.altitude);
+    plan.safety_distance_m = Some(cfg.safety_distance_m);
+    Ok(plan)
 }
 
 #[cfg(test)]

@@ -24,12 +24,12 @@ pub mod safety;
 pub mod surrogate;
 pub mod triplet;
 
+mod inputs;
 mod pipeline;
 
 pub use acquired::acquired_from_model;
 pub use config::{CameraConfig, PlannerConfig};
 pub use error::{PlannerError, Result};
-pub use pipeline::{
-    plan, plan_grid, safety_for, strip_timings, AcquiredView, PlanInputs, PlanResult, RoiSpec,
-    SampledFulfillment,
-};
+pub use grid::plan_grid;
+pub use inputs::{safety_for, AcquiredView, PlanInputs, PlanResult, RoiSpec, SampledFulfillment};
+pub use pipeline::{plan, strip_timings};

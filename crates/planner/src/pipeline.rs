@@ -3,151 +3,24 @@
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-use nalgebra::{Point3, Vector3};
+use nalgebra::Point3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use vp_scene::mesh_ops::submesh;
-use vp_scene::plan::{
-    AltitudeLimits, GeodeticOrigin, IterationStatistics, Plan, PlannedView, Role,
-};
+use vp_scene::plan::{IterationStatistics, Plan, PlannedView, Role};
 use vp_scene::raster::ConfidenceImage;
 use vp_scene::raycast::RayCaster;
-use vp_scene::roi::Roi;
-use vp_scene::{Aabb, Camera, Mesh};
+use vp_scene::{Camera, Mesh};
 
 use crate::config::PlannerConfig;
 use crate::error::{PlannerError, Result};
 use crate::flight_path::PathContext;
 use crate::fulfillment::{sample_triangles, Fulfillment};
-use crate::grid::{grid_views, GridParams};
+use crate::inputs::{safety_for, PlanInputs, PlanResult, SampledFulfillment};
 use crate::quality::Requirements;
 use crate::safety::Safety;
 use crate::surrogate::{link_valued, sample_positions};
 use crate::triplet::{Potential, Search};
-
-/// Height of the default flight volume above the highest mesh point, metres.
-const DEFAULT_CEILING_M: f64 = 60.0;
-
-/// An acquired image: its camera and, when predicted, its confidence image.
-#[derive(Debug, Clone)]
-pub struct AcquiredView {
-    /// The posed camera.
-    pub camera: Camera,
-    /// Predicted MVS confidence; `None` means no prediction (confidence 1).
-    pub confidence: Option<ConfidenceImage>,
-}
-
-/// Which faces the quality requirements apply to.
-#[derive(Debug, Clone, PartialEq)]
-pub enum RoiSpec {
-    /// Every face of the mesh.
-    All,
-    /// These face indices.
-    Faces(Vec<u32>),
-    /// A region (box, ground polygon, image polygon).
-    Region(Roi),
-}
-
-/// Inputs of one planning call.
-pub struct PlanInputs<'a> {
-    /// The scene mesh (obstacles and surface to reconstruct).
-    pub mesh: &'a Mesh,
-    /// Acquired images, in capture order (the last is where the path starts).
-    pub acquired: &'a [AcquiredView],
-    /// Region of interest.
-    pub roi: RoiSpec,
-    /// Parameters.
-    pub config: &'a PlannerConfig,
-    /// Geodetic origin written into the plan.
-    pub origin: Option<GeodeticOrigin>,
-}
-
-/// One sampled triangle and its final fulfillment.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SampledFulfillment {
-    /// Face of the input mesh it was split from.
-    pub parent: u32,
-    /// Centroid.
-    pub centroid: Point3<f64>,
-    /// Unit normal.
-    pub normal: Vector3<f64>,
-    /// f(t) with the acquired and planned cameras.
-    pub f: f64,
-    /// Whether it belonged to the selected set T.
-    pub selected: bool,
-}
-
-/// Everything a planning call produced.
-#[derive(Debug, Clone)]
-pub struct PlanResult {
-    /// The plan (also carries statistics and the cut-short flag).
-    pub plan: Plan,
-    /// Per-iteration figures (same as `plan.statistics.iterations`).
-    pub iterations: Vec<IterationStatistics>,
-    /// Wall time per module over the whole call, seconds.
-    pub module_time_s: BTreeMap<String, f64>,
-    /// Input-mesh faces of the selected triangles T.
-    pub selected_faces: Vec<u32>,
-    /// Every sampled triangle with its final f(t).
-    pub sampled: Vec<SampledFulfillment>,
-    /// Gains g(c3) of the planned triplets, in planning order.
-    pub triplet_gains: Vec<f64>,
-    /// Surrogates visited by M3 in each iteration.
-    pub visited: Vec<usize>,
-    /// Waypoint indices of images that could not be bridged to o_min overlap.
-    pub unbridged: Vec<usize>,
-    /// Triplets planned but left out of the path: one of their images is
-    /// unsafe or no climb-traverse-descend route reaches it.
-    pub dropped_triplets: Vec<u32>,
-    /// True when planning stopped before k triplets.
-    pub cut_short: bool,
-    /// Why.
-    pub cut_short_reason: Option<String>,
-}
-
-/// The safety rules of a call: volume, altitude and geofence from the
-/// config or, by default, from the mesh bounds.
-pub fn safety_for(mesh: &Mesh, cfg: &PlannerConfig) -> Safety {
-    let b = mesh.bounds();
-    let volume = cfg.flight_volume_aabb().unwrap_or(Aabb {
-        min: b.min,
-        max: Point3::new(b.max.x, b.max.y, b.max.z + DEFAULT_CEILING_M),
-    });
-    let altitude = cfg.altitude_limits.unwrap_or(AltitudeLimits {
-        min_m: volume.min.z,
-        max_m: volume.max.z,
-    });
-    Safety::new(
-        mesh,
-        cfg.safety_distance_m,
-        volume,
-        cfg.geofence.clone(),
-        altitude,
-    )
-}
-
-fn roi_faces(mesh: &Mesh, caster: &RayCaster, roi: &RoiSpec) -> Result<Vec<u32>> {
-    let faces = match roi {
-        RoiSpec::All => (0..mesh.n_faces() as u32).collect(),
-        RoiSpec::Faces(f) => {
-            if let Some(bad) = f.iter().find(|&&f| f as usize >= mesh.n_faces()) {
-                return Err(PlannerError::Input(format!(
-                    "region of interest: face {bad} does not exist (the mesh has {} faces)",
-                    mesh.n_faces()
-                )));
-            }
-            f.clone()
-        }
-        RoiSpec::Region(r) => r.select(mesh, caster)?,
-    };
-    if faces.is_empty() {
-        return Err(PlannerError::Input(
-            "the region of interest selects no face of the mesh (empty, or outside the mesh)"
-                .into(),
-        ));
-    }
-    Ok(faces)
-}
 
 fn secs(d: Duration) -> f64 {
     d.as_secs_f64()
@@ -361,7 +234,7 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
     let over = || deadline.is_some_and(|d| Instant::now() >= d);
     let mut times: BTreeMap<String, f64> = BTreeMap::new();
     let caster = RayCaster::new(mesh);
-    let roi = roi_faces(mesh, &caster, &inputs.roi)?;
+    let roi = inputs.roi.faces(mesh, &caster)?;
     let safety = safety_for(mesh, cfg);
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
     let k = cfg.camera.intrinsics();
@@ -464,43 +337,4 @@ pub fn strip_timings(plan: &mut Plan) {
     for it in &mut plan.statistics.iterations {
         it.time_s.clear();
     }
-}
-
-/// A grid flight over the region of interest's footprint, checked against
-/// the safety rules of `cfg` (every waypoint and segment), as a plan.
-pub fn plan_grid(
-    mesh: &Mesh,
-    roi: &RoiSpec,
-    params: &GridParams,
-    cfg: &PlannerConfig,
-    origin: Option<GeodeticOrigin>,
-) -> Result<Plan> {
-    cfg.validate()?;
-    if mesh.n_faces() == 0 {
-        return Err(PlannerError::Input("the mesh has no faces".into()));
-    }
-    let caster = RayCaster::new(mesh);
-    let faces = roi_faces(mesh, &caster, roi)?;
-    let mut fp = Aabb::empty();
-    for &f in &faces {
-        for p in mesh.triangle(f as usize) {
-            fp.grow(&p);
-        }
-    }
-    let k = cfg.camera.intrinsics();
-    let views = grid_views(&fp, params, k)?;
-    let safety = safety_for(mesh, cfg);
-    let ctx = PathContext {
-        mesh,
-        caster: &caster,
-        safety: &safety,
-        intrinsics: k,
-        min_overlap: cfg.min_overlap,
-    };
-    let mut plan = Plan::new(origin);
-    plan.waypoints = ctx.make_safe(&views)?;
-    plan.geofence.clone_from(&safety.geofence);
-    plan.altitude_limits = Some(safety.altitude);
-    plan.safety_distance_m = Some(cfg.safety_distance_m);
-    Ok(plan)
 }

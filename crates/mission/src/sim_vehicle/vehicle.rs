@@ -1,4 +1,6 @@
 //! A vehicle-side mission server: the autopilot's half of the mission protocol.
+//! One state machine in one file (longer than most): its states and
+//! transitions are easier to check side by side.
 //!
 //! [`MissionServer`] is a pure state machine (messages and time in, replies
 //! out), so the virtual-time simulator and a UDP thread

@@ -1,5 +1,9 @@
 //! The site generator: terrain, rock, trees, grass and markers within a face
 //! budget, deterministic by seed.
+//!
+//! Longer than most files because the budget split, the placement rules and
+//! the parameter validation read as one story; the shapes themselves live in
+//! the sibling modules.
 
 use std::fmt;
 

@@ -1,22 +1,26 @@
 //! `vpctl.scene`: meshes, cameras, COLMAP models, procedural sites, ray
-//! casting and clearance (vp-scene).
+//! casting and clearance (vp-scene). Files (COLMAP models, depth maps,
+//! images, label images) are in [`files`], ray casting and clearance in
+//! [`queries`].
 
 use std::path::PathBuf;
 
-use nalgebra::{Point2, Point3, Vector3};
-use numpy::{PyArray1, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3};
+use nalgebra::{Point2, Point3};
+use numpy::{PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use vp_scene::clearance::Clearance;
-use vp_scene::colmap::{self, DepthMap, Reconstruction};
 use vp_scene::io::{self, MeshFormat};
 use vp_scene::procedural::{self, Site, SiteParams};
-use vp_scene::raster::{self, LabelImage};
-use vp_scene::raycast::RayCaster;
 use vp_scene::{fsio, Camera, Intrinsics, Material, Mesh};
 
 use crate::convert::{self, image2, points, points_array, ArrayPair};
 use crate::errors::{value_error, IntoPy};
+
+mod files;
+mod queries;
+
+pub use files::{depth_map, PyColmap};
+pub use queries::{PyClearance, PyRayCaster};
 
 /// A triangle mesh with optional per-face materials (world frame, metres).
 #[pyclass(name = "Mesh", module = "vpctl.scene", frozen)]
@@ -380,300 +384,6 @@ fn generate_site(
     Ok(PySite { site, mesh })
 }
 
-/// A COLMAP sparse model (cameras, images, points).
-#[pyclass(name = "ColmapModel", module = "vpctl.scene", frozen)]
-pub struct PyColmap(pub Reconstruction);
-
-#[pymethods]
-impl PyColmap {
-    /// Reads a model folder (binary or text, detected).
-    #[staticmethod]
-    fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
-        py.detach(|| colmap::read_model(&path)).py().map(PyColmap)
-    }
-
-    /// Writes the model into `path` as `binary` or `text` files.
-    #[pyo3(signature = (path, format = "binary"))]
-    fn save(&self, py: Python<'_>, path: PathBuf, format: &str) -> PyResult<()> {
-        match format {
-            "binary" => py.detach(|| colmap::write_binary(&path, &self.0)).py(),
-            "text" => py.detach(|| colmap::write_text(&path, &self.0)).py(),
-            other => Err(value_error(format!(
-                "format {other:?}: expected \"binary\" or \"text\""
-            ))),
-        }
-    }
-
-    /// Image names in id order.
-    #[getter]
-    fn image_names(&self) -> Vec<String> {
-        self.0.images.values().map(|i| i.name.clone()).collect()
-    }
-
-    /// One camera per image, in id order.
-    fn cameras(&self) -> PyResult<Vec<PyCamera>> {
-        self.0
-            .images
-            .keys()
-            .map(|&id| self.0.camera_of(id).py().map(PyCamera))
-            .collect()
-    }
-
-    /// 3D points, (N, 3).
-    #[getter]
-    fn points<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        let p: Vec<Point3<f64>> = self.0.points.values().map(|p| p.xyz).collect();
-        points_array(py, &p)
-    }
-
-    fn __len__(&self) -> usize {
-        self.0.images.len()
-    }
-}
-
-/// Reads a COLMAP depth map (.bin) as an (H, W) float32 array.
-#[pyfunction]
-fn read_depth_map(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyArray2<f32>>> {
-    let d = py.detach(|| colmap::read_depth_map(&path)).py()?;
-    image2(py, d.width, d.height, d.data)
-}
-
-/// Writes an (H, W) float32 array as a COLMAP depth map (.bin).
-#[pyfunction]
-fn write_depth_map(path: PathBuf, depth: PyReadonlyArray2<'_, f32>) -> PyResult<()> {
-    colmap::write_depth_map(&path, &depth_map(&depth)).py()
-}
-
-/// An (H, W) float32 array as a depth map.
-pub fn depth_map(a: &PyReadonlyArray2<'_, f32>) -> DepthMap {
-    let v = a.as_array();
-    DepthMap {
-        width: v.ncols() as u32,
-        height: v.nrows() as u32,
-        data: v.iter().copied().collect(),
-    }
-}
-
-/// Reads an image file (PNG, JPEG, TIFF) as an (H, W, 3) uint8 array.
-#[pyfunction]
-fn load_image(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyArray3<u8>>> {
-    let img = py.detach(|| raster::load_rgb(&path)).py()?;
-    convert::rgb_array(py, &img)
-}
-
-/// Writes an (H, W, 3) uint8 array as an image file (format from the
-/// extension); refuses to overwrite unless `force`.
-#[pyfunction]
-#[pyo3(signature = (path, image, force = false))]
-fn save_image(path: PathBuf, image: PyReadonlyArray3<'_, u8>, force: bool) -> PyResult<()> {
-    let img = convert::rgb(&image, "image")?;
-    fsio::check_overwrite(&path, force).py()?;
-    raster::save_rgb(&img, &path).py()
-}
-
-/// Writes labels (H, W) uint8 (0 unlabelled, 1 positive, 2 negative) and
-/// angles (H, W) float32 (degrees) as a `.vplabel` file.
-#[pyfunction]
-#[pyo3(signature = (path, labels, angles, force = false))]
-fn write_label_image(
-    path: PathBuf,
-    labels: PyReadonlyArray2<'_, u8>,
-    angles: PyReadonlyArray2<'_, f32>,
-    force: bool,
-) -> PyResult<()> {
-    let img = convert::label_image(&labels, &angles, "labels")?;
-    fsio::check_overwrite(&path, force).py()?;
-    img.save(&path).py()
-}
-
-/// Reads a `.vplabel` file as (labels (H, W) uint8, angles (H, W) float32).
-#[pyfunction]
-fn read_label_image(
-    py: Python<'_>,
-    path: PathBuf,
-) -> PyResult<ArrayPair<'_, PyArray2<u8>, PyArray2<f32>>> {
-    let img = LabelImage::load(&path).py()?;
-    convert::label_arrays(py, &img)
-}
-
-/// BVH over a mesh for batches of rays (CWBVH, obvhs).
-#[pyclass(name = "RayCaster", module = "vpctl.scene", frozen)]
-pub struct PyRayCaster(pub RayCaster);
-
-#[pymethods]
-impl PyRayCaster {
-    #[new]
-    fn new(py: Python<'_>, mesh: PyRef<'_, PyMesh>) -> Self {
-        let m = &mesh.0;
-        PyRayCaster(py.detach(|| RayCaster::new(m)))
-    }
-
-    /// Closest hits of rays (origins (N, 3), directions (N, 3), normalised
-    /// here) up to `t_max`: dict of `t` (N,) (inf on a miss), `face` (N,)
-    /// int64 (-1 on a miss) and `points` (N, 3) (NaN on a miss).
-    #[pyo3(signature = (origins, directions, t_max = f64::INFINITY))]
-    fn closest_hits<'py>(
-        &self,
-        py: Python<'py>,
-        origins: PyReadonlyArray2<'_, f64>,
-        directions: PyReadonlyArray2<'_, f64>,
-        t_max: f64,
-    ) -> PyResult<Bound<'py, PyDict>> {
-        let o = points(&origins, "origins")?;
-        let d = points(&directions, "directions")?;
-        if o.len() != d.len() {
-            return Err(value_error(format!(
-                "{} origins but {} directions",
-                o.len(),
-                d.len()
-            )));
-        }
-        if !(t_max > 0.0) {
-            return Err(value_error(format!("t_max = {t_max} must be positive")));
-        }
-        let mut rays = Vec::with_capacity(o.len());
-        for (i, (o, d)) in o.iter().zip(&d).enumerate() {
-            let n = d.coords.norm();
-            if !(n > 0.0) {
-                return Err(value_error(format!("directions: row {i} has zero length")));
-            }
-            rays.push((*o, Vector3::from(d.coords / n)));
-        }
-        let hits = py.detach(|| self.0.closest_hits(&rays, t_max));
-        let t: Vec<f64> = hits
-            .iter()
-            .map(|h| h.map_or(f64::INFINITY, |h| h.t))
-            .collect();
-        let face: Vec<i64> = hits
-            .iter()
-            .map(|h| h.map_or(-1, |h| i64::from(h.face)))
-            .collect();
-        let nan = Point3::new(f64::NAN, f64::NAN, f64::NAN);
-        let pts: Vec<Point3<f64>> = hits.iter().map(|h| h.map_or(nan, |h| h.point)).collect();
-        let out = PyDict::new(py);
-        out.set_item("t", PyArray1::from_vec(py, t))?;
-        out.set_item("face", PyArray1::from_vec(py, face))?;
-        out.set_item("points", points_array(py, &pts))?;
-        Ok(out)
-    }
-
-    /// Whether a surface lies between `a[i]` and `b[i]`, (N,) bool.
-    fn occluded<'py>(
-        &self,
-        py: Python<'py>,
-        a: PyReadonlyArray2<'_, f64>,
-        b: PyReadonlyArray2<'_, f64>,
-    ) -> PyResult<Bound<'py, PyArray1<bool>>> {
-        let (a, b) = (points(&a, "a")?, points(&b, "b")?);
-        if a.len() != b.len() {
-            return Err(value_error(format!(
-                "{} starts but {} ends",
-                a.len(),
-                b.len()
-            )));
-        }
-        let segs: Vec<(Point3<f64>, Point3<f64>)> = a.into_iter().zip(b).collect();
-        Ok(PyArray1::from_vec(
-            py,
-            py.detach(|| self.0.occluded_batch(&segs)),
-        ))
-    }
-
-    /// Depth (along the optical axis, 0 where no surface) and face id (-1)
-    /// images seen by `camera`, each (H, W).
-    fn render_depth<'py>(
-        &self,
-        py: Python<'py>,
-        camera: PyRef<'_, PyCamera>,
-    ) -> PyResult<ArrayPair<'py, PyArray2<f32>, PyArray2<i64>>> {
-        let cam = &camera.0;
-        let (depth, face) = py.detach(|| self.0.render_depth(cam));
-        let face: Vec<i64> = face
-            .into_iter()
-            .map(|f| if f == u32::MAX { -1 } else { i64::from(f) })
-            .collect();
-        let k = camera.0.intrinsics;
-        Ok((
-            image2(py, k.width, k.height, depth)?,
-            image2(py, k.width, k.height, face)?,
-        ))
-    }
-}
-
-/// Distance to a mesh (parry3d), for safety checks.
-#[pyclass(name = "Clearance", module = "vpctl.scene", frozen)]
-pub struct PyClearance(Clearance);
-
-#[pymethods]
-impl PyClearance {
-    #[new]
-    fn new(py: Python<'_>, mesh: PyRef<'_, PyMesh>) -> Self {
-        let m = &mesh.0;
-        PyClearance(py.detach(|| Clearance::new(m)))
-    }
-
-    /// Distance of each point (N, 3) to the mesh, (N,).
-    fn distance<'py>(
-        &self,
-        py: Python<'py>,
-        pts: PyReadonlyArray2<'_, f64>,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let p = points(&pts, "points")?;
-        let d: Vec<f64> = py.detach(|| p.iter().map(|q| self.0.distance(q)).collect());
-        Ok(PyArray1::from_vec(py, d))
-    }
-
-    /// Whether each point keeps `radius` from the mesh, (N,) bool.
-    fn points_clear<'py>(
-        &self,
-        py: Python<'py>,
-        pts: PyReadonlyArray2<'_, f64>,
-        radius: f64,
-    ) -> PyResult<Bound<'py, PyArray1<bool>>> {
-        check_radius(radius)?;
-        let p = points(&pts, "points")?;
-        let c: Vec<bool> =
-            py.detach(|| p.iter().map(|q| self.0.point_is_clear(q, radius)).collect());
-        Ok(PyArray1::from_vec(py, c))
-    }
-
-    /// Whether each segment a[i]-b[i] keeps `radius` from the mesh, (N,) bool.
-    fn segments_clear<'py>(
-        &self,
-        py: Python<'py>,
-        a: PyReadonlyArray2<'_, f64>,
-        b: PyReadonlyArray2<'_, f64>,
-        radius: f64,
-    ) -> PyResult<Bound<'py, PyArray1<bool>>> {
-        check_radius(radius)?;
-        let (a, b) = (points(&a, "a")?, points(&b, "b")?);
-        if a.len() != b.len() {
-            return Err(value_error(format!(
-                "{} starts but {} ends",
-                a.len(),
-                b.len()
-            )));
-        }
-        let c: Vec<bool> = py.detach(|| {
-            a.iter()
-                .zip(&b)
-                .map(|(p, q)| self.0.segment_is_clear(p, q, radius))
-                .collect()
-        });
-        Ok(PyArray1::from_vec(py, c))
-    }
-}
-
-fn check_radius(radius: f64) -> PyResult<()> {
-    if radius.is_finite() && radius >= 0.0 {
-        Ok(())
-    } else {
-        Err(value_error(format!(
-            "radius = {radius} must be finite and >= 0"
-        )))
-    }
-}
-
 /// Registers the submodule.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyMesh>()?;
@@ -684,11 +394,11 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyClearance>()?;
     m.add_function(wrap_pyfunction!(generate_site, m)?)?;
     m.add_function(wrap_pyfunction!(material_names, m)?)?;
-    m.add_function(wrap_pyfunction!(read_depth_map, m)?)?;
-    m.add_function(wrap_pyfunction!(write_depth_map, m)?)?;
-    m.add_function(wrap_pyfunction!(load_image, m)?)?;
-    m.add_function(wrap_pyfunction!(save_image, m)?)?;
-    m.add_function(wrap_pyfunction!(write_label_image, m)?)?;
-    m.add_function(wrap_pyfunction!(read_label_image, m)?)?;
+    m.add_function(wrap_pyfunction!(files::read_depth_map, m)?)?;
+    m.add_function(wrap_pyfunction!(files::write_depth_map, m)?)?;
+    m.add_function(wrap_pyfunction!(files::load_image, m)?)?;
+    m.add_function(wrap_pyfunction!(files::save_image, m)?)?;
+    m.add_function(wrap_pyfunction!(files::write_label_image, m)?)?;
+    m.add_function(wrap_pyfunction!(files::read_label_image, m)?)?;
     Ok(())
 }

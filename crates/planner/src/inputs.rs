@@ -1,0 +1,143 @@
+//! What a planning call takes and gives: the acquired views, the region of
+//! interest, the inputs and the result, and the safety rules of a call.
+
+use std::collections::BTreeMap;
+
+use nalgebra::{Point3, Vector3};
+use vp_scene::plan::{AltitudeLimits, GeodeticOrigin, IterationStatistics, Plan};
+use vp_scene::raster::ConfidenceImage;
+use vp_scene::raycast::RayCaster;
+use vp_scene::roi::Roi;
+use vp_scene::{Aabb, Camera, Mesh};
+
+use crate::config::PlannerConfig;
+use crate::error::{PlannerError, Result};
+use crate::safety::Safety;
+
+/// Height of the default flight volume above the highest mesh point, metres.
+const DEFAULT_CEILING_M: f64 = 60.0;
+
+/// An acquired image: its camera and, when predicted, its confidence image.
+#[derive(Debug, Clone)]
+pub struct AcquiredView {
+    /// The posed camera.
+    pub camera: Camera,
+    /// Predicted MVS confidence; `None` means no prediction (confidence 1).
+    pub confidence: Option<ConfidenceImage>,
+}
+
+/// Which faces the quality requirements apply to.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RoiSpec {
+    /// Every face of the mesh.
+    All,
+    /// These face indices.
+    Faces(Vec<u32>),
+    /// A region (box, ground polygon, image polygon).
+    Region(Roi),
+}
+
+/// Inputs of one planning call.
+pub struct PlanInputs<'a> {
+    /// The scene mesh (obstacles and surface to reconstruct).
+    pub mesh: &'a Mesh,
+    /// Acquired images, in capture order (the last is where the path starts).
+    pub acquired: &'a [AcquiredView],
+    /// Region of interest.
+    pub roi: RoiSpec,
+    /// Parameters.
+    pub config: &'a PlannerConfig,
+    /// Geodetic origin written into the plan.
+    pub origin: Option<GeodeticOrigin>,
+}
+
+/// One sampled triangle and its final fulfillment.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SampledFulfillment {
+    /// Face of the input mesh it was split from.
+    pub parent: u32,
+    /// Centroid.
+    pub centroid: Point3<f64>,
+    /// Unit normal.
+    pub normal: Vector3<f64>,
+    /// f(t) with the acquired and planned cameras.
+    pub f: f64,
+    /// Whether it belonged to the selected set T.
+    pub selected: bool,
+}
+
+/// Everything a planning call produced.
+#[derive(Debug, Clone)]
+pub struct PlanResult {
+    /// The plan (also carries statistics and the cut-short flag).
+    pub plan: Plan,
+    /// Per-iteration figures (same as `plan.statistics.iterations`).
+    pub iterations: Vec<IterationStatistics>,
+    /// Wall time per module over the whole call, seconds.
+    pub module_time_s: BTreeMap<String, f64>,
+    /// Input-mesh faces of the selected triangles T.
+    pub selected_faces: Vec<u32>,
+    /// Every sampled triangle with its final f(t).
+    pub sampled: Vec<SampledFulfillment>,
+    /// Gains g(c3) of the planned triplets, in planning order.
+    pub triplet_gains: Vec<f64>,
+    /// Surrogates visited by M3 in each iteration.
+    pub visited: Vec<usize>,
+    /// Waypoint indices of images that could not be bridged to o_min overlap.
+    pub unbridged: Vec<usize>,
+    /// Triplets planned but left out of the path: one of their images is
+    /// unsafe or no climb-traverse-descend route reaches it.
+    pub dropped_triplets: Vec<u32>,
+    /// True when planning stopped before k triplets.
+    pub cut_short: bool,
+    /// Why.
+    pub cut_short_reason: Option<String>,
+}
+
+/// The safety rules of a call: volume, altitude and geofence from the
+/// config or, by default, from the mesh bounds.
+pub fn safety_for(mesh: &Mesh, cfg: &PlannerConfig) -> Safety {
+    let b = mesh.bounds();
+    let volume = cfg.flight_volume_aabb().unwrap_or(Aabb {
+        min: b.min,
+        max: Point3::new(b.max.x, b.max.y, b.max.z + DEFAULT_CEILING_M),
+    });
+    let altitude = cfg.altitude_limits.unwrap_or(AltitudeLimits {
+        min_m: volume.min.z,
+        max_m: volume.max.z,
+    });
+    Safety::new(
+        mesh,
+        cfg.safety_distance_m,
+        volume,
+        cfg.geofence.clone(),
+        altitude,
+    )
+}
+
+impl RoiSpec {
+    /// The faces of `mesh` the region selects (`caster` built from `mesh`);
+    /// an empty selection or a face index out of range is an input error.
+    pub fn faces(&self, mesh: &Mesh, caster: &RayCaster) -> Result<Vec<u32>> {
+        let faces = match self {
+            RoiSpec::All => (0..mesh.n_faces() as u32).collect(),
+            RoiSpec::Faces(f) => {
+                if let Some(bad) = f.iter().find(|&&f| f as usize >= mesh.n_faces()) {
+                    return Err(PlannerError::Input(format!(
+                        "region of interest: face {bad} does not exist (the mesh has {} faces)",
+                        mesh.n_faces()
+                    )));
+                }
+                f.clone()
+            }
+            RoiSpec::Region(r) => r.select(mesh, caster)?,
+        };
+        if faces.is_empty() {
+            return Err(PlannerError::Input(
+                "the region of interest selects no face of the mesh (empty, or outside the mesh)"
+                    .into(),
+            ));
+        }
+        Ok(faces)
+    }
+}
