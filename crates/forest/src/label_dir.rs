@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use image::imageops::{self, FilterType};
-use vp_scene::image_files::{image_name_of_label, LABEL_EXTENSION};
+use vp_scene::image_files::{files_with_extensions, image_name_of_label, LABEL_EXTENSION};
 use vp_scene::raster::{load_rgb, LabelImage, RgbImage};
 use vp_scene::SceneError;
 
@@ -42,8 +42,7 @@ pub struct LabelledImage {
 /// that needs it), an unreadable label file, or a label image larger than
 /// its image.
 pub fn load_label_dir(images_dir: &Path, labels_dir: &Path) -> Result<Vec<LabelledImage>> {
-    let mut paths = Vec::new();
-    find_label_files(labels_dir, &mut paths)?;
+    let mut paths = files_with_extensions(labels_dir, &[LABEL_EXTENSION])?;
     if paths.is_empty() {
         return Err(ForestError::InvalidInput(format!(
             "{}: no .{LABEL_EXTENSION} files in this folder or below",
@@ -123,19 +122,6 @@ fn image_name(root: &Path, path: &Path) -> Result<String> {
             path.display()
         ))
     })
-}
-
-fn find_label_files(dir: &Path, out: &mut Vec<PathBuf>) -> Result<()> {
-    let entries = std::fs::read_dir(dir).map_err(|e| SceneError::io(dir, e))?;
-    for entry in entries {
-        let path = entry.map_err(|e| SceneError::io(dir, e))?.path();
-        if path.is_dir() {
-            find_label_files(&path, out)?;
-        } else if path.extension().is_some_and(|e| e == LABEL_EXTENSION) {
-            out.push(path);
-        }
-    }
-    Ok(())
 }
 
 #[cfg(test)]

@@ -79,8 +79,7 @@ pub fn find_images(paths: &[PathBuf]) -> Result<Vec<(PathBuf, String)>> {
     let mut out = Vec::new();
     for p in paths {
         if p.is_dir() {
-            let mut found = Vec::new();
-            walk(p, &mut found)?;
+            let found = files_with_extensions(p, &IMAGE_EXTENSIONS)?;
             let mut named: Vec<(PathBuf, String)> = found
                 .into_iter()
                 .filter_map(|f| {
@@ -110,16 +109,24 @@ pub fn find_images(paths: &[PathBuf]) -> Result<Vec<(PathBuf, String)>> {
     Ok(out)
 }
 
-fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> Result<()> {
+/// Every file below `dir` (recursively) whose extension, in lower case, is
+/// one of `extensions`, in directory order.
+pub fn files_with_extensions(dir: &Path, extensions: &[&str]) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    walk(dir, extensions, &mut out)?;
+    Ok(out)
+}
+
+fn walk(dir: &Path, extensions: &[&str], out: &mut Vec<PathBuf>) -> Result<()> {
     let entries = std::fs::read_dir(dir).map_err(|e| SceneError::io(dir, e))?;
     for entry in entries {
         let path = entry.map_err(|e| SceneError::io(dir, e))?.path();
         if path.is_dir() {
-            walk(&path, out)?;
+            walk(&path, extensions, out)?;
         } else if path
             .extension()
             .and_then(|e| e.to_str())
-            .is_some_and(|e| IMAGE_EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
+            .is_some_and(|e| extensions.contains(&e.to_ascii_lowercase().as_str()))
         {
             out.push(path);
         }
