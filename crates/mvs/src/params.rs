@@ -135,6 +135,11 @@ impl MvsParams {
         (-r..=r).step_by(self.window_step as usize).collect()
     }
 
+    /// Number of window samples along one axis.
+    pub fn window_offsets_len(&self) -> usize {
+        self.window_offsets().len()
+    }
+
     /// Parses a TOML config (missing fields take defaults) and validates it.
     pub fn from_toml(path: &std::path::Path, text: &str) -> Result<Self> {
         let p: MvsParams = toml::from_str(text).map_err(|e| MvsError::Config {

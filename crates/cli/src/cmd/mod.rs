@@ -7,6 +7,7 @@ pub mod forest;
 pub mod labelgen;
 pub mod mesh;
 pub mod mission;
+pub mod mvs;
 pub mod plan;
 pub mod render;
 pub mod scene;
@@ -20,6 +21,13 @@ use vp_sim::SimError;
 /// (I/O failures, a vehicle that does not answer or rejects the mission).
 pub fn exit_code(e: &anyhow::Error) -> u8 {
     for cause in e.chain() {
+        if let Some(me) = cause.downcast_ref::<vp_mvs::MvsError>() {
+            return match me {
+                vp_mvs::MvsError::Scene(se) => scene_exit_code(se),
+                _ if me.is_input_error() => 2,
+                _ => 1,
+            };
+        }
         if let Some(le) = cause.downcast_ref::<vp_labelgen::LabelgenError>() {
             return if le.is_input_error() { 2 } else { 1 };
         }
