@@ -155,13 +155,15 @@ pub(crate) fn source_cost(patch: &RefPatch, u: f32, v: f32, h: &[f32; 9], src: &
     (1.0 - ncc).clamp(0.0, MAX_COST)
 }
 
-/// Mean of the `k` smallest costs (all of them when fewer): the view
-/// selection. Sorts `costs` in place.
+/// View selection: the means of the `k` smallest costs (all of them when
+/// fewer), ranked by the first of each pair; returns (mean of the firsts,
+/// mean of the seconds). Sorts `costs` in place.
 #[inline]
-pub(crate) fn aggregate(costs: &mut [f32], k: usize) -> f32 {
-    costs.sort_unstable_by(f32::total_cmp);
+pub(crate) fn aggregate(costs: &mut [(f32, f32)], k: usize) -> (f32, f32) {
+    costs.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
     let k = k.min(costs.len()).max(1);
-    costs[..k].iter().sum::<f32>() / k as f32
+    let (a, b) = costs[..k].iter().fold((0.0, 0.0), |s, c| (s.0 + c.0, s.1 + c.1));
+    (a / k as f32, b / k as f32)
 }
 
 #[cfg(test)]
@@ -206,7 +208,7 @@ mod tests {
 
     #[test]
     fn aggregate_averages_the_best_k() {
-        assert_eq!(aggregate(&mut [0.5, 0.1, 2.0], 2), 0.3);
-        assert_eq!(aggregate(&mut [0.5], 3), 0.5);
+        assert_eq!(aggregate(&mut [(0.5, 0.5), (0.1, 0.0), (2.0, 1.0)], 2), (0.3, 0.25));
+        assert_eq!(aggregate(&mut [(0.5, 0.2)], 3), (0.5, 0.2));
     }
 }

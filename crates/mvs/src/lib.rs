@@ -41,10 +41,11 @@ pub use workspace::{run_workspace, RunOptions, RunSummary, Workspace};
 /// The result of [`reconstruct`], indexed like the views.
 #[derive(Debug, Clone)]
 pub struct Output {
-    /// PatchMatch's maps (photometric filter applied); `None` for a view
-    /// without sources.
+    /// PatchMatch's photometric maps (photometric filter applied); `None`
+    /// for a view without sources.
     pub photometric: Vec<Option<DepthNormalMap>>,
-    /// The maps after the geometric filter.
+    /// The maps after the geometric pass (when enabled) and the geometric
+    /// filter.
     pub geometric: Vec<Option<DepthNormalMap>>,
     /// The fused cloud.
     pub fused: Vec<FusedPoint>,
@@ -79,11 +80,11 @@ pub fn reconstruct(
             "no image has a source image (too little overlap or triangulation angle)".into(),
         ));
     }
-    let mut photometric = Vec::with_capacity(views.len());
+    let mut raw = Vec::with_capacity(views.len());
     for (r, src) in sources.iter().enumerate() {
         if src.is_empty() {
             progress(&format!("[{}/{}] {}: no source images, skipped", r + 1, views.len(), views[r].name));
-            photometric.push(None);
+            raw.push(None);
             continue;
         }
         progress(&format!(
@@ -93,11 +94,36 @@ pub fn reconstruct(
             views[r].name,
             src.len()
         ));
-        photometric.push(Some(patch_match(views, r, src, params)?));
+        raw.push(Some(patchmatch::patch_match_raw(views, r, src, params, None)?));
     }
+    let photometric: Vec<Option<DepthNormalMap>> =
+        raw.iter().map(|s| s.as_ref().map(|s| s.to_map(params))).collect();
+    let refined = if params.geom_consistency {
+        // A source without a photometric pass of its own cannot inform the
+        // geometric term: such references keep their photometric result.
+        let mut refined = Vec::with_capacity(views.len());
+        for (r, src) in sources.iter().enumerate() {
+            let usable: Vec<usize> = src.iter().copied().filter(|&s| raw[s].is_some()).collect();
+            if raw[r].is_none() || usable.is_empty() {
+                refined.push(photometric[r].clone());
+                continue;
+            }
+            progress(&format!(
+                "[{}/{}] geometric pass {}",
+                r + 1,
+                views.len(),
+                views[r].name
+            ));
+            let state = patchmatch::patch_match_raw(views, r, &usable, params, Some(&raw))?;
+            refined.push(Some(state.to_map(params)));
+        }
+        refined
+    } else {
+        photometric.clone()
+    };
     progress("geometric consistency filter");
     let geometric: Vec<Option<DepthNormalMap>> = (0..views.len())
-        .map(|r| geometric_filter(views, &photometric, r, &sources[r], params))
+        .map(|r| geometric_filter(views, &refined, r, &sources[r], params))
         .collect();
     progress("fusion");
     let fused = fuse(views, &geometric, sources, params);

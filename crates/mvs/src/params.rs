@@ -49,6 +49,17 @@ pub struct MvsParams {
     /// reverse that a hypothesis may have before it faces away (grazing
     /// planes match nothing reliably).
     pub max_normal_view_angle_deg: f32,
+    /// Run a second, geometric PatchMatch pass (as COLMAP's
+    /// `geom_consistency`): each source's cost gains a penalty for the
+    /// forward-backward reprojection error through that source's
+    /// photometric depth map.
+    pub geom_consistency: bool,
+    /// Weight of the reprojection error (pixels) in the geometric pass
+    /// (COLMAP's `geom_consistency_regularizer`).
+    pub geom_regularizer: f32,
+    /// Cap of the reprojection error in the geometric pass, pixels (COLMAP's
+    /// `geom_consistency_max_cost`).
+    pub geom_max_error_px: f32,
 }
 
 impl Default for MvsParams {
@@ -70,6 +81,9 @@ impl Default for MvsParams {
             min_triangulation_angle_deg: 1.0,
             min_fused_pixels: 2,
             max_normal_view_angle_deg: 80.0,
+            geom_consistency: true,
+            geom_regularizer: 0.3,
+            geom_max_error_px: 3.0,
         }
     }
 }
@@ -126,6 +140,12 @@ impl MvsParams {
                 self.max_normal_view_angle_deg
             ));
         }
+        if !(self.geom_regularizer >= 0.0 && self.geom_max_error_px > 0.0) {
+            return bad(format!(
+                "geom_regularizer = {} must be >= 0 and geom_max_error_px = {} > 0",
+                self.geom_regularizer, self.geom_max_error_px
+            ));
+        }
         Ok(())
     }
 
@@ -156,7 +176,7 @@ impl MvsParams {
     /// The defaults as TOML, each field preceded by its documentation.
     pub fn defaults_toml() -> String {
         let d = MvsParams::default();
-        let fields: [(&str, &str, String); 16] = [
+        let fields: [(&str, &str, String); 19] = [
             ("seed", "Seed of every random choice (same seed, same bytes for any thread count).", d.seed.to_string()),
             ("window_radius", "Half size of the matching window, pixels (5: an 11x11 window).", d.window_radius.to_string()),
             ("window_step", "Step between window samples, pixels.", d.window_step.to_string()),
@@ -173,6 +193,9 @@ impl MvsParams {
             ("min_triangulation_angle_deg", "Geometric filter: smallest triangulation angle with the consistent sources, degrees.", fmt_f(d.min_triangulation_angle_deg)),
             ("min_fused_pixels", "Fusion: fewest pixels (reference included) per fused point.", d.min_fused_pixels.to_string()),
             ("max_normal_view_angle_deg", "Largest angle between a normal and the reversed viewing ray, degrees.", fmt_f(f64::from(d.max_normal_view_angle_deg))),
+            ("geom_consistency", "Second, geometric PatchMatch pass: penalise reprojection error through the sources' depth maps.", d.geom_consistency.to_string()),
+            ("geom_regularizer", "Geometric pass: weight of the reprojection error (pixels) in the cost.", fmt_f(f64::from(d.geom_regularizer))),
+            ("geom_max_error_px", "Geometric pass: cap of the reprojection error, pixels.", fmt_f(f64::from(d.geom_max_error_px))),
         ];
         let mut s = String::from("# vp-mvs parameters (vpctl mvs run --config FILE); every field is optional.\n");
         for (name, doc, value) in fields {
