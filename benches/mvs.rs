@@ -28,7 +28,11 @@ use vpctl_suite::sim::{render, RenderParams};
 fn triplet(site: &Site, caster: &RayCaster, size: u32) -> Vec<View> {
     let k = Intrinsics::from_hfov(size, size, 60.0).expect("valid intrinsics");
     let rb = site.rock_bounds;
-    let focus = Point3::new(0.5 * (rb.min.x + rb.max.x), 0.5 * (rb.min.y + rb.max.y), rb.max.z);
+    let focus = Point3::new(
+        0.5 * (rb.min.x + rb.max.x),
+        0.5 * (rb.min.y + rb.max.y),
+        rb.max.z,
+    );
     let el = 55f64.to_radians();
     let v = Vector3::new(el.cos(), 0.0, el.sin());
     let u1 = v.cross(&Vector3::z()).normalize();
@@ -51,7 +55,14 @@ fn sources() -> Vec<Vec<usize>> {
     vec![vec![1, 2], vec![0, 2], vec![0, 1]]
 }
 
-fn tier(c: &mut Criterion, site: &Site, caster: &RayCaster, name: &str, size: u32, params: &MvsParams) {
+fn tier(
+    c: &mut Criterion,
+    site: &Site,
+    caster: &RayCaster,
+    name: &str,
+    size: u32,
+    params: &MvsParams,
+) {
     let views = triplet(site, caster, size);
     // One timed run first, for the figures criterion does not print.
     let start = Instant::now();
@@ -74,7 +85,9 @@ fn tier(c: &mut Criterion, site: &Site, caster: &RayCaster, name: &str, size: u3
     group.sample_size(10);
     group.measurement_time(Duration::from_secs(if size > 512 { 60 } else { 10 }));
     group.bench_function(name, |b| {
-        b.iter(|| black_box(reconstruct(&views, &sources(), params, &mut |_| {}).expect("reconstruct")));
+        b.iter(|| {
+            black_box(reconstruct(&views, &sources(), params, &mut |_| {}).expect("reconstruct"))
+        });
     });
     group.finish();
 }

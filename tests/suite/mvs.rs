@@ -22,9 +22,20 @@ pub fn site() -> Site {
 /// Three cameras `distance` m from the top of the rock, around a viewing
 /// direction at `elevation_deg`, spread so that the triangulation angle at
 /// the target is about `angle_deg`.
-pub fn triplet_cameras(site: &Site, k: Intrinsics, distance: f64, elevation_deg: f64, azimuth_deg: f64, angle_deg: f64) -> Vec<Camera> {
+pub fn triplet_cameras(
+    site: &Site,
+    k: Intrinsics,
+    distance: f64,
+    elevation_deg: f64,
+    azimuth_deg: f64,
+    angle_deg: f64,
+) -> Vec<Camera> {
     let rb = site.rock_bounds;
-    let focus = Point3::new(0.5 * (rb.min.x + rb.max.x), 0.5 * (rb.min.y + rb.max.y), rb.max.z);
+    let focus = Point3::new(
+        0.5 * (rb.min.x + rb.max.x),
+        0.5 * (rb.min.y + rb.max.y),
+        rb.max.z,
+    );
     let (el, az) = (elevation_deg.to_radians(), azimuth_deg.to_radians());
     let v = Vector3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
     let u1 = v.cross(&Vector3::z()).normalize();
@@ -42,7 +53,11 @@ pub fn triplet_cameras(site: &Site, k: Intrinsics, distance: f64, elevation_deg:
         .collect()
 }
 
-pub fn render_views(site: &Site, caster: &RayCaster, cams: &[Camera]) -> (Vec<View>, Vec<Rendered>) {
+pub fn render_views(
+    site: &Site,
+    caster: &RayCaster,
+    cams: &[Camera],
+) -> (Vec<View>, Vec<Rendered>) {
     let mut views = Vec::new();
     let mut renders = Vec::new();
     for (i, cam) in cams.iter().enumerate() {
@@ -53,7 +68,7 @@ pub fn render_views(site: &Site, caster: &RayCaster, cams: &[Camera]) -> (Vec<Vi
         // The range a sparse model would give: the visible depths plus a margin.
         let span = f64::from(hi - lo);
         let range = (f64::from(lo) - 0.2 * span, f64::from(hi) + 0.2 * span);
-        views.push(View::new(&format!("v{i}.png"), cam.clone(), r.rgb.clone(), range).unwrap());
+        views.push(View::new(&format!("v{i}.png"), *cam, r.rgb.clone(), range).unwrap());
         renders.push(r);
     }
     (views, renders)
@@ -61,7 +76,9 @@ pub fn render_views(site: &Site, caster: &RayCaster, cams: &[Camera]) -> (Vec<Vi
 
 /// Each view against the other two.
 pub fn triplet_sources(n: usize) -> Vec<Vec<usize>> {
-    (0..n).map(|r| (0..n).filter(|&s| s != r).collect()).collect()
+    (0..n)
+        .map(|r| (0..n).filter(|&s| s != r).collect())
+        .collect()
 }
 
 /// Per (material, angle bin): pixels visible in all views, of those the
@@ -80,10 +97,18 @@ pub struct Tally {
 pub const BINS: [f64; 5] = [0.0, 5.0, 15.0, 25.0, 180.0];
 
 fn bin_of(angle: f64) -> usize {
-    BINS.windows(2).position(|w| angle >= w[0] && angle < w[1]).unwrap_or(BINS.len() - 2)
+    BINS.windows(2)
+        .position(|w| angle >= w[0] && angle < w[1])
+        .unwrap_or(BINS.len() - 2)
 }
 
-pub fn evaluate(site: &Site, views: &[View], renders: &[Rendered], out: &Output, tally: &mut [[Tally; 4]; 5]) {
+pub fn evaluate(
+    site: &Site,
+    views: &[View],
+    renders: &[Rendered],
+    out: &Output,
+    tally: &mut [[Tally; 4]; 5],
+) {
     let centres: Vec<Point3<f64>> = views.iter().map(|v| v.camera.center()).collect();
     for (r, view) in views.iter().enumerate() {
         let Some(g) = &out.geometric[r] else { continue };
@@ -115,8 +140,12 @@ pub fn evaluate(site: &Site, views: &[View], renders: &[Rendered], out: &Output,
                 if s == r {
                     return true;
                 }
-                let Some(q) = v.camera.project_in_frame(&p) else { return false };
-                let Some(ts) = rs.depth.get(q.x as u32, q.y as u32) else { return false };
+                let Some(q) = v.camera.project_in_frame(&p) else {
+                    return false;
+                };
+                let Some(ts) = rs.depth.get(q.x as u32, q.y as u32) else {
+                    return false;
+                };
                 let z = v.camera.cam_from_world().transform_point(&p).z;
                 ts > 0.0 && (f64::from(ts) - z).abs() <= 0.01 * z
             });
@@ -179,18 +208,33 @@ fn rock_and_ground_are_complete_and_clean_at_5_to_25_degrees() {
     }
     print_table(&tally);
     for m in [Material::Rock, Material::Ground] {
-        let c = tally[m as usize][1..3].iter().fold(Tally::default(), |a, c| Tally {
-            visible: a.visible + c.visible,
-            complete: a.complete + c.complete,
-            output: a.output + c.output,
-            outliers: a.outliers + c.outliers,
-            gross: a.gross + c.gross,
-        });
+        let c = tally[m as usize][1..3]
+            .iter()
+            .fold(Tally::default(), |a, c| Tally {
+                visible: a.visible + c.visible,
+                complete: a.complete + c.complete,
+                output: a.output + c.output,
+                outliers: a.outliers + c.outliers,
+                gross: a.gross + c.gross,
+            });
         let completeness = c.complete as f64 / c.visible as f64;
         let outliers = c.outliers as f64 / c.output as f64;
-        assert!(c.visible > 1000, "{}: only {} visible pixels", m.name(), c.visible);
-        assert!(completeness >= 0.8, "{}: completeness {completeness:.3} < 0.8", m.name());
-        assert!(outliers <= 0.02, "{}: outlier share {outliers:.3} > 0.02", m.name());
+        assert!(
+            c.visible > 1000,
+            "{}: only {} visible pixels",
+            m.name(),
+            c.visible
+        );
+        assert!(
+            completeness >= 0.8,
+            "{}: completeness {completeness:.3} < 0.8",
+            m.name()
+        );
+        assert!(
+            outliers <= 0.02,
+            "{}: outlier share {outliers:.3} > 0.02",
+            m.name()
+        );
     }
 }
 
@@ -206,7 +250,10 @@ fn same_bytes_with_one_and_two_threads() {
         ..MvsParams::default()
     };
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         pool.install(|| reconstruct(&views, &triplet_sources(3), &params, &mut |_| {}).unwrap())
     };
     let (a, b) = (run(1), run(2));
@@ -215,7 +262,12 @@ fn same_bytes_with_one_and_two_threads() {
             .iter()
             .flatten()
             .chain(o.photometric.iter().flatten())
-            .flat_map(|m| m.depth.iter().chain(m.normal.iter().flatten()).chain(&m.cost))
+            .flat_map(|m| {
+                m.depth
+                    .iter()
+                    .chain(m.normal.iter().flatten())
+                    .chain(&m.cost)
+            })
             .map(|v| v.to_bits())
             .collect()
     };
@@ -226,7 +278,10 @@ fn same_bytes_with_one_and_two_threads() {
     let c = reconstruct(
         &views,
         &triplet_sources(3),
-        &MvsParams { seed: 1, ..params.clone() },
+        &MvsParams {
+            seed: 1,
+            ..params.clone()
+        },
         &mut |_| {},
     )
     .unwrap();

@@ -31,7 +31,14 @@ pub(crate) struct RefPatch {
 
 impl RefPatch {
     /// Fills the patch of pixel (x, y) of `image`.
-    pub fn build(&mut self, image: &GreyImage, x: usize, y: usize, offsets: &[i32], params: &MvsParams) {
+    pub fn build(
+        &mut self,
+        image: &GreyImage,
+        x: usize,
+        y: usize,
+        offsets: &[i32],
+        params: &MvsParams,
+    ) {
         self.dx.clear();
         self.dy.clear();
         self.w.clear();
@@ -83,7 +90,13 @@ impl RefPatch {
 /// distance from the reference centre. `None` when the plane passes through
 /// (or behind) the reference centre.
 #[inline]
-pub(crate) fn homography(rel: &Relative, kr: &[f32; 4], d: f32, n: &[f32; 3], ray: &[f32; 3]) -> Option<[f32; 9]> {
+pub(crate) fn homography(
+    rel: &Relative,
+    kr: &[f32; 4],
+    d: f32,
+    n: &[f32; 3],
+    ray: &[f32; 3],
+) -> Option<[f32; 9]> {
     let dist = -(n[0] * ray[0] + n[1] * ray[1] + n[2] * ray[2]) * d;
     if !(dist > 0.0) {
         return None;
@@ -162,7 +175,9 @@ pub(crate) fn source_cost(patch: &RefPatch, u: f32, v: f32, h: &[f32; 9], src: &
 pub(crate) fn aggregate(costs: &mut [(f32, f32)], k: usize) -> (f32, f32) {
     costs.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
     let k = k.min(costs.len()).max(1);
-    let (a, b) = costs[..k].iter().fold((0.0, 0.0), |s, c| (s.0 + c.0, s.1 + c.1));
+    let (a, b) = costs[..k]
+        .iter()
+        .fold((0.0, 0.0), |s, c| (s.0 + c.0, s.1 + c.1));
     (a / k as f32, b / k as f32)
 }
 
@@ -174,7 +189,14 @@ mod tests {
 
     #[test]
     fn homography_maps_plane_points_like_projection() {
-        let k = Intrinsics { width: 100, height: 80, fx: 90.0, fy: 95.0, cx: 50.0, cy: 40.0 };
+        let k = Intrinsics {
+            width: 100,
+            height: 80,
+            fx: 90.0,
+            fy: 95.0,
+            cx: 50.0,
+            cy: 40.0,
+        };
         let reference = Camera::new(k, Isometry3::identity());
         let source = Camera::new(
             k,
@@ -202,13 +224,22 @@ mod tests {
             (h[0] * u as f32 + h[1] * v as f32 + h[2]) / z,
             (h[3] * u as f32 + h[4] * v as f32 + h[5]) / z,
         );
-        assert!((f64::from(got.0) - expected.x).abs() < 1e-2, "{got:?} {expected}");
-        assert!((f64::from(got.1) - expected.y).abs() < 1e-2, "{got:?} {expected}");
+        assert!(
+            (f64::from(got.0) - expected.x).abs() < 1e-2,
+            "{got:?} {expected}"
+        );
+        assert!(
+            (f64::from(got.1) - expected.y).abs() < 1e-2,
+            "{got:?} {expected}"
+        );
     }
 
     #[test]
     fn aggregate_averages_the_best_k() {
-        assert_eq!(aggregate(&mut [(0.5, 0.5), (0.1, 0.0), (2.0, 1.0)], 2), (0.3, 0.25));
+        assert_eq!(
+            aggregate(&mut [(0.5, 0.5), (0.1, 0.0), (2.0, 1.0)], 2),
+            (0.3, 0.25)
+        );
         assert_eq!(aggregate(&mut [(0.5, 0.2)], 3), (0.5, 0.2));
     }
 }

@@ -39,7 +39,10 @@ pub fn fuse(
 ) -> Vec<FusedPoint> {
     let mut used: Vec<Vec<bool>> = maps
         .iter()
-        .map(|m| m.as_ref().map_or_else(Vec::new, |m| vec![false; m.depth.len()]))
+        .map(|m| {
+            m.as_ref()
+                .map_or_else(Vec::new, |m| vec![false; m.depth.len()])
+        })
         .collect();
     let mut points = Vec::new();
     let mut members: Vec<(usize, usize)> = Vec::new();
@@ -56,7 +59,9 @@ pub fn fuse(
             members.clear();
             members.push((r, idx));
             for &s in sources.get(r).map_or(&[][..], Vec::as_slice) {
-                let Some(Some(sm)) = maps.get(s) else { continue };
+                let Some(Some(sm)) = maps.get(s) else {
+                    continue;
+                };
                 if let Some(j) = consistent_pixel(view, &views[s], sm, x, y, d, params) {
                     if !used[s][j] {
                         members.push((s, j));
@@ -109,7 +114,14 @@ pub fn write_fused_ply(path: &Path, points: &[FusedPoint]) -> Result<()> {
             points.len()
         )?;
         for p in points {
-            for v in [p.position.x, p.position.y, p.position.z, p.normal.x, p.normal.y, p.normal.z] {
+            for v in [
+                p.position.x,
+                p.position.y,
+                p.position.z,
+                p.normal.x,
+                p.normal.y,
+                p.normal.z,
+            ] {
                 w.write_all(&(v as f32).to_le_bytes())?;
             }
             w.write_all(&p.color)?;

@@ -36,7 +36,7 @@ pub use geometric::geometric_filter;
 pub use params::MvsParams;
 pub use patchmatch::{patch_match, DepthNormalMap};
 pub use view::{GreyImage, View};
-pub use workspace::{run_workspace, RunOptions, RunSummary, Workspace};
+pub use workspace::{run_image_set, run_workspace, RunOptions, RunSummary, Workspace};
 
 /// The result of [`reconstruct`], indexed like the views.
 #[derive(Debug, Clone)]
@@ -83,7 +83,12 @@ pub fn reconstruct(
     let mut raw = Vec::with_capacity(views.len());
     for (r, src) in sources.iter().enumerate() {
         if src.is_empty() {
-            progress(&format!("[{}/{}] {}: no source images, skipped", r + 1, views.len(), views[r].name));
+            progress(&format!(
+                "[{}/{}] {}: no source images, skipped",
+                r + 1,
+                views.len(),
+                views[r].name
+            ));
             raw.push(None);
             continue;
         }
@@ -94,10 +99,14 @@ pub fn reconstruct(
             views[r].name,
             src.len()
         ));
-        raw.push(Some(patchmatch::patch_match_raw(views, r, src, params, None)?));
+        raw.push(Some(patchmatch::patch_match_raw(
+            views, r, src, params, None,
+        )?));
     }
-    let photometric: Vec<Option<DepthNormalMap>> =
-        raw.iter().map(|s| s.as_ref().map(|s| s.to_map(params))).collect();
+    let photometric: Vec<Option<DepthNormalMap>> = raw
+        .iter()
+        .map(|s| s.as_ref().map(|s| s.to_map(params)))
+        .collect();
     let refined = if params.geom_consistency {
         // A source without a photometric pass of its own cannot inform the
         // geometric term: such references keep their photometric result.

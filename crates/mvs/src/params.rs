@@ -1,6 +1,8 @@
 //! Every parameter of the MVS in one serialisable struct, with documented
 //! defaults ([`MvsParams::defaults_toml`] prints them commented).
 
+use std::fmt::Write as _;
+
 use serde::{Deserialize, Serialize};
 
 use crate::error::{MvsError, Result};
@@ -197,9 +199,11 @@ impl MvsParams {
             ("geom_regularizer", "Geometric pass: weight of the reprojection error (pixels) in the cost.", fmt_f(f64::from(d.geom_regularizer))),
             ("geom_max_error_px", "Geometric pass: cap of the reprojection error, pixels.", fmt_f(f64::from(d.geom_max_error_px))),
         ];
-        let mut s = String::from("# vp-mvs parameters (vpctl mvs run --config FILE); every field is optional.\n");
+        let mut s = String::from(
+            "# vp-mvs parameters (vpctl mvs run --config FILE); every field is optional.\n",
+        );
         for (name, doc, value) in fields {
-            s.push_str(&format!("\n# {doc}\n{name} = {value}\n"));
+            let _ = write!(s, "\n# {doc}\n{name} = {value}\n");
         }
         s
     }

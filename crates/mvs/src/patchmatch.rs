@@ -99,7 +99,12 @@ pub(crate) struct RawState {
 /// each against every source over the window samples (36 by default): that
 /// product is the work. Rows run in parallel (rayon); the output does not
 /// depend on the thread count.
-pub fn patch_match(views: &[View], reference: usize, sources: &[usize], params: &MvsParams) -> Result<DepthNormalMap> {
+pub fn patch_match(
+    views: &[View],
+    reference: usize,
+    sources: &[usize],
+    params: &MvsParams,
+) -> Result<DepthNormalMap> {
     let raw = patch_match_raw(views, reference, sources, params, None)?;
     Ok(raw.to_map(params))
 }
@@ -164,7 +169,9 @@ pub(crate) fn patch_match_raw(
         params,
         view_key: reference as u64,
     };
-    let init = previous.and_then(|p| p.get(reference)).and_then(Option::as_ref);
+    let init = previous
+        .and_then(|p| p.get(reference))
+        .and_then(Option::as_ref);
     Ok(problem.run(init))
 }
 
@@ -211,13 +218,12 @@ impl Problem<'_> {
             for (x, hyp) in row.iter_mut().enumerate() {
                 let idx = y * w + x;
                 let ray = pixel_ray(&self.k, x, y);
-                let (d, n) = match init {
-                    Some(prev) => (prev.hyps[idx].d, prev.hyps[idx].n),
-                    None => {
-                        let mut rng = PixelRng::new(self.params.seed, self.view_key, idx as u64, pass);
-                        let d = self.random_depth(&mut rng);
-                        (d, random_normal(&mut rng, &ray))
-                    }
+                let (d, n) = if let Some(prev) = init {
+                    (prev.hyps[idx].d, prev.hyps[idx].n)
+                } else {
+                    let mut rng = PixelRng::new(self.params.seed, self.view_key, idx as u64, pass);
+                    let d = self.random_depth(&mut rng);
+                    (d, random_normal(&mut rng, &ray))
                 };
                 patch.build(self.image, x, y, &self.offsets, self.params);
                 let (cost, photo) = self.cost(&patch, x, y, &ray, d, &n);
@@ -254,12 +260,21 @@ impl Problem<'_> {
 
     /// Forward-backward reprojection error (pixels) of depth `d` at pixel
     /// (x, y) through source `g`, capped at `geom_max_error_px`.
-    fn reprojection_error(&self, rel: &Relative, g: &GeomSource, x: usize, y: usize, ray: &[f32; 3], d: f32) -> f32 {
+    fn reprojection_error(
+        &self,
+        rel: &Relative,
+        g: &GeomSource,
+        x: usize,
+        y: usize,
+        ray: &[f32; 3],
+        d: f32,
+    ) -> f32 {
         let cap = self.params.geom_max_error_px;
         let p = [ray[0] * d, ray[1] * d, d];
         let r = &rel.rot;
         let t = &rel.trans;
-        let xs: [f32; 3] = std::array::from_fn(|i| r[i][0] * p[0] + r[i][1] * p[1] + r[i][2] * p[2] + t[i]);
+        let xs: [f32; 3] =
+            std::array::from_fn(|i| r[i][0] * p[0] + r[i][1] * p[1] + r[i][2] * p[2] + t[i]);
         if !(xs[2] > 0.0) {
             return cap;
         }
@@ -280,7 +295,8 @@ impl Problem<'_> {
             ds - t[2],
         ];
         let b = &g.rot_back;
-        let xr: [f32; 3] = std::array::from_fn(|i| b[i][0] * q[0] + b[i][1] * q[1] + b[i][2] * q[2]);
+        let xr: [f32; 3] =
+            std::array::from_fn(|i| b[i][0] * q[0] + b[i][1] * q[1] + b[i][2] * q[2]);
         if !(xr[2] > 0.0) {
             return cap;
         }
@@ -291,9 +307,17 @@ impl Problem<'_> {
     }
 
     /// Costs (ranking, photometric) of plane (d, n) at pixel (x, y).
-    fn cost(&self, patch: &RefPatch, x: usize, y: usize, ray: &[f32; 3], d: f32, n: &[f32; 3]) -> (f32, f32) {
+    fn cost(
+        &self,
+        patch: &RefPatch,
+        x: usize,
+        y: usize,
+        ray: &[f32; 3],
+        d: f32,
+        n: &[f32; 3],
+    ) -> (f32, f32) {
         let worst = (MAX_COST + self.geom_worst(), MAX_COST);
-        if !(d >= self.range.0 && d <= self.range.1) || !patch.textured() {
+        if !(d >= self.range.0 && d <= self.range.1 && patch.textured()) {
             return worst;
         }
         // The normal must face the camera within the allowed angle.
@@ -309,7 +333,9 @@ impl Problem<'_> {
             let photo = homography(rel, &self.k, d, n, ray)
                 .map_or(MAX_COST, |h| source_cost(patch, u, v, &h, src));
             let geo = match &self.geom {
-                Some(g) => self.params.geom_regularizer * self.reprojection_error(rel, &g[k], x, y, ray, d),
+                Some(g) => {
+                    self.params.geom_regularizer * self.reprojection_error(rel, &g[k], x, y, ray, d)
+                }
                 None => 0.0,
             };
             costs[k] = (photo + geo, photo);
@@ -325,7 +351,15 @@ impl Problem<'_> {
         }
     }
 
-    fn update(&self, prev: &[Hyp], patch: &mut RefPatch, x: usize, y: usize, it: u32, step: u64) -> Hyp {
+    fn update(
+        &self,
+        prev: &[Hyp],
+        patch: &mut RefPatch,
+        x: usize,
+        y: usize,
+        it: u32,
+        step: u64,
+    ) -> Hyp {
         let w = self.image.width as usize;
         let h = self.image.height as usize;
         let idx = y * w + x;
@@ -356,7 +390,8 @@ impl Problem<'_> {
                 continue;
             }
             let d = num / den;
-            if d == best.d && n == best.n {
+            // Already this pixel's plane (common once converged): skip.
+            if d.to_bits() == best.d.to_bits() && n.map(f32::to_bits) == best.n.map(f32::to_bits) {
                 continue;
             }
             consider(d, n, &mut best);

@@ -50,7 +50,7 @@ mod tests {
         let (mut sum, n) = (0.0f64, 10_000);
         for _ in 0..n {
             let x = a.next_f32();
-            assert_eq!(x, b.next_f32());
+            assert_eq!(x.to_bits(), b.next_f32().to_bits());
             assert!((0.0..1.0).contains(&x));
             sum += f64::from(c.next_f32());
         }

@@ -94,9 +94,8 @@ impl View {
                 k.height
             )));
         }
-        check_depth_range(depth_range).map_err(|m| {
-            MvsError::InvalidArgument(format!("image '{name}': {m}"))
-        })?;
+        check_depth_range(depth_range)
+            .map_err(|m| MvsError::InvalidArgument(format!("image '{name}': {m}")))?;
         Ok(View {
             name: name.to_string(),
             grey: GreyImage::from_rgb(&rgb),

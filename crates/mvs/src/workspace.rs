@@ -159,14 +159,19 @@ impl Workspace {
                     ),
                 });
             }
-            views.push(View::new(&im.name, im.camera.clone(), rgb, range)?);
+            views.push(View::new(&im.name, im.camera, rgb, range)?);
         }
         Ok(views)
     }
 
     /// Source images of each selected image (indices into `selected`):
     /// from `stereo/patch-match.cfg` when present, else automatic.
-    pub fn sources(&self, selected: &[usize], ranges: &[(f64, f64)], params: &MvsParams) -> Result<Vec<Vec<usize>>> {
+    pub fn sources(
+        &self,
+        selected: &[usize],
+        ranges: &[(f64, f64)],
+        params: &MvsParams,
+    ) -> Result<Vec<Vec<usize>>> {
         let cfg = self.root.join("stereo").join("patch-match.cfg");
         if cfg.is_file() {
             return self.sources_from_cfg(&cfg, selected, ranges, params);
@@ -174,7 +179,13 @@ impl Workspace {
         Ok(self.auto_sources(selected, ranges, params))
     }
 
-    fn sources_from_cfg(&self, cfg: &Path, selected: &[usize], ranges: &[(f64, f64)], params: &MvsParams) -> Result<Vec<Vec<usize>>> {
+    fn sources_from_cfg(
+        &self,
+        cfg: &Path,
+        selected: &[usize],
+        ranges: &[(f64, f64)],
+        params: &MvsParams,
+    ) -> Result<Vec<Vec<usize>>> {
         let text = std::fs::read_to_string(cfg).map_err(|e| MvsError::Input {
             path: cfg.to_path_buf(),
             message: format!("cannot read: {e}"),
@@ -223,7 +234,9 @@ impl Workspace {
                     } else if !self.images.iter().any(|im| im.name == name) {
                         return Err(MvsError::Input {
                             path: cfg.to_path_buf(),
-                            message: format!("source image '{name}' of '{reference}' is not in the model"),
+                            message: format!(
+                                "source image '{name}' of '{reference}' is not in the model"
+                            ),
                         });
                     }
                 }
@@ -237,7 +250,12 @@ impl Workspace {
     /// points seen under at least the minimum triangulation angle; without,
     /// the images whose frustum covers most of the reference's (sampled at
     /// three depths of its range) with at least that angle at mid range.
-    pub fn auto_sources(&self, selected: &[usize], ranges: &[(f64, f64)], params: &MvsParams) -> Vec<Vec<usize>> {
+    pub fn auto_sources(
+        &self,
+        selected: &[usize],
+        ranges: &[(f64, f64)],
+        params: &MvsParams,
+    ) -> Vec<Vec<usize>> {
         let min_angle = params.min_triangulation_angle_deg.to_radians();
         let has_points = !self.model.points.is_empty();
         selected
@@ -254,19 +272,35 @@ impl Workspace {
                     let score = if has_points {
                         self.shared_points(ri, si, &cr, &cs, min_angle) as f64
                     } else {
-                        frustum_overlap(&self.images[ri].camera, &self.images[si].camera, ranges[r], min_angle)
+                        frustum_overlap(
+                            &self.images[ri].camera,
+                            &self.images[si].camera,
+                            ranges[r],
+                            min_angle,
+                        )
                     };
                     if score > 0.0 {
                         scored.push((score, s));
                     }
                 }
                 scored.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-                scored.into_iter().take(params.max_sources).map(|(_, s)| s).collect()
+                scored
+                    .into_iter()
+                    .take(params.max_sources)
+                    .map(|(_, s)| s)
+                    .collect()
             })
             .collect()
     }
 
-    fn shared_points(&self, a: usize, b: usize, ca: &Point3<f64>, cb: &Point3<f64>, min_angle: f64) -> usize {
+    fn shared_points(
+        &self,
+        a: usize,
+        b: usize,
+        ca: &Point3<f64>,
+        cb: &Point3<f64>,
+        min_angle: f64,
+    ) -> usize {
         let (ia, ib) = (self.images[a].id, self.images[b].id);
         let seen_by_a = self.model.images[&ia]
             .points2d
@@ -274,7 +308,9 @@ impl Workspace {
             .filter_map(|p| p.point3d_id);
         let mut n = 0;
         for id in seen_by_a {
-            let Some(p) = self.model.points.get(&id) else { continue };
+            let Some(p) = self.model.points.get(&id) else {
+                continue;
+            };
             if p.track.iter().any(|&(im, _)| im == ib)
                 && triangulation_angle(&p.xyz, &[*ca, *cb]) >= min_angle
             {
@@ -317,7 +353,9 @@ pub fn output_paths(root: &Path, name: &str, kind: &str) -> (PathBuf, PathBuf) {
     let stereo = root.join("stereo");
     (
         stereo.join("depth_maps").join(format!("{name}.{kind}.bin")),
-        stereo.join("normal_maps").join(format!("{name}.{kind}.bin")),
+        stereo
+            .join("normal_maps")
+            .join(format!("{name}.{kind}.bin")),
     )
 }
 
@@ -379,7 +417,11 @@ pub struct RunSummary {
 /// Reconstructs a dense workspace: reads and checks every input first, then
 /// runs PatchMatch, the geometric filter and fusion, and writes the maps and
 /// `fused.ply`. `progress` receives one line per step.
-pub fn run_workspace(root: &Path, options: &RunOptions, progress: &mut dyn FnMut(&str)) -> Result<RunSummary> {
+pub fn run_workspace(
+    root: &Path,
+    options: &RunOptions,
+    progress: &mut dyn FnMut(&str),
+) -> Result<RunSummary> {
     let params = &options.params;
     params.validate()?;
     let ws = Workspace::open(root)?;
@@ -395,12 +437,14 @@ pub fn run_workspace(root: &Path, options: &RunOptions, progress: &mut dyn FnMut
     for &i in &selected {
         let range = match options.depth_range {
             Some(r) => r,
-            None => ws.depth_range_from_points(i, params.depth_range_margin).ok_or_else(|| {
-                MvsError::InvalidArgument(format!(
+            None => ws
+                .depth_range_from_points(i, params.depth_range_margin)
+                .ok_or_else(|| {
+                    MvsError::InvalidArgument(format!(
                     "image '{}' sees no sparse points: give a depth range (--depth-range MIN,MAX)",
                     ws.images[i].name
                 ))
-            })?,
+                })?,
         };
         check_depth_range(range).map_err(|m| {
             MvsError::InvalidArgument(format!("image '{}': {m}", ws.images[i].name))
@@ -432,4 +476,101 @@ pub fn run_workspace(root: &Path, options: &RunOptions, progress: &mut dyn FnMut
     summary.geometric_valid_share = by_name.into_values().collect();
     crate::fusion::write_fused_ply(&summary.fused_path, &output.fused)?;
     Ok(summary)
+}
+
+/// Reconstructs the named images (at least two, e.g. a labelgen triplet)
+/// on their own at pyramid level `level` (1 = full size, each level halving
+/// the images and intrinsics), each image against the others, and writes
+/// `<out_dir>/<image>.photometric.bin` and `.geometric.bin` depth maps:
+/// the layout of one `<triplet id>/level<L>` folder that `vpctl labelgen
+/// run` reads. Returns the share of valid geometric pixels per image.
+pub fn run_image_set(
+    ws: &Workspace,
+    names: &[String],
+    level: u32,
+    depth_range: Option<(f64, f64)>,
+    params: &MvsParams,
+    out_dir: &Path,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Vec<f64>> {
+    params.validate()?;
+    if !(1..=8).contains(&level) {
+        return Err(MvsError::InvalidArgument(format!(
+            "pyramid level {level} is outside 1..=8"
+        )));
+    }
+    let selected = ws.select(Some(names))?;
+    if selected.len() < 2 {
+        return Err(MvsError::InvalidArgument(format!(
+            "{} distinct image(s) in {names:?}: multi-view stereo needs at least two",
+            selected.len()
+        )));
+    }
+    let mut ranges = Vec::with_capacity(selected.len());
+    for &i in &selected {
+        let range = match depth_range {
+            Some(r) => r,
+            None => ws
+                .depth_range_from_points(i, params.depth_range_margin)
+                .ok_or_else(|| {
+                    MvsError::InvalidArgument(format!(
+                    "image '{}' sees no sparse points: give a depth range (--depth-range MIN,MAX)",
+                    ws.images[i].name
+                ))
+                })?,
+        };
+        check_depth_range(range).map_err(|m| {
+            MvsError::InvalidArgument(format!("image '{}': {m}", ws.images[i].name))
+        })?;
+        ranges.push(range);
+    }
+    let full = ws.load_views(&selected, &ranges)?;
+    let factor = 1u32 << (level - 1);
+    let views: Vec<View> = if factor == 1 {
+        full
+    } else {
+        let mut out = Vec::with_capacity(full.len());
+        for v in full {
+            let k = v.camera.intrinsics;
+            let (w, h) = (
+                (k.width as f64 / f64::from(factor)).round().max(1.0) as u32,
+                (k.height as f64 / f64::from(factor)).round().max(1.0) as u32,
+            );
+            let rgb = image::imageops::resize(&v.rgb, w, h, image::imageops::FilterType::Triangle);
+            let mut ks = k.scaled(f64::from(w) / f64::from(k.width));
+            (ks.width, ks.height) = (w, h);
+            let camera = Camera::new(ks, v.camera.world_from_cam);
+            out.push(View::new(&v.name, camera, rgb, v.depth_range)?);
+        }
+        out
+    };
+    let sources: Vec<Vec<usize>> = (0..views.len())
+        .map(|r| (0..views.len()).filter(|&s| s != r).collect())
+        .collect();
+    let output = crate::reconstruct(&views, &sources, params, progress)?;
+    let mut shares = Vec::with_capacity(views.len());
+    for (k, view) in views.iter().enumerate() {
+        let (Some(p), Some(g)) = (&output.photometric[k], &output.geometric[k]) else {
+            continue;
+        };
+        for (kind, map) in [("photometric", p), ("geometric", g)] {
+            let path = out_dir.join(format!("{}.{kind}.bin", view.name));
+            if let Some(dir) = path.parent() {
+                std::fs::create_dir_all(dir).map_err(|e| MvsError::Io {
+                    path: dir.to_path_buf(),
+                    source: e,
+                })?;
+            }
+            colmap::write_depth_map(
+                &path,
+                &DepthMap {
+                    width: map.width,
+                    height: map.height,
+                    data: map.depth.clone(),
+                },
+            )?;
+        }
+        shares.push(g.depth.iter().filter(|&&d| d > 0.0).count() as f64 / g.depth.len() as f64);
+    }
+    Ok(shares)
 }

@@ -41,7 +41,18 @@ pub struct RunArgs {
     /// Seed of every random choice (overrides the config's).
     #[arg(long)]
     seed: Option<u64>,
-    /// Overwrite an existing `fused.ply`.
+    /// Reconstruct each triplet of this list (written by `vpctl labelgen
+    /// triplets`) on its own instead of the whole workspace; needs --out.
+    #[arg(long, requires = "out")]
+    triplets: Option<PathBuf>,
+    /// Pyramid levels of the triplet reconstructions (1 = full size).
+    #[arg(long, value_delimiter = ',', default_value = "1")]
+    levels: Vec<u32>,
+    /// With --triplets: the depth folder `vpctl labelgen run --depth-dir`
+    /// reads, one `<triplet id>/level<L>/` per triplet and level.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Overwrite an existing `fused.ply` (or --out folder).
     #[arg(long)]
     force: bool,
 }
@@ -76,6 +87,9 @@ pub fn run(cmd: MvsCommand, out: &mut dyn Write) -> Result<()> {
             if let Some(seed) = args.seed {
                 params.seed = seed;
             }
+            if let (Some(list), Some(out_dir)) = (&args.triplets, &args.out) {
+                return run_triplets(&args, list, out_dir, &params, out);
+            }
             vp_scene::fsio::check_overwrite(&args.workspace.join("fused.ply"), args.force)?;
             let options = RunOptions {
                 images: args.images,
@@ -86,8 +100,16 @@ pub fn run(cmd: MvsCommand, out: &mut dyn Write) -> Result<()> {
             let summary = run_workspace(&args.workspace, &options, &mut |line| {
                 eprintln!("mvs: {line}");
             })?;
-            for (name, share) in summary.reconstructed.iter().zip(&summary.geometric_valid_share) {
-                writeln!(out, "{name}: {:.1}% of pixels with a geometric depth", 100.0 * share)?;
+            for (name, share) in summary
+                .reconstructed
+                .iter()
+                .zip(&summary.geometric_valid_share)
+            {
+                writeln!(
+                    out,
+                    "{name}: {:.1}% of pixels with a geometric depth",
+                    100.0 * share
+                )?;
             }
             writeln!(
                 out,
@@ -99,4 +121,57 @@ pub fn run(cmd: MvsCommand, out: &mut dyn Write) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// `mvs run --triplets`: every triplet at every level, into the layout
+/// labelgen reads. Everything is checked before the first reconstruction.
+fn run_triplets(
+    args: &RunArgs,
+    list: &std::path::Path,
+    out_dir: &std::path::Path,
+    params: &MvsParams,
+    out: &mut dyn Write,
+) -> Result<()> {
+    vp_scene::fsio::check_overwrite(out_dir, args.force)?;
+    let triplets = vp_labelgen::triplets::read_triplet_list(list)?;
+    let ws = vp_mvs::Workspace::open(&args.workspace)?;
+    for (i, t) in triplets.iter().enumerate() {
+        ws.select(Some(&t.images)).with_context(|| {
+            format!(
+                "{}: triplet {}",
+                list.display(),
+                vp_labelgen::triplets::triplet_id(i)
+            )
+        })?;
+    }
+    let start = std::time::Instant::now();
+    for (i, t) in triplets.iter().enumerate() {
+        let id = vp_labelgen::triplets::triplet_id(i);
+        for &level in &args.levels {
+            eprintln!(
+                "mvs: triplet {id} ({}/{}) level {level}",
+                i + 1,
+                triplets.len()
+            );
+            let dir = out_dir.join(&id).join(format!("level{level}"));
+            let shares = vp_mvs::run_image_set(
+                &ws,
+                &t.images,
+                level,
+                args.depth_range,
+                params,
+                &dir,
+                &mut |_| {},
+            )?;
+            let mean = shares.iter().sum::<f64>() / shares.len().max(1) as f64;
+            writeln!(
+                out,
+                "{id} level{level}: {:.1}% of pixels with a geometric depth",
+                100.0 * mean
+            )?;
+        }
+    }
+    writeln!(out, "triplets: {} -> {}", triplets.len(), out_dir.display())?;
+    writeln!(out, "time: {:.1} s", start.elapsed().as_secs_f64())?;
+    Ok(())
 }
