@@ -2,4 +2,6 @@
 //! One test binary (CONVENTIONS.md), one module per concern.
 
 mod labels;
+mod mvs;
+mod mvs_workspace;
 mod scene;

@@ -41,6 +41,9 @@ enum Command {
     /// Inspect COLMAP dense depth maps.
     #[command(subcommand)]
     Depth(cmd::depth::DepthCommand),
+    /// Dense multi-view stereo (PatchMatch) on a COLMAP dense workspace.
+    #[command(subcommand)]
+    Mvs(cmd::mvs::MvsCommand),
     /// Turn a plan into a MAVLink mission: export, upload, download.
     #[command(subcommand)]
     Mission(cmd::mission::MissionCommand),
@@ -71,6 +74,7 @@ fn run(args: Args, out: &mut dyn Write) -> anyhow::Result<()> {
         Command::Colmap(c) => cmd::colmap::run(c, out),
         Command::Depth(c) => cmd::depth::run(c, out),
         Command::Mission(c) => cmd::mission::run(c, out),
+        Command::Mvs(c) => cmd::mvs::run(c, out),
         Command::Labelgen(c) => cmd::labelgen::run(c, out),
         Command::Train(c) => cmd::forest::train(&c, out),
         Command::Predict(c) => cmd::forest::predict(&c, out),

@@ -7,6 +7,7 @@ pub mod forest;
 pub mod labelgen;
 pub mod mesh;
 pub mod mission;
+pub mod mvs;
 pub mod plan;
 pub mod scene;
 pub mod sim;
@@ -16,6 +17,7 @@ use std::error::Error;
 use vp_forest::ForestError;
 use vp_labelgen::LabelgenError;
 use vp_mission::MissionError;
+use vp_mvs::MvsError;
 use vp_planner::PlannerError;
 use vp_scene::SceneError;
 use vp_sim::SimError;
@@ -57,5 +59,6 @@ fn is_input_error(e: &(dyn Error + 'static)) -> Option<bool> {
             .map(MissionError::is_input_error)
     })
     .or_else(|| e.downcast_ref::<SimError>().map(SimError::is_input_error))
+    .or_else(|| e.downcast_ref::<MvsError>().map(MvsError::is_input_error))
     .or_else(|| e.downcast_ref::<UsageError>().map(|_| true))
 }

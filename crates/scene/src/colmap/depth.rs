@@ -1,11 +1,13 @@
-//! COLMAP dense depth maps (`stereo/depth_maps/*.geometric.bin`,
-//! `*.photometric.bin`).
+//! COLMAP dense depth and normal maps (`stereo/depth_maps/*.geometric.bin`,
+//! `*.photometric.bin`, `stereo/normal_maps/*.bin`).
 //!
 //! Format (COLMAP's `mvs/mat.h`, `read_write_dense.py`): an ASCII header
 //! `WIDTH&HEIGHT&CHANNELS&`, then `WIDTH * HEIGHT * CHANNELS` little-endian
 //! f32, channel after channel, each channel row after row (x fastest). A
 //! depth is the distance along the optical axis (camera z); 0 marks a pixel
-//! without depth.
+//! without depth. A normal map has 3 channels (the x, y and z planes of
+//! unit normals in the camera frame, one plane after the other); 0 0 0 marks
+//! a pixel without normal.
 
 use std::io::Write as _;
 use std::path::Path;
@@ -81,6 +83,18 @@ impl DepthMap {
     }
 }
 
+/// A normal map, unit normals in the camera frame, row-major:
+/// `data[y * width + x]`; `[0, 0, 0]` where the MVS produced none.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NormalMap {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Normal per pixel (x right, y down, z along the optical axis).
+    pub data: Vec<[f32; 3]>,
+}
+
 /// Reads a COLMAP depth map.
 pub fn read_depth_map(path: &Path) -> Result<DepthMap> {
     parse_depth_map(path, &fsio::read_file(path)?)
@@ -88,6 +102,35 @@ pub fn read_depth_map(path: &Path) -> Result<DepthMap> {
 
 /// Parses the bytes of a COLMAP depth map; `path` names it in errors.
 pub fn parse_depth_map(path: &Path, bytes: &[u8]) -> Result<DepthMap> {
+    let (width, height, data) = parse_mat(path, bytes, 1)?;
+    Ok(DepthMap {
+        width,
+        height,
+        data,
+    })
+}
+
+/// Reads a COLMAP normal map.
+pub fn read_normal_map(path: &Path) -> Result<NormalMap> {
+    parse_normal_map(path, &fsio::read_file(path)?)
+}
+
+/// Parses the bytes of a COLMAP normal map; `path` names it in errors.
+pub fn parse_normal_map(path: &Path, bytes: &[u8]) -> Result<NormalMap> {
+    let (width, height, planes) = parse_mat(path, bytes, 3)?;
+    let n = width as usize * height as usize;
+    let data = (0..n)
+        .map(|i| [planes[i], planes[n + i], planes[2 * n + i]])
+        .collect();
+    Ok(NormalMap {
+        width,
+        height,
+        data,
+    })
+}
+
+/// Parses a COLMAP `Mat<float>` with `want` channels into its planes.
+fn parse_mat(path: &Path, bytes: &[u8], want: usize) -> Result<(u32, u32, Vec<f32>)> {
     let header_err = |m: String| SceneError::parse(path, Location::Header, m);
     let mut dims = [0usize; 3];
     let mut pos = 0;
@@ -114,14 +157,17 @@ pub fn parse_depth_map(path: &Path, bytes: &[u8]) -> Result<DepthMap> {
     let (Ok(w), Ok(h)) = (u32::try_from(width), u32::try_from(height)) else {
         return Err(header_err(format!("size {width}x{height} is too large")));
     };
-    if channels != 1 {
-        return Err(header_err(format!(
-            "{channels} channels, but a depth map has 1 (is this a normal map?)"
-        )));
+    if channels != want {
+        let hint = if want == 1 {
+            "a depth map has 1 (is this a normal map?)"
+        } else {
+            "a normal map has 3 (is this a depth map?)"
+        };
+        return Err(header_err(format!("{channels} channels, but {hint}")));
     }
     let expected = width
         .checked_mul(height)
-        .and_then(|n| n.checked_mul(4))
+        .and_then(|n| n.checked_mul(4 * want))
         .ok_or_else(|| header_err(format!("size {width}x{height} is too large")))?;
     let actual = bytes.len() - pos;
     if actual != expected {
@@ -129,7 +175,7 @@ pub fn parse_depth_map(path: &Path, bytes: &[u8]) -> Result<DepthMap> {
             path,
             Location::Byte(pos as u64),
             format!(
-                "header says {width}x{height}x1 float32 = {expected} bytes of data, file has {actual}"
+                "header says {width}x{height}x{want} float32 = {expected} bytes of data, file has {actual}"
             ),
         ));
     }
@@ -137,11 +183,7 @@ pub fn parse_depth_map(path: &Path, bytes: &[u8]) -> Result<DepthMap> {
         .chunks_exact(4)
         .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
         .collect();
-    Ok(DepthMap {
-        width: w,
-        height: h,
-        data,
-    })
+    Ok((w, h, data))
 }
 
 /// Writes a depth map in COLMAP's format, atomically.
@@ -159,6 +201,29 @@ pub fn write_depth_map(path: &Path, depth: &DepthMap) -> Result<()> {
         write!(w, "{}&{}&1&", depth.width, depth.height)?;
         for d in &depth.data {
             w.write_all(&d.to_le_bytes())?;
+        }
+        Ok(())
+    })
+}
+
+/// Writes a normal map in COLMAP's format (three planes x, y, z),
+/// atomically.
+pub fn write_normal_map(path: &Path, normals: &NormalMap) -> Result<()> {
+    let n = normals.width as usize * normals.height as usize;
+    if normals.width == 0 || normals.height == 0 || normals.data.len() != n {
+        return Err(SceneError::InvalidArgument(format!(
+            "normal map {}x{} with {} values (expected a positive size and {n} values)",
+            normals.width,
+            normals.height,
+            normals.data.len()
+        )));
+    }
+    fsio::write_atomic(path, |w| {
+        write!(w, "{}&{}&3&", normals.width, normals.height)?;
+        for c in 0..3 {
+            for v in &normals.data {
+                w.write_all(&v[c].to_le_bytes())?;
+            }
         }
         Ok(())
     })
@@ -188,6 +253,21 @@ mod tests {
         assert_eq!(d.get(1, 0), Some(2.0));
         assert_eq!(d.get(0, 1), Some(4.0));
         assert_eq!(d.get(3, 0), None);
+    }
+
+    #[test]
+    fn normal_map_is_planar_and_round_trips() {
+        // 2 wide, 1 high: planes x x, y y, z z.
+        let b = bytes("2&1&3&", &[1., 2., 3., 4., 5., 6.]);
+        let n = parse_normal_map(p(), &b).unwrap();
+        assert_eq!(n.data, vec![[1., 3., 5.], [2., 4., 6.]]);
+        let e = parse_depth_map(p(), &b).unwrap_err();
+        assert!(e.to_string().contains("is this a normal map?"), "{e}");
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.bin");
+        write_normal_map(&path, &n).unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), b);
+        assert_eq!(read_normal_map(&path).unwrap(), n);
     }
 
     #[test]

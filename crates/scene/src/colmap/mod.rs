@@ -27,7 +27,10 @@ pub use binary::{
     parse_points3d_binary, points3d_to_bytes, read_cameras_binary, read_images_binary,
     read_points3d_binary,
 };
-pub use depth::{parse_depth_map, read_depth_map, write_depth_map, DepthMap, DepthStats};
+pub use depth::{
+    parse_depth_map, parse_normal_map, read_depth_map, read_normal_map, write_depth_map,
+    write_normal_map, DepthMap, DepthStats, NormalMap,
+};
 pub use model::{CameraModel, ColmapCamera, ColmapImage, Point2D, Point3D};
 pub use reconstruction::Reconstruction;
 pub use text::{

@@ -1,0 +1,115 @@
+//! vp-mvs on one triplet of rendered, textured views of a procedural site:
+//! the full pipeline (PatchMatch on each view against the other two, the
+//! geometric filter, fusion). Prints seconds per triplet and megapixel-
+//! hypotheses per second.
+//!
+//! Tiers: `fast` (256x256, 2 iterations) and `paper` (1024x1024, default
+//! parameters). `cargo bench --bench mvs -- --test` runs only the fast tier
+//! once (set VPCTL_BENCH_FULL=1 to include the paper tier); a plain
+//! `cargo bench --bench mvs` runs both.
+//!
+//! Lives in the workspace's benches (not `crates/mvs/benches`) because the
+//! textured images come from vp-sim's renderer, which vp-mvs must not
+//! depend on.
+
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use nalgebra::{Point3, Vector3};
+use vpctl_suite::mvs::{reconstruct, MvsParams, View};
+use vpctl_suite::scene::procedural::{generate_site, Site, SiteParams};
+use vpctl_suite::scene::raycast::RayCaster;
+use vpctl_suite::scene::{Camera, Intrinsics};
+use vpctl_suite::sim::{render, RenderParams};
+
+/// Three views of the rock, 26 m away at 55 deg elevation, about 12 deg
+/// apart (triangulation angle at the rock top).
+fn triplet(site: &Site, caster: &RayCaster, size: u32) -> Vec<View> {
+    let k = Intrinsics::from_hfov(size, size, 60.0).expect("valid intrinsics");
+    let rb = site.rock_bounds;
+    let focus = Point3::new(
+        0.5 * (rb.min.x + rb.max.x),
+        0.5 * (rb.min.y + rb.max.y),
+        rb.max.z,
+    );
+    let el = 55f64.to_radians();
+    let v = Vector3::new(el.cos(), 0.0, el.sin());
+    let u1 = v.cross(&Vector3::z()).normalize();
+    let u2 = v.cross(&u1);
+    let beta = (12.0f64 / 3f64.sqrt()).to_radians();
+    [90.0f64, 210.0, 330.0]
+        .iter()
+        .enumerate()
+        .map(|(i, phi)| {
+            let p = phi.to_radians();
+            let dir = (v + beta.tan() * (p.cos() * u1 + p.sin() * u2)).normalize();
+            let cam = Camera::look_at(k, focus + 26.0 * dir, focus).expect("valid camera");
+            let r = render(&site.mesh, caster, &cam, &RenderParams::default()).expect("render");
+            View::new(&format!("v{i}"), cam, r.rgb, (12.0, 45.0)).expect("valid view")
+        })
+        .collect()
+}
+
+fn sources() -> Vec<Vec<usize>> {
+    vec![vec![1, 2], vec![0, 2], vec![0, 1]]
+}
+
+fn tier(
+    c: &mut Criterion,
+    site: &Site,
+    caster: &RayCaster,
+    name: &str,
+    size: u32,
+    params: &MvsParams,
+) {
+    let views = triplet(site, caster, size);
+    // One timed run first, for the figures criterion does not print.
+    let start = Instant::now();
+    let out = reconstruct(&views, &sources(), params, &mut |_| {}).expect("reconstruct");
+    let secs = start.elapsed().as_secs_f64();
+    let px = 3.0 * f64::from(size) * f64::from(size);
+    // Hypotheses scored per pixel: 1 initial + (8 propagated + 3 refined) per iteration.
+    let hyps = px * (1.0 + 11.0 * f64::from(params.iterations));
+    let samples = params.window_offsets_len().pow(2) as f64 * 2.0;
+    eprintln!(
+        "mvs/{name}: {size}x{size} triplet: {secs:.2} s per triplet ({:.2} s per Mpx triplet), \
+         {:.2} Mpx-hypotheses/s, {:.0} M window samples/s (x2 sources), {} fused points, {} threads",
+        secs * 1e6 / (f64::from(size) * f64::from(size)),
+        hyps / secs / 1e6,
+        hyps * samples / secs / 1e6,
+        out.fused.len(),
+        rayon::current_num_threads()
+    );
+    let mut group = c.benchmark_group("mvs");
+    group.sample_size(10);
+    group.measurement_time(Duration::from_secs(if size > 512 { 60 } else { 10 }));
+    group.bench_function(name, |b| {
+        b.iter(|| {
+            black_box(reconstruct(&views, &sources(), params, &mut |_| {}).expect("reconstruct"))
+        });
+    });
+    group.finish();
+}
+
+fn mvs(c: &mut Criterion) {
+    let site = generate_site(&SiteParams {
+        seed: 1,
+        target_faces: 200_000,
+        ..SiteParams::default()
+    })
+    .expect("site generation with default parameters");
+    let caster = RayCaster::new(&site.mesh);
+    let fast = MvsParams {
+        iterations: 2,
+        ..MvsParams::default()
+    };
+    tier(c, &site, &caster, "fast_256", 256, &fast);
+    let test_mode = std::env::args().any(|a| a == "--test");
+    if !test_mode || std::env::var_os("VPCTL_BENCH_FULL").is_some() {
+        tier(c, &site, &caster, "paper_1024", 1024, &MvsParams::default());
+    }
+}
+
+criterion_group!(benches, mvs);
+criterion_main!(benches);

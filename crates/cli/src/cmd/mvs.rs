@@ -1,0 +1,177 @@
+//! `vpctl mvs ...`: dense multi-view stereo on a COLMAP dense workspace.
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::{Args, Subcommand};
+use vp_mvs::{run_workspace, MvsParams, RunOptions};
+
+/// MVS subcommands.
+#[derive(Debug, Subcommand)]
+pub enum MvsCommand {
+    /// Reconstruct a COLMAP dense workspace (as `colmap image_undistorter`
+    /// writes it): every image against its best source images, then the
+    /// geometric filter and fusion. Writes `stereo/depth_maps`,
+    /// `stereo/normal_maps` (`.photometric.bin`, `.geometric.bin`) and
+    /// `fused.ply` in COLMAP's formats. Progress on stderr.
+    Run(RunArgs),
+    /// Print the default parameters as a commented TOML config.
+    Defaults,
+}
+
+/// Arguments of `vpctl mvs run`.
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    /// The dense workspace: `images/`, `sparse/`, optionally
+    /// `stereo/patch-match.cfg`.
+    #[arg(long)]
+    workspace: PathBuf,
+    /// Reconstruct only these images (comma-separated names under `images/`),
+    /// each against sources among them.
+    #[arg(long, value_delimiter = ',')]
+    images: Option<Vec<String>>,
+    /// Depth range MIN,MAX (metres along the optical axis) for every image;
+    /// needed when the model has no 3D points.
+    #[arg(long, value_parser = parse_range, allow_hyphen_values = true)]
+    depth_range: Option<(f64, f64)>,
+    /// Parameters (TOML, see `vpctl mvs defaults`).
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Seed of every random choice (overrides the config's).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Reconstruct each triplet of this list (written by `vpctl labelgen
+    /// triplets`) on its own instead of the whole workspace; needs --out.
+    #[arg(long, requires = "out")]
+    triplets: Option<PathBuf>,
+    /// Pyramid levels of the triplet reconstructions (1 = full size).
+    #[arg(long, value_delimiter = ',', default_value = "1")]
+    levels: Vec<u32>,
+    /// With --triplets: the depth folder `vpctl labelgen run --depth-dir`
+    /// reads, one `<triplet id>/level<L>/` per triplet and level.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Overwrite an existing `fused.ply` (or --out folder).
+    #[arg(long)]
+    force: bool,
+}
+
+fn parse_range(s: &str) -> std::result::Result<(f64, f64), String> {
+    let (a, b) = s
+        .split_once(',')
+        .ok_or_else(|| format!("'{s}' is not MIN,MAX"))?;
+    let p = |v: &str| {
+        v.trim()
+            .parse::<f64>()
+            .map_err(|e| format!("'{v}' in '{s}': {e}"))
+    };
+    Ok((p(a)?, p(b)?))
+}
+
+pub fn run(cmd: MvsCommand, out: &mut dyn Write) -> Result<()> {
+    match cmd {
+        MvsCommand::Defaults => {
+            write!(out, "{}", MvsParams::defaults_toml())?;
+            Ok(())
+        }
+        MvsCommand::Run(args) => {
+            let mut params = match &args.config {
+                Some(path) => {
+                    let text = std::fs::read_to_string(path)
+                        .with_context(|| format!("{}: cannot read config", path.display()))?;
+                    MvsParams::from_toml(path, &text)?
+                }
+                None => MvsParams::default(),
+            };
+            if let Some(seed) = args.seed {
+                params.seed = seed;
+            }
+            if let (Some(list), Some(out_dir)) = (&args.triplets, &args.out) {
+                return run_triplets(&args, list, out_dir, &params, out);
+            }
+            vp_scene::fsio::check_overwrite(&args.workspace.join("fused.ply"), args.force)?;
+            let options = RunOptions {
+                images: args.images,
+                depth_range: args.depth_range,
+                params,
+            };
+            let start = std::time::Instant::now();
+            let summary = run_workspace(&args.workspace, &options, &mut |line| {
+                eprintln!("mvs: {line}");
+            })?;
+            for (name, share) in summary
+                .reconstructed
+                .iter()
+                .zip(&summary.geometric_valid_share)
+            {
+                writeln!(
+                    out,
+                    "{name}: {:.1}% of pixels with a geometric depth",
+                    100.0 * share
+                )?;
+            }
+            writeln!(
+                out,
+                "fused: {} points -> {}",
+                summary.fused_points,
+                summary.fused_path.display()
+            )?;
+            writeln!(out, "time: {:.1} s", start.elapsed().as_secs_f64())?;
+            Ok(())
+        }
+    }
+}
+
+/// `mvs run --triplets`: every triplet at every level, into the layout
+/// labelgen reads. Everything is checked before the first reconstruction.
+fn run_triplets(
+    args: &RunArgs,
+    list: &std::path::Path,
+    out_dir: &std::path::Path,
+    params: &MvsParams,
+    out: &mut dyn Write,
+) -> Result<()> {
+    vp_scene::fsio::check_overwrite(out_dir, args.force)?;
+    let triplets = vp_labelgen::triplets::read_triplet_list(list)?;
+    let ws = vp_mvs::Workspace::open(&args.workspace)?;
+    for (i, t) in triplets.iter().enumerate() {
+        ws.select(Some(&t.images)).with_context(|| {
+            format!(
+                "{}: triplet {}",
+                list.display(),
+                vp_labelgen::triplets::triplet_id(i)
+            )
+        })?;
+    }
+    let start = std::time::Instant::now();
+    for (i, t) in triplets.iter().enumerate() {
+        let id = vp_labelgen::triplets::triplet_id(i);
+        for &level in &args.levels {
+            eprintln!(
+                "mvs: triplet {id} ({}/{}) level {level}",
+                i + 1,
+                triplets.len()
+            );
+            let dir = out_dir.join(&id).join(format!("level{level}"));
+            let shares = vp_mvs::run_image_set(
+                &ws,
+                &t.images,
+                level,
+                args.depth_range,
+                params,
+                &dir,
+                &mut |_| {},
+            )?;
+            let mean = shares.iter().sum::<f64>() / shares.len().max(1) as f64;
+            writeln!(
+                out,
+                "{id} level{level}: {:.1}% of pixels with a geometric depth",
+                100.0 * mean
+            )?;
+        }
+    }
+    writeln!(out, "triplets: {} -> {}", triplets.len(), out_dir.display())?;
+    writeln!(out, "time: {:.1} s", start.elapsed().as_secs_f64())?;
+    Ok(())
+}

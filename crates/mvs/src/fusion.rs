@@ -1,0 +1,132 @@
+//! Fusion of the filtered depth maps into one point cloud with normals and
+//! colours, and its binary PLY file (the layout of COLMAP's `fused.ply`).
+
+use std::io::Write as _;
+use std::path::Path;
+
+use nalgebra::{Point3, Vector3};
+
+use crate::error::Result;
+use crate::geometric::consistent_pixel;
+use crate::params::MvsParams;
+use crate::patchmatch::DepthNormalMap;
+use crate::view::{unproject, View};
+
+/// A fused point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FusedPoint {
+    /// World position: mean of the fused pixels' points.
+    pub position: Point3<f64>,
+    /// Unit world normal: normalised mean of the fused pixels' normals.
+    pub normal: Vector3<f64>,
+    /// Mean colour of the fused pixels.
+    pub color: [u8; 3],
+    /// Number of pixels fused (reference included).
+    pub n_pixels: usize,
+}
+
+/// Fuses the geometric maps: every kept pixel not yet used starts a point
+/// with the pixels of its sources that agree with it (and are themselves
+/// kept and unused); the group becomes a point when it has at least
+/// `min_fused_pixels` members. Views in index order, pixels row-major:
+/// deterministic. A simplification of COLMAP's stereo_fusion, which grows
+/// each group recursively from the members' own sources.
+pub fn fuse(
+    views: &[View],
+    maps: &[Option<DepthNormalMap>],
+    sources: &[Vec<usize>],
+    params: &MvsParams,
+) -> Vec<FusedPoint> {
+    let mut used: Vec<Vec<bool>> = maps
+        .iter()
+        .map(|m| {
+            m.as_ref()
+                .map_or_else(Vec::new, |m| vec![false; m.depth.len()])
+        })
+        .collect();
+    let mut points = Vec::new();
+    let mut members: Vec<(usize, usize)> = Vec::new();
+    for (r, map) in maps.iter().enumerate() {
+        let Some(map) = map else { continue };
+        let view = &views[r];
+        let w = map.width as usize;
+        for idx in 0..map.depth.len() {
+            let d = map.depth[idx];
+            if !(d > 0.0) || used[r][idx] {
+                continue;
+            }
+            let (x, y) = (idx % w, idx / w);
+            members.clear();
+            members.push((r, idx));
+            for &s in sources.get(r).map_or(&[][..], Vec::as_slice) {
+                let Some(Some(sm)) = maps.get(s) else {
+                    continue;
+                };
+                if let Some(j) = consistent_pixel(view, &views[s], sm, x, y, d, params) {
+                    if !used[s][j] {
+                        members.push((s, j));
+                    }
+                }
+            }
+            if members.len() < params.min_fused_pixels {
+                continue;
+            }
+            let mut pos = Vector3::zeros();
+            let mut normal = Vector3::zeros();
+            let mut color = [0.0f64; 3];
+            for &(v, j) in &members {
+                let m = maps[v].as_ref().expect("members have maps");
+                let mw = m.width as usize;
+                let cam = &views[v].camera;
+                pos += unproject(cam, j % mw, j / mw, f64::from(m.depth[j])).coords;
+                let n = m.normal[j];
+                normal += cam.world_from_cam.rotation
+                    * Vector3::new(f64::from(n[0]), f64::from(n[1]), f64::from(n[2]));
+                let px = views[v].rgb.get_pixel((j % mw) as u32, (j / mw) as u32);
+                for c in 0..3 {
+                    color[c] += f64::from(px[c]);
+                }
+                used[v][j] = true;
+            }
+            let k = members.len() as f64;
+            points.push(FusedPoint {
+                position: Point3::from(pos / k),
+                normal: normal.try_normalize(0.0).unwrap_or_else(Vector3::z),
+                color: color.map(|c| (c / k).round().clamp(0.0, 255.0) as u8),
+                n_pixels: members.len(),
+            });
+        }
+    }
+    points
+}
+
+/// Writes `points` as a binary little-endian PLY (x y z nx ny nz as float,
+/// red green blue as uchar: the layout of COLMAP's `fused.ply`),
+/// atomically.
+pub fn write_fused_ply(path: &Path, points: &[FusedPoint]) -> Result<()> {
+    vp_scene::fsio::write_atomic(path, |w| {
+        write!(
+            w,
+            "ply\nformat binary_little_endian 1.0\ncomment written by vp-mvs\nelement vertex {}\n\
+             property float x\nproperty float y\nproperty float z\n\
+             property float nx\nproperty float ny\nproperty float nz\n\
+             property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n",
+            points.len()
+        )?;
+        for p in points {
+            for v in [
+                p.position.x,
+                p.position.y,
+                p.position.z,
+                p.normal.x,
+                p.normal.y,
+                p.normal.z,
+            ] {
+                w.write_all(&(v as f32).to_le_bytes())?;
+            }
+            w.write_all(&p.color)?;
+        }
+        Ok(())
+    })?;
+    Ok(())
+}

@@ -1,0 +1,144 @@
+//! `vp-mvs`: PatchMatch multi-view stereo on the CPU.
+//!
+//! Per reference image, PatchMatch ([`patch_match`]) estimates a depth and a
+//! normal per pixel: random planes inside the depth range, red-black
+//! checkerboard propagation of the neighbours' planes and random refinement,
+//! scored by bilaterally weighted NCC through the plane-induced homography
+//! into each source image with a best-k view selection. The geometric filter
+//! ([`geometric_filter`]) keeps depths that the sources' depth maps confirm
+//! by forward-backward reprojection under a minimum triangulation angle;
+//! [`fuse`] merges the filtered maps into a point cloud with normals and
+//! colours.
+//!
+//! [`reconstruct`] runs the three on views in memory; [`run_workspace`]
+//! reads a COLMAP dense workspace and writes COLMAP's layout and formats
+//! (`stereo/depth_maps`, `stereo/normal_maps`, `fused.ply`), so that vpctl,
+//! COLMAP and OpenMVS users read the same files. [`MvsParams`] holds every
+//! parameter with documented defaults.
+//!
+//! Every random choice comes from a hash of (seed, view, pixel, step): the
+//! same inputs and seed give the same bytes whatever the thread count.
+#![warn(missing_docs)]
+
+mod cost;
+pub mod error;
+pub mod fusion;
+pub mod geometric;
+pub mod params;
+pub mod patchmatch;
+mod rng;
+pub mod view;
+pub mod workspace;
+
+pub use error::{MvsError, Result};
+pub use fusion::{fuse, write_fused_ply, FusedPoint};
+pub use geometric::geometric_filter;
+pub use params::MvsParams;
+pub use patchmatch::{patch_match, DepthNormalMap};
+pub use view::{GreyImage, View};
+pub use workspace::{run_image_set, run_workspace, RunOptions, RunSummary, Workspace};
+
+/// The result of [`reconstruct`], indexed like the views.
+#[derive(Debug, Clone)]
+pub struct Output {
+    /// PatchMatch's photometric maps (photometric filter applied); `None`
+    /// for a view without sources.
+    pub photometric: Vec<Option<DepthNormalMap>>,
+    /// The maps after the geometric pass (when enabled) and the geometric
+    /// filter.
+    pub geometric: Vec<Option<DepthNormalMap>>,
+    /// The fused cloud.
+    pub fused: Vec<FusedPoint>,
+}
+
+/// Reconstructs `views`: view `i` is a reference against the views
+/// `sources[i]` (a view without sources is only used as a source). Runs
+/// PatchMatch for each reference, then the geometric filter, then fusion.
+/// `progress` receives one line per step.
+pub fn reconstruct(
+    views: &[View],
+    sources: &[Vec<usize>],
+    params: &MvsParams,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Output> {
+    params.validate()?;
+    if views.len() < 2 {
+        return Err(MvsError::InvalidArgument(format!(
+            "{} view(s): multi-view stereo needs at least two",
+            views.len()
+        )));
+    }
+    if sources.len() != views.len() {
+        return Err(MvsError::InvalidArgument(format!(
+            "{} source lists for {} views",
+            sources.len(),
+            views.len()
+        )));
+    }
+    if sources.iter().all(Vec::is_empty) {
+        return Err(MvsError::InvalidArgument(
+            "no image has a source image (too little overlap or triangulation angle)".into(),
+        ));
+    }
+    let mut raw = Vec::with_capacity(views.len());
+    for (r, src) in sources.iter().enumerate() {
+        if src.is_empty() {
+            progress(&format!(
+                "[{}/{}] {}: no source images, skipped",
+                r + 1,
+                views.len(),
+                views[r].name
+            ));
+            raw.push(None);
+            continue;
+        }
+        progress(&format!(
+            "[{}/{}] patch match {} against {} source(s)",
+            r + 1,
+            views.len(),
+            views[r].name,
+            src.len()
+        ));
+        raw.push(Some(patchmatch::patch_match_raw(
+            views, r, src, params, None,
+        )?));
+    }
+    let photometric: Vec<Option<DepthNormalMap>> = raw
+        .iter()
+        .map(|s| s.as_ref().map(|s| s.to_map(params)))
+        .collect();
+    let refined = if params.geom_consistency {
+        // A source without a photometric pass of its own cannot inform the
+        // geometric term: such references keep their photometric result.
+        let mut refined = Vec::with_capacity(views.len());
+        for (r, src) in sources.iter().enumerate() {
+            let usable: Vec<usize> = src.iter().copied().filter(|&s| raw[s].is_some()).collect();
+            if raw[r].is_none() || usable.is_empty() {
+                refined.push(photometric[r].clone());
+                continue;
+            }
+            progress(&format!(
+                "[{}/{}] geometric pass {}",
+                r + 1,
+                views.len(),
+                views[r].name
+            ));
+            let state = patchmatch::patch_match_raw(views, r, &usable, params, Some(&raw))?;
+            refined.push(Some(state.to_map(params)));
+        }
+        refined
+    } else {
+        photometric.clone()
+    };
+    progress("geometric consistency filter");
+    let geometric: Vec<Option<DepthNormalMap>> = (0..views.len())
+        .map(|r| geometric_filter(views, &refined, r, &sources[r], params))
+        .collect();
+    progress("fusion");
+    let fused = fuse(views, &geometric, sources, params);
+    Ok(Output {
+        photometric,
+        geometric,
+        fused,
+    })
+}

@@ -1,0 +1,241 @@
+//! Every parameter of the MVS in one serialisable struct, with documented
+//! defaults ([`MvsParams::defaults_toml`] prints them commented).
+
+use std::fmt::Write as _;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{MvsError, Result};
+
+/// Parameters of PatchMatch, geometric filtering and fusion. Missing fields
+/// in a config take their defaults.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MvsParams {
+    /// Seed of every random choice (per-pixel hash, so the output does not
+    /// depend on the thread count).
+    pub seed: u64,
+    /// Half size of the matching window, pixels (5: an 11x11 window).
+    pub window_radius: u32,
+    /// Step between window samples, pixels (2: 6x6 of the 11x11 samples).
+    pub window_step: u32,
+    /// Spatial sigma of the bilateral weights, pixels.
+    pub sigma_spatial: f32,
+    /// Colour sigma of the bilateral weights, grey levels in [0, 1].
+    pub sigma_color: f32,
+    /// PatchMatch iterations (each: red pixels, then black pixels).
+    pub iterations: u32,
+    /// Number of best source costs averaged per hypothesis (view selection:
+    /// an occluded or mismatched source beyond the best k does not count).
+    pub top_k_sources: usize,
+    /// Most source images per reference image.
+    pub max_sources: usize,
+    /// Margin added on both sides of a depth range derived from sparse
+    /// points, as a share of the range.
+    pub depth_range_margin: f64,
+    /// Photometric filter: smallest NCC (1 - cost) a depth keeps.
+    pub min_ncc: f32,
+    /// Geometric filter: a source is consistent when the forward-backward
+    /// reprojection error is at most this many pixels ...
+    pub max_reproj_error_px: f32,
+    /// ... and the depths differ by at most this share.
+    pub max_depth_diff: f32,
+    /// Geometric filter: consistent sources a pixel needs.
+    pub min_consistent_sources: usize,
+    /// Geometric filter: smallest triangulation angle (degrees) between the
+    /// reference and its consistent sources at the pixel's point.
+    pub min_triangulation_angle_deg: f64,
+    /// Fusion: fewest pixels (reference included) a fused point needs.
+    pub min_fused_pixels: usize,
+    /// Smallest angle (degrees) between a normal and the viewing ray's
+    /// reverse that a hypothesis may have before it faces away (grazing
+    /// planes match nothing reliably).
+    pub max_normal_view_angle_deg: f32,
+    /// Run a second, geometric PatchMatch pass (as COLMAP's
+    /// `geom_consistency`): each source's cost gains a penalty for the
+    /// forward-backward reprojection error through that source's
+    /// photometric depth map.
+    pub geom_consistency: bool,
+    /// Weight of the reprojection error (pixels) in the geometric pass
+    /// (COLMAP's `geom_consistency_regularizer`).
+    pub geom_regularizer: f32,
+    /// Cap of the reprojection error in the geometric pass, pixels (COLMAP's
+    /// `geom_consistency_max_cost`).
+    pub geom_max_error_px: f32,
+}
+
+impl Default for MvsParams {
+    fn default() -> Self {
+        MvsParams {
+            seed: 0,
+            window_radius: 5,
+            window_step: 2,
+            sigma_spatial: 5.0,
+            sigma_color: 0.1,
+            iterations: 6,
+            top_k_sources: 3,
+            max_sources: 8,
+            depth_range_margin: 0.2,
+            min_ncc: 0.3,
+            max_reproj_error_px: 1.0,
+            max_depth_diff: 0.01,
+            min_consistent_sources: 1,
+            min_triangulation_angle_deg: 1.0,
+            min_fused_pixels: 2,
+            max_normal_view_angle_deg: 80.0,
+            geom_consistency: true,
+            geom_regularizer: 0.3,
+            geom_max_error_px: 3.0,
+        }
+    }
+}
+
+impl MvsParams {
+    /// Checks the ranges; the error names the parameter and its value.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |m: String| Err(MvsError::InvalidArgument(m));
+        if self.window_step == 0 || self.window_radius == 0 || self.window_radius > 32 {
+            return bad(format!(
+                "window_radius = {} and window_step = {} must be positive (radius <= 32)",
+                self.window_radius, self.window_step
+            ));
+        }
+        if self.window_step > self.window_radius {
+            return bad(format!(
+                "window_step = {} exceeds window_radius = {}",
+                self.window_step, self.window_radius
+            ));
+        }
+        if !(self.sigma_spatial > 0.0 && self.sigma_color > 0.0) {
+            return bad(format!(
+                "sigma_spatial = {} and sigma_color = {} must be positive",
+                self.sigma_spatial, self.sigma_color
+            ));
+        }
+        if self.top_k_sources == 0 || self.max_sources == 0 {
+            return bad("top_k_sources and max_sources must be at least 1".into());
+        }
+        if !(self.depth_range_margin >= 0.0 && self.depth_range_margin.is_finite()) {
+            return bad(format!(
+                "depth_range_margin = {} must be >= 0",
+                self.depth_range_margin
+            ));
+        }
+        if !(-1.0..=1.0).contains(&self.min_ncc) {
+            return bad(format!("min_ncc = {} is outside [-1, 1]", self.min_ncc));
+        }
+        if !(self.max_reproj_error_px > 0.0 && self.max_depth_diff > 0.0) {
+            return bad(format!(
+                "max_reproj_error_px = {} and max_depth_diff = {} must be positive",
+                self.max_reproj_error_px, self.max_depth_diff
+            ));
+        }
+        if !(0.0..180.0).contains(&self.min_triangulation_angle_deg) {
+            return bad(format!(
+                "min_triangulation_angle_deg = {} is outside [0, 180)",
+                self.min_triangulation_angle_deg
+            ));
+        }
+        if !(self.max_normal_view_angle_deg > 0.0 && self.max_normal_view_angle_deg < 90.0) {
+            return bad(format!(
+                "max_normal_view_angle_deg = {} is outside (0, 90)",
+                self.max_normal_view_angle_deg
+            ));
+        }
+        if !(self.geom_regularizer >= 0.0 && self.geom_max_error_px > 0.0) {
+            return bad(format!(
+                "geom_regularizer = {} must be >= 0 and geom_max_error_px = {} > 0",
+                self.geom_regularizer, self.geom_max_error_px
+            ));
+        }
+        Ok(())
+    }
+
+    /// Window sample offsets along one axis: `-r, -r + step, ..., <= r`.
+    pub(crate) fn window_offsets(&self) -> Vec<i32> {
+        let r = self.window_radius as i32;
+        (-r..=r).step_by(self.window_step as usize).collect()
+    }
+
+    /// Number of window samples along one axis.
+    pub fn window_offsets_len(&self) -> usize {
+        self.window_offsets().len()
+    }
+
+    /// Parses a TOML config (missing fields take defaults) and validates it.
+    pub fn from_toml(path: &std::path::Path, text: &str) -> Result<Self> {
+        let p: MvsParams = toml::from_str(text).map_err(|e| MvsError::Config {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+        p.validate().map_err(|e| MvsError::Config {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+        Ok(p)
+    }
+
+    /// The defaults as TOML, each field preceded by its documentation.
+    pub fn defaults_toml() -> String {
+        let d = MvsParams::default();
+        let fields: [(&str, &str, String); 19] = [
+            ("seed", "Seed of every random choice (same seed, same bytes for any thread count).", d.seed.to_string()),
+            ("window_radius", "Half size of the matching window, pixels (5: an 11x11 window).", d.window_radius.to_string()),
+            ("window_step", "Step between window samples, pixels.", d.window_step.to_string()),
+            ("sigma_spatial", "Spatial sigma of the bilateral NCC weights, pixels.", fmt_f(f64::from(d.sigma_spatial))),
+            ("sigma_color", "Colour sigma of the bilateral NCC weights, grey levels in [0, 1].", fmt_f(f64::from(d.sigma_color))),
+            ("iterations", "PatchMatch iterations (red-black propagation + random refinement).", d.iterations.to_string()),
+            ("top_k_sources", "View selection: the best k source costs are averaged per hypothesis.", d.top_k_sources.to_string()),
+            ("max_sources", "Most source images per reference image.", d.max_sources.to_string()),
+            ("depth_range_margin", "Margin on both sides of a depth range from sparse points, share of the range.", fmt_f(d.depth_range_margin)),
+            ("min_ncc", "Photometric filter: smallest NCC a depth keeps.", fmt_f(f64::from(d.min_ncc))),
+            ("max_reproj_error_px", "Geometric filter: largest forward-backward reprojection error, pixels.", fmt_f(f64::from(d.max_reproj_error_px))),
+            ("max_depth_diff", "Geometric filter: largest relative depth difference.", fmt_f(f64::from(d.max_depth_diff))),
+            ("min_consistent_sources", "Geometric filter: consistent source views a pixel needs.", d.min_consistent_sources.to_string()),
+            ("min_triangulation_angle_deg", "Geometric filter: smallest triangulation angle with the consistent sources, degrees.", fmt_f(d.min_triangulation_angle_deg)),
+            ("min_fused_pixels", "Fusion: fewest pixels (reference included) per fused point.", d.min_fused_pixels.to_string()),
+            ("max_normal_view_angle_deg", "Largest angle between a normal and the reversed viewing ray, degrees.", fmt_f(f64::from(d.max_normal_view_angle_deg))),
+            ("geom_consistency", "Second, geometric PatchMatch pass: penalise reprojection error through the sources' depth maps.", d.geom_consistency.to_string()),
+            ("geom_regularizer", "Geometric pass: weight of the reprojection error (pixels) in the cost.", fmt_f(f64::from(d.geom_regularizer))),
+            ("geom_max_error_px", "Geometric pass: cap of the reprojection error, pixels.", fmt_f(f64::from(d.geom_max_error_px))),
+        ];
+        let mut s = String::from(
+            "# vp-mvs parameters (vpctl mvs run --config FILE); every field is optional.\n",
+        );
+        for (name, doc, value) in fields {
+            let _ = write!(s, "\n# {doc}\n{name} = {value}\n");
+        }
+        s
+    }
+}
+
+fn fmt_f(v: f64) -> String {
+    let s = format!("{v}");
+    if s.contains('.') || s.contains('e') {
+        s
+    } else {
+        format!("{s}.0")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_toml_round_trips_and_validates() {
+        let text = MvsParams::defaults_toml();
+        let p = MvsParams::from_toml(std::path::Path::new("mvs.toml"), &text).unwrap();
+        assert_eq!(p, MvsParams::default());
+        assert_eq!(p.window_offsets(), vec![-5, -3, -1, 1, 3, 5]);
+    }
+
+    #[test]
+    fn bad_config_names_file_and_field() {
+        let e = MvsParams::from_toml(std::path::Path::new("m.toml"), "min_ncc = 3.0").unwrap_err();
+        assert!(e.to_string().starts_with("m.toml: "), "{e}");
+        assert!(e.to_string().contains("min_ncc"), "{e}");
+        let e = MvsParams::from_toml(std::path::Path::new("m.toml"), "bogus = 1").unwrap_err();
+        assert!(e.to_string().contains("bogus"), "{e}");
+    }
+}

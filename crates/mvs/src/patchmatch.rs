@@ -1,0 +1,439 @@
+//! PatchMatch stereo for one reference image against its sources: random
+//! initialisation, red-black checkerboard propagation of planes from
+//! neighbours, random refinement of depth and normal.
+
+use rayon::prelude::*;
+
+use crate::cost::{aggregate, homography, source_cost, RefPatch, MAX_COST};
+use crate::error::{MvsError, Result};
+use crate::params::MvsParams;
+use crate::rng::PixelRng;
+use crate::view::{k_of, pixel_ray, GreyImage, Relative, View};
+
+/// Most sources scored per hypothesis (a stack array holds their costs).
+pub const MAX_SOURCES: usize = 32;
+
+/// Neighbours a pixel takes plane hypotheses from: all at an odd Manhattan
+/// distance, so they have the other checkerboard colour and stay fixed
+/// while this colour is updated (Gipuma's pattern).
+const NEIGHBOURS: [(i32, i32); 8] = [
+    (0, -1),
+    (0, 1),
+    (-1, 0),
+    (1, 0),
+    (0, -5),
+    (0, 5),
+    (-5, 0),
+    (5, 0),
+];
+
+/// A depth and normal map in the reference camera frame: PatchMatch's
+/// photometric result, or that result after the geometric filter.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DepthNormalMap {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Depth along the optical axis; 0 where a filter (photometric:
+    /// `min_ncc`; geometric: consistency) rejected the pixel.
+    pub depth: Vec<f32>,
+    /// Unit normal (camera frame); zero where depth is 0.
+    pub normal: Vec<[f32; 3]>,
+    /// Aggregated matching cost (1 - NCC, in [0, 2]) of the winning
+    /// hypothesis, kept for every pixel.
+    pub cost: Vec<f32>,
+}
+
+/// One plane hypothesis and its costs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Hyp {
+    pub d: f32,
+    pub n: [f32; 3],
+    /// Cost that ranks hypotheses (photometric, plus the geometric term in
+    /// the geometric pass).
+    pub cost: f32,
+    /// Photometric part of `cost` over the same selected sources.
+    pub photo: f32,
+}
+
+/// A source's depth map from the photometric pass, for the geometric term.
+pub(crate) struct GeomSource<'a> {
+    pub depth: &'a [f32],
+    pub width: usize,
+    pub height: usize,
+    /// Rotation from the source back to the reference frame (R^T).
+    pub rot_back: [[f32; 3]; 3],
+}
+
+/// What one reference's PatchMatch needs, in f32.
+struct Problem<'a> {
+    image: &'a GreyImage,
+    k: [f32; 4],
+    sources: Vec<(Relative, &'a GreyImage)>,
+    /// The sources' photometric depths: set in the geometric pass.
+    geom: Option<Vec<GeomSource<'a>>>,
+    range: (f32, f32),
+    /// Cosine of the largest normal-to-view angle.
+    min_cos: f32,
+    top_k: usize,
+    offsets: Vec<i32>,
+    params: &'a MvsParams,
+    view_key: u64,
+}
+
+/// The raw PatchMatch state of one view (every pixel's winning hypothesis).
+pub(crate) struct RawState {
+    pub width: usize,
+    pub height: usize,
+    pub hyps: Vec<Hyp>,
+    /// The hypotheses' depths, contiguous for the geometric term.
+    pub depth: Vec<f32>,
+}
+
+/// Runs PatchMatch for `views[reference]` against `views[s]` for `s` in
+/// `sources`.
+///
+/// # Performance
+/// Per iteration each pixel scores 8 propagated and 3 refined hypotheses,
+/// each against every source over the window samples (36 by default): that
+/// product is the work. Rows run in parallel (rayon); the output does not
+/// depend on the thread count.
+pub fn patch_match(
+    views: &[View],
+    reference: usize,
+    sources: &[usize],
+    params: &MvsParams,
+) -> Result<DepthNormalMap> {
+    let raw = patch_match_raw(views, reference, sources, params, None)?;
+    Ok(raw.to_map(params))
+}
+
+/// PatchMatch, photometric (`previous` = `None`) or geometric: then every
+/// source's raw state from the photometric pass is in `previous`, the
+/// reference's starts from its own, and each source's cost gains
+/// `geom_regularizer * min(forward-backward reprojection error, geom_max_error_px)`.
+pub(crate) fn patch_match_raw(
+    views: &[View],
+    reference: usize,
+    sources: &[usize],
+    params: &MvsParams,
+    previous: Option<&[Option<RawState>]>,
+) -> Result<RawState> {
+    params.validate()?;
+    let view = views.get(reference).ok_or_else(|| {
+        MvsError::InvalidArgument(format!("reference view {reference} does not exist"))
+    })?;
+    if sources.is_empty() || sources.len() > MAX_SOURCES {
+        return Err(MvsError::InvalidArgument(format!(
+            "image '{}': {} source images (need 1 to {MAX_SOURCES})",
+            view.name,
+            sources.len()
+        )));
+    }
+    let mut rel = Vec::with_capacity(sources.len());
+    let mut geom = previous.map(|_| Vec::with_capacity(sources.len()));
+    for &s in sources {
+        let src = views.get(s).filter(|_| s != reference).ok_or_else(|| {
+            MvsError::InvalidArgument(format!(
+                "image '{}': source view {s} does not exist or is the reference",
+                view.name
+            ))
+        })?;
+        let r = Relative::new(&view.camera, &src.camera);
+        if let (Some(prev), Some(g)) = (previous, geom.as_mut()) {
+            let state = prev.get(s).and_then(Option::as_ref).ok_or_else(|| {
+                MvsError::InvalidArgument(format!(
+                    "image '{}': source '{}' has no photometric depth map for the geometric pass",
+                    view.name, src.name
+                ))
+            })?;
+            g.push(GeomSource {
+                depth: &state.depth,
+                width: state.width,
+                height: state.height,
+                rot_back: std::array::from_fn(|i| std::array::from_fn(|j| r.rot[j][i])),
+            });
+        }
+        rel.push((r, &src.grey));
+    }
+    let problem = Problem {
+        image: &view.grey,
+        k: k_of(&view.camera),
+        sources: rel,
+        geom,
+        range: (view.depth_range.0 as f32, view.depth_range.1 as f32),
+        min_cos: params.max_normal_view_angle_deg.to_radians().cos(),
+        top_k: params.top_k_sources,
+        offsets: params.window_offsets(),
+        params,
+        view_key: reference as u64,
+    };
+    let init = previous
+        .and_then(|p| p.get(reference))
+        .and_then(Option::as_ref);
+    Ok(problem.run(init))
+}
+
+impl RawState {
+    /// The map of the winning hypotheses, with the photometric filter
+    /// (`min_ncc`) applied.
+    pub fn to_map(&self, params: &MvsParams) -> DepthNormalMap {
+        let n = self.hyps.len();
+        let max_cost = 1.0 - params.min_ncc;
+        let mut out = DepthNormalMap {
+            width: self.width as u32,
+            height: self.height as u32,
+            depth: vec![0.0; n],
+            normal: vec![[0.0; 3]; n],
+            cost: vec![MAX_COST; n],
+        };
+        for (i, hyp) in self.hyps.iter().enumerate() {
+            out.cost[i] = hyp.photo;
+            if hyp.photo <= max_cost {
+                out.depth[i] = hyp.d;
+                out.normal[i] = hyp.n;
+            }
+        }
+        out
+    }
+}
+
+impl Problem<'_> {
+    fn run(&self, init: Option<&RawState>) -> RawState {
+        let (w, h) = (self.image.width as usize, self.image.height as usize);
+        // The geometric pass draws other numbers than the photometric one.
+        let pass = if self.geom.is_some() { 1u64 << 32 } else { 0 };
+        let mut state: Vec<Hyp> = vec![
+            Hyp {
+                d: 0.0,
+                n: [0.0, 0.0, -1.0],
+                cost: MAX_COST,
+                photo: MAX_COST,
+            };
+            w * h
+        ];
+        state.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            let mut patch = RefPatch::default();
+            for (x, hyp) in row.iter_mut().enumerate() {
+                let idx = y * w + x;
+                let ray = pixel_ray(&self.k, x, y);
+                let (d, n) = if let Some(prev) = init {
+                    (prev.hyps[idx].d, prev.hyps[idx].n)
+                } else {
+                    let mut rng = PixelRng::new(self.params.seed, self.view_key, idx as u64, pass);
+                    let d = self.random_depth(&mut rng);
+                    (d, random_normal(&mut rng, &ray))
+                };
+                patch.build(self.image, x, y, &self.offsets, self.params);
+                let (cost, photo) = self.cost(&patch, x, y, &ray, d, &n);
+                *hyp = Hyp { d, n, cost, photo };
+            }
+        });
+        for it in 0..self.params.iterations {
+            for colour in 0..2 {
+                let prev = state.clone();
+                let step = pass + 1 + 2 * u64::from(it) + colour as u64;
+                state.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+                    let mut patch = RefPatch::default();
+                    let mut x = (y + colour) % 2;
+                    while x < w {
+                        row[x] = self.update(&prev, &mut patch, x, y, it, step);
+                        x += 2;
+                    }
+                });
+            }
+        }
+        RawState {
+            width: w,
+            height: h,
+            depth: state.iter().map(|h| h.d).collect(),
+            hyps: state,
+        }
+    }
+
+    fn random_depth(&self, rng: &mut PixelRng) -> f32 {
+        // Uniform in inverse depth: uniform in disparity, as a stereo search.
+        let (lo, hi) = (1.0 / self.range.1, 1.0 / self.range.0);
+        1.0 / (lo + (hi - lo) * rng.next_f32())
+    }
+
+    /// Forward-backward reprojection error (pixels) of depth `d` at pixel
+    /// (x, y) through source `g`, capped at `geom_max_error_px`.
+    fn reprojection_error(
+        &self,
+        rel: &Relative,
+        g: &GeomSource,
+        x: usize,
+        y: usize,
+        ray: &[f32; 3],
+        d: f32,
+    ) -> f32 {
+        let cap = self.params.geom_max_error_px;
+        let p = [ray[0] * d, ray[1] * d, d];
+        let r = &rel.rot;
+        let t = &rel.trans;
+        let xs: [f32; 3] =
+            std::array::from_fn(|i| r[i][0] * p[0] + r[i][1] * p[1] + r[i][2] * p[2] + t[i]);
+        if !(xs[2] > 0.0) {
+            return cap;
+        }
+        let ks = &rel.k;
+        let u = ks[0] * xs[0] / xs[2] + ks[2];
+        let v = ks[1] * xs[1] / xs[2] + ks[3];
+        if !(u >= 0.0 && v >= 0.0) || u as usize >= g.width || v as usize >= g.height {
+            return cap;
+        }
+        let (qx, qy) = (u as usize, v as usize);
+        let ds = g.depth[qy * g.width + qx];
+        if !(ds > 0.0) {
+            return cap;
+        }
+        let q = [
+            (qx as f32 + 0.5 - ks[2]) / ks[0] * ds - t[0],
+            (qy as f32 + 0.5 - ks[3]) / ks[1] * ds - t[1],
+            ds - t[2],
+        ];
+        let b = &g.rot_back;
+        let xr: [f32; 3] =
+            std::array::from_fn(|i| b[i][0] * q[0] + b[i][1] * q[1] + b[i][2] * q[2]);
+        if !(xr[2] > 0.0) {
+            return cap;
+        }
+        let k = &self.k;
+        let du = k[0] * xr[0] / xr[2] + k[2] - (x as f32 + 0.5);
+        let dv = k[1] * xr[1] / xr[2] + k[3] - (y as f32 + 0.5);
+        (du * du + dv * dv).sqrt().min(cap)
+    }
+
+    /// Costs (ranking, photometric) of plane (d, n) at pixel (x, y).
+    fn cost(
+        &self,
+        patch: &RefPatch,
+        x: usize,
+        y: usize,
+        ray: &[f32; 3],
+        d: f32,
+        n: &[f32; 3],
+    ) -> (f32, f32) {
+        let worst = (MAX_COST + self.geom_worst(), MAX_COST);
+        if !(d >= self.range.0 && d <= self.range.1 && patch.textured()) {
+            return worst;
+        }
+        // The normal must face the camera within the allowed angle.
+        let ray_len = (ray[0] * ray[0] + ray[1] * ray[1] + 1.0).sqrt();
+        let facing = -(n[0] * ray[0] + n[1] * ray[1] + n[2] * ray[2]) / ray_len;
+        if facing < self.min_cos {
+            return worst;
+        }
+        let mut costs = [(MAX_COST, MAX_COST); MAX_SOURCES];
+        let m = self.sources.len();
+        let (u, v) = (x as f32 + 0.5, y as f32 + 0.5);
+        for (k, (rel, src)) in self.sources.iter().enumerate() {
+            let photo = homography(rel, &self.k, d, n, ray)
+                .map_or(MAX_COST, |h| source_cost(patch, u, v, &h, src));
+            let geo = match &self.geom {
+                Some(g) => {
+                    self.params.geom_regularizer * self.reprojection_error(rel, &g[k], x, y, ray, d)
+                }
+                None => 0.0,
+            };
+            costs[k] = (photo + geo, photo);
+        }
+        aggregate(&mut costs[..m], self.top_k)
+    }
+
+    fn geom_worst(&self) -> f32 {
+        if self.geom.is_some() {
+            self.params.geom_regularizer * self.params.geom_max_error_px
+        } else {
+            0.0
+        }
+    }
+
+    fn update(
+        &self,
+        prev: &[Hyp],
+        patch: &mut RefPatch,
+        x: usize,
+        y: usize,
+        it: u32,
+        step: u64,
+    ) -> Hyp {
+        let w = self.image.width as usize;
+        let h = self.image.height as usize;
+        let idx = y * w + x;
+        let ray = pixel_ray(&self.k, x, y);
+        patch.build(self.image, x, y, &self.offsets, self.params);
+        let mut best = prev[idx];
+        if !patch.textured() {
+            return best;
+        }
+        let consider = |d: f32, n: [f32; 3], best: &mut Hyp| {
+            let (cost, photo) = self.cost(patch, x, y, &ray, d, &n);
+            if cost < best.cost {
+                *best = Hyp { d, n, cost, photo };
+            }
+        };
+        // Propagation: the neighbour's plane, intersected with this pixel's ray.
+        for (ox, oy) in NEIGHBOURS {
+            let (nx, ny) = (x as i32 + ox, y as i32 + oy);
+            if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= h {
+                continue;
+            }
+            let nb = prev[ny as usize * w + nx as usize];
+            let nray = pixel_ray(&self.k, nx as usize, ny as usize);
+            let n = nb.n;
+            let num = nb.d * (n[0] * nray[0] + n[1] * nray[1] + n[2] * nray[2]);
+            let den = n[0] * ray[0] + n[1] * ray[1] + n[2] * ray[2];
+            if den.abs() < 1e-6 {
+                continue;
+            }
+            let d = num / den;
+            // Already this pixel's plane (common once converged): skip.
+            if d.to_bits() == best.d.to_bits() && n.map(f32::to_bits) == best.n.map(f32::to_bits) {
+                continue;
+            }
+            consider(d, n, &mut best);
+        }
+        // Refinement: a random depth, a random normal, and a perturbation of
+        // both whose size halves every iteration.
+        let mut rng = PixelRng::new(self.params.seed, self.view_key, idx as u64, step);
+        let scale = 0.5f32.powi(it as i32);
+        let random_d = self.random_depth(&mut rng);
+        let random_n = random_normal(&mut rng, &ray);
+        let pert_d = best.d * (1.0 + 0.05 * scale * rng.symmetric());
+        let pert_n = normalize([
+            best.n[0] + 0.3 * scale * rng.symmetric(),
+            best.n[1] + 0.3 * scale * rng.symmetric(),
+            best.n[2] + 0.3 * scale * rng.symmetric(),
+        ]);
+        let current = best;
+        consider(random_d, current.n, &mut best);
+        consider(current.d, random_n, &mut best);
+        consider(pert_d, pert_n, &mut best);
+        best
+    }
+}
+
+/// A random unit normal facing the camera along `ray` (the reversed ray
+/// plus a random vector of the unit cube), so that fronto-parallel planes
+/// are the most likely and grazing ones rare.
+fn random_normal(rng: &mut PixelRng, ray: &[f32; 3]) -> [f32; 3] {
+    let r = normalize(*ray);
+    normalize([
+        -r[0] + rng.symmetric(),
+        -r[1] + rng.symmetric(),
+        -r[2] + rng.symmetric(),
+    ])
+}
+
+#[inline]
+fn normalize(v: [f32; 3]) -> [f32; 3] {
+    let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    if l > 0.0 {
+        [v[0] / l, v[1] / l, v[2] / l]
+    } else {
+        [0.0, 0.0, -1.0]
+    }
+}
