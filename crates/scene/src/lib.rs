@@ -25,6 +25,7 @@ pub mod height_field;
 pub mod image_files;
 pub mod io;
 pub mod mesh;
+pub mod mesh_inspect;
 pub mod mesh_ops;
 pub mod plan;
 pub mod procedural;

@@ -102,18 +102,11 @@ pub fn run(cmd: MeshCommand, out: &mut dyn Write) -> Result<()> {
 }
 
 fn info(file: &std::path::Path, out: &mut dyn Write) -> Result<()> {
-    let mesh = io::load_mesh_raw(file)?;
-    let (_, report) = mesh.cleaned();
-    let non_finite_vertices = mesh
-        .vertices
-        .iter()
-        .filter(|p| !p.iter().all(|c| c.is_finite()))
-        .count();
+    let i = io::load_mesh_raw(file)?.inspect();
     writeln!(out, "file: {}", file.display())?;
-    writeln!(out, "vertices: {}", mesh.n_vertices())?;
-    writeln!(out, "faces: {}", mesh.n_faces())?;
-    let b = mesh.bounds();
-    if mesh.n_vertices() > 0 && non_finite_vertices == 0 {
+    writeln!(out, "vertices: {}", i.vertices)?;
+    writeln!(out, "faces: {}", i.faces)?;
+    if let Some(b) = i.bounds {
         writeln!(
             out,
             "bounds min: {:.4} {:.4} {:.4}",
@@ -127,11 +120,11 @@ fn info(file: &std::path::Path, out: &mut dyn Write) -> Result<()> {
         let e = b.extent();
         writeln!(out, "extent: {:.4} {:.4} {:.4}", e.x, e.y, e.z)?;
     }
-    if report.dropped_faces() == 0 {
-        writeln!(out, "area: {:.4}", mesh.face_areas().iter().sum::<f64>())?;
-        writeln!(out, "mean edge length: {:.4}", mesh.mean_edge_length())?;
+    if let Some((area, edge)) = i.area_and_mean_edge {
+        writeln!(out, "area: {area:.4}")?;
+        writeln!(out, "mean edge length: {edge:.4}")?;
     }
-    match mesh.material_counts() {
+    match i.material_counts {
         None => writeln!(out, "materials: none")?,
         Some(counts) => {
             let parts: Vec<String> = Material::ALL
@@ -143,33 +136,13 @@ fn info(file: &std::path::Path, out: &mut dyn Write) -> Result<()> {
             writeln!(out, "materials: {}", parts.join(", "))?;
         }
     }
-    let problems = [
-        ("vertices with non-finite coordinates", non_finite_vertices),
-        ("faces with an index out of range", report.bad_index_faces),
-        ("faces using a non-finite vertex", report.non_finite_faces),
-        ("degenerate faces", report.degenerate_faces),
-        ("unused vertices", report.unused_vertices),
-    ];
-    let found: Vec<String> = problems
-        .iter()
-        .filter(|(_, n)| *n > 0)
-        .map(|(what, n)| format!("{n} {what}"))
-        .collect();
-    if found.is_empty() {
-        writeln!(out, "problems: none")?;
+    writeln!(out, "problems: {}", i.problems_line())?;
+    if i.usable {
         Ok(())
     } else {
-        writeln!(out, "problems: {}", found.join("; "))?;
-        // Unused vertices alone do not make a mesh unusable.
-        if report.dropped_faces() > 0 || non_finite_vertices > 0 {
-            Err(vp_scene::SceneError::InvalidMesh(format!(
-                "{}: {}",
-                file.display(),
-                found.join("; ")
-            ))
-            .into())
-        } else {
-            Ok(())
-        }
+        Err(
+            vp_scene::SceneError::InvalidMesh(format!("{}: {}", file.display(), i.problems_line()))
+                .into(),
+        )
     }
 }
