@@ -102,7 +102,7 @@ def test_bad_inputs(plan_file):
         vpctl.mission.export(plan, format="kml")
     with pytest.raises(ValueError, match="carrier-pigeon"):
         vpctl.mission.download("carrier-pigeon:1")
-    with pytest.raises(ValueError, match="heartbeat_timeout"):
+    with pytest.raises(ValueError, match="heartbeat.timeout"):
         vpctl.mission.download("udpout:127.0.0.1:9", heartbeat_timeout=0)
     with pytest.raises(ValueError):
         vpctl.mission.SimulatedVehicle(autopilot="dji")

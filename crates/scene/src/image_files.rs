@@ -47,9 +47,10 @@ pub fn sidecar(dir: &Path, image_name: &str, extension: &str) -> Result<PathBuf>
 
 /// The image name a label file found under `root` belongs to: its path
 /// relative to the innermost `level<N>` folder (the layout `vpctl labelgen
-/// run` writes, `<root>/<triplet>/level<N>/<image name>.vplabel`), or to
-/// `root` when there is none, without the extension. `None` if `path` is
-/// not a label file under `root`.
+/// run` writes, `<root>/<triplet>/level<N>/<image name>.vplabel`), without
+/// the extension; without a `level<N>` folder, the file name alone (folders
+/// then group label files, e.g. by triplet). `None` if `path` is not a
+/// label file under `root`.
 pub fn image_name_of_label(root: &Path, path: &Path) -> Option<String> {
     let rel = path.strip_prefix(root).ok()?;
     let parts: Vec<&str> = rel
@@ -65,7 +66,7 @@ pub fn image_name_of_label(root: &Path, path: &Path) -> Option<String> {
     let start = folders
         .iter()
         .rposition(|s| is_level(s))
-        .map_or(0, |i| i + 1);
+        .map_or(folders.len(), |i| i + 1);
     let mut name: Vec<&str> = folders[start..].to_vec();
     name.push(stem);
     (!stem.is_empty()).then(|| name.join("/"))
@@ -163,6 +164,7 @@ mod tests {
             Some("sub/dir/img.v2.JPG")
         );
         assert_eq!(name("labels/a.png.vplabel").as_deref(), Some("a.png"));
+        assert_eq!(name("labels/t1/a.png.vplabel").as_deref(), Some("a.png"));
         assert_eq!(name("labels/x/a.png.vpconf"), None);
         assert_eq!(name("elsewhere/a.png.vplabel"), None);
     }
