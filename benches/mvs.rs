@@ -69,8 +69,10 @@ fn tier(
     let out = reconstruct(&views, &sources(), params, &mut |_| {}).expect("reconstruct");
     let secs = start.elapsed().as_secs_f64();
     let px = 3.0 * f64::from(size) * f64::from(size);
-    // Hypotheses scored per pixel: 1 initial + (8 propagated + 3 refined) per iteration.
-    let hyps = px * (1.0 + 11.0 * f64::from(params.iterations));
+    // Hypotheses scored per pixel and pass: 1 initial + (4 propagated + 3
+    // refined) per iteration; the geometric pass repeats that.
+    let passes = if params.geom_consistency { 2.0 } else { 1.0 };
+    let hyps = passes * px * (1.0 + 7.0 * f64::from(params.iterations));
     let samples = params.window_offsets_len().pow(2) as f64 * 2.0;
     eprintln!(
         "mvs/{name}: {size}x{size} triplet: {secs:.2} s per triplet ({:.2} s per Mpx triplet), \

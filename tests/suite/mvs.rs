@@ -183,8 +183,8 @@ pub fn print_table(tally: &[[Tally; 4]; 5]) {
 /// Issue 14's bar: rock and ground >= 80 % complete at 5-25 deg, filtered
 /// outliers (beyond 1 % of the true depth) <= 2 %. Ignored while it fails;
 /// run with --ignored to print the table. Measured at 320x240, 26 m away:
-/// ground 89-91 % complete, 1.6-2.3 % outliers; rock 79 % (5-15 deg) and
-/// 90 % (15-25 deg) complete, 13 % and 6.5 % outliers, but only 0.25 % and
+/// ground 88-90 % complete, 1.3-2.1 % outliers; rock 78 % (5-15 deg) and
+/// 90 % (15-25 deg) complete, 13.7 % and 6.8 % outliers, but only 0.4 % and
 /// 0 % beyond 5 %: rock errors are a spread (p5 -0.5 %, p95 +1.2 % at
 /// 10-15 deg, skewed behind the surface as a window-sized plane fit over
 /// convex bumps is), not gross mismatches.
