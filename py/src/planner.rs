@@ -216,16 +216,8 @@ fn roi_of(obj: Option<&Bound<'_, PyAny>>) -> PyResult<RoiSpec> {
 }
 
 fn origin_of(obj: Option<(f64, f64, f64)>) -> PyResult<Option<GeodeticOrigin>> {
-    obj.map(|(lat_deg, lon_deg, alt_m)| {
-        let g = GeodeticOrigin {
-            lat_deg,
-            lon_deg,
-            alt_m,
-        };
-        g.validate().py()?;
-        Ok(g)
-    })
-    .transpose()
+    obj.map(|(lat, lon, alt)| GeodeticOrigin::new(lat, lon, alt).py())
+        .transpose()
 }
 
 /// The acquired views from a ColmapModel / model folder (with an optional

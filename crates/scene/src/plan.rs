@@ -61,6 +61,18 @@ impl Default for GeodeticOrigin {
 }
 
 impl GeodeticOrigin {
+    /// A validated origin (see [`GeodeticOrigin::validate`]): what `--origin
+    /// LAT,LON,ALT` and the Python `origin=` both build.
+    pub fn new(lat_deg: f64, lon_deg: f64, alt_m: f64) -> Result<Self> {
+        let g = GeodeticOrigin {
+            lat_deg,
+            lon_deg,
+            alt_m,
+        };
+        g.validate()?;
+        Ok(g)
+    }
+
     /// Checks that the coordinates are finite and in range.
     pub fn validate(&self) -> Result<()> {
         let ok = self.lat_deg.is_finite()

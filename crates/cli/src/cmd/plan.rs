@@ -180,15 +180,7 @@ impl Common {
     fn origin(&self) -> Result<Option<GeodeticOrigin>> {
         self.origin
             .as_ref()
-            .map(|o| {
-                let g = GeodeticOrigin {
-                    lat_deg: o[0],
-                    lon_deg: o[1],
-                    alt_m: o[2],
-                };
-                g.validate()?;
-                Ok(g)
-            })
+            .map(|o| Ok(GeodeticOrigin::new(o[0], o[1], o[2])?))
             .transpose()
     }
 
