@@ -93,6 +93,12 @@ proptest! {
             let (o, d) = random_ray(&mut rng);
             let bvh = caster.closest_hit(&o, &d, f64::INFINITY);
             match brute_force(&mesh, &o, &d) {
+                Some((t, _, margin)) if margin > 1e-4 && bvh.is_some_and(|h| h.t < t - 1e-3 * t.max(1.0)) => {
+                    // A nearer face that brute force misses in f64: only a
+                    // graze of its edge, which the f32 BVH may hit.
+                    let hit = bvh.expect("matched above");
+                    prop_assert!(hit.bary.iter().any(|&b| b.abs() < 1e-3), "BVH hit {hit:?} before brute force's {t}");
+                }
                 Some((t, f, margin)) if margin > 1e-4 => {
                     let hit = bvh.expect("brute force hits, BVH must hit");
                     prop_assert!((hit.t - t).abs() < 1e-3 * t.max(1.0), "t {} vs {}", hit.t, t);
