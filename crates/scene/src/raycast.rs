@@ -156,10 +156,11 @@ impl RayCaster {
     /// `(origin, unit direction)`.
     ///
     /// # Performance
-    /// Large batches are traced in a coherent order (rays sorted by direction
-    /// bin, then by the Morton code of their origin) so that consecutive rays
-    /// visit the same BVH nodes and triangles while they are in cache; the
-    /// results come back in input order.
+    /// Large batches over a BVH larger than the last-level cache are traced
+    /// in a coherent order (rays sorted by direction bin, then by the Morton
+    /// code of their origin) so that consecutive rays visit the same BVH
+    /// nodes and triangles while they are in cache; the results come back in
+    /// input order.
     pub fn closest_hits(
         &self,
         rays: &[(Point3<f64>, Vector3<f64>)],
@@ -179,14 +180,27 @@ impl RayCaster {
     }
 
     /// Runs `query` on every item in parallel, in the coherent order of the
-    /// rays `ray_of` gives, and returns the answers in input order.
+    /// rays `ray_of` gives where that pays (see [`COHERENT_BVH_BYTES`]), and
+    /// returns the answers in input order.
     fn trace_coherent<I: Sync + Send + Copy, R: Send + Copy + Default>(
         &self,
         items: &[I],
         ray_of: impl Fn(&I) -> (Point3<f64>, Vector3<f64>) + Sync,
         query: impl Fn(&I) -> R + Sync,
     ) -> Vec<R> {
-        if items.len() < COHERENT_BATCH {
+        let sort = items.len() >= COHERENT_BATCH && self.bvh.bytes() >= COHERENT_BVH_BYTES;
+        self.trace(items, ray_of, query, sort)
+    }
+
+    /// [`RayCaster::trace_coherent`], sorting or not as told.
+    fn trace<I: Sync + Send + Copy, R: Send + Copy + Default>(
+        &self,
+        items: &[I],
+        ray_of: impl Fn(&I) -> (Point3<f64>, Vector3<f64>) + Sync,
+        query: impl Fn(&I) -> R + Sync,
+        sort: bool,
+    ) -> Vec<R> {
+        if !sort {
             return items.par_iter().with_min_len(256).map(&query).collect();
         }
         let mut order: Vec<(u64, u32)> = items
@@ -286,8 +300,15 @@ impl RayCaster {
     }
 }
 
-/// Batches at least this large are traced in coherent order.
+/// Batches at least this large are traced in coherent order...
 const COHERENT_BATCH: usize = 16_384;
+
+/// ...if the BVH is at least this large. A smaller one stays in the last
+/// level cache whatever the order, and sorting costs more than it saves:
+/// on the 200k-face site (a 14 MB BVH) the key, the sort and the gather
+/// took 35 % of the occlusion time, and tracing 1M aerial rays in input
+/// order was 1.3-1.8x faster for occlusion, the same for closest hits.
+const COHERENT_BVH_BYTES: usize = 32 << 20;
 
 /// Spreads the low 10 bits of `x` to every third bit (Morton interleave).
 fn spread_bits(x: u64) -> u64 {

@@ -263,6 +263,12 @@ impl Bvh8 {
         lanes
     }
 
+    /// Memory taken by the nodes and packets.
+    pub(super) fn bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<Node>()
+            + self.packets.len() * std::mem::size_of::<Packet>()
+    }
+
     /// Pending-node stack length that a traversal of this tree can fill.
     fn stack_len(&self) -> usize {
         7 * self.depth + 1

@@ -240,12 +240,28 @@ fn batch_results_equal_single_queries() {
     for (r, b) in rays.iter().zip(&batch) {
         assert_eq!(*b, caster.closest_hit(&r.0, &r.1, f64::INFINITY));
     }
+    // The coherent order (taken for BVHs larger than this one) answers the
+    // same, in input order.
+    let sorted = caster.trace(
+        &rays,
+        |(o, d)| (*o, *d),
+        |(o, d)| caster.closest_hit(o, d, f64::INFINITY),
+        true,
+    );
+    assert_eq!(sorted, batch);
     assert!(batch.iter().filter(|h| h.is_some()).count() > 1000);
     let segments: Vec<_> = rays.iter().map(|(o, d)| (*o, o + d * 15.0)).collect();
     let occ = caster.occluded_batch(&segments);
     for (s, o) in segments.iter().zip(&occ) {
         assert_eq!(*o, caster.occluded(&s.0, &s.1));
     }
+    let sorted = caster.trace(
+        &segments,
+        |(a, b)| (*a, b - a),
+        |(a, b)| caster.occluded(a, b),
+        true,
+    );
+    assert_eq!(sorted, occ);
 }
 
 fn ground_with_wall() -> Mesh {
