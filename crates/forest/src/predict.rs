@@ -41,7 +41,7 @@ const COMPLEMENT: u32 = 1 << 31;
 
 impl CNode {
     /// The child this node sends a sample with values `v1`, `v2` to.
-    #[inline(always)]
+    #[inline]
     fn next(&self, v1: u8, v2: u8) -> u32 {
         // 0xff if the complement flag is set, else 0: v2 ^ mask is v2 or 255 - v2.
         let mask = ((self.child as i32) >> 31) as u8;

@@ -204,27 +204,27 @@ impl Bvh8 {
 
     /// Bit mask of the children of `node` whose box the ray enters within
     /// `t_max`, with their entry distances.
-    #[inline(always)]
+    #[inline]
     fn enter(node: &Node, ray: &Bvh8Ray, t_max: f32) -> (u32, [Vec4; 2]) {
         let [nx, ny, nz] = ray.near;
         let mut mask = 0;
         let mut t_near = [Vec4::ZERO; 2];
         let t_lo = Vec4::splat(ray.t_min);
         let t_hi = Vec4::splat(t_max);
-        for h in 0..2 {
+        for (h, near) in t_near.iter_mut().enumerate() {
             let slab =
                 |plane: usize, axis: usize| (node.planes[plane][h] - ray.o[axis]) * ray.inv[axis];
             let t0 = slab(nx, 0).max(slab(ny, 1)).max(slab(nz, 2).max(t_lo));
             let t1 = slab(nx ^ 1, 0).min(slab(ny ^ 1, 1)).min(slab(nz ^ 1, 2)) * EXIT_SCALE;
             mask |= t0.cmple(t1.min(t_hi)).bitmask() << (4 * h);
-            t_near[h] = t0;
+            *near = t0;
         }
         (mask, t_near)
     }
 
     /// Distances at which the ray hits the packet's triangles within
     /// `[t_min, t_max]`, and the mask of lanes that hit.
-    #[inline(always)]
+    #[inline]
     fn hit_packet(p: &Packet, ray: &Bvh8Ray, t_max: f32) -> (Vec4, u32) {
         let dot = |a: &[Vec4; 3], b: &[Vec4; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
         let cross = |a: &[Vec4; 3], b: &[Vec4; 3]| {
@@ -253,7 +253,7 @@ impl Bvh8 {
     }
 
     /// Lanes of the leaf children in `leaf_hits` (a slot mask) of `node`.
-    #[inline(always)]
+    #[inline]
     fn leaf_lanes(node: &Node, mut leaf_hits: u32) -> u32 {
         let mut lanes = 0;
         while leaf_hits != 0 {
