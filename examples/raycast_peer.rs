@@ -1,10 +1,13 @@
-//! Closest-hit throughput of vp-scene's ray caster on a mesh file and a ray
-//! file, for the peer comparison in `benches/peer/raycast_vs_embree.py`.
+//! Closest-hit or occlusion throughput of vp-scene's ray caster on a mesh
+//! file and a ray file, for the peer comparison in
+//! `benches/peer/raycast_vs_embree.py`.
 //!
-//! Usage: `raycast_peer MESH RAYS THREADS REPEATS OUT_T`
+//! Usage: `raycast_peer MESH RAYS THREADS REPEATS OUT [occluded LEN]`
 //! - RAYS: little-endian f32, 6 per ray (origin xyz, unit direction xyz);
-//! - OUT_T: written with one little-endian f32 per ray: hit distance, or
-//!   infinity for a miss (to check that both engines agree).
+//! - OUT: closest hit: one little-endian f32 per ray, the hit distance or
+//!   infinity for a miss; with `occluded LEN`: one byte per ray, 1 if the
+//!   segment from the origin to LEN metres along the ray is occluded (to
+//!   check that both engines agree).
 //!
 //! Prints one line per repeat: `rays_per_s=<value>`.
 
@@ -18,9 +21,13 @@ use vpctl_suite::scene::raycast::RayCaster;
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().collect();
     ensure!(
-        args.len() == 6,
-        "usage: raycast_peer MESH RAYS THREADS REPEATS OUT_T"
+        args.len() == 6 || (args.len() == 8 && args[6] == "occluded"),
+        "usage: raycast_peer MESH RAYS THREADS REPEATS OUT [occluded LEN]"
     );
+    let segment_len: Option<f64> = match args.get(7) {
+        Some(s) => Some(s.parse().context("LEN")?),
+        None => None,
+    };
     let mesh = read_mesh(args[1].as_ref())?;
     let bytes = std::fs::read(&args[2]).with_context(|| format!("reading {}", args[2]))?;
     ensure!(
@@ -51,17 +58,29 @@ fn main() -> Result<()> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()?;
-    let mut hits = Vec::new();
-    for _ in 0..repeats {
-        let t0 = Instant::now();
-        hits = pool.install(|| caster.closest_hits(&rays, f64::INFINITY));
-        let dt = t0.elapsed().as_secs_f64();
-        println!("rays_per_s={:.0}", rays.len() as f64 / dt);
+    let mut out = Vec::new();
+    if let Some(len) = segment_len {
+        let segments: Vec<(Point3<f64>, Point3<f64>)> =
+            rays.iter().map(|(o, d)| (*o, o + d * len)).collect();
+        for _ in 0..repeats {
+            let t0 = Instant::now();
+            let occluded = pool.install(|| caster.occluded_batch(&segments));
+            let dt = t0.elapsed().as_secs_f64();
+            println!("rays_per_s={:.0}", rays.len() as f64 / dt);
+            out = occluded.iter().map(|&o| u8::from(o)).collect();
+        }
+    } else {
+        for _ in 0..repeats {
+            let t0 = Instant::now();
+            let hits = pool.install(|| caster.closest_hits(&rays, f64::INFINITY));
+            let dt = t0.elapsed().as_secs_f64();
+            println!("rays_per_s={:.0}", rays.len() as f64 / dt);
+            out = hits
+                .iter()
+                .flat_map(|h| h.map_or(f32::INFINITY, |h| h.t as f32).to_le_bytes())
+                .collect();
+        }
     }
-    let out: Vec<u8> = hits
-        .iter()
-        .flat_map(|h| h.map_or(f32::INFINITY, |h| h.t as f32).to_le_bytes())
-        .collect();
     std::fs::write(&args[5], out).with_context(|| format!("writing {}", args[5]))?;
     Ok(())
 }

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Closest-hit rays/s of vp-scene (obvhs CWBVH) against Embree (embreex) on
+"""Closest-hit and occlusion rays/s of vp-scene against Embree (embreex) on
 the same procedural site and the same rays, in one script run, interleaved.
 
     .venv/bin/pip install embreex numpy
@@ -7,8 +7,10 @@ the same procedural site and the same rays, in one script run, interleaved.
     .venv/bin/python benches/peer/raycast_vs_embree.py [--faces 200000] [--rays 1000000]
 
 Rays: from 10-50 m above the site towards random points of its footprint
-(the distribution of benches/raycast.rs). Prints the median rays/s of each
-engine, the ratio, and how often the two agree on the hit distance.
+(the distribution of benches/raycast.rs); occlusion segments are the first
+40 m of each ray (as in that bench). Embree runs on one thread (embreex
+traces ray by ray). Prints the median rays/s of each engine, the ratios,
+and how often the two agree on the hit distance and on occlusion.
 """
 import argparse
 import os
@@ -90,14 +92,27 @@ def main():
     mc.TriangleMesh(scene, verts.astype(np.float32), faces)
     scene.run(o32[:1000], d32[:1000], output=1)  # warm up (builds the BVH)
 
+    seg_len = 40.0
+    # vp-scene shortens a segment by this relative tolerance at its far end.
+    seg_dists = np.full(n, seg_len * (1.0 - 1e-5), dtype=np.float32)
     embree, ours1, ours2 = [], [], []
+    embree_occ, ours1_occ, ours2_occ = [], [], []
     t_ours = os.path.join(tmp, "t.bin")
+    occ_ours = os.path.join(tmp, "occ.bin")
     for _ in range(args.repeats):
         t0 = time.perf_counter()
         res = scene.run(o32, d32, output=1)
         embree.append(n / (time.perf_counter() - t0))
         for threads, sink in ((1, ours1), (2, ours2)):
             out = subprocess.run([peer, site, rays_file, str(threads), "1", t_ours],
+                                 check=True, capture_output=True, text=True).stdout
+            sink.append(float(out.split("=")[1]))
+        t0 = time.perf_counter()
+        occ = scene.run(o32, d32, dists=seg_dists, query="OCCLUDED")
+        embree_occ.append(n / (time.perf_counter() - t0))
+        for threads, sink in ((1, ours1_occ), (2, ours2_occ)):
+            out = subprocess.run([peer, site, rays_file, str(threads), "1", occ_ours,
+                                  "occluded", str(seg_len)],
                                  check=True, capture_output=True, text=True).stdout
             sink.append(float(out.split("=")[1]))
 
@@ -107,13 +122,24 @@ def main():
     agree = np.isclose(t_embree[both], t_vp[both], rtol=1e-4, atol=1e-4).mean()
     hit_agree = (np.isfinite(t_embree) == np.isfinite(t_vp)).mean()
 
+    occ_embree = occ >= 0
+    occ_vp = np.fromfile(occ_ours, dtype="u1").astype(bool)
+    occ_agree = (occ_embree == occ_vp).mean()
+
     med = statistics.median
     print(f"mesh: {len(faces)} faces; rays: {n}; repeats: {args.repeats} (interleaved)")
-    print(f"embree (embreex, as called from Python): {med(embree) / 1e6:.2f} M rays/s")
-    print(f"vp-scene 1 thread:                       {med(ours1) / 1e6:.2f} M rays/s")
-    print(f"vp-scene 2 threads:                      {med(ours2) / 1e6:.2f} M rays/s")
-    print(f"ratio vp-scene(2 threads) / embree:      {med(ours2) / med(embree):.2f}")
+    for name, e, o1, o2 in (("closest hit", embree, ours1, ours2),
+                            (f"occlusion ({seg_len:g} m)", embree_occ, ours1_occ, ours2_occ)):
+        print(f"{name}:")
+        print(f"  embree 1 thread (embreex, from Python): {med(e) / 1e6:.2f} M rays/s")
+        print(f"  vp-scene 1 thread:                      {med(o1) / 1e6:.2f} M rays/s")
+        print(f"  vp-scene 2 threads:                     {med(o2) / 1e6:.2f} M rays/s")
+        print(f"  ratio vp-scene(1 thread) / embree:      {med(o1) / med(e):.2f}")
+        print(f"  ratio vp-scene(2 threads) / embree:     {med(o2) / med(e):.2f}")
+        print(f"  per-repeat ratios (1 thread):           "
+              + " ".join(f"{a / b:.2f}" for a, b in zip(o1, e)))
     print(f"hit/miss agreement: {hit_agree:.5f}; distance agreement where both hit: {agree:.5f}")
+    print(f"occlusion agreement: {occ_agree:.5f}")
 
 
 if __name__ == "__main__":

@@ -179,10 +179,10 @@ fn bench_predict(c: &mut Criterion) {
     ] {
         let img = texture_image(w, h, 64, 7).image;
         g.throughput(Throughput::Elements(u64::from(w * h)));
-        // Prediction converts with the complemented planes; time exactly that.
-        let planes = LabPlanes::from_rgb_with_complement(&img);
+        // Prediction converts to the three Lab planes; time exactly that.
+        let planes = LabPlanes::from_rgb(&img);
         g.bench_function(format!("lab_{name}"), |b| {
-            b.iter(|| black_box(LabPlanes::from_rgb_with_complement(black_box(&img))));
+            b.iter(|| black_box(LabPlanes::from_rgb(black_box(&img))));
         });
         g.bench_function(format!("grid_only_{name}_step8_20x20"), |b| {
             b.iter(|| black_box(forest.predict_lab(&planes, 8).unwrap()));

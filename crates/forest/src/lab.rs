@@ -19,9 +19,9 @@ use crate::patch::RADIUS;
 pub const PAD: usize = RADIUS;
 
 /// An image in CIE Lab, quantised to 8 bits per channel, as three planes
-/// padded by [`PAD`] pixels of replicated border; for prediction optionally
-/// followed by the three complemented planes (255 - v), which turn every
-/// split test into a sum (see [`crate::predict`]'s docs).
+/// padded by [`PAD`] pixels of replicated border; optionally followed by the
+/// three complemented planes (255 - v). Prediction no longer needs them (it
+/// complements per node, see [`crate::predict`]'s docs) and ignores them.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct LabPlanes {
     width: u32,
@@ -157,8 +157,8 @@ impl LabPlanes {
         Self::convert(image, false)
     }
 
-    /// [`LabPlanes::from_rgb`] plus the complemented planes, as prediction
-    /// wants them.
+    /// [`LabPlanes::from_rgb`] plus the complemented planes (twice the
+    /// memory; prediction does not need them).
     pub fn from_rgb_with_complement(image: &RgbImage) -> Self {
         Self::convert(image, true)
     }

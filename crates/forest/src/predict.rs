@@ -1,13 +1,13 @@
 //! Prediction: dense on a grid, or at given pixels.
 //!
-//! Trees are compiled per image stride into 16-byte nodes. With the
-//! complemented planes (255 - v) next to the Lab planes, every test becomes
-//! "is v1 + v2' within [lo, lo + span]": a difference v1 - v2 is
-//! v1 + (255 - v2) - 255, an absolute difference |d| <= t is a window
-//! 255 - t..=255 + t, a value v1 is v1 + v1. A leaf becomes a node that
-//! points to itself with a window holding every response. A whole row of
-//! grid points then walks a tree in lockstep for exactly the tree's depth,
-//! without a branch per visit: the walks of different points are
+//! Trees are compiled per image stride into 16-byte nodes. Every split test
+//! becomes "is v1 + v2' within [lo, lo + span]", where v2' is v2 or its
+//! complement 255 - v2 (one XOR with 0xff, chosen per node): a difference
+//! v1 - v2 is v1 + (255 - v2) - 255, an absolute difference |d| <= t is a
+//! window 255 - t..=255 + t, a value v1 is v1 + v1. A leaf becomes a node
+//! that points to itself with a window holding every response. A whole row
+//! of grid points then walks a tree in lockstep for exactly the tree's
+//! depth, without a branch per visit: the walks of different points are
 //! independent, so the CPU keeps many node and pixel loads in flight
 //! instead of waiting on each.
 
@@ -24,14 +24,31 @@ use crate::Forest;
 const BATCH: usize = 512;
 
 /// A node compiled for one plane stride: go left iff
-/// `(v1 + v2) - lo`, as an unsigned number, is at most `span`.
-#[derive(Debug, Clone, Copy)]
+/// `(v1 + v2') - lo`, as an unsigned number, is at most `span`, where v2'
+/// is v2, or 255 - v2 if the top bit of `child` is set.
+#[derive(Debug, Clone, Copy, Default)]
 struct CNode {
     off1: i32,
     off2: i32,
+    /// Left child index (the right one follows), top bit: complement v2.
     child: u32,
     lo: i16,
     span: u16,
+}
+
+/// The complement flag in [`CNode::child`].
+const COMPLEMENT: u32 = 1 << 31;
+
+impl CNode {
+    /// The child this node sends a sample with values `v1`, `v2` to.
+    #[inline]
+    fn next(&self, v1: u8, v2: u8) -> u32 {
+        // 0xff if the complement flag is set, else 0: v2 ^ mask is v2 or 255 - v2.
+        let mask = ((self.child as i32) >> 31) as u8;
+        let sum = i32::from(v1) + i32::from(v2 ^ mask);
+        let right = (sum - i32::from(self.lo)) as u32 > u32::from(self.span);
+        (self.child & !COMPLEMENT) + u32::from(right)
+    }
 }
 
 /// The window of sums v1 + v2' (each 0..=255, so 0..=510) that go left.
@@ -57,19 +74,17 @@ fn compile_node(i: usize, n: &Node, planes: &LabPlanes) -> CNode {
         };
     }
     let (o1, o2) = n.test.plane_offsets(planes);
-    // The complement of channel c lies three planes further on.
-    let complement = 3 * planes.plane_len() as isize;
     let t = i32::from(n.threshold);
-    let (off2, (lo, span)) = match n.test.op {
-        TestOp::Value => (o1, window(i32::MIN, 2 * t)),
-        TestOp::Sum => (o2, window(i32::MIN, t)),
-        TestOp::Difference => (o2 + complement, window(i32::MIN, t + 255)),
-        TestOp::AbsDifference => (o2 + complement, window(255 - t, 255 + t)),
+    let (off2, complement, (lo, span)) = match n.test.op {
+        TestOp::Value => (o1, false, window(i32::MIN, 2 * t)),
+        TestOp::Sum => (o2, false, window(i32::MIN, t)),
+        TestOp::Difference => (o2, true, window(i32::MIN, t + 255)),
+        TestOp::AbsDifference => (o2, true, window(255 - t, 255 + t)),
     };
     CNode {
         off1: o1 as i32,
         off2: off2 as i32,
-        child: n.child,
+        child: n.child | if complement { COMPLEMENT } else { 0 },
         lo,
         span,
     }
@@ -105,7 +120,14 @@ fn compile(forest: &Forest, planes: &LabPlanes) -> Vec<Compiled> {
 }
 
 /// Walks `bases` through every tree and writes the mean leaf confidences
-/// to `acc` (`bases.len()` x b). `data` must hold the complemented planes.
+/// to `acc` (`bases.len()` x b).
+///
+/// Each level is two passes over the points: first gather every point's
+/// node, then read its two values and step. Fused, each step waited for
+/// its node load (a cache miss for most points below the top levels)
+/// before it could even issue its pixel loads; split, the gather pass has
+/// no dependent work, so the CPU keeps dozens of node loads in flight, and
+/// the step pass finds its nodes in L1 and overlaps the pixel loads.
 fn accumulate(
     forest: &Forest,
     compiled: &[Compiled],
@@ -115,21 +137,27 @@ fn accumulate(
 ) {
     let b = forest.bins().len();
     let mut cur = vec![0u32; bases.len()];
+    let mut nodes = vec![compiled.first().map_or(CNode::default(), |c| c.nodes[0]); bases.len()];
     acc.fill(0.0);
     for (tree, c) in forest.trees().iter().zip(compiled) {
         cur.fill(0);
         for _ in 0..c.depth {
-            for (k, &base) in cur.iter_mut().zip(bases) {
-                let n = c.nodes[*k as usize];
-                let v1 = i32::from(data[base.wrapping_add_signed(n.off1 as isize)]);
-                let v2 = i32::from(data[base.wrapping_add_signed(n.off2 as isize)]);
-                let right = (v1 + v2 - i32::from(n.lo)) as u32 > u32::from(n.span);
-                *k = n.child + u32::from(right);
+            for (n, k) in nodes.iter_mut().zip(&cur) {
+                *n = c.nodes[*k as usize];
+            }
+            for ((k, &base), n) in cur.iter_mut().zip(bases).zip(&nodes) {
+                *k = n.next(
+                    data[base.wrapping_add_signed(n.off1 as isize)],
+                    data[base.wrapping_add_signed(n.off2 as isize)],
+                );
             }
         }
+        for k in &mut cur {
+            *k = c.leaf[*k as usize];
+        }
         let conf = tree.confidences();
-        for (k, out) in cur.iter().zip(acc.chunks_exact_mut(b)) {
-            let leaf = c.leaf[*k as usize] as usize;
+        for (&leaf, out) in cur.iter().zip(acc.chunks_exact_mut(b)) {
+            let leaf = leaf as usize;
             for (o, v) in out.iter_mut().zip(&conf[leaf * b..(leaf + 1) * b]) {
                 *o += v;
             }
@@ -156,16 +184,12 @@ impl Forest {
                 "cannot predict on an empty image".into(),
             ));
         }
-        self.predict_lab(&LabPlanes::from_rgb_with_complement(image), step)
+        self.predict_lab(&LabPlanes::from_rgb(image), step)
     }
 
-    /// [`Forest::predict_image`] on an image already converted to Lab;
-    /// planes without complement ([`LabPlanes::from_rgb`]) are copied once
-    /// to add it.
+    /// [`Forest::predict_image`] on an image already converted to Lab
+    /// (complemented planes, if present, are not needed).
     pub fn predict_lab(&self, planes: &LabPlanes, step: u32) -> Result<ConfidenceImage> {
-        if !planes.has_complement() {
-            return self.predict_lab(&planes.with_complement(), step);
-        }
         let mut out =
             ConfidenceImage::zeros(planes.width(), planes.height(), step, self.bins().clone())?;
         let b = self.bins().len();
@@ -196,9 +220,6 @@ impl Forest {
                 planes.height()
             )));
         }
-        if !planes.has_complement() {
-            return self.predict_pixels(&planes.with_complement(), pixels);
-        }
         let b = self.bins().len();
         let compiled = compile(self, planes);
         let mut out = vec![0.0f32; pixels.len() * b];
@@ -227,7 +248,7 @@ mod tests {
         let img = RgbImage::from_fn(30, 30, |x, y| {
             image::Rgb([(x * 9) as u8, (y * 8) as u8, ((x * y) % 256) as u8])
         });
-        let planes = LabPlanes::from_rgb_with_complement(&img);
+        let planes = LabPlanes::from_rgb(&img);
         let d = planes.data();
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
         for _ in 0..3000 {
@@ -245,9 +266,10 @@ mod tests {
             };
             let c = compile_node(0, &node, &planes);
             let base = planes.base(rng.random_range(0..30), rng.random_range(0..30));
-            let v1 = i32::from(d[base.wrapping_add_signed(c.off1 as isize)]);
-            let v2 = i32::from(d[base.wrapping_add_signed(c.off2 as isize)]);
-            let left = (v1 + v2 - i32::from(c.lo)) as u32 <= u32::from(c.span);
+            let left = c.next(
+                d[base.wrapping_add_signed(c.off1 as isize)],
+                d[base.wrapping_add_signed(c.off2 as isize)],
+            ) == 1;
             let want = test.response(&planes, base) <= i32::from(threshold);
             assert_eq!(left, want, "{test:?} threshold {threshold}");
         }
@@ -315,6 +337,12 @@ mod tests {
         let (x, y) = conf.node_pixel(2, 3);
         let k = (y * 48 + x) as usize * b;
         assert_eq!(conf.node(2, 3), &fast[k..k + b]);
+        // Planes that carry the complemented copies (as metrics converts
+        // them) predict the same: the complement is taken per node.
+        let with = forest
+            .predict_lab(&LabPlanes::from_rgb_with_complement(&img), 8)
+            .unwrap();
+        assert_eq!(with, conf);
         assert!(forest.predict_pixels(&planes, &[(48, 0)]).is_err());
     }
 }
