@@ -33,5 +33,8 @@ echo "== long runs: the paper's findings on held-out sites, campaign determinism
 # which then reuses this release build instead of compiling everything again.
 cargo test --release --locked --workspace --test campaign -- --ignored --nocapture
 
+echo "== long runs: vp-mvs on real photos against COLMAP's sparse points (release)"
+cargo test --release --locked --workspace --test suite vp_mvs_depth_agrees_with_colmap_sparse_points_on_real_photos -- --ignored --nocapture
+
 echo "== benchmarks, smoke run (each benchmark once)"
 cargo bench --workspace --locked -- --test

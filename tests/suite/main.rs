@@ -3,5 +3,6 @@
 
 mod labels;
 mod mvs;
+mod mvs_real;
 mod mvs_workspace;
 mod scene;
