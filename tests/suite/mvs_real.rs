@@ -25,9 +25,9 @@ fn copy_dir(from: &Path, to: &Path) {
 }
 
 /// Relative errors |z_map - z| / z of every well-triangulated sparse point
-/// (track of >= 3 images, reprojection error <= 1 px, triangulation angle
-/// >= 10 deg) in every image that observes it; a pixel without depth counts
-/// as an infinite error.
+/// (a track of at least 3 images, a reprojection error of at most 1 px, a
+/// triangulation angle of at least 10 deg) in every image that observes it;
+/// a pixel without depth counts as an infinite error.
 fn relative_errors(ws: &Path) -> Vec<f64> {
     let rec = colmap::read_model(&ws.join("sparse")).unwrap();
     let mut errors = Vec::new();
