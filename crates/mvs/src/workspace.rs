@@ -438,24 +438,7 @@ pub fn run_workspace(
             root.display()
         )));
     }
-    let mut ranges = Vec::with_capacity(selected.len());
-    for &i in &selected {
-        let range = match options.depth_range {
-            Some(r) => r,
-            None => ws
-                .depth_range_from_points(i, params.depth_range_margin)
-                .ok_or_else(|| {
-                    MvsError::InvalidArgument(format!(
-                    "image '{}' sees no sparse points: give a depth range (--depth-range MIN,MAX)",
-                    ws.images[i].name
-                ))
-                })?,
-        };
-        check_depth_range(range).map_err(|m| {
-            MvsError::InvalidArgument(format!("image '{}': {m}", ws.images[i].name))
-        })?;
-        ranges.push(range);
-    }
+    let ranges = ws.depth_ranges(&selected, options.depth_range, params.depth_range_margin)?;
     let sources = ws.sources(&selected, &ranges, params)?;
     progress(&format!("loading {} images", selected.len()));
     let views = ws.load_views(&selected, &ranges)?;
@@ -511,24 +494,7 @@ pub fn run_image_set(
             selected.len()
         )));
     }
-    let mut ranges = Vec::with_capacity(selected.len());
-    for &i in &selected {
-        let range = match depth_range {
-            Some(r) => r,
-            None => ws
-                .depth_range_from_points(i, params.depth_range_margin)
-                .ok_or_else(|| {
-                    MvsError::InvalidArgument(format!(
-                    "image '{}' sees no sparse points: give a depth range (--depth-range MIN,MAX)",
-                    ws.images[i].name
-                ))
-                })?,
-        };
-        check_depth_range(range).map_err(|m| {
-            MvsError::InvalidArgument(format!("image '{}': {m}", ws.images[i].name))
-        })?;
-        ranges.push(range);
-    }
+    let ranges = ws.depth_ranges(&selected, depth_range, params.depth_range_margin)?;
     let full = ws.load_views(&selected, &ranges)?;
     let factor = 1u32 << (level - 1);
     let views: Vec<View> = if factor == 1 {
@@ -578,4 +544,34 @@ pub fn run_image_set(
         shares.push(g.depth.iter().filter(|&&d| d > 0.0).count() as f64 / g.depth.len() as f64);
     }
     Ok(shares)
+}
+
+impl Workspace {
+    /// The depth range of each selected image: `given` for all, or each
+    /// image's own from the sparse points it sees (with `margin`); checked.
+    fn depth_ranges(
+        &self,
+        selected: &[usize],
+        given: Option<(f64, f64)>,
+        margin: f64,
+    ) -> Result<Vec<(f64, f64)>> {
+        selected
+            .iter()
+            .map(|&i| {
+                let name = &self.images[i].name;
+                let range = match given {
+                    Some(r) => r,
+                    None => self.depth_range_from_points(i, margin).ok_or_else(|| {
+                        MvsError::InvalidArgument(format!(
+                            "image '{name}' sees no sparse points: give a depth range \
+                             (--depth-range MIN,MAX)"
+                        ))
+                    })?,
+                };
+                check_depth_range(range)
+                    .map_err(|m| MvsError::InvalidArgument(format!("image '{name}': {m}")))?;
+                Ok(range)
+            })
+            .collect()
+    }
 }
