@@ -45,6 +45,7 @@ fn quick_demo_prints_the_table_and_writes_the_report() {
         assert!(stdout.contains(row), "{row} missing from\n{stdout}");
     }
     assert!(stdout.contains("spearman"), "{stdout}");
+    assert!(stdout.contains("Label quality"), "{stdout}");
     // The report: table, CSV with one line per row, plots, plans and missions.
     let md = std::fs::read_to_string(out.join("table.md")).unwrap();
     assert!(md.contains("| F1x2 |"));
@@ -81,15 +82,48 @@ fn quick_demo_prints_the_table_and_writes_the_report() {
     let o = vpctl(&["demo", "--quick", "--out", s(&out)]);
     assert_eq!(o.status.code(), Some(2), "stderr: {}", text(&o.stderr));
     assert!(text(&o.stderr).contains("--force"));
+}
 
-    // The saved model is reused (no training) and gives the same table.
-    let again = dir.path().join("again");
-    let o2 = vpctl(&["demo", "--quick", "--out", s(&again), "--model", s(&model)]);
+/// The quick preset on the virtual MVS stand-in (seconds): the saved forest
+/// is reused without training and gives the same table.
+#[test]
+fn a_saved_forest_is_reused_and_gives_the_same_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = vpctl(&["sim", "config", "--preset", "quick"]);
+    assert!(o.status.success());
+    let toml = text(&o.stdout);
+    assert!(toml.contains("mvs = \"patchmatch\""), "{toml}");
+    let cfg = dir.path().join("virtual.toml");
+    std::fs::write(
+        &cfg,
+        toml.replace("mvs = \"patchmatch\"", "mvs = \"virtual\""),
+    )
+    .unwrap();
+    let (first, again, model) = (
+        dir.path().join("first"),
+        dir.path().join("again"),
+        dir.path().join("forest.vpf"),
+    );
+    let run = |out: &Path, model_flag: &str| {
+        vpctl(&[
+            "sim",
+            "run",
+            "--config",
+            s(&cfg),
+            "--out",
+            s(out),
+            model_flag,
+            s(&model),
+        ])
+    };
+    let o = run(&first, "--save-model");
+    assert!(o.status.success(), "stderr: {}", text(&o.stderr));
+    let o2 = run(&again, "--model");
     assert!(o2.status.success(), "stderr: {}", text(&o2.stderr));
     assert!(!text(&o2.stderr).contains("training site"));
     assert_eq!(
         std::fs::read_to_string(again.join("table.csv")).unwrap(),
-        csv,
+        std::fs::read_to_string(first.join("table.csv")).unwrap(),
         "a saved and reloaded forest must give the same table"
     );
 }

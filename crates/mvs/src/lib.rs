@@ -36,7 +36,9 @@ pub use geometric::geometric_filter;
 pub use params::MvsParams;
 pub use patchmatch::{patch_match, DepthNormalMap};
 pub use view::{GreyImage, View};
-pub use workspace::{run_image_set, run_workspace, RunOptions, RunSummary, Workspace};
+pub use workspace::{
+    frustum_sources, run_image_set, run_workspace, RunOptions, RunSummary, Workspace,
+};
 
 /// The result of [`reconstruct`], indexed like the views.
 #[derive(Debug, Clone)]

@@ -256,39 +256,29 @@ impl Workspace {
         ranges: &[(f64, f64)],
         params: &MvsParams,
     ) -> Vec<Vec<usize>> {
+        if self.model.points.is_empty() {
+            let cams: Vec<Camera> = selected.iter().map(|&i| self.images[i].camera).collect();
+            return frustum_sources(&cams, ranges, params);
+        }
         let min_angle_deg = params.min_triangulation_angle_deg;
-        let has_points = !self.model.points.is_empty();
         selected
             .iter()
             .enumerate()
             .map(|(r, &ri)| {
                 let cr = self.images[ri].camera.center();
-                let mut scored: Vec<(f64, usize)> = Vec::new();
-                for (s, &si) in selected.iter().enumerate() {
-                    if s == r {
-                        continue;
-                    }
-                    let cs = self.images[si].camera.center();
-                    let score = if has_points {
-                        self.shared_points(ri, si, &cr, &cs, min_angle_deg) as f64
-                    } else {
-                        frustum_overlap(
-                            &self.images[ri].camera,
-                            &self.images[si].camera,
-                            ranges[r],
-                            min_angle_deg,
-                        )
-                    };
-                    if score > 0.0 {
-                        scored.push((score, s));
-                    }
-                }
-                scored.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-                scored
-                    .into_iter()
-                    .take(params.max_sources)
-                    .map(|(_, s)| s)
-                    .collect()
+                let scored =
+                    selected
+                        .iter()
+                        .enumerate()
+                        .filter(|&(s, _)| s != r)
+                        .map(|(s, &si)| {
+                            let cs = self.images[si].camera.center();
+                            (
+                                self.shared_points(ri, si, &cr, &cs, min_angle_deg) as f64,
+                                s,
+                            )
+                        });
+                best_sources(scored, params.max_sources)
             })
             .collect()
     }
@@ -319,6 +309,39 @@ impl Workspace {
         }
         n
     }
+}
+
+/// Source images of each of `cameras` when no sparse points tell which
+/// images see the same surface (an in-memory image set, a workspace without
+/// points): the cameras whose frustum covers most of the reference's,
+/// sampled at three depths of its range `ranges[r]`, with at least the
+/// minimum triangulation angle at mid range; at most `max_sources`, best first.
+pub fn frustum_sources(
+    cameras: &[Camera],
+    ranges: &[(f64, f64)],
+    params: &MvsParams,
+) -> Vec<Vec<usize>> {
+    (0..cameras.len())
+        .map(|r| {
+            let scored = (0..cameras.len()).filter(|&s| s != r).map(|s| {
+                let score = frustum_overlap(
+                    &cameras[r],
+                    &cameras[s],
+                    ranges[r],
+                    params.min_triangulation_angle_deg,
+                );
+                (score, s)
+            });
+            best_sources(scored, params.max_sources)
+        })
+        .collect()
+}
+
+/// The `max` best-scored sources (score > 0), best first, ties by index.
+fn best_sources(scored: impl Iterator<Item = (f64, usize)>, max: usize) -> Vec<usize> {
+    let mut scored: Vec<(f64, usize)> = scored.filter(|&(score, _)| score > 0.0).collect();
+    scored.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    scored.into_iter().take(max).map(|(_, s)| s).collect()
 }
 
 /// Share of a grid of the reference's pixels, at three depths of its range,

@@ -20,6 +20,9 @@ pub enum SimError {
     /// An error from label generation.
     #[error("label generation: {0}")]
     Labelgen(#[from] vp_labelgen::LabelgenError),
+    /// An error from vp-mvs.
+    #[error("mvs: {0}")]
+    Mvs(#[from] vp_mvs::MvsError),
     /// A campaign step failed (the message names the site, strategy and step).
     #[error("campaign: {0}")]
     Campaign(String),
@@ -39,6 +42,7 @@ impl SimError {
             SimError::Mission(e) => e.is_input_error(),
             SimError::Planner(e) => e.is_input_error(),
             SimError::Labelgen(e) => e.is_input_error(),
+            SimError::Mvs(e) => e.is_input_error(),
             SimError::Campaign(_) => false,
         }
     }

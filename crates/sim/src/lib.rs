@@ -1,9 +1,14 @@
-//! `vp-sim`: the simulated world that stands in for a drone and a real
-//! dense MVS algorithm.
+//! `vp-sim`: the simulated world that stands in for a drone.
 //!
 //! - [`render::render`]: ray-cast RGB images of a procedural site with
-//!   per-material solid textures and sun shading, plus exact depth and face ids.
-//! - [`mvs::VirtualMvs`]: one depth map per image of a camera triplet, failing
+//!   per-material solid textures, sun shading, shadows and sensor noise,
+//!   plus exact depth and face ids. vp-mvs matches these images in every
+//!   campaign; nothing decides its success but the images.
+//! - [`mvs::triplet_truth`]: per pixel of a triplet, what the renderer knows
+//!   (visibility in all three views, triangulation angle, first-order depth
+//!   sigma), the truth vp-mvs's output is measured against.
+//! - [`mvs::VirtualMvs`]: a fast stand-in for unit tests (`mvs = "virtual"`):
+//!   one depth map per image of a camera triplet, failing
 //!   with a probability that depends on material, triangulation angle and
 //!   resolution ([`mvs::MvsProfile`]: SURE-like and PMVS-like presets), in
 //!   spatially coherent blobs, with depth noise from the triplet's first-order

@@ -89,6 +89,14 @@ fn rotate(p: [f64; 3]) -> [f64; 3] {
 /// (metres) with the first octave's `wavelength` (metres); each further octave
 /// halves wavelength and amplitude. Normalised to [-1, 1].
 pub fn fbm(seed: u64, p: [f64; 3], wavelength: f64, octaves: u32) -> f64 {
+    fbm_gain(seed, p, wavelength, octaves, 0.5)
+}
+
+/// [`fbm`] whose amplitude falls by `gain` per octave instead of halving.
+/// A gain of 2^(1 - alpha) gives the amplitude spectrum 1/f^alpha of
+/// natural images (alpha about 1 to 1.4: equal or slowly falling energy per
+/// octave), the statistic a photo of rock or soil has and a matcher feeds on.
+pub fn fbm_gain(seed: u64, p: [f64; 3], wavelength: f64, octaves: u32, gain: f64) -> f64 {
     let (mut amp, mut sum, mut norm) = (1.0, 0.0, 0.0);
     let mut q = rotate(p.map(|v| v / wavelength));
     for o in 0..octaves {
@@ -97,7 +105,7 @@ pub fn fbm(seed: u64, p: [f64; 3], wavelength: f64, octaves: u32) -> f64 {
         sum += amp * value_noise(seed ^ u64::from(o), [q[0] + s, q[1] - s, q[2] + 0.5 * s]);
         norm += amp;
         q = rotate(q.map(|v| 2.0 * v));
-        amp *= 0.5;
+        amp *= gain;
     }
     sum / norm
 }

@@ -10,6 +10,7 @@ use vp_scene::raycast::RayCaster;
 use vp_scene::{Camera, Material, Mesh};
 
 use crate::error::{Result, SimError};
+use crate::noise::{gaussian, mix64};
 use crate::texture::albedo;
 
 /// Offset of a shadow ray's origin from the surface, metres.
@@ -34,6 +35,12 @@ pub struct RenderParams {
     pub texture_seed: u64,
     /// Colour of pixels that hit no surface, 8-bit RGB.
     pub sky: [u8; 3],
+    /// Standard deviation of the sensor noise, 8-bit grey levels, added to
+    /// every channel of every pixel (a camera's read and shot noise; without
+    /// it, two views of a flat texture match better than any photo would).
+    /// Each image draws its own noise: the seed mixes `texture_seed` with
+    /// the camera's pose.
+    pub noise_sigma: f64,
 }
 
 impl Default for RenderParams {
@@ -46,6 +53,7 @@ impl Default for RenderParams {
             shadows: true,
             texture_seed: 0,
             sky: [170, 200, 235],
+            noise_sigma: 2.0,
         }
     }
 }
@@ -63,6 +71,12 @@ impl RenderParams {
             return Err(SimError::InvalidArgument(format!(
                 "sun_azimuth_deg = {} is not finite",
                 self.sun_azimuth_deg
+            )));
+        }
+        if !(self.noise_sigma >= 0.0 && self.noise_sigma <= 64.0) {
+            return Err(SimError::InvalidArgument(format!(
+                "noise_sigma = {} is outside [0, 64] grey levels",
+                self.noise_sigma
             )));
         }
         if !(0.0..=1.0).contains(&self.ambient) {
@@ -147,6 +161,7 @@ pub fn render(
         sun,
         params,
     };
+    let noise_seed = image_noise_seed(camera, params.texture_seed);
     let mut rgb = vec![0u8; w * h * 3];
     let mut depth = vec![0f32; w * h];
     let mut face_id = vec![u32::MAX; w * h];
@@ -163,8 +178,15 @@ pub fn render(
                 };
                 drow[x] = (hit.t * d.dot(&axis)) as f32;
                 frow[x] = hit.face;
-                let colour = surface.shade(hit.face, &hit.point, &d);
-                crow[3 * x..3 * x + 3].copy_from_slice(&colour);
+                let light = surface.light(hit.face, &hit.point, &d);
+                for (c, (out, a)) in crow[3 * x..3 * x + 3].iter_mut().zip(light).enumerate() {
+                    let noise = if params.noise_sigma > 0.0 {
+                        params.noise_sigma * gaussian(noise_seed, x as i64, y as i64, c as i64)
+                    } else {
+                        0.0
+                    };
+                    *out = (a * 255.0 + noise).round().clamp(0.0, 255.0) as u8;
+                }
             }
         });
     let rgb =
@@ -190,8 +212,8 @@ struct Surface<'a> {
 }
 
 impl Surface<'_> {
-    /// Colour of face `face` at `p`, seen along `dir`.
-    fn shade(&self, face: u32, p: &Point3<f64>, dir: &Vector3<f64>) -> [u8; 3] {
+    /// Linear colour in [0, 1] of face `face` at `p`, seen along `dir`.
+    fn light(&self, face: u32, p: &Point3<f64>, dir: &Vector3<f64>) -> [f64; 3] {
         let f = face as usize;
         let mut n = self.normals[f];
         if n.dot(dir) > 0.0 {
@@ -208,7 +230,18 @@ impl Surface<'_> {
         }
         let ambient = self.params.ambient;
         let light = ambient + (1.0 - ambient) * direct;
-        albedo(self.materials[f], p, self.params.texture_seed)
-            .map(|a| (f64::from(a) * light * 255.0).round().clamp(0.0, 255.0) as u8)
+        albedo(self.materials[f], p, self.params.texture_seed).map(|a| f64::from(a) * light)
     }
+}
+
+/// Seed of one image's sensor noise: the world's seed and the camera's pose.
+fn image_noise_seed(camera: &Camera, seed: u64) -> u64 {
+    let pose = camera.world_from_cam;
+    let t = pose.translation.vector;
+    let q = pose.rotation.coords;
+    [t.x, t.y, t.z, q.x, q.y, q.z, q.w]
+        .iter()
+        .fold(mix64(seed ^ 0x006e_6f69_7365), |h, v| {
+            mix64(h ^ v.to_bits())
+        })
 }

@@ -3,14 +3,16 @@
 //! Albedo is a pure function of the material and the 3D world point, so every
 //! view of a surface point sees the same texture: what the forest learns from
 //! one image transfers to the next. The texture statistics follow what makes
-//! dense matching easy or hard in the paper's domain: smooth rock with
-//! low-frequency variation, earthy ground at mid frequencies, grass and leaves
-//! with high-frequency high-contrast texture, black and white checker markers.
+//! dense matching easy or hard in the paper's domain: rock with the 1/f
+//! spectrum of natural images at every scale, earthy ground at mid
+//! frequencies, grass and leaves with high-frequency high-contrast texture
+//! (whose look changes between views: the geometry is thin and occludes
+//! itself), black and white checker markers.
 
 use nalgebra::Point3;
 use vp_scene::Material;
 
-use crate::noise::{fbm, hash3, unit};
+use crate::noise::{fbm, fbm_gain, hash3, unit};
 
 /// Side of one checker cell of a marker plate, metres (4 x 4 cells on the
 /// 0.5 m plates of vp-scene's sites).
@@ -47,16 +49,19 @@ fn mix(a: [f32; 3], b: [f32; 3], t: f64) -> Rgb {
     [0, 1, 2].map(|i| a[i] + (b[i] - a[i]) * t)
 }
 
-/// Smooth grey-beige stone: large soft patches, faint speckle.
+/// Grey-beige stone with the spectrum of a photo of rock: 1/f^alpha
+/// amplitude (alpha about 1.2, gain 0.85 per octave) from 4 m patches down
+/// to 1.6 cm grain (9 octaves), plus 1 cm speckle. An earlier rock had
+/// energy only above 1 m and at 1 cm: flat at every ground sampling
+/// distance a drone flies, which no real rock is.
 fn rock(q: [f64; 3], seed: u64) -> Rgb {
-    let low = fbm(seed, q, 4.0, 3);
-    // The large-scale tint follows the first octave's patches (no extra noise: cost).
-    let tint = low;
+    let low = fbm_gain(seed, q, 4.0, 9, 0.85);
+    let tint = fbm(seed ^ 1, q, 4.0, 1);
     // Speckle on a 1 cm lattice: a little grain, far below the grass contrast.
     let cell = q.map(|v| (v * 100.0).floor() as i64);
     let speckle = unit(hash3(seed ^ 2, cell[0], cell[1], cell[2])) - 0.5;
     let base = mix([0.56, 0.53, 0.49], [0.50, 0.47, 0.44], 0.5 + 0.5 * tint);
-    scale(base, 1.0 + 0.18 * low + 0.03 * speckle)
+    scale(base, 1.0 + 1.5 * low + 0.03 * speckle)
 }
 
 /// Brown earth with mid-frequency mottling, darker patches and soil grain.
@@ -111,7 +116,7 @@ mod tests {
         let grass = roughness(Material::Grass, 0.03);
         let tree = roughness(Material::Tree, 0.03);
         assert!(
-            grass > 3.0 * rock && tree > 3.0 * rock,
+            grass > 2.0 * rock && tree > 2.0 * rock && rock > 0.01,
             "rock {rock} grass {grass} tree {tree}"
         );
     }

@@ -8,9 +8,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use clap::Args;
 use vp_forest::Forest;
-use vp_sim::campaign::{
-    run_campaign_with_forest, train_forest_with_stats, write_report, CampaignConfig,
-};
+use vp_sim::campaign::{run_campaign_trained, write_report, CampaignConfig};
 
 /// Arguments shared by `demo` and `sim run`.
 #[derive(Debug, Args)]
@@ -58,21 +56,20 @@ pub fn run_config(cfg: &CampaignConfig, args: &CampaignArgs, out: &mut dyn Write
     let mut say = |m: &str| {
         eprintln!("[{:6.1} s] {m}", t0.elapsed().as_secs_f64());
     };
-    let (forest, stats) = if let Some(p) = &args.model {
-        say(&format!("loading the forest {}", p.display()));
-        (load_model(p)?, None)
-    } else {
-        let (f, s) = train_forest_with_stats(cfg, &mut say)?;
-        (f, Some(s))
+    let loaded = match &args.model {
+        Some(p) => {
+            say(&format!("loading the forest {}", p.display()));
+            Some(load_model(p)?)
+        }
+        None => None,
     };
+    let (report, forest) = run_campaign_trained(cfg, loaded, &mut say)?;
     if let Some(p) = &args.save_model {
         forest
             .save(p)
             .with_context(|| format!("saving the forest to {}", p.display()))?;
         say(&format!("forest saved to {}", p.display()));
     }
-    let mut report = run_campaign_with_forest(cfg, &forest, &mut say)?;
-    report.training = stats;
     write_report(&report, &args.out, args.force)?;
     writeln!(
         out,
@@ -82,9 +79,16 @@ pub fn run_config(cfg: &CampaignConfig, args: &CampaignArgs, out: &mut dyn Write
     write!(out, "{}", report.table_markdown())?;
     writeln!(
         out,
-        "\nLearned confidence vs the simulator's truth (rank correlation over angle bins):"
+        "\nLearned confidence vs vp-mvs's measured success (rank correlation over angle bins):"
     )?;
     write!(out, "{}", report.curves_summary())?;
+    if let Some(t) = &report.training {
+        writeln!(
+            out,
+            "\nLabel quality (labelgen on the MVS output against the renderer's truth):\n"
+        )?;
+        write!(out, "{}", t.label_quality.markdown())?;
+    }
     writeln!(
         out,
         "\nReport written to {} in {:.0} s.",

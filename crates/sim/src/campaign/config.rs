@@ -12,6 +12,9 @@ use vp_planner::PlannerConfig;
 use vp_scene::procedural::SiteParams;
 
 use crate::error::{Result, SimError};
+use vp_mvs::MvsParams;
+
+use super::fly::MvsKind;
 use crate::mvs::MvsProfile;
 use crate::render::RenderParams;
 
@@ -33,9 +36,18 @@ pub struct CampaignConfig {
     /// Margin around the rock's footprint that the region of interest adds, metres
     /// (the paper: the rock and a few metres of the surrounding vegetation).
     pub roi_margin_m: f64,
-    /// The virtual MVS (truth curves, noise).
+    /// The multi-view stereo that reconstructs every flown and training
+    /// image set: `"patchmatch"` (vp-mvs on the rendered images, the
+    /// default) or `"virtual"` (success drawn from `profile` and `gate`: a
+    /// fast stand-in for unit tests, whose outcome was written in advance).
+    pub mvs: MvsKind,
+    /// vp-mvs parameters (`seed` is set per reconstruction; `max_sources`
+    /// bounds the neighbours each Grid image is matched against).
+    pub patchmatch: MvsParams,
+    /// The virtual MVS (truth curves, noise); used only with `mvs = "virtual"`.
     pub profile: MvsProfile,
-    /// Triplet-level matching failure of the virtual MVS.
+    /// Triplet-level matching failure of the virtual MVS; used only with
+    /// `mvs = "virtual"`.
     pub gate: MatchingGate,
     /// Lighting of the rendered images.
     pub render: RenderParams,
@@ -177,6 +189,11 @@ pub struct EvalConfig {
     pub depth_tolerance_m: f64,
     /// c: cameras with successful depth a face needs to count as covered.
     pub min_cameras: usize,
+    /// A reconstruction "produced 3D output" (the paper's triplet success)
+    /// when at least this share of its images' ROI pixels holds a depth
+    /// within `depth_tolerance_m` of the truth [vpctl: 0.01; the paper
+    /// counts any output, and a few stray points are not a reconstruction].
+    pub min_output_share: f64,
 }
 
 /// Sections default to the demo preset's values.
@@ -278,6 +295,9 @@ impl CampaignConfig {
             }
         }
         self.profile.validate()?;
+        self.patchmatch
+            .validate()
+            .map_err(|e| SimError::InvalidArgument(format!("patchmatch: {e}")))?;
         self.render.validate()?;
         self.planner
             .validate()
@@ -326,9 +346,13 @@ impl CampaignConfig {
             ));
         }
         let e = &self.eval;
-        if !(e.split_edge_m >= 0.01) || !(e.depth_tolerance_m >= 0.0) || e.min_cameras == 0 {
+        if !(e.split_edge_m >= 0.01)
+            || !(e.depth_tolerance_m >= 0.0)
+            || e.min_cameras == 0
+            || !(0.0..=1.0).contains(&e.min_output_share)
+        {
             return bad(
-                "eval: split_edge_m >= 0.01, depth_tolerance_m >= 0, min_cameras >= 1".into(),
+                "eval: split_edge_m >= 0.01, depth_tolerance_m >= 0, min_cameras >= 1, min_output_share in [0, 1]".into(),
             );
         }
         if self.confidence_step == 0 {

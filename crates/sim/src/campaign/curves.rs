@@ -1,20 +1,27 @@
-//! Learned confidence against the simulator's truth, per material and angle
-//! bin (the paper's Fig. 4), and the Spearman rank correlation between them.
+//! Learned confidence against what the MVS measurably did, per material and
+//! angle bin (the paper's Fig. 4), and the Spearman rank correlation between
+//! them.
+//!
+//! Measured: over every training and flown triplet, the pixels all three
+//! cameras see, binned by their triangulation angle; the share whose depth
+//! is within the uncertainty bound of the true depth (`k_sigma` sigma, as a
+//! positive label claims). Learned: the forest's mean predicted confidence
+//! per bin over the held-out images' pixels of the material.
 
 use serde::Serialize;
-use vp_scene::raster::ConfidenceImage;
-use vp_scene::{Camera, Material, Mesh};
+use vp_scene::raster::{AngleBins, ConfidenceImage};
+use vp_scene::Material;
 
-use crate::mvs::MvsProfile;
 use crate::render::Rendered;
 
-/// Running sums of learned and true confidence per material and bin.
-#[derive(Debug, Clone, Default)]
+/// Running sums of learned and measured confidence per material and bin.
+#[derive(Debug, Clone)]
 pub struct CurveAccumulator {
-    /// Bin centres, degrees (set by the first image).
-    centres: Vec<f64>,
-    /// Per material, per bin: (learned sum, truth sum, count).
-    sums: Vec<Vec<(f64, f64, u64)>>,
+    bins: AngleBins,
+    /// Per material, per bin: (learned sum, learned count).
+    learned: Vec<Vec<(f64, u64)>>,
+    /// Per material, per bin: (reconstructed within the bound, visible).
+    measured: Vec<Vec<(u64, u64)>>,
 }
 
 /// One material's curves.
@@ -26,70 +33,96 @@ pub struct ConfidenceCurve {
     pub angle_deg: Vec<f64>,
     /// Mean predicted confidence of the material's pixels per bin.
     pub learned: Vec<f64>,
-    /// Mean true success probability (profile, at each pixel's resolution) per bin.
-    pub truth: Vec<f64>,
-    /// Grid nodes averaged.
+    /// Measured share of reconstructed pixels per bin (NaN for a bin
+    /// without measured pixels).
+    pub measured: Vec<f64>,
+    /// Measured pixels per bin.
+    pub measured_pixels: Vec<u64>,
+    /// Grid nodes averaged for `learned`.
     pub samples: u64,
-    /// Spearman rank correlation of `learned` and `truth` over the bins.
+    /// Spearman rank correlation of `learned` and `measured` over the bins
+    /// with measured pixels.
     pub spearman: f64,
 }
 
 impl CurveAccumulator {
-    /// Adds the grid nodes of one predicted image: the material and
-    /// resolution under each node come from the render.
-    pub fn add(
-        &mut self,
-        mesh: &Mesh,
-        cam: &Camera,
-        img: &Rendered,
-        conf: &ConfidenceImage,
-        profile: &MvsProfile,
-    ) {
-        let bins = conf.bins();
-        if self.centres.is_empty() {
-            self.centres = (0..bins.len()).map(|b| f64::from(bins.centre(b))).collect();
-            self.sums = vec![vec![(0.0, 0.0, 0); bins.len()]; Material::ALL.len()];
+    /// Nothing accumulated, over `bins` (the forest's angle bins).
+    pub fn new(bins: AngleBins) -> Self {
+        let n = bins.len();
+        CurveAccumulator {
+            bins,
+            learned: vec![vec![(0.0, 0); n]; Material::ALL.len()],
+            measured: vec![vec![(0, 0); n]; Material::ALL.len()],
         }
-        if self.centres.len() != bins.len() {
+    }
+
+    /// Adds the grid nodes of one predicted image: the material under each
+    /// node comes from the render. A confidence image with other bins is
+    /// refused (it would mix curves).
+    pub fn add_learned(&mut self, img: &Rendered, mesh: &vp_scene::Mesh, conf: &ConfidenceImage) {
+        if conf.bins() != &self.bins {
             return;
         }
         let (gw, gh) = conf.grid_size();
-        let w = img.depth.width as usize;
         for j in 0..gh {
             for i in 0..gw {
                 let (x, y) = conf.node_pixel(i, j);
                 let Some(m) = img.material(mesh, x, y) else {
                     continue;
                 };
-                let depth = f64::from(img.depth.data[y as usize * w + x as usize]);
-                let gsd = depth / cam.intrinsics.focal();
                 let node = conf.node(i, j);
-                for (b, s) in self.sums[m as usize].iter_mut().enumerate() {
+                for (b, s) in self.learned[m as usize].iter_mut().enumerate() {
                     s.0 += f64::from(node[b]);
-                    s.1 += profile.success_probability(m, self.centres[b], Some(gsd));
-                    s.2 += 1;
+                    s.1 += 1;
                 }
             }
         }
     }
 
-    /// The curves of every material with samples.
+    /// Adds one pixel of a triplet that all three cameras see.
+    pub fn add_measured(&mut self, material: Material, angle_deg: f32, reconstructed: bool) {
+        if let Some(b) = self.bins.bin_of(angle_deg) {
+            let s = &mut self.measured[material as usize][b];
+            s.0 += u64::from(reconstructed);
+            s.1 += 1;
+        }
+    }
+
+    /// The curves of every material with learned samples.
     pub fn curves(&self) -> Vec<ConfidenceCurve> {
+        let centres: Vec<f64> = (0..self.bins.len())
+            .map(|b| f64::from(self.bins.centre(b)))
+            .collect();
         Material::ALL
             .iter()
-            .zip(&self.sums)
-            .filter(|(_, s)| s.first().is_some_and(|b| b.2 > 0))
-            .map(|(m, s)| {
-                let n = s[0].2 as f64;
-                let learned: Vec<f64> = s.iter().map(|b| b.0 / n).collect();
-                let truth: Vec<f64> = s.iter().map(|b| b.1 / n).collect();
+            .zip(self.learned.iter().zip(&self.measured))
+            .filter(|(_, (l, _))| l.first().is_some_and(|b| b.1 > 0))
+            .map(|(m, (l, meas))| {
+                let learned: Vec<f64> = l.iter().map(|b| b.0 / b.1 as f64).collect();
+                let measured: Vec<f64> = meas
+                    .iter()
+                    .map(|b| {
+                        if b.1 > 0 {
+                            b.0 as f64 / b.1 as f64
+                        } else {
+                            f64::NAN
+                        }
+                    })
+                    .collect();
+                let (a, b): (Vec<f64>, Vec<f64>) = learned
+                    .iter()
+                    .zip(&measured)
+                    .filter(|(_, m)| m.is_finite())
+                    .map(|(l, m)| (*l, *m))
+                    .unzip();
                 ConfidenceCurve {
                     material: m.name().to_string(),
-                    angle_deg: self.centres.clone(),
-                    spearman: spearman(&learned, &truth),
+                    angle_deg: centres.clone(),
+                    spearman: spearman(&a, &b),
                     learned,
-                    truth,
-                    samples: s[0].2,
+                    measured,
+                    measured_pixels: meas.iter().map(|b| b.1).collect(),
+                    samples: l[0].1,
                 }
             })
             .collect()
@@ -97,16 +130,20 @@ impl CurveAccumulator {
 }
 
 /// Per angle bin, the Spearman rank correlation between the learned and the
-/// true confidence across materials: whether the forest ranks materials
-/// (rock above grass, ...) as the simulator's truth does. (angle, rho) pairs.
+/// measured confidence across materials: whether the forest ranks materials
+/// (rock above grass, ...) as the MVS's measured behaviour does. (angle,
+/// rho) pairs; materials without measured pixels in a bin are left out.
 pub fn material_ranking(curves: &[ConfidenceCurve]) -> Vec<(f64, f64)> {
     let Some(first) = curves.first() else {
         return Vec::new();
     };
     (0..first.angle_deg.len())
         .map(|b| {
-            let l: Vec<f64> = curves.iter().map(|c| c.learned[b]).collect();
-            let t: Vec<f64> = curves.iter().map(|c| c.truth[b]).collect();
+            let (l, t): (Vec<f64>, Vec<f64>) = curves
+                .iter()
+                .filter(|c| c.measured[b].is_finite())
+                .map(|c| (c.learned[b], c.measured[b]))
+                .unzip();
             (first.angle_deg[b], spearman(&l, &t))
         })
         .collect()

@@ -2,28 +2,31 @@
 //! to end, and its Table 1.
 //!
 //! - [`train_forest`]: the offline training campaign (procedural training
-//!   sites, random triplets over the angle range, virtual MVS, vp-labelgen
-//!   labels, vp-forest training).
-//! - [`run_campaign`] / [`run_campaign_with_forest`]: on each held-out site
-//!   (never a training site), the initial grid flight, the Grid baseline and
-//!   every triplet strategy (`F5x4`, `F1x20`, `NP5x4`, ...: plan with
-//!   vp-planner on the planning mesh SfM has so far, fly, reconstruct with
-//!   the virtual MVS, update, repeat), each evaluated on its own images, and
-//!   Grid combined with each.
+//!   sites, random triplets over the angle range reconstructed by vp-mvs at
+//!   each pyramid level, vp-labelgen labels on SfM's noisy poses, vp-forest
+//!   training on the rendered pixels).
+//! - [`run_campaign`] / [`run_campaign_trained`]: on each held-out site
+//!   (never a training site), the initial flight, the Grid baseline (vp-mvs
+//!   on every Grid image against its best neighbours, as the paper's Grid)
+//!   and every triplet strategy (`F5x4`, `F1x20`, `NP5x4`, ...: plan with
+//!   vp-planner on the planning mesh SfM has so far, fly, reconstruct the
+//!   triplet with vp-mvs, update, repeat), each evaluated on its own images
+//!   against the true mesh, and Grid combined with each.
+//! - [`curves`]: the forest's learned confidence against vp-mvs's measured
+//!   success per material and angle; [`label_quality`]: labelgen's labels
+//!   against the renderer's truth.
 //! - [`write_report`]: the report directory.
 //!
-//! Everything is seeded: the same configuration gives the same table.
-//!
-//! Known gap: no single world shows every finding of the paper's Table 1.
-//! The demo world shows all but the coverage one (F5x4 above Grid with
-//! fewer images); the paper-scaled site of `examples/paper-site.toml` shows
-//! that one but not the NP ones. `docs/campaign-findings.md` explains why
-//! and keeps the experiments; `tests/campaign.rs` asserts each on its world.
+//! Nothing on the default path is planted: the virtual MVS (`mvs =
+//! "virtual"`) is a fast stand-in for unit tests only. Everything is
+//! seeded: the same configuration gives the same table.
+//! `docs/campaign-findings.md` keeps what the experiment found.
 
 pub mod config;
 pub mod curves;
 pub mod eval;
 pub mod fly;
+pub mod label_quality;
 pub mod plot;
 mod presets;
 pub mod report;
@@ -37,8 +40,10 @@ pub use config::{
 };
 pub use curves::ConfidenceCurve;
 pub use eval::Scores;
+pub use fly::MvsKind;
+pub use label_quality::LabelQuality;
 pub use presets::PRESETS;
 pub use report::{write_report, CampaignReport, SiteResult, TableRow};
-pub use run::{run_campaign, run_campaign_with_forest};
+pub use run::{run_campaign, run_campaign_trained, run_campaign_with_forest};
 pub use strategies::Strategy;
 pub use training::{train_forest, train_forest_with_stats, TrainingStats};

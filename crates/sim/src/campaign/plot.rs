@@ -108,7 +108,7 @@ pub fn curve_plot(c: &ConfidenceCurve) -> RgbImage {
     text(&mut img, x0 as i64, 8, &title, BLACK);
     let legend_x = x1 as i64 - text_width("learned");
     text(&mut img, legend_x, y1 as i64 + 6, "learned", LEARNED);
-    text(&mut img, legend_x, y1 as i64 + 18, "truth", TRUTH);
+    text(&mut img, legend_x, y1 as i64 + 18, "measured", TRUTH);
     let axis = "angle (deg)";
     text(
         &mut img,
@@ -123,8 +123,12 @@ pub fn curve_plot(c: &ConfidenceCurve) -> RgbImage {
             y0 + (y1 - y0) * v.clamp(0.0, 1.0),
         )
     };
-    for (vals, colour) in [(&c.truth, TRUTH), (&c.learned, LEARNED)] {
+    for (vals, colour) in [(&c.measured, TRUTH), (&c.learned, LEARNED)] {
         for i in 1..vals.len() {
+            // A bin without measured pixels breaks the line.
+            if !(vals[i - 1].is_finite() && vals[i].is_finite()) {
+                continue;
+            }
             line(
                 &mut img,
                 to(c.angle_deg[i - 1], vals[i - 1]),

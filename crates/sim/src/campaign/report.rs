@@ -251,21 +251,22 @@ impl CampaignReport {
             .collect();
         let _ = writeln!(
             t,
-            "ranking of materials, learned vs truth, per bin: {}",
+            "ranking of materials, learned vs measured, per bin: {}",
             ranking.join(", ")
         );
         for c in &self.curves {
             let _ = writeln!(
                 t,
-                "{:<7} spearman {:+.2} over {} bins ({} samples): learned {} -> {}, truth {} -> {} from {:.1} to {:.1} deg",
+                "{:<7} spearman {:+.2} over {} bins ({} samples, {} measured pixels): learned {} -> {}, measured {} -> {} from {:.1} to {:.1} deg",
                 c.material,
                 c.spearman,
                 c.angle_deg.len(),
                 c.samples,
+                c.measured_pixels.iter().sum::<u64>(),
                 fmt2(c.learned.first()),
                 fmt2(c.learned.last()),
-                fmt2(c.truth.first()),
-                fmt2(c.truth.last()),
+                fmt2(c.measured.first()),
+                fmt2(c.measured.last()),
                 c.angle_deg.first().copied().unwrap_or(0.0),
                 c.angle_deg.last().copied().unwrap_or(0.0),
             );
@@ -334,9 +335,14 @@ fn fill(report: &CampaignReport, dir: &Path) -> Result<()> {
         report.config.held_out_seeds
     );
     md.push_str(&report.table_markdown());
-    md.push_str("\n## Learned confidence against the simulator's truth\n\n```\n");
+    md.push_str("\n## Learned confidence against the MVS's measured success\n\n```\n");
     md.push_str(&report.curves_summary());
-    md.push_str("```\n\nPlots: `confidence_<material>.png` (learned: blue, truth: red, x: angle 0-45 deg, y: 0-1), ");
+    md.push_str("```\n");
+    if let Some(t) = &report.training {
+        md.push_str("\n## Label quality (labelgen against the renderer's truth)\n\n");
+        md.push_str(&t.label_quality.markdown());
+    }
+    md.push_str("\nPlots: `confidence_<material>.png` (learned: blue, measured: red, x: angle 0-45 deg, y: 0-1), ");
     md.push_str("`plan_<strategy>.png` (top view of the plan), `fulfillment_<strategy>.png` (per-face f, red 0 to green 1).\n");
     write(&dir.join("table.md"), &md)?;
     write(&dir.join("table.csv"), &report.table_csv())?;
@@ -344,10 +350,20 @@ fn fill(report: &CampaignReport, dir: &Path) -> Result<()> {
         .map_err(|e| SimError::Campaign(format!("report to JSON: {e}")))?;
     write(&dir.join("report.json"), &json)?;
     write(&dir.join("config.toml"), &report.config.to_toml()?)?;
-    let mut csv = String::from("material,angle_deg,learned,truth\n");
+    let mut csv = String::from("material,angle_deg,learned,measured,measured_pixels\n");
     for c in &report.curves {
-        for ((a, l), t) in c.angle_deg.iter().zip(&c.learned).zip(&c.truth) {
-            let _ = writeln!(csv, "{},{a},{l:.4},{t:.4}", c.material);
+        for (b, a) in c.angle_deg.iter().enumerate() {
+            let m = c.measured[b];
+            let m = if m.is_finite() {
+                format!("{m:.4}")
+            } else {
+                String::new()
+            };
+            let _ = writeln!(
+                csv,
+                "{},{a},{:.4},{m},{}",
+                c.material, c.learned[b], c.measured_pixels[b]
+            );
         }
     }
     write(&dir.join("curves.csv"), &csv)?;

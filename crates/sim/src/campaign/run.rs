@@ -1,6 +1,8 @@
 //! The campaign runner: per held-out site, the initial flight, the Grid
 //! baseline and every triplet strategy, each evaluated on its own images.
 
+use std::collections::BTreeMap;
+
 use nalgebra::Point3;
 use vp_forest::Forest;
 use vp_planner::grid::{grid_views, GridParams};
@@ -12,13 +14,12 @@ use vp_scene::{Aabb, Camera};
 use super::config::CampaignConfig;
 use super::curves::CurveAccumulator;
 use super::eval::{evaluate, EvalMesh, Scores};
-use super::fly::{fly_triplet, Flown};
+use super::fly::{Flown, Matcher, MvsKind};
 use super::report::{aggregate, CampaignReport, SiteArtifacts, SiteResult, StrategyArtifacts};
 use super::strategies::Strategy;
 use super::training::train_forest_with_stats;
 use super::world::{acquire, init_cameras, planning_mesh, Acquired, SeenCounter, World};
 use crate::error::{Result, SimError};
-use crate::mvs::VirtualMvs;
 use crate::noise::mix64;
 
 /// Source tags of image ids: init, grid, then one per strategy.
@@ -36,33 +37,43 @@ fn name_hash(s: &str) -> u64 {
     })
 }
 
-/// Sliding triplets (i, i+1, i+2) along a flight in order: how the Grid
-/// and the initial images are reconstructed triplet-wise.
-fn sliding_triplets(
+/// Reconstructs a flight that is not a set of triplets (the initial images,
+/// the Grid): with vp-mvs as the paper's Grid, every image against its
+/// best overlapping neighbours; with the virtual MVS (triplets only),
+/// sliding triplets (i, i+1, i+2) along the flight in order.
+#[allow(clippy::too_many_arguments)]
+fn reconstruct_flight(
     world: &World,
-    mvs: &VirtualMvs,
+    matcher: &Matcher<'_>,
     cfg: &CampaignConfig,
-    cams: &[Camera],
+    (name, cams): (&str, &[Camera]),
     source: u64,
     seed: u64,
+    curves: &mut CurveAccumulator,
+    progress: &mut dyn FnMut(&str),
 ) -> Result<Vec<Flown>> {
-    (0..cams.len().saturating_sub(2))
-        .map(|i| {
-            fly_triplet(
-                mvs,
-                &cfg.gate,
-                &world.site.mesh,
-                &world.caster,
-                [cams[i], cams[i + 1], cams[i + 2]],
-                [
-                    image_id(source, i),
-                    image_id(source, i + 1),
-                    image_id(source, i + 2),
-                ],
-                mix64(seed ^ mix64(source << 40 | i as u64)),
-            )
-        })
-        .collect()
+    let scene = world.scene();
+    let ids: Vec<u64> = (0..cams.len()).map(|i| image_id(source, i)).collect();
+    let flown = if cfg.mvs == MvsKind::Patchmatch {
+        matcher.image_set(&scene, cams, &ids, &world.roi, mix64(seed ^ source))?
+    } else {
+        (0..cams.len().saturating_sub(2))
+            .map(|i| {
+                matcher.fly_triplet(
+                    &scene,
+                    [cams[i], cams[i + 1], cams[i + 2]],
+                    [ids[i], ids[i + 1], ids[i + 2]],
+                    &world.roi,
+                    mix64(seed ^ mix64(source << 40 | i as u64)),
+                    curves,
+                )
+            })
+            .collect::<Result<Vec<_>>>()?
+    };
+    let tol = cfg.eval.depth_tolerance_m;
+    let site = world.site.params.seed;
+    progress(&flight_line(site, name, cams.len(), &flown, tol));
+    Ok(flown)
 }
 
 /// The Grid baseline's cameras: nadir lawnmower over the ROI footprint plus margin.
@@ -112,8 +123,8 @@ struct StrategyRun {
     plans: Vec<Plan>,
 }
 
-/// One progress line per flown triplet: its planned angle bin and what the gate saw.
-fn triplet_line(plan: &Plan, t: u32, fl: &Flown) -> String {
+/// One progress line per flown triplet: its planned angle bin and what came out.
+fn triplet_line(plan: &Plan, t: u32, fl: &Flown, tolerance_m: f64) -> String {
     let bin = plan
         .waypoints
         .iter()
@@ -122,20 +133,51 @@ fn triplet_line(plan: &Plan, t: u32, fl: &Flown) -> String {
         .unwrap_or(f64::NAN);
     let s = &fl.stats;
     format!(
-        "    triplet {t} ({bin:.1} deg): {}; overlap {} px, matchable {:.2}, non-flat {:.2} at median {:.1} deg",
-        if fl.success() { "output" } else { "nothing" },
-        s.overlap_pixels,
-        s.matchable_share,
-        s.nonflat_share,
-        s.nonflat_median_angle_deg
+        "    triplet {t} ({bin:.1} deg): {}; {} ROI px, depth at {:.0} %, within {:.2} m of the truth at {:.0} %",
+        if fl.success { "output" } else { "nothing" },
+        s.pixels,
+        100.0 * s.output as f64 / s.pixels.max(1) as f64,
+        tolerance_m,
+        100.0 * s.measured_share(),
     )
+}
+
+/// One progress line for a flight reconstructed as a whole (Init, Grid).
+fn flight_line(seed: u64, name: &str, images: usize, flown: &[Flown], tolerance_m: f64) -> String {
+    let mut total = super::fly::OutputStats::default();
+    for f in flown {
+        total.pixels += f.stats.pixels;
+        total.output += f.stats.output;
+        total.measured += f.stats.measured;
+    }
+    format!(
+        "  site {seed}: {name}: {images} images, {} of {} reconstructions with output; of their ROI pixels {:.0} % have depth, {:.0} % within {tolerance_m:.2} m of the truth",
+        flown.iter().filter(|f| f.success).count(),
+        flown.len(),
+        100.0 * total.output as f64 / total.pixels.max(1) as f64,
+        100.0 * total.measured_share(),
+    )
+}
+
+/// A plan's cameras in flight order, and its triplets' cameras by triplet id.
+fn plan_cameras(world: &World, plan: &Plan) -> (Vec<Camera>, BTreeMap<u32, Vec<Camera>>) {
+    let mut triplets: BTreeMap<u32, Vec<Camera>> = BTreeMap::new();
+    let mut cams = Vec::new();
+    for w in &plan.waypoints {
+        let cam = w.to_camera(world.intrinsics);
+        cams.push(cam);
+        if let (Role::TripletMember, Some(t)) = (w.role, w.triplet_id) {
+            triplets.entry(t).or_default().push(cam);
+        }
+    }
+    (cams, triplets)
 }
 
 /// Runs one triplet strategy from the initial flight.
 #[allow(clippy::too_many_arguments)]
 fn run_strategy(
     world: &World,
-    mvs: &VirtualMvs,
+    matcher: &Matcher<'_>,
     forest: &Forest,
     cfg: &CampaignConfig,
     strategy: &Strategy,
@@ -185,16 +227,7 @@ fn run_strategy(
                 it + 1
             ))
         })?;
-        let mut triplets: std::collections::BTreeMap<u32, Vec<Camera>> =
-            std::collections::BTreeMap::default();
-        let mut new_cams = Vec::new();
-        for w in &result.plan.waypoints {
-            let cam = w.to_camera(world.intrinsics);
-            new_cams.push(cam);
-            if let (Role::TripletMember, Some(t)) = (w.role, w.triplet_id) {
-                triplets.entry(t).or_default().push(cam);
-            }
-        }
+        let (new_cams, triplets) = plan_cameras(world, &result.plan);
         for (t, cams) in &triplets {
             let [a, b, c] = cams.as_slice() else {
                 continue;
@@ -206,16 +239,16 @@ fn run_strategy(
                 image_id(source, i + 1),
                 image_id(source, i + 2),
             ];
-            let fl = fly_triplet(
-                mvs,
-                &cfg.gate,
-                &world.site.mesh,
-                &world.caster,
+            let fl = matcher.fly_triplet(
+                &world.scene(),
                 [*a, *b, *c],
                 ids,
+                &world.roi,
                 mix64(base ^ mix64(i as u64)),
+                curves,
             )?;
-            progress(&triplet_line(&result.plan, *t, &fl));
+            let tol = cfg.eval.depth_tolerance_m;
+            progress(&triplet_line(&result.plan, *t, &fl, tol));
             out.flown.push(fl);
         }
         progress(&format!(
@@ -226,7 +259,7 @@ fn run_strategy(
             triplets.len(),
             new_cams.len(),
             result.dropped_triplets.len(),
-            out.flown.iter().filter(|f| f.success()).count(),
+            out.flown.iter().filter(|f| f.success).count(),
             out.flown.len()
         ));
         out.plans.push(result.plan);
@@ -260,7 +293,7 @@ fn run_site(
 ) -> Result<(SiteResult, Option<SiteArtifacts>)> {
     let world = World::new(cfg, seed)?;
     let em = EvalMesh::new(&world, cfg)?;
-    let mvs = VirtualMvs::new(cfg.profile.clone())?;
+    let matcher = Matcher::new(cfg)?;
     progress(&format!(
         "held-out site {seed}: {} faces, {} evaluation faces in the ROI",
         world.site.mesh.n_faces(),
@@ -272,14 +305,27 @@ fn run_site(
     let init = acquire(&world, &init_cams, Some(forest), cfg, run_seed, 0, curves)?;
     let mut seen = SeenCounter::new(&world.site.mesh);
     seen.add(&world, &init_cams);
-    let init_flown = sliding_triplets(&world, &mvs, cfg, &init_cams, SOURCE_INIT, run_seed)?;
+    let init_flown = reconstruct_flight(
+        &world,
+        &matcher,
+        cfg,
+        ("initial flight", &init_cams),
+        SOURCE_INIT,
+        run_seed,
+        curves,
+        progress,
+    )?;
     let grid_cams = grid_cameras(&world, cfg)?;
-    let grid_flown = sliding_triplets(&world, &mvs, cfg, &grid_cams, SOURCE_GRID, run_seed)?;
-    progress(&format!(
-        "  site {seed}: initial flight {} images, Grid {} images",
-        init_cams.len(),
-        grid_cams.len()
-    ));
+    let grid_flown = reconstruct_flight(
+        &world,
+        &matcher,
+        cfg,
+        ("Grid", &grid_cams),
+        SOURCE_GRID,
+        run_seed,
+        curves,
+        progress,
+    )?;
 
     let mut scores: Vec<(String, Scores)> = Vec::new();
     let mut maps: Vec<(String, Vec<f64>, Vec<Plan>)> = Vec::new();
@@ -301,7 +347,7 @@ fn run_site(
     for (i, st) in strategies.iter().enumerate() {
         let run = run_strategy(
             &world,
-            &mvs,
+            &matcher,
             forest,
             cfg,
             st,
@@ -347,15 +393,27 @@ fn run_site(
     Ok((SiteResult { seed, scores }, artifacts))
 }
 
-/// Runs the campaign with a trained forest (see [`run_campaign`]).
+/// Runs the campaign with a trained forest (see [`run_campaign`]); the
+/// measured curves then come from the flown triplets only.
 pub fn run_campaign_with_forest(
     cfg: &CampaignConfig,
     forest: &Forest,
     progress: &mut dyn FnMut(&str),
 ) -> Result<CampaignReport> {
+    let curves = CurveAccumulator::new(forest.bins().clone());
+    fly_held_out(cfg, forest, curves, progress)
+}
+
+/// Flies and evaluates every held-out site; `curves` may hold the training
+/// triplets' measurements already.
+fn fly_held_out(
+    cfg: &CampaignConfig,
+    forest: &Forest,
+    mut curves: CurveAccumulator,
+    progress: &mut dyn FnMut(&str),
+) -> Result<CampaignReport> {
     cfg.validate()?;
     let strategies = cfg.parsed_strategies()?;
-    let mut curves = CurveAccumulator::default();
     let mut sites = Vec::new();
     let mut artifacts = None;
     for (i, &seed) in cfg.held_out_seeds.iter().enumerate() {
@@ -392,8 +450,26 @@ pub fn run_campaign(
     cfg: &CampaignConfig,
     progress: &mut dyn FnMut(&str),
 ) -> Result<CampaignReport> {
-    let (forest, stats) = train_forest_with_stats(cfg, progress)?;
-    let mut report = run_campaign_with_forest(cfg, &forest, progress)?;
-    report.training = Some(stats);
-    Ok(report)
+    Ok(run_campaign_trained(cfg, None, progress)?.0)
+}
+
+/// [`run_campaign`] with a forest trained before (`Some`: no training, the
+/// measured curves come from the flown triplets only) or trained here
+/// (`None`); returns the report and the forest flown with.
+pub fn run_campaign_trained(
+    cfg: &CampaignConfig,
+    forest: Option<Forest>,
+    progress: &mut dyn FnMut(&str),
+) -> Result<(CampaignReport, Forest)> {
+    let (forest, stats, curves) = if let Some(f) = forest {
+        let curves = CurveAccumulator::new(f.bins().clone());
+        (f, None, curves)
+    } else {
+        let mut curves = CurveAccumulator::new(cfg.training.forest.bins.clone());
+        let (f, s) = train_forest_with_stats(cfg, &mut curves, progress)?;
+        (f, Some(s), curves)
+    };
+    let mut report = fly_held_out(cfg, &forest, curves, progress)?;
+    report.training = stats;
+    Ok((report, forest))
 }

@@ -1,6 +1,9 @@
 //! The offline training campaign: procedural training sites, random camera
-//! triplets over the triangulation-angle range, the virtual MVS, vp-labelgen
-//! labels, vp-forest training. The held-out sites are never among them.
+//! triplets over the triangulation-angle range reconstructed by the
+//! campaign's MVS at each pyramid level, vp-labelgen labels (on SfM's noisy
+//! poses, stage 3 on a 2.5D mesh of sparse points, as a user has them),
+//! vp-forest training on the rendered pixels. The held-out sites are never
+//! among them.
 
 use std::collections::BTreeMap;
 
@@ -9,23 +12,29 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use vp_forest::{Forest, TrainingSet};
 use vp_labelgen::{generate_labels, MissingPartMeshes, TripletReconstruction, View};
+use vp_scene::colmap::DepthMap;
+use vp_scene::height_field::{mesh_from_points, MeshingParams};
 use vp_scene::procedural::{generate_site, Site};
-use vp_scene::raster::RgbImage;
+use vp_scene::raster::{Label, RgbImage};
 use vp_scene::raycast::RayCaster;
 use vp_scene::{Camera, Intrinsics};
 
 use super::config::CampaignConfig;
-use super::fly::reconstruct_gated;
+use super::curves::CurveAccumulator;
+use super::fly::{Matcher, Scene};
+use super::label_quality::LabelQuality;
+use super::world::sfm_camera;
 use crate::error::{Result, SimError};
-use crate::mvs::{level_camera, VirtualMvs};
-use crate::noise::mix64;
-use crate::render::render;
+use crate::mvs::{level_camera, PixelStatus, PixelTruth};
+use crate::noise::{gaussian, mix64};
 
 /// Margin around the rock within which training triplets focus, metres:
 /// the rock and the vegetation around it, as the ROI of a flight.
 const FOCUS_MARGIN_M: f64 = 6.0;
 /// Smallest training triangulation angle, degrees.
 const MIN_ANGLE_DEG: f64 = 2.0;
+/// One in this many visible pixels of a training view becomes a sparse point.
+const SPARSE_STRIDE: usize = 61;
 
 /// What the training campaign did.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
@@ -34,12 +43,14 @@ pub struct TrainingStats {
     pub sites: usize,
     /// Triplets flown.
     pub triplets: usize,
-    /// Triplets the virtual MVS produced output for.
+    /// Triplet reconstructions (one per level) that produced 3D output.
     pub successful_triplets: usize,
     /// Positive labelled pixels.
     pub positives: usize,
     /// Negative labelled pixels.
     pub negatives: usize,
+    /// labelgen's labels against the renderer's truth, per material.
+    pub label_quality: LabelQuality,
 }
 
 /// A random triplet around a random focus point near the rock: centre at a
@@ -83,18 +94,31 @@ fn random_triplet(
     Some([cams[0], cams[1], cams[2]])
 }
 
-/// Halves an image `level - 1` times (level 1: as is).
-fn image_at_level(img: &RgbImage, level: u8) -> RgbImage {
-    if level <= 1 {
-        return img.clone();
+/// One triplet at one level: its images, truth and depth maps.
+type LevelRun = ([RgbImage; 3], [Vec<PixelTruth>; 3], [DepthMap; 3]);
+
+/// A seeded share of the points a triplet's views see, with SfM's point
+/// noise: the sparse points the site's stage-3 mesh is built from.
+fn sparse_points(
+    cams: &[Camera; 3],
+    truth: &[Vec<PixelTruth>; 3],
+    cfg: &CampaignConfig,
+    seed: u64,
+    out: &mut Vec<Point3<f64>>,
+) {
+    for (v, cam) in cams.iter().enumerate() {
+        let w = cam.intrinsics.width as usize;
+        for (i, t) in truth[v].iter().enumerate() {
+            // Points matched in >= 2 images; about one in SPARSE_STRIDE pixels.
+            if !matches!(t.status, PixelStatus::Visible) || i % SPARSE_STRIDE != 0 {
+                continue;
+            }
+            let px = nalgebra::Point2::new((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
+            let p = cam.unproject(&px, f64::from(t.true_depth));
+            let g = |k: i64| gaussian(seed, v as i64, i as i64, k);
+            out.push(p + Vector3::new(g(0), g(1), g(2)) * cfg.sfm.point_noise_m);
+        }
     }
-    let s = 1u32 << (level - 1);
-    image::imageops::resize(
-        img,
-        (img.width() / s).max(1),
-        (img.height() / s).max(1),
-        image::imageops::FilterType::Triangle,
-    )
 }
 
 /// Flies the training triplets of one site and labels them; adds the
@@ -104,6 +128,7 @@ fn train_site(
     seed: u64,
     set: &mut TrainingSet,
     stats: &mut TrainingStats,
+    curves: &mut CurveAccumulator,
     progress: &mut dyn FnMut(&str),
 ) -> Result<()> {
     let t = &cfg.training;
@@ -111,13 +136,18 @@ fn train_site(
     params.seed = seed;
     let site = generate_site(&params)?;
     let caster = RayCaster::new(&site.mesh);
+    let scene = Scene {
+        mesh: &site.mesh,
+        caster: &caster,
+        texture_seed: seed,
+    };
     let k = Intrinsics::from_hfov(t.width, t.height, t.hfov_deg)?;
-    let mvs = VirtualMvs::new(cfg.profile.clone())?;
+    let matcher = Matcher::new(cfg)?;
     let mut rng = ChaCha8Rng::seed_from_u64(mix64(cfg.seed ^ mix64(seed ^ 0x0074_7261_696e)));
-    let mut rp = cfg.render.clone();
-    rp.texture_seed = seed;
     let mut recs = Vec::new();
-    let mut images: BTreeMap<String, RgbImage> = BTreeMap::new();
+    // Per reconstruction id: each view's image at the level and its truth.
+    let mut runs: BTreeMap<String, LevelRun> = BTreeMap::new();
+    let mut points = Vec::new();
     let mut attempts = 0;
     let mut n = 0;
     while n < t.triplets_per_site && attempts < 20 * t.triplets_per_site {
@@ -125,70 +155,69 @@ fn train_site(
         let Some(cams) = random_triplet(&site, &caster, k, cfg, &mut rng) else {
             continue;
         };
-        for (v, cam) in cams.iter().enumerate() {
-            let img = render(&site.mesh, &caster, cam, &rp)?;
-            images.insert(format!("t{n:03}_c{v}"), img.rgb);
-        }
+        // SfM's estimate of the three poses: what labelgen works with.
+        let sfm = [0usize, 1, 2].map(|v| sfm_camera(&cams[v], cfg, seed, (n << 2 | v) as u64));
         for &level in &t.levels {
             let tseed = mix64(cfg.seed ^ mix64(seed ^ mix64((n as u64) << 8 | u64::from(level))));
-            let (depth, _) = reconstruct_gated(
-                &mvs,
-                &cfg.gate,
-                &site.mesh,
-                &caster,
+            let run = matcher.triplet(
+                &scene,
                 [&cams[0], &cams[1], &cams[2]],
                 level,
+                None,
                 tseed,
+                curves,
             )?;
             stats.triplets += 1;
-            stats.successful_triplets += usize::from(depth.is_some());
-            let depth = depth.unwrap_or_else(|| {
-                cams.map(|c| {
-                    let lk = c.intrinsics.scaled(0.5f64.powi(i32::from(level) - 1));
-                    vp_scene::colmap::DepthMap {
-                        width: lk.width,
-                        height: lk.height,
-                        data: vec![0.0; (lk.width * lk.height) as usize],
-                    }
-                })
-            });
-            let [d0, d1, d2] = depth;
-            let view = |v: usize, d: vp_scene::colmap::DepthMap| -> Result<View> {
+            stats.successful_triplets += usize::from(matcher.succeeded(&run.stats));
+            if level == t.levels[0] {
+                let lc = [
+                    level_camera(&cams[0], level)?,
+                    level_camera(&cams[1], level)?,
+                    level_camera(&cams[2], level)?,
+                ];
+                sparse_points(&lc, &run.truth, cfg, mix64(tseed ^ 0x7370), &mut points);
+            }
+            let id = format!("t{n:03}/level{level}");
+            let view = |v: usize, d: DepthMap| -> Result<View> {
                 Ok(View {
                     name: format!("t{n:03}_c{v}"),
-                    camera: level_camera(&cams[v], level)?,
+                    camera: level_camera(&sfm[v], level)?,
                     depth: d,
                 })
             };
+            let [d0, d1, d2] = run.depth.clone();
             recs.push(TripletReconstruction {
-                id: format!("t{n:03}/level{level}"),
+                id: id.clone(),
                 views: [view(0, d0)?, view(1, d1)?, view(2, d2)?],
             });
+            runs.insert(id, (run.images, run.truth, run.depth));
         }
         n += 1;
     }
     progress(&format!(
-        "training site {seed}: {n} triplets flown, labelling"
+        "training site {seed}: {n} triplets reconstructed, {} with output; labelling",
+        stats.successful_triplets
     ));
-    let meshes = MissingPartMeshes::new(&site.mesh, t.labels.mesh_iterations);
+    // Stage 3's mesh as a user has it: a 2.5D mesh of the sparse points.
+    let (mesh, _) = mesh_from_points(&points, &MeshingParams::default())?;
+    let meshes = MissingPartMeshes::new(&mesh, t.labels.mesh_iterations);
     let labels = generate_labels(&recs, Some(&meshes), &t.labels)?;
+    let k_sigma = t.labels.k_sigma as f32;
     for rl in &labels {
-        let level: u8 = rl
-            .id
-            .rsplit("level")
-            .next()
-            .and_then(|l| l.parse().ok())
-            .unwrap_or(1);
-        for (name, label) in rl.names.iter().zip(&rl.labels) {
-            let Some(img) = images.get(name) else {
-                return Err(SimError::InvalidArgument(format!(
-                    "training: no image named {name}"
-                )));
-            };
-            let img = image_at_level(img, level);
-            stats.positives += label.count(vp_scene::raster::Label::Positive);
-            stats.negatives += label.count(vp_scene::raster::Label::Negative);
-            set.add_image(&img, std::slice::from_ref(label))?;
+        let Some((images, truth, depth)) = runs.get(&rl.id) else {
+            return Err(SimError::Campaign(format!(
+                "training: labels for unknown reconstruction {}",
+                rl.id
+            )));
+        };
+        for v in 0..3 {
+            let label = &rl.labels[v];
+            stats
+                .label_quality
+                .add(label, &truth[v], &depth[v].data, k_sigma);
+            stats.positives += label.count(Label::Positive);
+            stats.negatives += label.count(Label::Negative);
+            set.add_image(&images[v], std::slice::from_ref(label))?;
         }
     }
     stats.sites += 1;
@@ -199,6 +228,7 @@ fn train_site(
 /// hears one line per site and one for the training.
 pub fn train_forest_with_stats(
     cfg: &CampaignConfig,
+    curves: &mut CurveAccumulator,
     progress: &mut dyn FnMut(&str),
 ) -> Result<(Forest, TrainingStats)> {
     cfg.validate()?;
@@ -207,7 +237,7 @@ pub fn train_forest_with_stats(
         TrainingSet::with_cap_per_label_image(t.max_per_label_image, mix64(cfg.seed ^ 0x0063_6170));
     let mut stats = TrainingStats::default();
     for &seed in &t.site_seeds {
-        train_site(cfg, seed, &mut set, &mut stats, progress)?;
+        train_site(cfg, seed, &mut set, &mut stats, curves, progress)?;
     }
     progress(&format!(
         "training the forest on {} labelled pixels ({} positive, {} negative available)",
@@ -222,5 +252,6 @@ pub fn train_forest_with_stats(
 /// [`train_forest_with_stats`] without progress or statistics: the forest
 /// `vpctl demo --save-model` writes and `--model` reuses.
 pub fn train_forest(cfg: &CampaignConfig) -> Result<Forest> {
-    Ok(train_forest_with_stats(cfg, &mut |_| {})?.0)
+    let mut curves = CurveAccumulator::new(cfg.training.forest.bins.clone());
+    Ok(train_forest_with_stats(cfg, &mut curves, &mut |_| {})?.0)
 }

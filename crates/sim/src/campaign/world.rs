@@ -60,6 +60,15 @@ impl World {
         })
     }
 
+    /// The true world as the matcher sees it.
+    pub fn scene(&self) -> super::fly::Scene<'_> {
+        super::fly::Scene {
+            mesh: &self.site.mesh,
+            caster: &self.caster,
+            texture_seed: self.site.params.seed,
+        }
+    }
+
     /// Lowest ground point of the site (flight heights refer to it).
     pub fn ground_min_z(&self) -> f64 {
         self.site.mesh.bounds().min.z
@@ -192,7 +201,7 @@ pub fn init_cameras(world: &World, cfg: &CampaignConfig) -> Vec<Camera> {
 }
 
 /// Renders each camera's image and predicts its confidence (when a forest
-/// is given); adds the learned and true confidence per material to `curves`.
+/// is given); adds the learned confidence per material to `curves`.
 pub fn acquire(
     world: &World,
     cams: &[Camera],
@@ -215,7 +224,7 @@ pub fn acquire(
                     .map_err(|e| {
                         SimError::InvalidArgument(format!("confidence prediction: {e}"))
                     })?;
-                curves.add(&world.site.mesh, cam, &img, &conf, &cfg.profile);
+                curves.add_learned(&img, &world.site.mesh, &conf);
                 Some(conf)
             }
             None => None,

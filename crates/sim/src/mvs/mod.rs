@@ -12,4 +12,6 @@ mod reconstruct;
 mod tests;
 
 pub use profile::{MaterialCurve, MvsProfile};
-pub use reconstruct::{level_camera, MvsView, PixelStatus, PixelTruth, VirtualMvs, MAX_LEVEL};
+pub use reconstruct::{
+    level_camera, triplet_truth, MvsView, PixelStatus, PixelTruth, VirtualMvs, MAX_LEVEL,
+};

@@ -49,6 +49,9 @@ pub enum PixelStatus {
     /// camera of the triplet (or the triplet cannot triangulate it): no MVS
     /// can reconstruct it.
     NotVisible,
+    /// All three cameras see the point; no MVS decision was made (the
+    /// geometry-only truth of [`triplet_truth`]).
+    Visible,
     /// Reconstructable, but the MVS failed here (a hole).
     Failed,
     /// Reconstructed with a depth within the predicted noise.
@@ -107,7 +110,9 @@ pub struct VirtualMvs {
 
 /// Everything a pixel evaluation needs, shared by all pixels of one run.
 struct Run<'a> {
-    mvs: &'a VirtualMvs,
+    /// The virtual MVS's curves; `None` for the geometry-only truth.
+    profile: Option<&'a MvsProfile>,
+    sigma_px: f64,
     mesh: &'a Mesh,
     caster: &'a RayCaster,
     cams: [Camera; 3],
@@ -155,7 +160,7 @@ impl VirtualMvs {
         level: u8,
         seed: u64,
     ) -> Result<[DepthMap; 3]> {
-        let run = self.prepare(mesh, caster, triplet, level, seed)?;
+        let run = prepare(Some(&self.profile), mesh, caster, triplet, level, seed)?;
         Ok([0, 1, 2].map(|v| run.view(v, false).depth))
     }
 
@@ -170,40 +175,63 @@ impl VirtualMvs {
         level: u8,
         seed: u64,
     ) -> Result<[MvsView; 3]> {
-        let run = self.prepare(mesh, caster, triplet, level, seed)?;
+        let run = prepare(Some(&self.profile), mesh, caster, triplet, level, seed)?;
         Ok([0, 1, 2].map(|v| run.view(v, true)))
     }
+}
 
-    fn prepare<'a>(
-        &'a self,
-        mesh: &'a Mesh,
-        caster: &'a RayCaster,
-        triplet: [&Camera; 3],
-        level: u8,
-        seed: u64,
-    ) -> Result<Run<'a>> {
-        if caster.n_faces() != mesh.n_faces() {
-            return Err(SimError::InvalidArgument(format!(
-                "ray caster has {} faces but the mesh has {}: build the caster from this mesh",
-                caster.n_faces(),
-                mesh.n_faces()
-            )));
-        }
-        let cams = [
-            level_camera(triplet[0], level)?,
-            level_camera(triplet[1], level)?,
-            level_camera(triplet[2], level)?,
-        ];
-        let gsd = typical_gsd(caster, &cams);
-        Ok(Run {
-            mvs: self,
-            mesh,
-            caster,
-            cams,
-            seed: mix64(seed ^ mix64(u64::from(level))),
-            blob_wavelength: 2.0 * self.profile.blob_size_px * gsd,
-        })
+/// The geometry of a triplet at pyramid `level` as the renderer knows it,
+/// per pixel of each image: surface, material, true depth and, where all
+/// three cameras see the point, its triangulation angle and the predicted
+/// depth sigma for `sigma_px` pixels of image noise (status
+/// [`PixelStatus::Visible`]). What a real matcher's output is measured
+/// against; `depth` and `probability` stay 0.
+pub fn triplet_truth(
+    mesh: &Mesh,
+    caster: &RayCaster,
+    triplet: [&Camera; 3],
+    level: u8,
+    sigma_px: f64,
+) -> Result<[Vec<PixelTruth>; 3]> {
+    let mut run = prepare(None, mesh, caster, triplet, level, 0)?;
+    run.sigma_px = sigma_px;
+    Ok([0, 1, 2].map(|v| run.view(v, true).truth))
+}
+
+fn prepare<'a>(
+    profile: Option<&'a MvsProfile>,
+    mesh: &'a Mesh,
+    caster: &'a RayCaster,
+    triplet: [&Camera; 3],
+    level: u8,
+    seed: u64,
+) -> Result<Run<'a>> {
+    if caster.n_faces() != mesh.n_faces() {
+        return Err(SimError::InvalidArgument(format!(
+            "ray caster has {} faces but the mesh has {}: build the caster from this mesh",
+            caster.n_faces(),
+            mesh.n_faces()
+        )));
     }
+    let cams = [
+        level_camera(triplet[0], level)?,
+        level_camera(triplet[1], level)?,
+        level_camera(triplet[2], level)?,
+    ];
+    // The blob size matters only to the virtual decision: skip its probe rays otherwise.
+    let blob_wavelength = match profile {
+        Some(p) => 2.0 * p.blob_size_px * typical_gsd(caster, &cams),
+        None => 1.0,
+    };
+    Ok(Run {
+        profile,
+        sigma_px: profile.map_or(1.0, |p| p.sigma_px),
+        mesh,
+        caster,
+        cams,
+        seed: mix64(seed ^ mix64(u64::from(level))),
+        blob_wavelength,
+    })
 }
 
 /// Median distance over focal length of a coarse grid of hits of the three
@@ -293,18 +321,21 @@ impl Run<'_> {
             return truth;
         }
         let refs = [&self.cams[0], &self.cams[1], &self.cams[2]];
-        let Some(cov) = point_covariance(refs, &p, self.mvs.profile.sigma_px) else {
+        let Some(cov) = point_covariance(refs, &p, self.sigma_px) else {
             return truth;
         };
-        let profile = &self.mvs.profile;
         let centres = self.cams.map(|c| c.center());
         let angle = triangulation_angle_deg(&p, &centres);
-        let gsd = hit.t / cam.intrinsics.focal();
-        let prob = profile.success_probability(material, angle, Some(gsd));
         let sigma_depth = sigma_along(&cov, &d) * d.dot(&cam.axis());
         truth.angle_deg = angle as f32;
-        truth.probability = prob as f32;
         truth.sigma_depth = sigma_depth as f32;
+        let Some(profile) = self.profile else {
+            truth.status = PixelStatus::Visible;
+            return truth;
+        };
+        let gsd = hit.t / cam.intrinsics.focal();
+        let prob = profile.success_probability(material, angle, Some(gsd));
+        truth.probability = prob as f32;
         let u = uniform_field(
             self.seed ^ STREAM_FIELD,
             [p.x, p.y, p.z],
