@@ -112,7 +112,8 @@ pub fn sim(e: &SimError) -> PyErr {
         SimError::Labelgen(l) => labelgen(l),
         SimError::Mission(m) => mission(m),
         SimError::InvalidArgument(_) => PyValueError::new_err(message(e)),
-        SimError::Campaign(_) => PyRuntimeError::new_err(message(e)),
+        SimError::Mvs(m) if m.is_input_error() => PyValueError::new_err(message(e)),
+        SimError::Mvs(_) | SimError::Campaign(_) => PyRuntimeError::new_err(message(e)),
     }
 }
 
