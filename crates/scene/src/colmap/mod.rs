@@ -16,9 +16,11 @@
 
 mod binary;
 mod depth;
+mod lens;
 mod model;
 mod reconstruction;
 mod text;
+mod undistort;
 
 use std::path::{Path, PathBuf};
 
@@ -36,6 +38,10 @@ pub use reconstruction::Reconstruction;
 pub use text::{
     cameras_to_string, images_to_string, parse_cameras, parse_images, parse_points3d,
     points3d_to_string, read_cameras_text, read_images_text, read_points3d_text,
+};
+pub use undistort::{
+    first_distorted_camera, undistort_camera, undistort_image, undistort_reconstruction,
+    undistort_workspace, UndistortOptions, UndistortReport,
 };
 
 use crate::error::{Location, Result, SceneError};

@@ -152,7 +152,7 @@ impl CameraModel {
 
     /// Whether the model has a single focal length `f` (then the parameters
     /// start `f, cx, cy`) rather than `fx, fy, cx, cy`.
-    fn single_focal(self) -> bool {
+    pub(crate) fn single_focal(self) -> bool {
         matches!(
             self,
             CameraModel::SimplePinhole
