@@ -57,8 +57,9 @@ fn distortion(model: CameraModel, k: &[f64], u: f64, v: f64) -> (f64, f64) {
     let (u2, v2, uv) = (u * u, v * v, u * v);
     let r2 = u2 + v2;
     match model {
-        M::SimpleRadial => (u * k[0] * r2, v * k[0] * r2),
-        M::Radial => {
+        // In the fisheye plane r is theta: same polynomial, other plane.
+        M::SimpleRadial | M::SimpleRadialFisheye => (u * k[0] * r2, v * k[0] * r2),
+        M::Radial | M::RadialFisheye => {
             let radial = k[0] * r2 + k[1] * r2 * r2;
             (u * radial, v * radial)
         }
@@ -78,12 +79,6 @@ fn distortion(model: CameraModel, k: &[f64], u: f64, v: f64) -> (f64, f64) {
                 u * radial + 2.0 * k[2] * uv + k[3] * (r2 + 2.0 * u2) - u,
                 v * radial + 2.0 * k[3] * uv + k[2] * (r2 + 2.0 * v2) - v,
             )
-        }
-        // In the fisheye plane r is theta.
-        M::SimpleRadialFisheye => (u * k[0] * r2, v * k[0] * r2),
-        M::RadialFisheye => {
-            let radial = k[0] * r2 + k[1] * r2 * r2;
-            (u * radial, v * radial)
         }
         M::OpenCvFisheye => {
             let radial =
@@ -240,13 +235,11 @@ impl ColmapCamera {
     /// `EUCM` and `EQUIRECTANGULAR` camera, and every perspective or
     /// division model with a non-zero distortion parameter.
     pub fn is_distorted(&self) -> bool {
-        match projection(self.model) {
-            None => true,
-            Some(Projection::Perspective | Projection::Division) => {
-                self.extra_params().iter().any(|&k| k != 0.0)
-            }
-            Some(_) => true,
-        }
+        let plain = matches!(
+            projection(self.model),
+            Some(Projection::Perspective | Projection::Division)
+        );
+        !plain || self.extra_params().iter().any(|&k| k != 0.0)
     }
 
     /// The pixel a normalised pinhole coordinate `(u, v)` (the ray

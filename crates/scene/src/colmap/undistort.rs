@@ -5,6 +5,7 @@
 //! ([`undistort_reconstruction`]), and [`undistort_workspace`] writes
 //! `images/`, `sparse/` and `stereo/` — the layout `vp-mvs` reads.
 
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use image::{ImageFormat, RgbImage};
@@ -501,8 +502,8 @@ fn write_workspace(
     let mut patch_match = String::new();
     let mut fusion = String::new();
     for im in undistorted.images.values() {
-        patch_match.push_str(&format!("{}\n__auto__, 20\n", im.name));
-        fusion.push_str(&format!("{}\n", im.name));
+        let _ = write!(patch_match, "{}\n__auto__, 20\n", im.name);
+        let _ = writeln!(fusion, "{}", im.name);
     }
     crate::fsio::write_file_atomic(&root.join("stereo/patch-match.cfg"), patch_match.as_bytes())?;
     crate::fsio::write_file_atomic(&root.join("stereo/fusion.cfg"), fusion.as_bytes())?;
