@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use vp_scene::colmap::{self, read_model, undistort_workspace, CameraModel, UndistortOptions};
+use vp_scene::colmap::{read_model, undistort_workspace, CameraModel, UndistortOptions};
 
 fn data() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/colmap/undistort")
@@ -144,6 +144,27 @@ fn undistort_refuses_existing_output_and_missing_images_without_writing() {
 #[test]
 fn undistort_refuses_an_image_of_the_wrong_size_naming_it() {
     let tmp = tempfile::tempdir().unwrap();
+    // An aligned model keeps its frame in the workspace.
+    let model = tmp.path().join("model");
+    std::fs::create_dir(&model).unwrap();
+    for e in std::fs::read_dir(data().join("input/model")).unwrap() {
+        let e = e.unwrap();
+        std::fs::copy(e.path(), model.join(e.file_name())).unwrap();
+    }
+    std::fs::write(model.join("frame.json"), "{}").unwrap();
+    let ws = tmp.path().join("ws-frame");
+    undistort_workspace(
+        &model,
+        &data().join("input/images"),
+        &ws,
+        &UndistortOptions::default(),
+        false,
+    )
+    .unwrap();
+    assert_eq!(
+        std::fs::read_to_string(ws.join("sparse/frame.json")).unwrap(),
+        "{}"
+    );
     let images = tmp.path().join("images");
     std::fs::create_dir(&images).unwrap();
     for e in std::fs::read_dir(data().join("input/images")).unwrap() {
@@ -168,5 +189,4 @@ fn undistort_refuses_an_image_of_the_wrong_size_naming_it() {
         "{msg}"
     );
     assert!(!out.exists());
-    let _ = colmap::ModelFormat::Text;
 }

@@ -336,6 +336,7 @@ pub struct UndistortReport {
 /// writes them), `sparse/` (binary model with `PINHOLE` cameras),
 /// `stereo/patch-match.cfg` and `stereo/fusion.cfg` (COLMAP's defaults)
 /// and the empty `stereo/{depth_maps,normal_maps,consistency_graphs}`.
+/// An aligned model's `frame.json` is copied into `sparse/`.
 ///
 /// Nothing partial is written: the workspace is built in a temporary
 /// folder beside `out` and renamed into place only when complete. `out`
@@ -400,7 +401,16 @@ pub fn undistort_workspace(
         .into_owned();
     let tmp = parent.join(format!(".{name}.tmp-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&tmp);
-    let result = write_workspace(&tmp, images_dir, &rec, &undistorted);
+    let result = write_workspace(&tmp, images_dir, &rec, &undistorted).and_then(|()| {
+        // Undistortion keeps poses and points: an aligned model's frame
+        // (`vpctl colmap align`) holds for the workspace too.
+        let frame = model_dir.join(super::FRAME_FILE);
+        if frame.is_file() {
+            let bytes = crate::fsio::read_file(&frame)?;
+            crate::fsio::write_file_atomic(&tmp.join("sparse").join(super::FRAME_FILE), &bytes)?;
+        }
+        Ok(())
+    });
     if let Err(e) = result {
         let _ = std::fs::remove_dir_all(&tmp);
         return Err(e);
