@@ -69,7 +69,8 @@ def test_sample_triplets_equals_cli(scene_files, tmp_path):
 def test_labels_equal_cli_run(scene_files, tmp_path):
     root, mesh, model, triplets, _ = scene_files
     run_cli("labelgen", "run", "--model", root / "model", "--triplets", root / "triplets.txt",
-            "--depth-dir", root / "depth", "--mesh", root / "mesh.ply", "--out-dir", tmp_path / "cli")
+            "--depth-dir", root / "depth", "--mesh", root / "mesh.ply", "--out-dir", tmp_path / "cli",
+            "--frame-unchecked")
     recs = vpctl.labelgen.load_reconstructions(model, triplets, root / "depth")
     assert [r.id for r in recs] == [f"t{t:04}/level1" for t in range(4)]
     labels = vpctl.labelgen.generate_labels(recs, mesh=vpctl.scene.Mesh.load(root / "mesh.ply"))

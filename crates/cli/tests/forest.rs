@@ -95,6 +95,13 @@ fn train_predict_and_eval_learn_texture_and_angle() {
     let train_small = |out: &Path| train(&images, &labels, out, &small);
     let o = train_small(&model);
     assert!(o.status.success(), "{}", text(&o));
+    // The default balances the classes: the warning says why that is wrong
+    // for planning.
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("confidences are not calibrated"),
+        "{}",
+        text(&o)
+    );
     assert!(
         text(&o).contains("training set: 3 images, 3 label images"),
         "{}",

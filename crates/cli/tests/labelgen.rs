@@ -122,6 +122,7 @@ fn run_args(f: &Fixture, out: &str) -> Vec<String> {
         &f.p("mesh.ply"),
         "--out-dir",
         &f.p(out),
+        "--frame-unchecked",
     ]
     .map(String::from)
     .to_vec()

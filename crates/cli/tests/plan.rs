@@ -80,6 +80,19 @@ fn fixture(dir: &Path) -> Site {
     }
     std::fs::create_dir_all(dir.join("model")).unwrap();
     colmap::write_text(&dir.join("model"), &rec).unwrap();
+    // The model is already metric ENU: its frame is the identity.
+    colmap::ModelFrame {
+        origin: vp_scene::plan::GeodeticOrigin::default(),
+        sim3: colmap::Sim3 {
+            scale: 1.0,
+            rotation_wxyz: [1.0, 0.0, 0.0, 0.0],
+            translation: [0.0; 3],
+        },
+        rms_m: 0.0,
+        residuals: Vec::new(),
+    }
+    .save(&dir.join("model"))
+    .unwrap();
     let v = site.flight_volume;
     std::fs::write(
         dir.join("plan.toml"),
@@ -245,4 +258,107 @@ fn grid_and_config_defaults() {
     let text = String::from_utf8(o.stdout).unwrap();
     let cfg = vp_planner::PlannerConfig::from_toml(&text, Path::new("-")).unwrap();
     assert_eq!(cfg, vp_planner::PlannerConfig::default());
+}
+
+#[test]
+fn plan_refuses_a_distorted_model_and_points_at_colmap_undistort() {
+    // Regression: every COLMAP camera was approximated as a pinhole, so a
+    // RADIAL/OPENCV model from real photos planned with the wrong geometry.
+    let dir = tempfile::tempdir().unwrap();
+    fixture(dir.path());
+    let p = |f: &str| dir.path().join(f).to_str().unwrap().to_string();
+    let cams = dir.path().join("model/cameras.txt");
+    let text = std::fs::read_to_string(&cams).unwrap();
+    let line = text.lines().find(|l| !l.starts_with('#')).unwrap();
+    let distorted = line.replace("PINHOLE", "OPENCV") + " -0.05 0.01 0 0";
+    std::fs::write(&cams, text.replace(line, &distorted)).unwrap();
+    let o = vpctl(&[
+        "plan",
+        "--mesh",
+        &p("site.ply"),
+        "--cameras",
+        &p("model"),
+        "--config",
+        &p("plan.toml"),
+        "--out",
+        &p("x.json"),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("OPENCV") && err.contains("vpctl colmap undistort") && err.contains("model"),
+        "{err}"
+    );
+    assert!(!dir.path().join("x.json").exists());
+}
+
+#[test]
+fn plan_refuses_a_model_without_frame_unless_told() {
+    // Regression: a raw COLMAP model (arbitrary scale and orientation) was
+    // planned as if metric ENU, and no error said so.
+    let dir = tempfile::tempdir().unwrap();
+    fixture(dir.path());
+    let p = |f: &str| dir.path().join(f).to_str().unwrap().to_string();
+    std::fs::remove_file(dir.path().join("model/frame.json")).unwrap();
+    let args = |extra: &[&str]| {
+        let mut v = vec![
+            "plan".to_string(),
+            "--mesh".into(),
+            p("site.ply"),
+            "--cameras".into(),
+            p("model"),
+            "--config".into(),
+            p("plan.toml"),
+            "--out".into(),
+            p("x.json"),
+            "--no-timings".into(),
+        ];
+        v.extend(extra.iter().map(|s| (*s).to_string()));
+        v
+    };
+    let run = |v: &[String]| vpctl(&v.iter().map(String::as_str).collect::<Vec<_>>());
+    let o = run(&args(&[]));
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("frame.json")
+            && err.contains("vpctl colmap align")
+            && err.contains("--frame-unchecked"),
+        "{err}"
+    );
+    assert!(!dir.path().join("x.json").exists());
+    let o = run(&args(&["--frame-unchecked"]));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    // Regression: views that could not be bridged appeared neither in the
+    // output nor in the plan JSON.
+    assert!(text.contains("unbridged views: [0]"), "{text}");
+    let plan = Plan::load(&dir.path().join("x.json")).unwrap();
+    assert_eq!(plan.unbridged, vec![0]);
+    // A frame whose scale is implausible (cameras 1000x too far apart).
+    colmap::ModelFrame {
+        origin: vp_scene::plan::GeodeticOrigin::default(),
+        sim3: colmap::Sim3 {
+            scale: 1.0,
+            rotation_wxyz: [1.0, 0.0, 0.0, 0.0],
+            translation: [0.0; 3],
+        },
+        rms_m: 0.0,
+        residuals: Vec::new(),
+    }
+    .save(&dir.path().join("model"))
+    .unwrap();
+    let model = colmap::read_model(&dir.path().join("model")).unwrap();
+    let far = colmap::transform_reconstruction(
+        &model,
+        &colmap::Sim3 {
+            scale: 1000.0,
+            rotation_wxyz: [1.0, 0.0, 0.0, 0.0],
+            translation: [0.0; 3],
+        },
+    );
+    colmap::write_text(&dir.path().join("model"), &far).unwrap();
+    let o = run(&args(&["--force"]));
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("implausible scale"), "{}", stderr(&o));
 }

@@ -7,6 +7,7 @@ use std::path::Path;
 use vp_scene::colmap::Reconstruction;
 use vp_scene::image_files::confidence_file;
 use vp_scene::raster::ConfidenceImage;
+use vp_scene::{Location, SceneError};
 
 use crate::error::Result;
 use crate::inputs::AcquiredView;
@@ -25,7 +26,34 @@ pub fn acquired_from_model(
         let camera = rec.camera_of(id)?;
         let confidence = match confidence_dir {
             None => None,
-            Some(dir) => Some(ConfidenceImage::load(&confidence_file(dir, &image.name)?)?),
+            Some(dir) => {
+                let path = confidence_file(dir, &image.name)?;
+                let conf = ConfidenceImage::load(&path)?;
+                let k = &camera.intrinsics;
+                // The planner samples confidence at the camera's pixels: an
+                // image predicted at another size would be read at the wrong
+                // places without any error. A 1x1 image is a constant, which
+                // fits every size.
+                let constant = (conf.width(), conf.height()) == (1, 1);
+                if !constant && (conf.width(), conf.height()) != (k.width, k.height) {
+                    return Err(SceneError::parse(
+                        &path,
+                        Location::Header,
+                        format!(
+                            "confidence image is {}x{} but the camera of image {} is {}x{}: \
+                             predict on the images the model was made from (undistorted, \
+                             full size)",
+                            conf.width(),
+                            conf.height(),
+                            image.name,
+                            k.width,
+                            k.height
+                        ),
+                    )
+                    .into());
+                }
+                Some(conf)
+            }
         };
         views.push(AcquiredView { camera, confidence });
     }
@@ -98,5 +126,17 @@ mod tests {
             .map(|v| v.confidence.as_ref().unwrap().values()[0])
             .collect();
         assert_eq!(c, vec![0.5, 0.25]);
+        // Regression: a confidence image predicted on a downscaled photo was
+        // sampled at the camera's pixels without an error.
+        let half = ConfidenceImage::zeros(20, 15, 1, vp_scene::raster::AngleBins::paper()).unwrap();
+        let path = confidence_file(dir.path(), "img2.jpg").unwrap();
+        half.save(&path).unwrap();
+        let err = acquired_from_model(&rec, Some(dir.path())).unwrap_err();
+        let msg = err.to_string();
+        assert!(
+            msg.contains("img2.jpg.vpconf") && msg.contains("20x15") && msg.contains("40x30"),
+            "{msg}"
+        );
+        assert!(err.is_input_error());
     }
 }

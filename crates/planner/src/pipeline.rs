@@ -305,7 +305,7 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
     }
 
     let mut plan = Plan::new(inputs.origin);
-    plan.waypoints = path.waypoints;
+    (plan.waypoints, plan.unbridged) = (path.waypoints, path.unbridged.clone());
     plan.geofence.clone_from(&safety.geofence);
     plan.altitude_limits = Some(safety.altitude);
     plan.safety_distance_m = Some(cfg.safety_distance_m);

@@ -227,6 +227,11 @@ pub struct Plan {
     /// Why planning stopped early, in words.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cut_short_reason: Option<String>,
+    /// Waypoints (indices into `waypoints`) that could not be bridged from
+    /// the previous one with the required image overlap: the MVS may not
+    /// link them to the rest of the flight.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub unbridged: Vec<usize>,
 }
 
 impl Plan {
@@ -242,6 +247,7 @@ impl Plan {
             statistics: PlanStatistics::default(),
             cut_short: false,
             cut_short_reason: None,
+            unbridged: Vec::new(),
         }
     }
 

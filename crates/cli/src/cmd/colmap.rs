@@ -1,4 +1,5 @@
-//! `vpctl colmap ...`: inspect COLMAP sparse models.
+//! `vpctl colmap ...`: inspect COLMAP sparse models, undistort them into a
+//! dense workspace.
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -16,10 +17,71 @@ pub enum ColmapCommand {
         /// The model directory (e.g. `sparse/0`).
         dir: PathBuf,
     },
+    /// Undistort a model and its images into a dense workspace, as COLMAP's
+    /// `image_undistorter --output_type COLMAP` writes it: `images/`
+    /// (resampled into PINHOLE cameras), `sparse/` (binary model), `stereo/`
+    /// (patch-match.cfg, fusion.cfg). The layout `vpctl mvs run` reads; its
+    /// `sparse/` and `images/` are what `vpctl plan` and `labelgen` need.
+    /// Every COLMAP camera model but EQUIRECTANGULAR. Nothing is written
+    /// unless every image was undistorted.
+    Undistort(UndistortArgs),
+    /// Georegister a model: the similarity transform (scale, rotation,
+    /// translation) from its camera centres to known image positions in the
+    /// local ENU frame at the first position, robust to a few bad positions
+    /// (RANSAC, then least squares on the inliers), as COLMAP's
+    /// `model_aligner` does. Writes the moved model and `frame.json` (the
+    /// geodetic origin, the transform, the residuals) to --out; prints the
+    /// residuals. `vpctl plan` and `labelgen` need that frame.
+    Align(AlignArgs),
+}
+
+/// Arguments of `vpctl colmap align`.
+#[derive(Debug, clap::Args)]
+pub struct AlignArgs {
+    /// The sparse model (text or binary).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// CSV of image positions: name,lat,lon,alt per line (WGS84 degrees,
+    /// metres; an optional header line, `#` comments).
+    #[arg(long)]
+    pub positions: PathBuf,
+    /// Output folder for the aligned model (same format as the input) and
+    /// frame.json (must not exist, unless --force).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// A position farther than this from its aligned camera is an outlier (m).
+    #[arg(long, default_value_t = 3.0)]
+    pub max_error: f64,
+    /// Replace an existing output folder.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// Arguments of `vpctl colmap undistort`.
+#[derive(Debug, clap::Args)]
+pub struct UndistortArgs {
+    /// The sparse model (e.g. `sparse/0`), with distorted cameras.
+    #[arg(long)]
+    pub model: PathBuf,
+    /// The folder of the photos the model names.
+    #[arg(long)]
+    pub images: PathBuf,
+    /// The workspace folder to write (must not exist, unless --force).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Replace an existing workspace folder.
+    #[arg(long)]
+    pub force: bool,
+    /// 0: crop to the pixels every ray covers (no black border, COLMAP's
+    /// default); 1: keep every input pixel (black corners).
+    #[arg(long, default_value_t = 0.0)]
+    pub blank_pixels: f64,
 }
 
 pub fn run(cmd: ColmapCommand, out: &mut dyn Write) -> Result<()> {
     match cmd {
+        ColmapCommand::Undistort(a) => undistort(&a, out),
+        ColmapCommand::Align(a) => align(&a, out),
         ColmapCommand::Info { dir } => {
             let format = colmap::detect_format(&dir)?;
             let rec = colmap::read_model_as(&dir, format)?;
@@ -50,4 +112,119 @@ pub fn run(cmd: ColmapCommand, out: &mut dyn Write) -> Result<()> {
             Ok(())
         }
     }
+}
+
+fn undistort(a: &UndistortArgs, out: &mut dyn Write) -> Result<()> {
+    if !(0.0..=1.0).contains(&a.blank_pixels) {
+        return Err(crate::cmd::UsageError(format!(
+            "--blank-pixels must lie in [0, 1], got {}",
+            a.blank_pixels
+        ))
+        .into());
+    }
+    let opts = colmap::UndistortOptions {
+        blank_pixels: a.blank_pixels,
+        ..colmap::UndistortOptions::default()
+    };
+    let report = colmap::undistort_workspace(&a.model, &a.images, &a.out, &opts, a.force)?;
+    for (d, u) in &report.cameras {
+        writeln!(
+            out,
+            "camera {}: {} {}x{} -> {} {}x{} params {:?}",
+            d.id, d.model, d.width, d.height, u.model, u.width, u.height, u.params
+        )?;
+    }
+    writeln!(
+        out,
+        "wrote {} undistorted images, sparse/ and stereo/ to {}",
+        report.n_images,
+        report.out.display()
+    )?;
+    Ok(())
+}
+
+fn align(a: &AlignArgs, out: &mut dyn Write) -> Result<()> {
+    if !(a.max_error.is_finite() && a.max_error > 0.0) {
+        return Err(crate::cmd::UsageError(format!(
+            "--max-error must be a positive number of metres, got {}",
+            a.max_error
+        ))
+        .into());
+    }
+    vp_scene::fsio::check_overwrite(&a.out, a.force)?;
+    let format = colmap::detect_format(&a.model)?;
+    let rec = colmap::read_model_as(&a.model, format)?;
+    let geo = colmap::read_positions_csv(&a.positions)?;
+    let origin = geo[0].1;
+    let frame = vp_mission::geodesy::LocalFrame::new(origin)?;
+    let enu: Vec<(String, nalgebra::Point3<f64>)> = geo
+        .iter()
+        .map(|(n, g)| (n.clone(), nalgebra::Point3::from(frame.to_enu(*g))))
+        .collect();
+    let params = colmap::AlignParams {
+        max_error_m: a.max_error,
+        ..colmap::AlignParams::default()
+    };
+    let al = colmap::align_to_positions(&rec, &enu, &params, &a.positions)?;
+    let moved = colmap::transform_reconstruction(&rec, &al.sim3);
+    let model_frame = colmap::ModelFrame {
+        origin,
+        sim3: al.sim3,
+        rms_m: al.rms_m,
+        residuals: al.residuals.clone(),
+    };
+    // Build beside --out, rename when complete: nothing partial.
+    let parent = match a.out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let name = a
+        .out
+        .file_name()
+        .map_or_else(|| "aligned".into(), |n| n.to_string_lossy().into_owned());
+    let tmp = parent.join(format!(".{name}.tmp-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&tmp);
+    let written = (|| -> vp_scene::Result<()> {
+        match format {
+            colmap::ModelFormat::Binary => colmap::write_binary(&tmp, &moved)?,
+            colmap::ModelFormat::Text => colmap::write_text(&tmp, &moved)?,
+        }
+        model_frame.save(&tmp)
+    })();
+    if let Err(e) = written {
+        let _ = std::fs::remove_dir_all(&tmp);
+        return Err(e.into());
+    }
+    if a.out.exists() {
+        std::fs::remove_dir_all(&a.out)?;
+    }
+    std::fs::rename(&tmp, &a.out)?;
+    let n_in = al.residuals.iter().filter(|r| r.inlier).count();
+    writeln!(
+        out,
+        "origin: {:.8},{:.8},{:.3} (first position)",
+        origin.lat_deg, origin.lon_deg, origin.alt_m
+    )?;
+    writeln!(out, "scale: {:.6} m per model unit", al.sim3.scale)?;
+    writeln!(
+        out,
+        "positions: {} of {} used ({} outliers beyond {} m, {} not in the model)",
+        n_in,
+        al.residuals.len(),
+        al.residuals.len() - n_in,
+        a.max_error,
+        al.unmatched.len()
+    )?;
+    writeln!(out, "rms residual: {:.4} m (inliers)", al.rms_m)?;
+    for r in &al.residuals {
+        writeln!(
+            out,
+            "  {}: {:.4} m{}",
+            r.name,
+            r.residual_m,
+            if r.inlier { "" } else { " (outlier)" }
+        )?;
+    }
+    writeln!(out, "written: {}", a.out.display())?;
+    Ok(())
 }

@@ -113,6 +113,18 @@ pub fn train(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
     params.n_trees = a.trees.unwrap_or(params.n_trees);
     params.max_depth = a.max_depth.unwrap_or(params.max_depth);
     params.validate()?;
+    if params.balance_classes {
+        // The default (the paper's balanced draw) stays for compatibility,
+        // but the simulated campaigns found that it leaves the confidences
+        // uncalibrated, and the planner reads them as probabilities.
+        eprintln!(
+            "warning: balance_classes = true: both classes are weighted equally, so the \
+             confidences are not calibrated probabilities of MVS success and the planner's \
+             expected gains are biased (the simulated campaigns train with \
+             balance_classes = false for this reason); for planning, set \
+             balance_classes = false in --config (vpctl forest defaults prints one)"
+        );
+    }
 
     let labelled = load_label_dir(&a.images, &a.labels)?;
     let mut set = match a.max_per_label_image {

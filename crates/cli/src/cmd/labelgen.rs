@@ -67,9 +67,14 @@ pub struct TripletsArgs {
 /// Arguments of `labelgen run`.
 #[derive(Debug, Args)]
 pub struct RunArgs {
-    /// COLMAP sparse model folder with the poses of every image.
+    /// COLMAP sparse model folder with the poses of every image, aligned by
+    /// `vpctl colmap align` (its `frame.json` is checked).
     #[arg(long)]
     model: PathBuf,
+    /// Skip the frame check (`frame.json`, scale, gravity): only for a model
+    /// already in metric, gravity-aligned local ENU.
+    #[arg(long)]
+    frame_unchecked: bool,
     /// Triplet list written by `vpctl labelgen triplets`.
     #[arg(long)]
     triplets: PathBuf,
@@ -136,6 +141,9 @@ fn label(a: &RunArgs, out: &mut dyn Write) -> Result<()> {
         None => LabelParams::default(),
     };
     let model = colmap::read_model(&a.model)?;
+    if !a.frame_unchecked {
+        colmap::check_frame(&a.model, &model)?;
+    }
     let list = triplets::read_triplet_list(&a.triplets)?;
     let recs = io::load_reconstructions(&model, &list, &a.depth_dir)
         .with_context(|| format!("loading depth maps from {}", a.depth_dir.display()))?;

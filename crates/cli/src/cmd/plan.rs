@@ -43,6 +43,11 @@ pub struct PlanArgs {
     /// inputs and seed give the same bytes.
     #[arg(long)]
     no_timings: bool,
+    /// Plan even when the model has no `frame.json` from `vpctl colmap
+    /// align` or its scale or gravity look implausible: only for a model
+    /// already in metric, gravity-aligned local ENU.
+    #[arg(long)]
+    frame_unchecked: bool,
 }
 
 /// Options shared by `plan` and `plan grid`.
@@ -257,11 +262,30 @@ fn outline(roi: &RoiSpec, pts: impl Iterator<Item = Point3<f64>>) -> Vec<[f64; 2
     }
 }
 
-fn load_acquired(model: &Path, conf_dir: Option<&Path>) -> Result<Vec<AcquiredView>> {
+fn load_acquired(
+    model: &Path,
+    conf_dir: Option<&Path>,
+    frame_unchecked: bool,
+) -> Result<(Vec<AcquiredView>, Option<GeodeticOrigin>)> {
     let rec = colmap::read_model(model)?;
+    let origin = if frame_unchecked {
+        None
+    } else {
+        let check = colmap::check_frame(model, &rec)?;
+        eprintln!(
+            "frame: {} (origin {:.7},{:.7},{:.2}; cameras {:.2} m apart, median)",
+            model.join(colmap::FRAME_FILE).display(),
+            check.frame.origin.lat_deg,
+            check.frame.origin.lon_deg,
+            check.frame.origin.alt_m,
+            check.median_spacing_m
+        );
+        Some(check.frame.origin)
+    };
     // Errors name the confidence file or the image; the context names the model.
-    vp_planner::acquired_from_model(&rec, conf_dir)
-        .with_context(|| format!("acquired views of {}", model.display()))
+    let views = vp_planner::acquired_from_model(&rec, conf_dir)
+        .with_context(|| format!("acquired views of {}", model.display()))?;
+    Ok((views, origin))
 }
 
 fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
@@ -269,9 +293,10 @@ fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
     let out_path = c.check_outputs()?.to_path_buf();
     let cfg = c.config()?;
     let mesh = io::read_mesh(required(args.mesh.as_ref(), "--mesh")?)?;
-    let acquired = load_acquired(
+    let (acquired, model_origin) = load_acquired(
         required(args.cameras.as_ref(), "--cameras")?,
         args.confidence_dir.as_deref(),
+        args.frame_unchecked,
     )?;
     let roi = c.roi()?;
     eprintln!(
@@ -285,7 +310,8 @@ fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
         acquired: &acquired,
         roi: roi.clone(),
         config: &cfg,
-        origin: c.origin()?,
+        // --origin wins over the model's frame.json.
+        origin: c.origin()?.or(model_origin),
     })?;
     for it in &r.iterations {
         let times: Vec<String> = it
@@ -329,6 +355,16 @@ fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
             out,
             "dropped triplets (unsafe or unreachable): {:?}",
             r.dropped_triplets
+        )?;
+    }
+    if plan.unbridged.is_empty() {
+        writeln!(out, "unbridged views: none")?;
+    } else {
+        writeln!(
+            out,
+            "unbridged views: {:?} (waypoint indices: no bridge from the previous view keeps the \
+             image overlap; listed in the plan as \"unbridged\")",
+            plan.unbridged
         )?;
     }
     match &r.cut_short_reason {

@@ -4,8 +4,11 @@
 //!   `points3D`, as `.bin` or `.txt`) into a [`Reconstruction`] and checks
 //!   its cross-references; [`write_text`] and [`write_binary`] write one.
 //! - [`Reconstruction::camera_of`] gives the posed pinhole [`Camera`] of an
-//!   image: every COLMAP camera model ([`CameraModel`]) is reduced to its
-//!   pinhole approximation ([`ColmapCamera::pinhole`]), distortion dropped.
+//!   image, and refuses a camera with lens distortion: never a silent
+//!   pinhole. [`ColmapCamera::img_from_cam`] / [`ColmapCamera::cam_from_img`]
+//!   project with the full model of every [`CameraModel`];
+//!   [`undistort_workspace`] writes the undistorted `PINHOLE` workspace
+//!   COLMAP's `image_undistorter` writes (`vpctl colmap undistort`).
 //! - [`read_depth_map`] / [`write_depth_map`] handle COLMAP's dense depth
 //!   maps ([`DepthMap`]).
 //!
@@ -14,14 +17,21 @@
 //!
 //! [`Camera`]: crate::Camera
 
+mod align;
 mod binary;
 mod depth;
+mod lens;
 mod model;
 mod reconstruction;
 mod text;
+mod undistort;
 
 use std::path::{Path, PathBuf};
 
+pub use align::{
+    align_to_positions, check_frame, read_positions_csv, transform_reconstruction, umeyama,
+    AlignParams, Alignment, FrameCheck, ModelFrame, PositionResidual, Sim3, FRAME_FILE,
+};
 pub use binary::{
     cameras_to_bytes, images_to_bytes, parse_cameras_binary, parse_images_binary,
     parse_points3d_binary, points3d_to_bytes, read_cameras_binary, read_images_binary,
@@ -36,6 +46,10 @@ pub use reconstruction::Reconstruction;
 pub use text::{
     cameras_to_string, images_to_string, parse_cameras, parse_images, parse_points3d,
     points3d_to_string, read_cameras_text, read_images_text, read_points3d_text,
+};
+pub use undistort::{
+    first_distorted_camera, undistort_camera, undistort_image, undistort_reconstruction,
+    undistort_workspace, UndistortOptions, UndistortReport,
 };
 
 use crate::error::{Location, Result, SceneError};

@@ -152,7 +152,7 @@ impl CameraModel {
 
     /// Whether the model has a single focal length `f` (then the parameters
     /// start `f, cx, cy`) rather than `fx, fy, cx, cy`.
-    fn single_focal(self) -> bool {
+    pub(crate) fn single_focal(self) -> bool {
         matches!(
             self,
             CameraModel::SimplePinhole
@@ -191,8 +191,10 @@ impl ColmapCamera {
     /// The pinhole approximation of the camera: focal lengths and principal
     /// point taken from the model's parameters, distortion dropped. For every
     /// perspective and fisheye model this is the model's first-order
-    /// behaviour at the principal point, which is what planning needs (ground
-    /// resolution, field of view). Fails for `EQUIRECTANGULAR` (no pinhole
+    /// behaviour at the principal point (for inspection: ground resolution,
+    /// field of view). Projecting with it is wrong for a distorted camera,
+    /// which is why [`Reconstruction::camera_of`](super::Reconstruction::camera_of)
+    /// refuses one. Fails for `EQUIRECTANGULAR` (no pinhole
     /// exists), for a wrong parameter count, a size that does not fit `u32`,
     /// or a non-positive or non-finite focal length.
     pub fn pinhole(&self) -> Result<Intrinsics> {

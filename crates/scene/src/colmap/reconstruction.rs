@@ -7,6 +7,17 @@ use super::model::{ColmapCamera, ColmapImage, Point3D};
 use crate::camera::Camera;
 use crate::error::{Location, Result, SceneError};
 
+/// Why a distorted camera is refused, and what to do.
+pub(crate) fn distorted_message(cam: &ColmapCamera) -> String {
+    format!(
+        "camera {} is {} with lens distortion: vpctl plans, labels and predicts with \
+         pinhole cameras and does not approximate a distorted one silently; undistort \
+         the model and images first: vpctl colmap undistort --model MODEL --images IMAGES \
+         --out WORKSPACE (then use WORKSPACE/sparse and WORKSPACE/images)",
+        cam.id, cam.model
+    )
+}
+
 /// A COLMAP sparse model.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Reconstruction {
@@ -50,8 +61,11 @@ pub(crate) struct Inconsistency {
 }
 
 impl Reconstruction {
-    /// The posed pinhole camera of image `image_id` (pinhole approximation of
-    /// its COLMAP camera, `world_from_cam` the inverse of its pose).
+    /// The posed pinhole camera of image `image_id` (`world_from_cam` the
+    /// inverse of its pose). Refuses a camera with lens distortion
+    /// ([`ColmapCamera::is_distorted`]): vpctl projects with pinholes, so a
+    /// distorted model must be undistorted first (`vpctl colmap undistort`)
+    /// rather than approximated silently.
     pub fn camera_of(&self, image_id: u32) -> Result<Camera> {
         let image = self.images.get(&image_id).ok_or_else(|| {
             SceneError::InvalidArgument(format!("no image with id {image_id} in the model"))
@@ -62,6 +76,9 @@ impl Reconstruction {
                 image.camera_id
             ))
         })?;
+        if cam.is_distorted() {
+            return Err(SceneError::InvalidArgument(distorted_message(cam)));
+        }
         Ok(Camera::new(cam.pinhole()?, image.cam_from_world.inverse()))
     }
 

@@ -168,6 +168,14 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Header> {
                 "the header contains bytes that are not text",
             )
         })?;
+        if let Some(note) = State::free_text(line) {
+            // Old Blender exporters write `Created by Blender3D ...` without
+            // `comment`; trimesh and assimp read such files, MeshLab refuses
+            // them. Read the line as a comment, but say so: a misspelt
+            // keyword would otherwise vanish without a trace.
+            eprintln!("warning: {}: line {n}: {note}", path.display());
+            continue;
+        }
         if state
             .line(line)
             .map_err(|m| SceneError::parse(path, Location::Line(n), m))?
@@ -206,6 +214,26 @@ struct State {
 }
 
 impl State {
+    /// A header line that starts with no PLY keyword: the warning to give
+    /// when reading it as a comment.
+    fn free_text(line: &str) -> Option<String> {
+        const KEYWORDS: [&str; 6] = [
+            "comment",
+            "obj_info",
+            "format",
+            "element",
+            "property",
+            "end_header",
+        ];
+        let first = line.split_ascii_whitespace().next()?;
+        (!KEYWORDS.contains(&first)).then(|| {
+            format!(
+                "header line without a PLY keyword read as a comment: '{}'",
+                text::show(line.as_bytes())
+            )
+        })
+    }
+
     /// Takes one header line; `Ok(true)` at `end_header`.
     fn line(&mut self, line: &str) -> std::result::Result<bool, String> {
         let mut words = line.split_ascii_whitespace();

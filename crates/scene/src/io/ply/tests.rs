@@ -469,3 +469,31 @@ fn huge_declared_counts_fail_without_allocating_them() {
         "{e}"
     );
 }
+
+#[test]
+fn blender_free_text_header_line_reads_as_a_comment() {
+    // Regression: old Blender exporters write `Created by Blender3D ...`
+    // without `comment`; vpctl refused such files (as MeshLab does) while
+    // trimesh and assimp read them.
+    for encoding in ENCODINGS {
+        let mut f = File::new(
+            encoding,
+            "Created by Blender3D 2.49 - www.blender.org, source file: 'rock.blend'\n\
+             element vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+             element face 1\nproperty list uchar uint vertex_indices\n",
+        );
+        for (x, y) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)] {
+            f.put(Scalar::F32, x)
+                .put(Scalar::F32, y)
+                .put(Scalar::F32, 0.0)
+                .end();
+        }
+        f.put(Scalar::U8, 3.0);
+        for k in [0.0, 1.0, 2.0] {
+            f.put(Scalar::U32, k);
+        }
+        f.end();
+        let mesh = f.parse().unwrap();
+        assert_eq!(mesh.faces, vec![[0, 1, 2]]);
+    }
+}

@@ -1,0 +1,515 @@
+//! Georegistration of a sparse model, as COLMAP's `model_aligner` does it:
+//! a similarity transform (scale, rotation, translation) from the model's
+//! camera centres to known image positions in a local ENU frame, robust to a
+//! few bad positions (RANSAC over minimal triples, then a least-squares fit
+//! on the inliers, Umeyama's method), and the file `frame.json` that records
+//! the geodetic origin of the frame next to the model.
+//!
+//! [`check_frame`] is the check `vpctl plan` and `vpctl labelgen` run before
+//! trusting a model's frame: the origin present, scale and gravity plausible.
+
+use std::path::{Path, PathBuf};
+
+use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
+use rand::{Rng, SeedableRng};
+use serde::{Deserialize, Serialize};
+
+use super::reconstruction::Reconstruction;
+use crate::error::{Location, Result, SceneError};
+use crate::plan::GeodeticOrigin;
+
+/// Name of the frame file written beside an aligned model's files.
+pub const FRAME_FILE: &str = "frame.json";
+
+/// A similarity transform `x -> scale * rotation * x + translation`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Sim3 {
+    /// Scale factor.
+    pub scale: f64,
+    /// Rotation as a unit quaternion `[w, x, y, z]`.
+    pub rotation_wxyz: [f64; 4],
+    /// Translation.
+    pub translation: [f64; 3],
+}
+
+impl Sim3 {
+    fn rotation(&self) -> UnitQuaternion<f64> {
+        let [w, x, y, z] = self.rotation_wxyz;
+        UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z))
+    }
+
+    /// Applies the transform to a point.
+    pub fn apply(&self, p: &Point3<f64>) -> Point3<f64> {
+        let t = Vector3::from(self.translation);
+        Point3::from(self.rotation() * (p.coords * self.scale) + t)
+    }
+}
+
+/// One image position used for the alignment, with its residual.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PositionResidual {
+    /// Image name.
+    pub name: String,
+    /// Distance between the aligned camera centre and the given position (m).
+    pub residual_m: f64,
+    /// Whether the position was used in the final fit.
+    pub inlier: bool,
+}
+
+/// `frame.json`: how a model was tied to the world.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModelFrame {
+    /// WGS84 position of the local ENU origin of the model's frame.
+    pub origin: GeodeticOrigin,
+    /// The transform applied to the original model (original -> ENU metres).
+    pub sim3: Sim3,
+    /// Root mean square residual of the inliers (m).
+    pub rms_m: f64,
+    /// Per-image residuals.
+    pub residuals: Vec<PositionResidual>,
+}
+
+impl ModelFrame {
+    /// Reads `dir/frame.json`.
+    pub fn load(dir: &Path) -> Result<ModelFrame> {
+        let path = dir.join(FRAME_FILE);
+        let text = crate::fsio::read_text(&path)?;
+        serde_json::from_str(&text)
+            .map_err(|e| SceneError::parse(&path, Location::Line(e.line()), e.to_string()))
+    }
+
+    /// Writes `dir/frame.json` atomically.
+    pub fn save(&self, dir: &Path) -> Result<()> {
+        let json = serde_json::to_string_pretty(self)
+            .map_err(|e| SceneError::InvalidArgument(e.to_string()))?;
+        crate::fsio::write_file_atomic(&dir.join(FRAME_FILE), format!("{json}\n").as_bytes())
+    }
+}
+
+/// Parameters of [`align_to_positions`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AlignParams {
+    /// A position farther than this from its aligned camera is an outlier (m).
+    pub max_error_m: f64,
+    /// RANSAC iterations.
+    pub iterations: usize,
+    /// Seed of the sampling.
+    pub seed: u64,
+}
+
+impl Default for AlignParams {
+    fn default() -> Self {
+        AlignParams {
+            max_error_m: 3.0,
+            iterations: 2000,
+            seed: 0,
+        }
+    }
+}
+
+/// Least-squares similarity from `src` to `dst` (Umeyama 1991). `None` when
+/// the source points are degenerate (coincident).
+pub fn umeyama(src: &[Point3<f64>], dst: &[Point3<f64>]) -> Option<Sim3> {
+    let n = src.len() as f64;
+    if src.len() < 3 || src.len() != dst.len() {
+        return None;
+    }
+    let ms = src.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / n;
+    let md = dst.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / n;
+    let mut cov = Matrix3::zeros();
+    let mut var_s = 0.0;
+    for (s, d) in src.iter().zip(dst) {
+        let (a, b) = (s.coords - ms, d.coords - md);
+        cov += b * a.transpose();
+        var_s += a.norm_squared();
+    }
+    cov /= n;
+    var_s /= n;
+    if var_s <= f64::EPSILON {
+        return None;
+    }
+    let svd = cov.svd(true, true);
+    let (u, vt) = (svd.u?, svd.v_t?);
+    let mut sgn = Matrix3::identity();
+    if (u.determinant() * vt.determinant()) < 0.0 {
+        sgn[(2, 2)] = -1.0;
+    }
+    let r = u * sgn * vt;
+    let d = svd.singular_values;
+    let trace = d[0] * sgn[(0, 0)] + d[1] * sgn[(1, 1)] + d[2] * sgn[(2, 2)];
+    let scale = trace / var_s;
+    if !(scale.is_finite() && scale > 0.0) {
+        return None;
+    }
+    let t = md - scale * (r * ms);
+    let q = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(r));
+    Some(Sim3 {
+        scale,
+        rotation_wxyz: [q.w, q.i, q.j, q.k],
+        translation: [t.x, t.y, t.z],
+    })
+}
+
+/// How far a point set is from a line: the second singular value of the
+/// centred points over the first (0 for collinear points).
+fn planarity(points: &[Point3<f64>]) -> f64 {
+    let n = points.len() as f64;
+    let m = points.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / n;
+    let mut cov = Matrix3::zeros();
+    for p in points {
+        let a = p.coords - m;
+        cov += a * a.transpose();
+    }
+    let mut s: Vec<f64> = cov
+        .symmetric_eigenvalues()
+        .iter()
+        .map(|v| v.max(0.0).sqrt())
+        .collect();
+    s.sort_by(|a, b| b.total_cmp(a));
+    if s[0] <= 0.0 {
+        0.0
+    } else {
+        s[1] / s[0]
+    }
+}
+
+/// Below this [`planarity`] a point set is taken as a line.
+const MIN_PLANARITY: f64 = 0.02;
+
+/// RANSAC over triples: the largest set of indices whose positions a
+/// similarity fitted to three of them explains within `max_error_m` (ties:
+/// the smaller squared error).
+fn ransac_inliers(src: &[Point3<f64>], dst: &[Point3<f64>], params: &AlignParams) -> Vec<usize> {
+    let n = src.len();
+    let inliers_of = |s: &Sim3| -> Vec<usize> {
+        (0..n)
+            .filter(|&i| (s.apply(&src[i]) - dst[i]).norm() <= params.max_error_m)
+            .collect()
+    };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(params.seed);
+    let mut best: Vec<usize> = Vec::new();
+    let mut best_err = f64::INFINITY;
+    for _ in 0..params.iterations {
+        let a = rng.random_range(0..n);
+        let b = rng.random_range(0..n);
+        let c = rng.random_range(0..n);
+        if a == b || b == c || a == c {
+            continue;
+        }
+        let (s3, d3) = ([src[a], src[b], src[c]], [dst[a], dst[b], dst[c]]);
+        if planarity(&s3) < MIN_PLANARITY || planarity(&d3) < MIN_PLANARITY {
+            continue;
+        }
+        let Some(s) = umeyama(&s3, &d3) else {
+            continue;
+        };
+        let inl = inliers_of(&s);
+        let e: f64 = inl
+            .iter()
+            .map(|&i| (s.apply(&src[i]) - dst[i]).norm_squared())
+            .sum();
+        if inl.len() > best.len() || (inl.len() == best.len() && e < best_err) {
+            best = inl;
+            best_err = e;
+        }
+    }
+    best
+}
+
+/// The result of [`align_to_positions`].
+#[derive(Debug, Clone)]
+pub struct Alignment {
+    /// Model -> ENU transform.
+    pub sim3: Sim3,
+    /// Residuals of every position that names an image of the model.
+    pub residuals: Vec<PositionResidual>,
+    /// RMS residual of the inliers (m).
+    pub rms_m: f64,
+    /// Positions whose name is not an image of the model.
+    pub unmatched: Vec<String>,
+}
+
+/// Estimates the similarity that maps the model's camera centres onto
+/// `positions` (image name, ENU metres), RANSAC over triples then a
+/// least-squares fit on the inliers. `source` names the positions file in
+/// errors: fewer than 3 positions of model images, camera centres or
+/// positions on a line (rotation about it undetermined), or fewer than 3
+/// (and fewer than half the) positions consistent within
+/// `params.max_error_m`.
+pub fn align_to_positions(
+    rec: &Reconstruction,
+    positions: &[(String, Point3<f64>)],
+    params: &AlignParams,
+    source: &Path,
+) -> Result<Alignment> {
+    let err = |m: String| SceneError::parse(source, Location::Header, m);
+    let by_name: std::collections::HashMap<&str, Point3<f64>> = rec
+        .images
+        .values()
+        .map(|im| (im.name.as_str(), im.center()))
+        .collect();
+    let mut names = Vec::new();
+    let mut src = Vec::new();
+    let mut dst = Vec::new();
+    let mut unmatched = Vec::new();
+    for (name, p) in positions {
+        match by_name.get(name.as_str()) {
+            Some(c) => {
+                names.push(name.clone());
+                src.push(*c);
+                dst.push(*p);
+            }
+            None => unmatched.push(name.clone()),
+        }
+    }
+    if src.len() < 3 {
+        return Err(err(format!(
+            "{} position(s) name images of the model ({} images; {} name none): at least 3 are \
+             needed to fix scale, rotation and translation",
+            src.len(),
+            rec.images.len(),
+            unmatched.len()
+        )));
+    }
+    if planarity(&src) < MIN_PLANARITY {
+        return Err(err(format!(
+            "the model cannot be aligned: its {} camera centres lie on a line (spread across it \
+             {:.3} % of the spread along it), so the rotation about that line is undetermined",
+            src.len(),
+            100.0 * planarity(&src)
+        )));
+    }
+    if planarity(&dst) < MIN_PLANARITY {
+        return Err(err(format!(
+            "the positions cannot align the model: the {} positions lie on a line, so the \
+             rotation about it is undetermined",
+            dst.len()
+        )));
+    }
+    let n = src.len();
+    let inliers_of = |s: &Sim3| -> Vec<usize> {
+        (0..n)
+            .filter(|&i| (s.apply(&src[i]) - dst[i]).norm() <= params.max_error_m)
+            .collect()
+    };
+    let mut best = ransac_inliers(&src, &dst, params);
+    if best.len() < 3 || 2 * best.len() < n {
+        return Err(err(format!(
+            "the positions are inconsistent with the model: the best similarity explains only {} \
+             of {n} positions within {} m (--max-error)",
+            best.len(),
+            params.max_error_m
+        )));
+    }
+    // Refit on the inliers until they no longer change.
+    let mut sim = None;
+    for _ in 0..5 {
+        let s: Vec<_> = best.iter().map(|&i| src[i]).collect();
+        let d: Vec<_> = best.iter().map(|&i| dst[i]).collect();
+        let fit = umeyama(&s, &d).ok_or_else(|| err("degenerate inlier set".into()))?;
+        let inl = inliers_of(&fit);
+        sim = Some(fit);
+        if inl == best || inl.len() < 3 {
+            break;
+        }
+        best = inl;
+    }
+    let sim = sim.ok_or_else(|| err("no alignment".into()))?;
+    let residuals: Vec<PositionResidual> = (0..n)
+        .map(|i| PositionResidual {
+            name: names[i].clone(),
+            residual_m: (sim.apply(&src[i]) - dst[i]).norm(),
+            inlier: best.contains(&i),
+        })
+        .collect();
+    let inl: Vec<f64> = residuals
+        .iter()
+        .filter(|r| r.inlier)
+        .map(|r| r.residual_m * r.residual_m)
+        .collect();
+    let rms_m = (inl.iter().sum::<f64>() / inl.len() as f64).sqrt();
+    Ok(Alignment {
+        sim3: sim,
+        residuals,
+        rms_m,
+        unmatched,
+    })
+}
+
+/// The model moved by `sim`: points transformed, camera poses composed with
+/// the inverse transform (cameras keep their intrinsics).
+pub fn transform_reconstruction(rec: &Reconstruction, sim: &Sim3) -> Reconstruction {
+    let mut out = rec.clone();
+    let rot = sim.rotation();
+    for p in out.points.values_mut() {
+        p.xyz = sim.apply(&p.xyz);
+    }
+    for im in out.images.values_mut() {
+        let c = sim.apply(&im.center());
+        let r_cw = im.cam_from_world.rotation * rot.inverse();
+        let t = -(r_cw * c.coords);
+        im.cam_from_world = Isometry3::from_parts(Translation3::from(t), r_cw);
+    }
+    out
+}
+
+/// What [`check_frame`] found.
+#[derive(Debug, Clone)]
+pub struct FrameCheck {
+    /// The frame file read.
+    pub frame: ModelFrame,
+    /// Median distance between an image and its nearest neighbour (m).
+    pub median_spacing_m: f64,
+}
+
+/// Checks that the model in `dir` is in a metric, gravity-aligned local
+/// ENU frame, as planning assumes: `frame.json` present (written by `vpctl
+/// colmap align`), neighbouring cameras 1 cm to 1 km apart, the cameras
+/// above the median of the sparse points, and no camera looking steeply up.
+/// The error says which check failed and how to fix it.
+pub fn check_frame(dir: &Path, rec: &Reconstruction) -> Result<FrameCheck> {
+    let frame_path: PathBuf = dir.join(FRAME_FILE);
+    let fix = "align it with `vpctl colmap align --model DIR --positions positions.csv --out \
+               ALIGNED` (or pass --frame-unchecked if the model is already in metric, \
+               gravity-aligned local ENU)";
+    if !frame_path.is_file() {
+        return Err(SceneError::parse(
+            &frame_path,
+            Location::Header,
+            format!(
+                "missing: the model in {} has no geodetic frame; a COLMAP model from SfM has \
+                 arbitrary scale and orientation, so safety distances, gimbal limits and the \
+                 free-space \"down\" would mean nothing; {fix}",
+                dir.display()
+            ),
+        ));
+    }
+    let frame = ModelFrame::load(dir)?;
+    frame.origin.validate()?;
+    let bad = |m: String| SceneError::parse(&frame_path, Location::Header, format!("{m}; {fix}"));
+    let centers: Vec<Point3<f64>> = rec
+        .images
+        .values()
+        .map(super::ColmapImage::center)
+        .collect();
+    let mut spacing: Vec<f64> = centers
+        .iter()
+        .enumerate()
+        .map(|(i, c)| {
+            centers
+                .iter()
+                .enumerate()
+                .filter(|(j, _)| *j != i)
+                .map(|(_, d)| (c - d).norm())
+                .fold(f64::INFINITY, f64::min)
+        })
+        .filter(|d| d.is_finite())
+        .collect();
+    spacing.sort_by(f64::total_cmp);
+    let median_spacing_m = spacing.get(spacing.len() / 2).copied().unwrap_or(0.0);
+    if !spacing.is_empty() && !(0.01..=1000.0).contains(&median_spacing_m) {
+        return Err(bad(format!(
+            "implausible scale: neighbouring cameras are {median_spacing_m:.4} m apart (median); \
+             a metric model of a UAV flight has 1 cm to 1 km"
+        )));
+    }
+    let mut zs: Vec<f64> = rec.points.values().map(|p| p.xyz.z).collect();
+    if !zs.is_empty() && !centers.is_empty() {
+        zs.sort_by(f64::total_cmp);
+        let ground = zs[zs.len() / 2];
+        let below = centers.iter().filter(|c| c.z < ground).count();
+        if 2 * below > centers.len() {
+            return Err(bad(format!(
+                "gravity implausible: {below} of {} cameras are below the median height of the \
+                 sparse points (z up expected)",
+                centers.len()
+            )));
+        }
+    }
+    let up = rec
+        .images
+        .values()
+        .filter(|im| {
+            let axis = im.cam_from_world.rotation.inverse() * Vector3::z();
+            axis.z > 0.5
+        })
+        .count();
+    if 2 * up > rec.images.len() {
+        return Err(bad(format!(
+            "gravity implausible: {up} of {} cameras look more than 30 deg above the horizon",
+            rec.images.len()
+        )));
+    }
+    Ok(FrameCheck {
+        frame,
+        median_spacing_m,
+    })
+}
+
+/// Reads image positions from a CSV file: `name,lat,lon,alt` per line
+/// (degrees WGS84, metres), `#` comments and an optional header line
+/// allowed. Errors name the file and the line.
+pub fn read_positions_csv(path: &Path) -> Result<Vec<(String, GeodeticOrigin)>> {
+    let text = crate::fsio::read_text(path)?;
+    let mut out = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        let bad = |m: String| SceneError::parse(path, Location::Line(i + 1), m);
+        if fields.len() != 4 {
+            return Err(bad(format!(
+                "expected 4 fields name,lat,lon,alt, found {}",
+                fields.len()
+            )));
+        }
+        let nums: std::result::Result<Vec<f64>, _> =
+            fields[1..].iter().map(|f| f.parse::<f64>()).collect();
+        let Ok(nums) = nums else {
+            if out.is_empty() && fields[1].parse::<f64>().is_err() && i == 0 {
+                continue; // header line
+            }
+            return Err(bad(format!("not a number in {line:?}")));
+        };
+        let g = GeodeticOrigin::new(nums[0], nums[1], nums[2]).map_err(|e| bad(e.to_string()))?;
+        out.push((fields[0].to_string(), g));
+    }
+    if out.is_empty() {
+        return Err(SceneError::parse(path, Location::Header, "no positions"));
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn umeyama_recovers_a_known_similarity() {
+        let truth = Sim3 {
+            scale: 2.5,
+            rotation_wxyz: {
+                let q = UnitQuaternion::from_euler_angles(0.3, -0.2, 1.1);
+                [q.w, q.i, q.j, q.k]
+            },
+            translation: [10.0, -4.0, 3.0],
+        };
+        let src: Vec<_> = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.2],
+            [0.0, 2.0, 0.0],
+            [1.0, 1.0, 1.0],
+        ]
+        .iter()
+        .map(|p| Point3::from(*p))
+        .collect();
+        let dst: Vec<_> = src.iter().map(|p| truth.apply(p)).collect();
+        let est = umeyama(&src, &dst).unwrap();
+        assert!((est.scale - 2.5).abs() < 1e-9);
+        for p in &src {
+            assert!((est.apply(p) - truth.apply(p)).norm() < 1e-9);
+        }
+    }
+}
