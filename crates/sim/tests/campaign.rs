@@ -15,12 +15,13 @@ fn row<'a>(r: &'a CampaignReport, name: &str) -> &'a TableRow {
         .unwrap_or_else(|| panic!("no row {name} in\n{}", r.table_markdown()))
 }
 
-/// The findings campaign: the demo preset with the paper's strategies on
-/// two held-out sites.
+/// The findings campaign: the demo preset with F5x4 and NP5x4 on one
+/// held-out site (the note's figures add F1x20 and site 7:
+/// docs/campaign-findings.md; here the test command's time budget rules).
 fn findings_config() -> CampaignConfig {
     let mut c = CampaignConfig::demo();
-    c.strategies = vec!["F5x4".into(), "F1x20".into(), "NP5x4".into()];
-    c.held_out_seeds = vec![7, 8];
+    c.strategies = vec!["F5x4".into(), "NP5x4".into()];
+    c.held_out_seeds = vec![8];
     c
 }
 
