@@ -28,7 +28,7 @@ VP_REQUIRE_VPCTL=1 bash scripts/test_python.sh
 echo "== long runs: 100 uploads through a lossy UDP relay"
 cargo test --locked --workspace --test udp_loopback -- --ignored --nocapture
 
-echo "== long runs: the paper's findings on held-out sites, campaign determinism (release)"
+echo "== long runs: the campaign on vp-mvs, its measured findings on a held-out site, determinism (release)"
 # --workspace (not -p vp-sim): the same feature set as the bench step below,
 # which then reuses this release build instead of compiling everything again.
 cargo test --release --locked --workspace --test campaign -- --ignored --nocapture
