@@ -213,6 +213,15 @@ impl CampaignConfig {
         // Parsed on its own first: syntax, type and unknown-key errors keep
         // their line and column.
         vp_scene::config_file::parse_toml::<CampaignConfig>(text, path)?;
+        // The overrides go through JSON, which has no NaN or infinity: name
+        // such a value's key here rather than fail later on a `null`.
+        let table: toml::Table = vp_scene::config_file::parse_toml(text, path)?;
+        if let Some((key, v)) = first_non_finite(&toml::Value::Table(table), String::new()) {
+            return Err(SimError::InvalidArgument(format!(
+                "{}: {key} = {v}: must be a finite number",
+                path.display()
+            )));
+        }
         let given: serde_json::Value = vp_scene::config_file::parse_toml(text, path)?;
         Self::demo()
             .with_overrides(given)
@@ -343,6 +352,27 @@ impl CampaignConfig {
 
 /// Writes every key of `given` over `base`, descending into objects present
 /// in both (arrays and values are replaced whole).
+/// The dotted key (with `[i]` for array elements) and value of the first
+/// NaN or infinite float in `v`.
+fn first_non_finite(v: &toml::Value, key: String) -> Option<(String, f64)> {
+    match v {
+        toml::Value::Float(f) if !f.is_finite() => Some((key, *f)),
+        toml::Value::Table(t) => t.iter().find_map(|(k, v)| {
+            let key = if key.is_empty() {
+                k.clone()
+            } else {
+                format!("{key}.{k}")
+            };
+            first_non_finite(v, key)
+        }),
+        toml::Value::Array(a) => a
+            .iter()
+            .enumerate()
+            .find_map(|(i, v)| first_non_finite(v, format!("{key}[{i}]"))),
+        _ => None,
+    }
+}
+
 fn overlay(base: &mut serde_json::Value, given: serde_json::Value) {
     match (base, given) {
         (serde_json::Value::Object(b), serde_json::Value::Object(g)) => {
@@ -362,6 +392,25 @@ fn overlay(base: &mut serde_json::Value, given: serde_json::Value) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Regression (found by the reader fuzzing of `tests/fuzz`): `nan` in a
+    /// campaign config became a JSON `null` on the way to the overrides and
+    /// was reported as "invalid type: null, expected f64", without a key.
+    #[test]
+    fn nan_in_a_config_names_the_key() {
+        let text = CampaignConfig::demo().to_toml().unwrap().replacen(
+            "angles_deg = [0.0,",
+            "angles_deg = [nan,",
+            1,
+        );
+        assert!(text.contains("[nan,"));
+        let e = CampaignConfig::from_toml(&text, Path::new("c.toml")).unwrap_err();
+        let m = e.to_string();
+        assert!(
+            m.contains("c.toml") && m.contains("angles_deg[0] = NaN: must be a finite number"),
+            "{m}"
+        );
+    }
 
     #[test]
     fn presets_round_trip_through_toml_and_validate() {
