@@ -235,9 +235,25 @@ impl CampaignConfig {
     pub fn with_overrides(&self, overrides: serde_json::Value) -> Result<Self> {
         let mut merged = serde_json::to_value(self)
             .map_err(|e| SimError::InvalidArgument(format!("configuration: {e}")))?;
-        overlay(&mut merged, overrides);
-        let cfg: CampaignConfig = serde_json::from_value(merged)
-            .map_err(|e| SimError::InvalidArgument(format!("configuration: {e}")))?;
+        let base = merged.clone();
+        overlay(&mut merged, overrides.clone());
+        let cfg: CampaignConfig = serde_json::from_value(merged).map_err(|e| {
+            // serde_json's error has no path: find the section at fault by
+            // laying the overrides over the base one section at a time.
+            let section = overrides.as_object().and_then(|o| {
+                o.iter().find_map(|(k, v)| {
+                    let mut one = base.clone();
+                    overlay(&mut one, serde_json::json!({ k.clone(): v.clone() }));
+                    serde_json::from_value::<CampaignConfig>(one)
+                        .is_err()
+                        .then(|| k.clone())
+                })
+            });
+            match section {
+                Some(k) => SimError::InvalidArgument(format!("configuration: [{k}]: {e}")),
+                None => SimError::InvalidArgument(format!("configuration: {e}")),
+            }
+        })?;
         cfg.validate()?;
         Ok(cfg)
     }
@@ -396,6 +412,26 @@ mod tests {
     /// Regression (found by the reader fuzzing of `tests/fuzz`): `nan` in a
     /// campaign config became a JSON `null` on the way to the overrides and
     /// was reported as "invalid type: null, expected f64", without a key.
+    /// Regression (found by the long fuzz run of `tests/fuzz`): an array
+    /// one element too long, which the TOML parse lets through, was
+    /// reported without its section.
+    #[test]
+    fn too_long_array_names_its_section() {
+        let text = CampaignConfig::demo().to_toml().unwrap().replacen(
+            "distance_m = [8.0, 20.0]",
+            "distance_m = [80.0, 45.0, 20.0]",
+            1,
+        );
+        assert!(text.contains("[80.0, 45.0, 20.0]"));
+        let m = CampaignConfig::from_toml(&text, Path::new("c.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            m.contains("c.toml") && m.contains("configuration: ["),
+            "{m}"
+        );
+    }
+
     #[test]
     fn nan_in_a_config_names_the_key() {
         let text = CampaignConfig::demo().to_toml().unwrap().replacen(
