@@ -236,18 +236,21 @@ impl CampaignConfig {
         let mut merged = serde_json::to_value(self)
             .map_err(|e| SimError::InvalidArgument(format!("configuration: {e}")))?;
         let base = merged.clone();
-        overlay(&mut merged, overrides.clone());
+        // Kept to name the section at fault if the merged value is refused.
+        let sections: Vec<(String, serde_json::Value)> = overrides
+            .as_object()
+            .map(|o| o.iter().map(|(k, v)| (k.clone(), v.clone())).collect())
+            .unwrap_or_default();
+        overlay(&mut merged, overrides);
         let cfg: CampaignConfig = serde_json::from_value(merged).map_err(|e| {
             // serde_json's error has no path: find the section at fault by
             // laying the overrides over the base one section at a time.
-            let section = overrides.as_object().and_then(|o| {
-                o.iter().find_map(|(k, v)| {
-                    let mut one = base.clone();
-                    overlay(&mut one, serde_json::json!({ k.clone(): v.clone() }));
-                    serde_json::from_value::<CampaignConfig>(one)
-                        .is_err()
-                        .then(|| k.clone())
-                })
+            let section = sections.iter().find_map(|(k, v)| {
+                let mut one = base.clone();
+                overlay(&mut one, serde_json::json!({ k.clone(): v.clone() }));
+                serde_json::from_value::<CampaignConfig>(one)
+                    .is_err()
+                    .then(|| k.clone())
             });
             match section {
                 Some(k) => SimError::InvalidArgument(format!("configuration: [{k}]: {e}")),
