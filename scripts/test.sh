@@ -25,6 +25,9 @@ cargo test --workspace --locked
 echo "== python bindings: pip install ./py, then pytest py/tests (against the vpctl just built)"
 VP_REQUIRE_VPCTL=1 bash scripts/test_python.sh
 
+echo "== long runs: the planner's safety property on 200 random sites (75 % must give a plan)"
+cargo test --locked --workspace --test safety -- --ignored --nocapture
+
 echo "== long runs: 100 uploads through a lossy UDP relay"
 cargo test --locked --workspace --test udp_loopback -- --ignored --nocapture
 

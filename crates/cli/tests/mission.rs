@@ -127,7 +127,8 @@ fn no_vehicle_and_bad_inputs_fail_clearly() {
         "--heartbeat-timeout",
         "0.5",
     ]);
-    assert_eq!(o.status.code(), Some(1));
+    // No heartbeat: exit code 3, the "no vehicle" outcome.
+    assert_eq!(o.status.code(), Some(3));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("127.0.0.1"), "{err}");
 

@@ -63,7 +63,12 @@ impl LabelParams {
     /// message saying so.
     pub fn load(path: &std::path::Path) -> Result<Self> {
         let params: LabelParams = vp_scene::config_file::load_toml(path)?;
-        params.validate()?;
+        params.validate().map_err(|e| match e {
+            LabelgenError::InvalidArgument(m) => {
+                LabelgenError::InvalidArgument(format!("{}: {m}", path.display()))
+            }
+            other => other,
+        })?;
         Ok(params)
     }
 
@@ -93,5 +98,24 @@ impl LabelParams {
             return bad("max_splat_radius (<= 64)", f64::from(self.max_splat_radius));
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Regression (found by fuzzing, `tests/fuzz`): a value out of range in a
+    /// parameter file was reported without the file's name.
+    #[test]
+    fn out_of_range_value_in_a_file_names_the_file_and_the_key() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("labels.toml");
+        std::fs::write(&path, "alpha_min_deg = -1e30\n").unwrap();
+        let m = LabelParams::load(&path).unwrap_err().to_string();
+        assert!(
+            m.contains("labels.toml") && m.contains("alpha_min_deg"),
+            "{m}"
+        );
     }
 }

@@ -99,6 +99,29 @@ impl MissionError {
     }
 }
 
+impl MissionError {
+    /// The exit code of `vpctl mission` for this outcome, one per kind of
+    /// failure so that scripts can tell them apart: 2 input (bad plan,
+    /// argument or URL), 3 no vehicle (no heartbeat), 4 timeout (the vehicle
+    /// stopped answering mid-protocol, after every retry), 5 rejected
+    /// (MISSION_ACK with MAV_MISSION_DENIED, NO_SPACE, INVALID_SEQUENCE,
+    /// UNSUPPORTED_FRAME, ...), 6 verification failed (the read-back differs
+    /// from the upload), 7 protocol violation, 1 anything else (I/O).
+    pub fn exit_code(&self) -> u8 {
+        if self.is_input_error() {
+            return 2;
+        }
+        match self {
+            MissionError::NoVehicle { .. } => 3,
+            MissionError::Timeout { .. } => 4,
+            MissionError::Rejected { .. } => 5,
+            MissionError::VerifyMismatch { .. } => 6,
+            MissionError::Protocol { .. } => 7,
+            _ => 1,
+        }
+    }
+}
+
 fn format_secs(d: Duration) -> String {
     format!("{:.2}", d.as_secs_f64())
 }

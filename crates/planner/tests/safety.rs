@@ -5,7 +5,6 @@ mod common;
 
 use common::{initial_views, site, test_config};
 use nalgebra::{Point2, Point3};
-use proptest::prelude::*;
 use vp_planner::flight_path::PathContext;
 use vp_planner::{safety_for, PlanInputs, PlannerConfig, PlannerError, RoiSpec};
 use vp_scene::clearance::Clearance;
@@ -45,6 +44,8 @@ fn assert_safe(plan: &Plan, mesh: &vp_scene::Mesh, cfg: &PlannerConfig) {
     }
 }
 
+/// Plans one random case and checks it; `true` when a plan came out,
+/// `false` when the planner refused (safe, but no plan).
 fn run_case(
     seed: u64,
     roi_centre: (f64, f64),
@@ -52,7 +53,7 @@ fn run_case(
     safety: f64,
     fence_half: f64,
     ceiling: f64,
-) {
+) -> bool {
     let s = site(seed, 20_000);
     let cfg = PlannerConfig {
         seed,
@@ -84,45 +85,65 @@ fn run_case(
         config: &cfg,
         origin: None,
     }) {
-        Ok(r) => assert_safe(&r.plan, &s.mesh, &cfg),
-        // Refusing is safe; bad inputs (e.g. no free space under a low ceiling) too.
-        Err(e @ (PlannerError::Refused(_) | PlannerError::Input(_))) => eprintln!("ERR {e}"),
+        Ok(r) => {
+            assert_safe(&r.plan, &s.mesh, &cfg);
+            !r.plan.waypoints.is_empty()
+        }
+        // Refusing is safe; bad inputs (e.g. no free space under a low
+        // ceiling) too. But a planner that always refused would pass the
+        // safety checks: `random_cases` counts refusals against a bar.
+        Err(e @ (PlannerError::Refused(_) | PlannerError::Input(_))) => {
+            eprintln!("seed {seed}: refused: {e}");
+            false
+        }
         Err(e) => panic!("unexpected error {e}"),
     }
 }
 
-proptest! {
-    #![proptest_config(ProptestConfig::with_cases(16))]
-    #[test]
-    fn planned_paths_keep_the_safety_distance(
-        seed in 0u64..1000,
-        cx in -15.0f64..15.0,
-        cy in -15.0f64..15.0,
-        half in 3.0f64..12.0,
-        safety in 2.0f64..8.0,
-        fence in 18.0f64..30.0,
-        ceiling in 30.0f64..60.0,
-    ) {
-        run_case(seed, (cx, cy), half, safety, fence, ceiling);
-    }
+/// Runs `n` random cases (seeded) and returns how many produced a plan;
+/// every plan is checked for safety.
+fn random_cases(n: usize, seed: u64) -> usize {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    (0..n)
+        .filter(|_| {
+            run_case(
+                rng.random_range(0..100_000),
+                (rng.random_range(-15.0..15.0), rng.random_range(-15.0..15.0)),
+                rng.random_range(3.0..12.0),
+                rng.random_range(2.0..8.0),
+                rng.random_range(18.0..30.0),
+                rng.random_range(30.0..60.0),
+            )
+        })
+        .count()
 }
 
-/// The long run of the same property (`cargo test -- --ignored`).
+/// The safety property on 16 random sites, and most of them must give a
+/// plan: refusing everything is safe but useless.
 #[test]
-#[ignore = "long: 200 random sites"]
+fn planned_paths_keep_the_safety_distance() {
+    let n = 16;
+    let planned = random_cases(n, 3);
+    println!("{planned} of {n} random cases produced a plan");
+    assert!(
+        planned * 4 >= n * 3,
+        "only {planned} of {n} cases produced a plan"
+    );
+}
+
+/// The long run of the same property (`cargo test -- --ignored`; a named
+/// step of scripts/test.sh).
+#[test]
+#[ignore = "long: 200 random sites; run by scripts/test.sh"]
 fn planned_paths_keep_the_safety_distance_long() {
-    use rand::{Rng, SeedableRng};
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
-    for _ in 0..200 {
-        run_case(
-            rng.random_range(0..100_000),
-            (rng.random_range(-15.0..15.0), rng.random_range(-15.0..15.0)),
-            rng.random_range(3.0..12.0),
-            rng.random_range(2.0..8.0),
-            rng.random_range(18.0..30.0),
-            rng.random_range(30.0..60.0),
-        );
-    }
+    let n = 200;
+    let planned = random_cases(n, 7);
+    println!("{planned} of {n} random cases produced a plan");
+    assert!(
+        planned * 4 >= n * 3,
+        "only {planned} of {n} cases produced a plan"
+    );
 }
 
 fn wall_scene() -> (vp_scene::Mesh, PlannerConfig) {

@@ -34,7 +34,12 @@ pub enum MissionCommand {
         mission: MissionArgs,
     },
     /// Upload a plan to the vehicle with the MAVLink mission protocol, then read
-    /// it back and compare item by item.
+    /// it back and compare item by item ("verified: yes" only when the
+    /// read-back equals the upload).
+    ///
+    /// Exit codes: 0 verified, 2 bad input, 3 no vehicle, 4 timeout, 5
+    /// rejected by the vehicle, 6 read-back differs, 7 protocol violation,
+    /// 1 other failures.
     Upload {
         /// The plan (JSON written by `vpctl plan`).
         plan: PathBuf,

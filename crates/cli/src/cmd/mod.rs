@@ -30,9 +30,14 @@ pub struct UsageError(pub String);
 
 /// Exit code for an error: 2 when the user's input is at fault (bad file,
 /// bad argument, refusing to overwrite, missing file, bad URL), 1 otherwise
-/// (I/O failures, a vehicle that does not answer or rejects the mission).
-/// The outermost library error in the chain decides.
+/// (I/O failures). Mission failures have one code per outcome
+/// ([`MissionError::exit_code`]: 3 no vehicle, 4 timeout, 5 rejected,
+/// 6 verification failed, 7 protocol violation). The outermost library
+/// error in the chain decides.
 pub fn exit_code(e: &anyhow::Error) -> u8 {
+    if let Some(m) = e.chain().find_map(|c| c.downcast_ref::<MissionError>()) {
+        return m.exit_code();
+    }
     e.chain()
         .find_map(is_input_error)
         .map_or(1, |input| if input { 2 } else { 1 })

@@ -298,14 +298,18 @@ impl MissionServer {
         } = &mut self.state
         else {
             // A repeated last item after we finished: the ACK got lost.
-            if self.completed.is_some_and(|c| seq + 1 == c) {
+            // (`seq` comes from the network: 65535 + 1 must not overflow.)
+            if self
+                .completed
+                .is_some_and(|c| seq.checked_add(1) == Some(c))
+            {
                 return vec![self.ack(MavMissionResult::MAV_MISSION_ACCEPTED)];
             }
             return Vec::new();
         };
         let next = items.len() as u16;
         if seq != next {
-            if seq + 1 == next {
+            if seq.checked_add(1) == Some(next) {
                 // Duplicate of the previous item: our request may be lost.
                 *last_request = now;
                 return vec![self.request(next)];

@@ -230,6 +230,15 @@ impl CampaignConfig {
         // Parsed on its own first: syntax, type and unknown-key errors keep
         // their line and column.
         vp_scene::config_file::parse_toml::<CampaignConfig>(text, path)?;
+        // The overrides go through JSON, which has no NaN or infinity: name
+        // such a value's key here rather than fail later on a `null`.
+        let table: toml::Table = vp_scene::config_file::parse_toml(text, path)?;
+        if let Some((key, v)) = first_non_finite(&toml::Value::Table(table), String::new()) {
+            return Err(SimError::InvalidArgument(format!(
+                "{}: {key} = {v}: must be a finite number",
+                path.display()
+            )));
+        }
         let given: serde_json::Value = vp_scene::config_file::parse_toml(text, path)?;
         Self::demo()
             .with_overrides(given)
@@ -243,9 +252,28 @@ impl CampaignConfig {
     pub fn with_overrides(&self, overrides: serde_json::Value) -> Result<Self> {
         let mut merged = serde_json::to_value(self)
             .map_err(|e| SimError::InvalidArgument(format!("configuration: {e}")))?;
+        let base = merged.clone();
+        // Kept to name the section at fault if the merged value is refused.
+        let sections: Vec<(String, serde_json::Value)> = overrides
+            .as_object()
+            .map(|o| o.iter().map(|(k, v)| (k.clone(), v.clone())).collect())
+            .unwrap_or_default();
         overlay(&mut merged, overrides);
-        let cfg: CampaignConfig = serde_json::from_value(merged)
-            .map_err(|e| SimError::InvalidArgument(format!("configuration: {e}")))?;
+        let cfg: CampaignConfig = serde_json::from_value(merged).map_err(|e| {
+            // serde_json's error has no path: find the section at fault by
+            // laying the overrides over the base one section at a time.
+            let section = sections.iter().find_map(|(k, v)| {
+                let mut one = base.clone();
+                overlay(&mut one, serde_json::json!({ k.clone(): v.clone() }));
+                serde_json::from_value::<CampaignConfig>(one)
+                    .is_err()
+                    .then(|| k.clone())
+            });
+            match section {
+                Some(k) => SimError::InvalidArgument(format!("configuration: [{k}]: {e}")),
+                None => SimError::InvalidArgument(format!("configuration: {e}")),
+            }
+        })?;
         cfg.validate()?;
         Ok(cfg)
     }
@@ -367,6 +395,27 @@ impl CampaignConfig {
 
 /// Writes every key of `given` over `base`, descending into objects present
 /// in both (arrays and values are replaced whole).
+/// The dotted key (with `[i]` for array elements) and value of the first
+/// NaN or infinite float in `v`.
+fn first_non_finite(v: &toml::Value, key: String) -> Option<(String, f64)> {
+    match v {
+        toml::Value::Float(f) if !f.is_finite() => Some((key, *f)),
+        toml::Value::Table(t) => t.iter().find_map(|(k, v)| {
+            let key = if key.is_empty() {
+                k.clone()
+            } else {
+                format!("{key}.{k}")
+            };
+            first_non_finite(v, key)
+        }),
+        toml::Value::Array(a) => a
+            .iter()
+            .enumerate()
+            .find_map(|(i, v)| first_non_finite(v, format!("{key}[{i}]"))),
+        _ => None,
+    }
+}
+
 fn overlay(base: &mut serde_json::Value, given: serde_json::Value) {
     match (base, given) {
         (serde_json::Value::Object(b), serde_json::Value::Object(g)) => {
@@ -386,6 +435,45 @@ fn overlay(base: &mut serde_json::Value, given: serde_json::Value) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Regression (found by the reader fuzzing of `tests/fuzz`): `nan` in a
+    /// campaign config became a JSON `null` on the way to the overrides and
+    /// was reported as "invalid type: null, expected f64", without a key.
+    /// Regression (found by the long fuzz run of `tests/fuzz`): an array
+    /// one element too long, which the TOML parse lets through, was
+    /// reported without its section.
+    #[test]
+    fn too_long_array_names_its_section() {
+        let text = CampaignConfig::demo().to_toml().unwrap().replacen(
+            "distance_m = [8.0, 20.0]",
+            "distance_m = [80.0, 45.0, 20.0]",
+            1,
+        );
+        assert!(text.contains("[80.0, 45.0, 20.0]"));
+        let m = CampaignConfig::from_toml(&text, Path::new("c.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            m.contains("c.toml") && m.contains("configuration: ["),
+            "{m}"
+        );
+    }
+
+    #[test]
+    fn nan_in_a_config_names_the_key() {
+        let text = CampaignConfig::demo().to_toml().unwrap().replacen(
+            "angles_deg = [0.0,",
+            "angles_deg = [nan,",
+            1,
+        );
+        assert!(text.contains("[nan,"));
+        let e = CampaignConfig::from_toml(&text, Path::new("c.toml")).unwrap_err();
+        let m = e.to_string();
+        assert!(
+            m.contains("c.toml") && m.contains("angles_deg[0] = NaN: must be a finite number"),
+            "{m}"
+        );
+    }
 
     #[test]
     fn presets_round_trip_through_toml_and_validate() {

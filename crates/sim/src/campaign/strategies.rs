@@ -37,7 +37,9 @@ impl Strategy {
         let (i, k) = rest.split_once('x').ok_or_else(bad)?;
         let iterations: usize = i.parse().map_err(|_| bad())?;
         let per_iteration: usize = k.parse().map_err(|_| bad())?;
-        if iterations == 0 || per_iteration == 0 || iterations * per_iteration > 1000 {
+        // checked: the numbers come from a file and their product may overflow.
+        let total = iterations.checked_mul(per_iteration);
+        if iterations == 0 || per_iteration == 0 || total.is_none_or(|t| t > 1000) {
             return Err(bad());
         }
         Ok(Strategy {
@@ -52,6 +54,14 @@ impl Strategy {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Regression (found by fuzzing, `tests/fuzz`): `F18446744073709551615x3`
+    /// overflowed `iterations * triplets` and panicked instead of an error.
+    #[test]
+    fn huge_strategy_numbers_are_an_error_not_an_overflow() {
+        let e = Strategy::parse("F18446744073709551615x3").unwrap_err();
+        assert!(e.to_string().contains("F18446744073709551615x3"), "{e}");
+    }
 
     #[test]
     fn parses_the_paper_names_and_refuses_others() {
