@@ -27,6 +27,7 @@ pub mod io;
 pub mod mesh;
 pub mod mesh_inspect;
 pub mod mesh_ops;
+pub mod occupancy;
 pub mod plan;
 pub mod procedural;
 pub mod raster;
