@@ -323,6 +323,7 @@ fn plan_grid(
     initial: bool,
     config: Option<&Bound<'_, PyAny>>,
     origin: Option<(f64, f64, f64)>,
+    observations: None,
 ) -> PyResult<PyPlan> {
     let cfg = self::config(config)?;
     let mesh = mesh_of(mesh)?;

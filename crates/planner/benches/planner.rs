@@ -61,6 +61,7 @@ fn bench(c: &mut Criterion) {
         roi: RoiSpec::Region(Roi::from_aabb(&site.rock_bounds)),
         config: &cfg,
         origin: None,
+        observations: None,
     };
     let r = plan(&inputs).expect("plan");
     let total: f64 = r.module_time_s.values().sum();

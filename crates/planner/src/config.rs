@@ -13,6 +13,7 @@ use vp_scene::raster::AngleBins;
 use vp_scene::{Aabb, Intrinsics};
 
 use crate::error::{PlannerError, Result};
+use crate::free_space::UnknownSpace;
 
 /// Camera of the new views.
 ///
@@ -99,6 +100,15 @@ pub struct PlannerConfig {
     pub geofence: Option<Vec<[f64; 2]>>,
     /// Altitude band (z, metres); default: the flight volume's z range.
     pub altitude_limits: Option<AltitudeLimits>,
+    /// Space no camera has observed: an obstacle (`"occupied"`, default:
+    /// waypoints and segments keep the safety distance to it too) or free
+    /// (`"free"`, the paper's behaviour).
+    pub unknown_space: UnknownSpace,
+    /// Voxel edge of the free-space map, metres.
+    pub free_space_voxel_m: f64,
+    /// Treat space above the highest observed point as free (nothing floats
+    /// over the observed tops: no wires, no overhanging structures).
+    pub free_above_observed: bool,
     /// Wall-clock budget of one planning call, seconds; default unbounded.
     pub time_budget_s: Option<f64>,
     /// M3 visits surrogates by decreasing potential gain and stops early
@@ -132,6 +142,9 @@ impl Default for PlannerConfig {
             flight_volume: None,
             geofence: None,
             altitude_limits: None,
+            unknown_space: UnknownSpace::Occupied,
+            free_space_voxel_m: 1.0,
+            free_above_observed: true,
             time_budget_s: None,
             m3_early_stop: true,
             seed: 0,
@@ -166,6 +179,9 @@ safety_distance_m = 5.0  # every waypoint and path segment keeps this to the mes
 gimbal_pitch_min_deg = -90.0
 gimbal_pitch_max_deg = 0.0
 m3_early_stop = true     # the paper's early stop in M3 (a heuristic); false: search all
+unknown_space = "occupied" # unobserved space is an obstacle; "free": the paper's behaviour
+free_space_voxel_m = 1.0   # voxel of the observed-free-space map
+free_above_observed = true # nothing floats above the highest observed point
 seed = 0
 # time_budget_s = 10.0                          # default: unbounded
 # flight_volume = [[-30, -30, 0], [30, 30, 60]] # default: from the mesh
@@ -283,6 +299,13 @@ impl PlannerConfig {
                 "safety_distance_m",
                 self.safety_distance_m.to_string(),
                 "must be finite and >= 0",
+            );
+        }
+        if !pos(self.free_space_voxel_m) {
+            return bad(
+                "free_space_voxel_m",
+                self.free_space_voxel_m.to_string(),
+                "must be finite and > 0",
             );
         }
         let (lo, hi) = (self.gimbal_pitch_min_deg, self.gimbal_pitch_max_deg);

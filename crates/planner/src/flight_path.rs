@@ -196,7 +196,8 @@ impl PathContext<'_> {
             ordered.push(view);
             unbridged.push(std::mem::take(&mut unbridged_next));
         }
-        let (waypoints, unbridged, dropped_triplets) = self.route_dropping(ordered, unbridged);
+        let (waypoints, unbridged, dropped_triplets) =
+            self.route_dropping(&start.center(), ordered, unbridged);
         Path {
             waypoints,
             unbridged,
@@ -204,19 +205,21 @@ impl PathContext<'_> {
         }
     }
 
-    /// Routes `views` safely, leaving out what a blocked segment leads to:
+    /// Routes `views` safely from `start` (where the vehicle is), leaving
+    /// out what a blocked segment leads to:
     /// its whole triplet (two images of it are of no use), or the one
     /// bridging view. Returns the routed waypoints, the routed indices of the
     /// views flagged in `unbridged`, and the dropped triplets. Terminates:
     /// every round removes a view.
     fn route_dropping(
         &self,
+        start: &Point3<f64>,
         mut views: Vec<PlannedView>,
         mut unbridged: Vec<bool>,
     ) -> (Vec<PlannedView>, Vec<usize>, Vec<u32>) {
         let mut dropped = Vec::new();
         loop {
-            match self.route(&views) {
+            match self.route(Some(start), &views) {
                 Ok((safe, at)) => {
                     let unbridged_at = unbridged
                         .iter()
@@ -248,16 +251,18 @@ impl PathContext<'_> {
     /// Re-routes every blocked segment by climb-traverse-descend within the
     /// altitude limit; refuses the waypoints when that fails.
     pub fn make_safe(&self, waypoints: &[PlannedView]) -> Result<Vec<PlannedView>> {
-        self.route(waypoints)
+        self.route(None, waypoints)
             .map(|(safe, _)| safe)
             .map_err(|b| PlannerError::Refused(b.message))
     }
 
-    /// The waypoints with a detour inserted before every blocked segment,
-    /// and where each input waypoint now stands; or the first unsafe
-    /// waypoint or segment without a detour.
+    /// The waypoints with a detour inserted before every blocked segment
+    /// (the first segment leads from `start`, when given), and where each
+    /// input waypoint now stands; or the first unsafe waypoint or segment
+    /// without a detour.
     fn route(
         &self,
+        start: Option<&Point3<f64>>,
         waypoints: &[PlannedView],
     ) -> std::result::Result<(Vec<PlannedView>, Vec<usize>), Blocked> {
         let s = self.safety;
@@ -265,26 +270,40 @@ impl PathContext<'_> {
         let mut at = Vec::with_capacity(waypoints.len());
         for (i, w) in waypoints.iter().enumerate() {
             let p = Point3::from(w.position);
-            if !s.point_ok(&p) {
+            if let Some(problem) = s.point_problem(&p) {
                 return Err(Blocked {
                     to: i,
                     message: format!(
-                        "waypoint {i} at ({:.2}, {:.2}, {:.2}) is closer than {} m to the mesh or \
-                         outside the flight volume, geofence or altitude limits",
-                        p.x, p.y, p.z, s.distance
+                        "waypoint {i} at ({:.2}, {:.2}, {:.2}) is {problem}",
+                        p.x, p.y, p.z
                     ),
                 });
             }
-            if let Some(prev) = out.last().cloned() {
-                let (a, b) = (Point3::from(prev.position), Point3::from(w.position));
-                if !s.segment_ok(&a, &b) {
-                    let detour = self.climb(&a, &b).ok_or_else(|| Blocked {
+            let prev = match out.last() {
+                Some(v) => Some((Point3::from(v.position), v.clone())),
+                None => start.map(|a| (*a, w.clone())),
+            };
+            if let Some((a, prev)) = prev {
+                let b = Point3::from(w.position);
+                let from_vehicle = out.is_empty();
+                let ok = if from_vehicle {
+                    s.leg_ok(&a, &b)
+                } else {
+                    s.segment_ok(&a, &b)
+                };
+                if !ok {
+                    let from = if i == 0 {
+                        "vehicle".to_string()
+                    } else {
+                        (i - 1).to_string()
+                    };
+                    let detour = self.climb(&a, &b, from_vehicle).ok_or_else(|| Blocked {
                         to: i,
                         message: format!(
-                            "segment {} -> {i} from ({:.2}, {:.2}, {:.2}) to ({:.2}, {:.2}, {:.2}) \
-                             comes closer than {} m to the mesh or leaves the geofence, and no \
+                            "segment {from} -> {i} from ({:.2}, {:.2}, {:.2}) to ({:.2}, {:.2}, {:.2}) \
+                             comes closer than {} m to the mesh (or to unobserved space, with \
+                             unknown_space = \"occupied\") or leaves the geofence, and no \
                              climb-traverse-descend route below the altitude limit {} m is clear",
-                            i - 1,
                             a.x,
                             a.y,
                             a.z,
@@ -312,13 +331,25 @@ impl PathContext<'_> {
         Ok((out, at))
     }
 
-    fn climb(&self, a: &Point3<f64>, b: &Point3<f64>) -> Option<[Point3<f64>; 2]> {
+    /// Climb over `a`, traverse, descend to `b`; `from_vehicle`: `a` is the
+    /// vehicle's position ([`Safety::leg_ok`] for the climb).
+    fn climb(
+        &self,
+        a: &Point3<f64>,
+        b: &Point3<f64>,
+        from_vehicle: bool,
+    ) -> Option<[Point3<f64>; 2]> {
         let s = self.safety;
         let top = s.altitude.max_m.min(s.volume.max.z);
         let mut h = a.z.max(b.z) + CLIMB_STEP_M;
         while h <= top {
             let (a2, b2) = (Point3::new(a.x, a.y, h), Point3::new(b.x, b.y, h));
-            if s.segment_ok(a, &a2) && s.segment_ok(&a2, &b2) && s.segment_ok(&b2, b) {
+            let up = if from_vehicle {
+                s.leg_ok(a, &a2)
+            } else {
+                s.segment_ok(a, &a2)
+            };
+            if up && s.segment_ok(&a2, &b2) && s.segment_ok(&b2, b) {
                 return Some([a2, b2]);
             }
             h += CLIMB_STEP_M;

@@ -12,6 +12,7 @@ use vp_scene::{Aabb, Camera, Mesh};
 
 use crate::config::PlannerConfig;
 use crate::error::{PlannerError, Result};
+use crate::free_space::Observation;
 use crate::safety::Safety;
 
 /// Height of the default flight volume above the highest mesh point, metres.
@@ -49,6 +50,10 @@ pub struct PlanInputs<'a> {
     pub config: &'a PlannerConfig,
     /// Geodetic origin written into the plan.
     pub origin: Option<GeodeticOrigin>,
+    /// Observation rays (camera centre, observed point) that carve the
+    /// observed-free space (`unknown_space = "occupied"`); `None`: rays from
+    /// the acquired cameras to the mesh ([`crate::free_space`]).
+    pub observations: Option<&'a [Observation]>,
 }
 
 /// One sampled triangle and its final fulfillment.
@@ -94,8 +99,9 @@ pub struct PlanResult {
     pub cut_short_reason: Option<String>,
 }
 
-/// The safety rules of a call: volume, altitude and geofence from the
-/// config or, by default, from the mesh bounds.
+/// The mesh's safety rules of a call: volume, altitude and geofence from
+/// the config or, by default, from the mesh bounds (the free-space rule is
+/// added by [`crate::plan`], which has the observations).
 pub fn safety_for(mesh: &Mesh, cfg: &PlannerConfig) -> Safety {
     let b = mesh.bounds();
     let volume = cfg.flight_volume_aabb().unwrap_or(Aabb {

@@ -15,8 +15,9 @@ use vp_scene::{Camera, Mesh};
 use crate::config::PlannerConfig;
 use crate::error::{PlannerError, Result};
 use crate::flight_path::PathContext;
+use crate::free_space::{free_space, observations_from_mesh, UnknownSpace};
 use crate::fulfillment::{sample_triangles, Fulfillment};
-use crate::inputs::{safety_for, PlanInputs, PlanResult, SampledFulfillment};
+use crate::inputs::{safety_for, AcquiredView, PlanInputs, PlanResult, SampledFulfillment};
 use crate::quality::Requirements;
 use crate::safety::Safety;
 use crate::surrogate::{link_valued, sample_positions};
@@ -24,6 +25,13 @@ use crate::triplet::{Potential, Search};
 
 fn secs(d: Duration) -> f64 {
     d.as_secs_f64()
+}
+
+/// `f()` and its wall time in seconds.
+fn timed<T>(f: impl FnOnce() -> T) -> (T, f64) {
+    let t = Instant::now();
+    let v = f();
+    (v, secs(t.elapsed()))
 }
 
 /// M1: sampled triangles, f(t) with the acquired cameras, and the selection T.
@@ -216,26 +224,56 @@ fn m2(
     Ok((surrogates, links, potential))
 }
 
+/// Adds the observed-free space to `safety` when unknown space counts as
+/// an obstacle.
+fn with_free_space(safety: Safety, inputs: &PlanInputs, caster: &RayCaster) -> Result<Safety> {
+    let cfg = inputs.config;
+    if cfg.unknown_space == UnknownSpace::Free {
+        return Ok(safety);
+    }
+    let from_mesh;
+    let observations = if let Some(o) = inputs.observations {
+        o
+    } else {
+        let cams: Vec<Camera> = inputs.acquired.iter().map(|a| a.camera).collect();
+        from_mesh = observations_from_mesh(&cams, caster);
+        &from_mesh
+    };
+    let fs = free_space(
+        &safety.volume,
+        cfg.safety_distance_m,
+        cfg.free_space_voxel_m,
+        cfg.free_above_observed,
+        observations,
+    )?;
+    Ok(safety.with_free_space(fs))
+}
+
+/// Validates the inputs; returns the last acquired view (where the path starts).
+fn checked_start<'a>(inputs: &PlanInputs<'a>) -> Result<&'a AcquiredView> {
+    inputs.config.validate()?;
+    if inputs.mesh.n_faces() == 0 {
+        return Err(PlannerError::Input("the mesh has no faces".into()));
+    }
+    inputs.acquired.last().ok_or_else(|| {
+        PlannerError::Input("no acquired cameras: planning starts from an initial flight".into())
+    })
+}
+
 /// Plans the next k triplets and the flight path (DESIGN.md M1-M4).
 pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
     let t0 = Instant::now();
     let cfg = inputs.config;
-    cfg.validate()?;
     let mesh = inputs.mesh;
-    if mesh.n_faces() == 0 {
-        return Err(PlannerError::Input("the mesh has no faces".into()));
-    }
-    let Some(last) = inputs.acquired.last() else {
-        return Err(PlannerError::Input(
-            "no acquired cameras: planning starts from an initial flight".into(),
-        ));
-    };
+    let last = checked_start(inputs)?;
     let deadline = cfg.time_budget_s.map(|s| t0 + Duration::from_secs_f64(s));
     let over = || deadline.is_some_and(|d| Instant::now() >= d);
     let mut times: BTreeMap<String, f64> = BTreeMap::new();
     let caster = RayCaster::new(mesh);
     let roi = inputs.roi.faces(mesh, &caster)?;
-    let safety = safety_for(mesh, cfg);
+    let (safety, t_free) = timed(|| with_free_space(safety_for(mesh, cfg), inputs, &caster));
+    let safety = safety?;
+    times.insert("free_space".into(), t_free);
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
     let k = cfg.camera.intrinsics();
 

@@ -1,8 +1,11 @@
 //! Safety rules every planned position and path segment obeys: the safety
-//! distance to the mesh, the flight volume, the geofence and the altitude band.
+//! distance to the mesh and, with `unknown_space = "occupied"`, to space no
+//! camera has observed ([`crate::free_space`]); the flight volume, the
+//! geofence and the altitude band.
 
 use nalgebra::{Point2, Point3, Vector3};
 use vp_scene::clearance::Clearance;
+use vp_scene::occupancy::FreeSpace;
 use vp_scene::plan::AltitudeLimits;
 use vp_scene::raycast::RayCaster;
 use vp_scene::roi::point_in_polygon;
@@ -20,6 +23,8 @@ const DOWN: Vector3<f64> = Vector3::new(1e-3, 2e-3, -1.0);
 /// The safety constraints of one planning call.
 pub struct Safety {
     clearance: Clearance,
+    /// Observed-free space; `None`: unknown space counts as free.
+    free_space: Option<FreeSpace>,
     /// Minimum distance to the mesh, metres.
     pub distance: f64,
     /// Flight volume.
@@ -41,6 +46,7 @@ impl Safety {
     ) -> Self {
         Safety {
             clearance: Clearance::new(mesh),
+            free_space: None,
             distance,
             volume,
             geofence,
@@ -48,9 +54,41 @@ impl Safety {
         }
     }
 
+    /// These rules, and also the safety distance to unknown space.
+    pub fn with_free_space(mut self, free_space: FreeSpace) -> Self {
+        self.free_space = Some(free_space);
+        self
+    }
+
     /// The clearance queries of the mesh.
     pub fn clearance(&self) -> &Clearance {
         &self.clearance
+    }
+
+    /// The observed-free space, when unknown space counts as an obstacle.
+    pub fn free_space(&self) -> Option<&FreeSpace> {
+        self.free_space.as_ref()
+    }
+
+    /// What the rules say about `p`, for an error message: `None` when
+    /// [`Safety::point_ok`].
+    pub fn point_problem(&self, p: &Point3<f64>) -> Option<String> {
+        let d = self.distance;
+        if !self.within_limits(p) {
+            Some("outside the flight volume, the geofence or the altitude limits".into())
+        } else if !self.clearance.point_is_clear(p, d + CLEARANCE_MARGIN_M) {
+            Some(format!("closer than {d} m to the mesh"))
+        } else if !self
+            .free_space
+            .as_ref()
+            .is_none_or(|f| f.point_is_clear(p, d))
+        {
+            Some(format!(
+                "closer than {d} m to space no camera has observed (unknown_space = \"occupied\")"
+            ))
+        } else {
+            None
+        }
     }
 
     /// Inside the flight volume, the altitude band and the geofence.
@@ -64,12 +102,17 @@ impl Safety {
                 .is_none_or(|g| point_in_polygon(&Point2::new(p.x, p.y), g))
     }
 
-    /// Within the limits and at least the safety distance from the mesh.
+    /// Within the limits and at least the safety distance from the mesh
+    /// and from unknown space (when it counts).
     pub fn point_ok(&self, p: &Point3<f64>) -> bool {
         self.within_limits(p)
             && self
                 .clearance
                 .point_is_clear(p, self.distance + CLEARANCE_MARGIN_M)
+            && self
+                .free_space
+                .as_ref()
+                .is_none_or(|f| f.point_is_clear(p, self.distance))
     }
 
     /// [`Safety::point_ok`] and in free air: straight down there is a
@@ -84,7 +127,8 @@ impl Safety {
 
     /// Both ends within the limits, the straight segment inside the geofence
     /// (the volume and the altitude band are convex) and at least the safety
-    /// distance from the mesh everywhere.
+    /// distance from the mesh and from unknown space (when it counts)
+    /// everywhere.
     pub fn segment_ok(&self, a: &Point3<f64>, b: &Point3<f64>) -> bool {
         self.within_limits(a)
             && self.within_limits(b)
@@ -95,6 +139,25 @@ impl Safety {
             && self
                 .clearance
                 .segment_is_clear(a, b, self.distance + CLEARANCE_MARGIN_M)
+            && self
+                .free_space
+                .as_ref()
+                .is_none_or(|f| f.segment_is_clear(a, b, self.distance))
+    }
+
+    /// The leg from the vehicle's position `a` (wherever it is: it may be
+    /// outside the limits, e.g. before entering the geofence) to `b`: `b`
+    /// within the limits and the segment [`Safety::segment_ok`] apart from
+    /// the limits at `a`.
+    pub fn leg_ok(&self, a: &Point3<f64>, b: &Point3<f64>) -> bool {
+        self.within_limits(b)
+            && self
+                .clearance
+                .segment_is_clear(a, b, self.distance + CLEARANCE_MARGIN_M)
+            && self
+                .free_space
+                .as_ref()
+                .is_none_or(|f| f.segment_is_clear(a, b, self.distance))
     }
 
     /// The box positions are drawn from: the flight volume cut to the altitude band.

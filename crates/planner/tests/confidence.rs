@@ -63,6 +63,7 @@ fn angles(
         roi: RoiSpec::Faces(faces),
         config: cfg,
         origin: None,
+        observations: None,
     })
     .unwrap();
     r.plan

@@ -105,6 +105,7 @@ fn bad_inputs_give_clear_errors() {
             roi,
             config: cfg,
             origin: None,
+            observations: None,
         })
         .unwrap_err()
     };

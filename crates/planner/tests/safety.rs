@@ -13,8 +13,14 @@ use vp_scene::procedural::shapes;
 use vp_scene::raycast::RayCaster;
 use vp_scene::roi::{point_in_polygon, Roi};
 
-/// Exact distances (parry), not the bounded checks the planner uses.
-fn assert_safe(plan: &Plan, mesh: &vp_scene::Mesh, cfg: &PlannerConfig) {
+/// Exact distances (parry), not the bounded checks the planner uses; the
+/// first segment leads from `start` (the vehicle's position) when given.
+fn assert_safe(
+    plan: &Plan,
+    mesh: &vp_scene::Mesh,
+    cfg: &PlannerConfig,
+    start: Option<Point3<f64>>,
+) {
     let c = Clearance::new(mesh);
     let d = cfg.safety_distance_m;
     let lim = plan.altitude_limits.unwrap();
@@ -41,6 +47,10 @@ fn assert_safe(plan: &Plan, mesh: &vp_scene::Mesh, cfg: &PlannerConfig) {
         let (a, b) = (Point3::from(s[0].position), Point3::from(s[1].position));
         let dist = c.segment_distance(&a, &b);
         assert!(dist >= d, "segment {i}: {dist} m");
+    }
+    if let (Some(a), Some(w)) = (start, plan.waypoints.first()) {
+        let dist = c.segment_distance(&a, &Point3::from(w.position));
+        assert!(dist >= d, "leg from the vehicle: {dist} m");
     }
 }
 
@@ -84,9 +94,21 @@ fn run_case(
         roi: RoiSpec::Region(roi),
         config: &cfg,
         origin: None,
+        observations: None,
     }) {
         Ok(r) => {
-            assert_safe(&r.plan, &s.mesh, &cfg);
+            assert_safe(
+                &r.plan,
+                &s.mesh,
+                &cfg,
+                acquired.last().map(|a| a.camera.center()),
+            );
+            if r.plan.waypoints.is_empty() {
+                eprintln!(
+                    "seed {seed}: no waypoints: dropped {:?}, cut short: {:?}",
+                    r.dropped_triplets, r.cut_short_reason
+                );
+            }
             !r.plan.waypoints.is_empty()
         }
         // Refusing is safe; bad inputs (e.g. no free space under a low
@@ -216,7 +238,7 @@ fn blocked_segment_climbs_over_the_wall() {
         assert_eq!(out.len(), 4, "climb and descend waypoints inserted");
         assert!(out[1].position[2] >= 25.0 && out[1].role == Role::Bridge);
         plan.waypoints = out;
-        assert_safe(&plan, &mesh, &cfg);
+        assert_safe(&plan, &mesh, &cfg, None);
     });
 }
 
@@ -259,7 +281,7 @@ fn a_triplet_behind_an_unclimbable_wall_is_dropped_not_the_plan() {
         let xs: Vec<f64> = path.waypoints.iter().map(|w| w.position[0]).collect();
         assert_eq!(xs, vec![-30.0, -25.0, -20.0]);
         plan.waypoints = path.waypoints;
-        assert_safe(&plan, &mesh, &cfg);
+        assert_safe(&plan, &mesh, &cfg, None);
     });
 }
 

@@ -323,7 +323,7 @@ fn distance_to_unknown(cells: &[Voxel], dims: [usize; 3], voxel: f64) -> Vec<f32
         .collect();
     let [nx, ny, nz] = dims;
     // x: lines are contiguous.
-    sq.par_chunks_mut(nx).for_each(|line| edt_1d(line));
+    sq.par_chunks_mut(nx).for_each(edt_1d);
     // y and z: gather each line, transform, scatter back.
     for (len, stride) in [(ny, nx), (nz, nx * ny)] {
         let starts: Vec<usize> = (0..nx * ny * nz)

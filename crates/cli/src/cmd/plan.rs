@@ -312,6 +312,7 @@ fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
         config: &cfg,
         // --origin wins over the model's frame.json.
         origin: c.origin()?.or(model_origin),
+        observations: None,
     })?;
     for it in &r.iterations {
         let times: Vec<String> = it

@@ -83,5 +83,6 @@ pub fn plan_rock(
         roi: RoiSpec::Region(Roi::from_aabb(&site.rock_bounds)),
         config: cfg,
         origin: Some(site.origin),
+        observations: None,
     })
 }

@@ -176,6 +176,11 @@ pub struct SfmConfig {
     pub point_noise_m: f64,
     /// Acquired images that must see a surface point for SfM to have it.
     pub min_views: usize,
+    /// Candidate sparse points per square metre of true surface.
+    pub points_per_m2: f64,
+    /// Every this-many-th pixel (in x and y) of a flown depth map becomes a
+    /// dense point of the planning geometry.
+    pub dense_stride_px: usize,
 }
 
 /// The evaluation of the paper's Table 1.
@@ -388,6 +393,11 @@ impl CampaignConfig {
         }
         if self.sfm.min_views == 0 {
             return bad("sfm.min_views must be at least 1".into());
+        }
+        if !(self.sfm.points_per_m2.is_finite() && self.sfm.points_per_m2 > 0.0)
+            || self.sfm.dense_stride_px == 0
+        {
+            return bad("sfm: points_per_m2 must be > 0 and dense_stride_px >= 1".into());
         }
         Ok(())
     }

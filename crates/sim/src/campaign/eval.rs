@@ -77,6 +77,12 @@ pub struct Scores {
     pub triplet_success: Option<f64>,
     /// Distinct images.
     pub n_images: usize,
+    /// Smallest distance of the flown paths to the true surface, metres
+    /// (infinite when nothing was flown; see [`super::crash`]).
+    pub min_clearance_m: f64,
+    /// Waypoints and segments of the flown paths closer than the safety
+    /// distance to the true surface.
+    pub safety_violations: usize,
 }
 
 /// Scores of `flown` on `em`; also returns each face's f (0..1) for maps.
@@ -168,6 +174,8 @@ pub fn evaluate(
         rock_coverage: 100.0 * rock_cov / n_rock,
         triplet_success: success,
         n_images: images.len(),
+        min_clearance_m: f64::INFINITY,
+        safety_violations: 0,
     };
     Ok((scores, per_face.iter().map(|f| f.2).collect()))
 }

@@ -23,6 +23,7 @@
 //! `docs/campaign-findings.md` keeps what the experiment found.
 
 pub mod config;
+pub mod crash;
 pub mod curves;
 pub mod eval;
 pub mod fly;
@@ -31,6 +32,7 @@ pub mod plot;
 mod presets;
 pub mod report;
 mod run;
+pub mod sfm;
 pub mod strategies;
 pub mod training;
 pub mod world;

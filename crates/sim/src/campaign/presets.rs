@@ -119,6 +119,8 @@ impl CampaignConfig {
                 rotation_noise_deg: 0.05,
                 point_noise_m: 0.05,
                 min_views: 2,
+                points_per_m2: 0.5,
+                dense_stride_px: 4,
             },
             planner: PlannerConfig {
                 gsd_m: 0.04,

@@ -49,6 +49,11 @@ pub struct TableRow {
     pub rock_coverage_mean: f64,
     /// See `rock_coverage_mean`.
     pub rock_coverage_std: f64,
+    /// Smallest distance of any flown path to the true surface over the
+    /// sites, metres (infinite: nothing flown).
+    pub min_clearance_m: f64,
+    /// Safety violations against the truth, summed over the sites.
+    pub safety_violations: usize,
 }
 
 /// Scores of every strategy on one held-out site.
@@ -144,7 +149,13 @@ pub fn aggregate(sites: &[SiteResult]) -> Vec<TableRow> {
                 ms(|s| s.triplet_success.unwrap_or(f64::NAN));
             let (n_images_mean, n_images_std) = ms(|s| s.n_images as f64);
             let (rock_coverage_mean, rock_coverage_std) = ms(|s| s.rock_coverage);
+            let min_clearance_m = all
+                .iter()
+                .map(|s| s.min_clearance_m)
+                .fold(f64::INFINITY, f64::min);
             TableRow {
+                min_clearance_m,
+                safety_violations: all.iter().map(|s| s.safety_violations).sum(),
                 strategy: name.clone(),
                 coverage_mean,
                 coverage_std,
@@ -171,8 +182,16 @@ impl CampaignReport {
         self.rows.iter().find(|r| r.strategy == strategy)
     }
 
-    /// The table as Markdown (percent, mean ± std over held-out sites).
+    /// The table as Markdown (percent, mean ± std over held-out sites; the
+    /// clearance is the minimum and the violations the sum over sites).
     pub fn table_markdown(&self) -> String {
+        let clearance = |m: f64| {
+            if m.is_finite() {
+                format!("{m:.1}")
+            } else {
+                "-".to_string()
+            }
+        };
         let pm = |m: f64, s: f64| {
             if m.is_nan() {
                 "-".to_string()
@@ -183,13 +202,13 @@ impl CampaignReport {
         let mut t = String::new();
         let _ = writeln!(
             t,
-            "| strategy | cov % | f_res % | f_unc % | f % | triplet success % | images | rock cov % |"
+            "| strategy | cov % | f_res % | f_unc % | f % | triplet success % | images | rock cov % | min clearance to the truth (m) | safety violations |"
         );
-        let _ = writeln!(t, "|---|---|---|---|---|---|---|---|");
+        let _ = writeln!(t, "|---|---|---|---|---|---|---|---|---|---|");
         for r in &self.rows {
             let _ = writeln!(
                 t,
-                "| {} | {} | {} | {} | {} | {} | {} | {} |",
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 r.strategy,
                 pm(r.coverage_mean, r.coverage_std),
                 pm(r.f_res_mean, r.f_res_std),
@@ -198,6 +217,8 @@ impl CampaignReport {
                 pm(r.triplet_success_mean, r.triplet_success_std),
                 pm(r.n_images_mean, r.n_images_std),
                 pm(r.rock_coverage_mean, r.rock_coverage_std),
+                clearance(r.min_clearance_m),
+                r.safety_violations,
             );
         }
         t
@@ -206,7 +227,7 @@ impl CampaignReport {
     /// The table as CSV (one column per mean and per standard deviation).
     pub fn table_csv(&self) -> String {
         let mut t = String::from(
-            "strategy,coverage_mean,coverage_std,f_res_mean,f_res_std,f_unc_mean,f_unc_std,f_mean,f_std,triplet_success_mean,triplet_success_std,n_images_mean,n_images_std,rock_coverage_mean,rock_coverage_std\n",
+            "strategy,coverage_mean,coverage_std,f_res_mean,f_res_std,f_unc_mean,f_unc_std,f_mean,f_std,triplet_success_mean,triplet_success_std,n_images_mean,n_images_std,rock_coverage_mean,rock_coverage_std,min_clearance_m,safety_violations\n",
         );
         let v = |x: f64| {
             if x.is_nan() {
@@ -218,7 +239,7 @@ impl CampaignReport {
         for r in &self.rows {
             let _ = writeln!(
                 t,
-                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
                 r.strategy,
                 v(r.coverage_mean),
                 v(r.coverage_std),
@@ -234,6 +255,12 @@ impl CampaignReport {
                 v(r.n_images_std),
                 v(r.rock_coverage_mean),
                 v(r.rock_coverage_std),
+                if r.min_clearance_m.is_finite() {
+                    v(r.min_clearance_m)
+                } else {
+                    String::new()
+                },
+                r.safety_violations,
             );
         }
         t

@@ -12,10 +12,12 @@ use vp_scene::roi::Roi;
 use vp_scene::{Aabb, Camera};
 
 use super::config::CampaignConfig;
+use super::crash::PathCheck;
 use super::curves::CurveAccumulator;
 use super::eval::{evaluate, EvalMesh, Scores};
 use super::fly::{Flown, Matcher, MvsKind};
 use super::report::{aggregate, CampaignReport, SiteArtifacts, SiteResult, StrategyArtifacts};
+use super::sfm::SfmState;
 use super::strategies::Strategy;
 use super::training::train_forest_with_stats;
 use super::world::{acquire, init_cameras, planning_mesh, Acquired, SeenCounter, World};
@@ -76,6 +78,36 @@ fn reconstruct_flight(
     Ok(flown)
 }
 
+/// Flies a whole flight (Init, Grid): reconstructs it and checks its path
+/// (waypoints in order, from its first) against the truth.
+#[allow(clippy::too_many_arguments)]
+fn fly_flight(
+    world: &World,
+    matcher: &Matcher<'_>,
+    cfg: &CampaignConfig,
+    (name, cams): (&str, &[Camera]),
+    source: u64,
+    seed: u64,
+    curves: &mut CurveAccumulator,
+    progress: &mut dyn FnMut(&str),
+) -> Result<(Vec<Flown>, PathCheck)> {
+    let flown = reconstruct_flight(
+        world,
+        matcher,
+        cfg,
+        (name, cams),
+        source,
+        seed,
+        curves,
+        progress,
+    )?;
+    let mut check = PathCheck::default();
+    let path: Vec<Point3<f64>> = cams.iter().map(Camera::center).collect();
+    let label = format!("site {} {name}", world.site.params.seed);
+    check_path(&mut check, world, cfg, (None, &path), &label, progress);
+    Ok((flown, check))
+}
+
 /// The Grid baseline's cameras: nadir lawnmower over the ROI footprint plus margin.
 fn grid_cameras(world: &World, cfg: &CampaignConfig) -> Result<Vec<Camera>> {
     let m = cfg.grid.margin_m;
@@ -121,6 +153,8 @@ fn plan_of(world: &World, cams: &[Camera], role: Role) -> Plan {
 struct StrategyRun {
     flown: Vec<Flown>,
     plans: Vec<Plan>,
+    /// The flown paths against the true mesh.
+    check: PathCheck,
 }
 
 /// One progress line per flown triplet: its planned angle bin and what came out.
@@ -173,6 +207,101 @@ fn plan_cameras(world: &World, plan: &Plan) -> (Vec<Camera>, BTreeMap<u32, Vec<C
     (cams, triplets)
 }
 
+/// What the flights so far left: the acquired images and what SfM and
+/// vp-mvs made of them.
+#[derive(Clone)]
+struct Known {
+    acquired: Vec<Acquired>,
+    seen: SeenCounter,
+    sfm: SfmState,
+}
+
+impl Known {
+    /// What SfM and vp-mvs know after the flight of `acquired`, reconstructed as `flown`.
+    fn new(
+        world: &World,
+        cfg: &CampaignConfig,
+        acquired: Vec<Acquired>,
+        flown: &[Flown],
+        seed: u64,
+    ) -> Self {
+        let mut seen = SeenCounter::new(&world.site.mesh);
+        let cams: Vec<Camera> = acquired.iter().map(|a| a.truth).collect();
+        seen.add(world, &cams);
+        let mut sfm = SfmState::new(world, cfg, seed);
+        sfm.add_images(world, &acquired);
+        sfm.add_depth(flown, cfg.sfm.dense_stride_px);
+        Known {
+            acquired,
+            seen,
+            sfm,
+        }
+    }
+}
+
+/// Plans iteration `it` of `strategy` from what is known.
+fn plan_iteration(
+    world: &World,
+    cfg: &CampaignConfig,
+    strategy: &Strategy,
+    known: &Known,
+    it: usize,
+    base: u64,
+) -> Result<vp_planner::PlanResult> {
+    let mesh = planning_mesh(world, &known.seen, cfg, mix64(base ^ it as u64))?;
+    let views: Vec<AcquiredView> = known
+        .acquired
+        .iter()
+        .map(|a| AcquiredView {
+            camera: a.sfm,
+            confidence: if strategy.prediction {
+                a.confidence.clone()
+            } else {
+                None
+            },
+        })
+        .collect();
+    let mut pc = cfg.planner.clone();
+    pc.n_triplets = strategy.per_iteration;
+    pc.seed = mix64(base ^ 0x706c_616e ^ it as u64);
+    let observations = known
+        .sfm
+        .observations(cfg, mix64(base ^ 0x6f62 ^ it as u64));
+    let inputs = PlanInputs {
+        mesh: &mesh,
+        acquired: &views,
+        roi: RoiSpec::Region(Roi::from_aabb(&world.roi)),
+        config: &pc,
+        origin: Some(world.site.origin),
+        observations: Some(&observations),
+    };
+    plan(&inputs).map_err(|e| {
+        SimError::Campaign(format!(
+            "site {}, {} iteration {}: {e}",
+            world.site.params.seed,
+            strategy.name,
+            it + 1
+        ))
+    })
+}
+
+/// Checks a flown path against the truth and says every violation loudly.
+fn check_path(
+    check: &mut PathCheck,
+    world: &World,
+    cfg: &CampaignConfig,
+    (start, path): (Option<Point3<f64>>, &[Point3<f64>]),
+    label: &str,
+    progress: &mut dyn FnMut(&str),
+) {
+    let before = check.violations.len();
+    let safety_m = cfg.planner.safety_distance_m;
+    check.add(&world.clearance, safety_m, start, path, label);
+    for v in &check.violations[before..] {
+        progress(&format!("  SAFETY VIOLATION against the true mesh: {v}"));
+    }
+}
+
 /// Runs one triplet strategy from the initial flight.
 #[allow(clippy::too_many_arguments)]
 fn run_strategy(
@@ -182,52 +311,36 @@ fn run_strategy(
     cfg: &CampaignConfig,
     strategy: &Strategy,
     source: u64,
-    init: &[Acquired],
-    init_seen: &SeenCounter,
+    init: &Known,
     curves: &mut CurveAccumulator,
     progress: &mut dyn FnMut(&str),
 ) -> Result<StrategyRun> {
     let site_seed = world.site.params.seed;
     let base = mix64(cfg.seed ^ mix64(site_seed) ^ name_hash(&strategy.name));
-    let mut acquired: Vec<Acquired> = init.to_vec();
-    let mut seen = init_seen.clone();
+    let mut known = init.clone();
     let mut out = StrategyRun {
         flown: Vec::new(),
         plans: Vec::new(),
+        check: PathCheck::default(),
     };
+    // Where the vehicle is: the end of the initial flight, then of each plan.
+    let mut vehicle = init.acquired.last().map(|a| a.truth.center());
     let mut next_index = 0usize;
-    let roi = RoiSpec::Region(Roi::from_aabb(&world.roi));
     for it in 0..strategy.iterations {
-        let mesh = planning_mesh(world, &seen, cfg, mix64(base ^ it as u64))?;
-        let views: Vec<AcquiredView> = acquired
-            .iter()
-            .map(|a| AcquiredView {
-                camera: a.sfm,
-                confidence: if strategy.prediction {
-                    a.confidence.clone()
-                } else {
-                    None
-                },
-            })
-            .collect();
-        let mut pc = cfg.planner.clone();
-        pc.n_triplets = strategy.per_iteration;
-        pc.seed = mix64(base ^ 0x706c_616e ^ it as u64);
-        let inputs = PlanInputs {
-            mesh: &mesh,
-            acquired: &views,
-            roi: roi.clone(),
-            config: &pc,
-            origin: Some(world.site.origin),
-        };
-        let result = plan(&inputs).map_err(|e| {
-            SimError::Campaign(format!(
-                "site {site_seed}, {} iteration {}: {e}",
-                strategy.name,
-                it + 1
-            ))
-        })?;
+        let result = plan_iteration(world, cfg, strategy, &known, it, base)?;
         let (new_cams, triplets) = plan_cameras(world, &result.plan);
+        let path: Vec<Point3<f64>> = new_cams.iter().map(Camera::center).collect();
+        let label = format!("site {site_seed} {} iteration {}", strategy.name, it + 1);
+        check_path(
+            &mut out.check,
+            world,
+            cfg,
+            (vehicle, &path),
+            &label,
+            progress,
+        );
+        vehicle = path.last().copied().or(vehicle);
+        let first_flown = out.flown.len();
         for (t, cams) in &triplets {
             let [a, b, c] = cams.as_slice() else {
                 continue;
@@ -266,15 +379,39 @@ fn run_strategy(
         let last = it + 1 == strategy.iterations;
         if !last {
             let pred = strategy.prediction.then_some(forest);
-            let first = (source << 32) + 0x8000_0000 + acquired.len() as u64;
-            acquired.extend(acquire(world, &new_cams, pred, cfg, base, first, curves)?);
-            seen.add(world, &new_cams);
+            let first = (source << 32) + 0x8000_0000 + known.acquired.len() as u64;
+            let new = acquire(world, &new_cams, pred, cfg, base, first, curves)?;
+            known.sfm.add_images(world, &new);
+            known
+                .sfm
+                .add_depth(&out.flown[first_flown..], cfg.sfm.dense_stride_px);
+            known.acquired.extend(new);
+            known.seen.add(world, &new_cams);
         }
         if triplets.is_empty() {
             break;
         }
     }
     Ok(out)
+}
+
+/// One progress line per strategy and site.
+fn strategy_line(seed: u64, name: &str, s: &Scores) -> String {
+    format!(
+        "  site {seed} {name}: coverage {:.1} %, f {:.1} %, success {:.0} %, {:.1} m from the true surface at the closest, {} safety violations",
+        s.coverage,
+        s.f,
+        s.triplet_success.unwrap_or(0.0),
+        s.min_clearance_m,
+        s.safety_violations
+    )
+}
+
+/// `scores` with the crash check's figures.
+fn with_check(mut scores: Scores, check: &PathCheck) -> Scores {
+    scores.min_clearance_m = check.min_clearance_m;
+    scores.safety_violations = check.violations.len();
+    scores
 }
 
 fn refs(v: &[Flown]) -> Vec<&Flown> {
@@ -303,9 +440,7 @@ fn run_site(
 
     let init_cams = init_cameras(&world, cfg);
     let init = acquire(&world, &init_cams, Some(forest), cfg, run_seed, 0, curves)?;
-    let mut seen = SeenCounter::new(&world.site.mesh);
-    seen.add(&world, &init_cams);
-    let init_flown = reconstruct_flight(
+    let (init_flown, init_check) = fly_flight(
         &world,
         &matcher,
         cfg,
@@ -315,8 +450,15 @@ fn run_site(
         curves,
         progress,
     )?;
+    let known = Known::new(
+        &world,
+        cfg,
+        init,
+        &init_flown,
+        mix64(run_seed ^ 0x0073_666d),
+    );
     let grid_cams = grid_cameras(&world, cfg)?;
-    let grid_flown = reconstruct_flight(
+    let (grid_flown, grid_check) = fly_flight(
         &world,
         &matcher,
         cfg,
@@ -329,20 +471,14 @@ fn run_site(
 
     let mut scores: Vec<(String, Scores)> = Vec::new();
     let mut maps: Vec<(String, Vec<f64>, Vec<Plan>)> = Vec::new();
-    let (s, f) = evaluate(&em, &refs(&init_flown), cfg)?;
-    scores.push(("Init".into(), s));
-    maps.push((
-        "Init".into(),
-        f,
-        vec![plan_of(&world, &init_cams, Role::Initial)],
-    ));
-    let (s, f) = evaluate(&em, &refs(&grid_flown), cfg)?;
-    scores.push(("Grid".into(), s));
-    maps.push((
-        "Grid".into(),
-        f,
-        vec![plan_of(&world, &grid_cams, Role::Grid)],
-    ));
+    for (name, flown, check, cams, role) in [
+        ("Init", &init_flown, &init_check, &init_cams, Role::Initial),
+        ("Grid", &grid_flown, &grid_check, &grid_cams, Role::Grid),
+    ] {
+        let (s, f) = evaluate(&em, &refs(flown), cfg)?;
+        scores.push((name.into(), with_check(s, check)));
+        maps.push((name.into(), f, vec![plan_of(&world, cams, role)]));
+    }
     let mut combos = Vec::new();
     for (i, st) in strategies.iter().enumerate() {
         let run = run_strategy(
@@ -352,23 +488,18 @@ fn run_site(
             cfg,
             st,
             2 + i as u64,
-            &init,
-            &seen,
+            &known,
             curves,
             progress,
         )?;
         let (s, f) = evaluate(&em, &refs(&run.flown), cfg)?;
-        progress(&format!(
-            "  site {seed} {}: coverage {:.1} %, f {:.1} %, success {:.0} %",
-            st.name,
-            s.coverage,
-            s.f,
-            s.triplet_success.unwrap_or(0.0)
-        ));
+        let s = with_check(s, &run.check);
+        progress(&strategy_line(seed, &st.name, &s));
         scores.push((st.name.clone(), s));
         let mut union = refs(&grid_flown);
         union.extend(run.flown.iter());
         let (cs, cf) = evaluate(&em, &union, cfg)?;
+        let cs = with_check(cs, &grid_check.merged(&run.check));
         combos.push((format!("G+{}", st.name), cs, cf));
         maps.push((st.name.clone(), f, run.plans));
     }

@@ -14,6 +14,7 @@
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use rayon::prelude::*;
 use vp_forest::Forest;
+use vp_scene::clearance::Clearance;
 use vp_scene::mesh_ops::submesh;
 use vp_scene::procedural::{generate_site, Site};
 use vp_scene::raster::ConfidenceImage;
@@ -32,6 +33,8 @@ pub struct World {
     pub site: Site,
     /// Ray caster of the true mesh.
     pub caster: RayCaster,
+    /// Distance queries to the true mesh (the crash check).
+    pub clearance: Clearance,
     /// The region of interest: the rock's box grown by the margin, all heights.
     pub roi: Aabb,
     /// Camera of every flight.
@@ -53,6 +56,7 @@ impl World {
             max: Point3::new(rb.max.x + m, rb.max.y + m, b.max.z + 1.0),
         };
         Ok(World {
+            clearance: Clearance::new(&site.mesh),
             site,
             caster,
             roi,

@@ -1,0 +1,165 @@
+//! What the simulated reconstruction has seen: SfM's sparse points with
+//! their tracks, and the dense points of the flown vp-mvs depth maps.
+//!
+//! Sparse points: a fixed, seeded sample of the true surface (area-uniform,
+//! `sfm.points_per_m2`), each known to SfM once at least `sfm.min_views`
+//! acquired images see it (in the frame, front-facing, unoccluded), at its
+//! position plus seeded noise (`sfm.point_noise_m`), observed from the SfM
+//! estimates of those images' centres. Texture does not decide matching
+//! here: a simplification in SfM's favour, named in the docs. Dense points:
+//! every `sfm.dense_stride_px`-th pixel of each flown reference depth map
+//! (after vp-mvs's geometric filter, the points its fusion merges),
+//! observed from that camera.
+//!
+//! From this state come the planning mesh (the 3D mesher) and the
+//! observation rays that carve the planner's free space: what the planner
+//! knows is what was seen, never the true mesh.
+
+use nalgebra::{Point2, Point3, Vector3};
+use rayon::prelude::*;
+use vp_scene::raycast::FACE_VISIBILITY_EPSILON;
+
+use super::config::CampaignConfig;
+use super::fly::Flown;
+use super::world::{Acquired, World};
+use crate::noise::{gaussian, hash3, mix64, unit};
+
+/// An observation ray: camera centre, observed point.
+pub type Observation = (Point3<f64>, Point3<f64>);
+
+/// The seen state of one strategy's flights (see the module docs).
+#[derive(Debug, Clone)]
+pub struct SfmState {
+    /// Candidate surface points (true positions) and their faces' normals.
+    points: Vec<(Point3<f64>, Vector3<f64>)>,
+    /// Per candidate, the acquired images (indices into `centres`) seeing it.
+    seen_by: Vec<Vec<u32>>,
+    /// SfM centres of the acquired images.
+    centres: Vec<Point3<f64>>,
+    /// Dense points with the centre of the camera that measured them.
+    dense: Vec<Observation>,
+}
+
+impl SfmState {
+    /// Nothing acquired yet; the candidates of `world` drawn with `seed`.
+    pub fn new(world: &World, cfg: &CampaignConfig, seed: u64) -> Self {
+        let mesh = &world.site.mesh;
+        let density = cfg.sfm.points_per_m2;
+        let points: Vec<(Point3<f64>, Vector3<f64>)> = (0..mesh.n_faces())
+            .into_par_iter()
+            .flat_map_iter(|f| {
+                // A face gets floor(area * density) points, one more with the
+                // remaining probability: area-uniform in expectation.
+                let s = mix64(seed ^ mix64(f as u64 ^ 0x0073_7061_7273));
+                let expect = mesh.face_area(f) * density;
+                let n =
+                    expect.floor() as usize + usize::from(unit(hash3(s, 0, 0, 0)) < expect.fract());
+                let [a, b, c] = mesh.triangle(f);
+                let normal = mesh.face_normal(f);
+                (0..n).map(move |i| {
+                    let (mut u, mut v) = (
+                        unit(hash3(s, 1, i as i64, 0)),
+                        unit(hash3(s, 2, i as i64, 0)),
+                    );
+                    if u + v > 1.0 {
+                        (u, v) = (1.0 - u, 1.0 - v);
+                    }
+                    (a + (b - a) * u + (c - a) * v, normal)
+                })
+            })
+            .collect();
+        SfmState {
+            seen_by: vec![Vec::new(); points.len()],
+            points,
+            centres: Vec::new(),
+            dense: Vec::new(),
+        }
+    }
+
+    /// Adds the images of `acquired`: which candidates each one sees.
+    pub fn add_images(&mut self, world: &World, acquired: &[Acquired]) {
+        for a in acquired {
+            let id = self.centres.len() as u32;
+            self.centres.push(a.sfm.center());
+            let c = a.truth.center();
+            let probes: Vec<Point3<f64>> = self
+                .points
+                .iter()
+                .map(|(p, n)| p + n * FACE_VISIBILITY_EPSILON)
+                .collect();
+            let front: Vec<bool> = self
+                .points
+                .iter()
+                .map(|(p, n)| n.dot(&(c - p)) > 0.0)
+                .collect();
+            let vis = world.caster.visible_points(&a.truth, &probes);
+            for ((seen, v), f) in self.seen_by.iter_mut().zip(vis).zip(front) {
+                if v && f {
+                    seen.push(id);
+                }
+            }
+        }
+    }
+
+    /// Adds the dense points of the reference depth maps of `flown`.
+    pub fn add_depth(&mut self, flown: &[Flown], stride_px: usize) {
+        let stride = stride_px.max(1);
+        for fl in flown {
+            for (cam, map) in fl.cams.iter().zip(&fl.depth) {
+                let w = map.width as usize;
+                if w == 0 {
+                    continue;
+                }
+                let c = cam.center();
+                // A map may be at a coarser level than the camera.
+                let scale = f64::from(cam.intrinsics.width) / f64::from(map.width);
+                for (i, &z) in map.data.iter().enumerate() {
+                    let (x, y) = (i % w, i / w);
+                    if z > 0.0 && x % stride == 0 && y % stride == 0 {
+                        let px = Point2::new((x as f64 + 0.5) * scale, (y as f64 + 0.5) * scale);
+                        self.dense.push((c, cam.unproject(&px, f64::from(z))));
+                    }
+                }
+            }
+        }
+    }
+
+    /// Sparse points SfM has (seen by at least `min_views` images), with
+    /// their noisy positions and observing centres.
+    pub fn sparse(&self, cfg: &CampaignConfig, seed: u64) -> Vec<(Point3<f64>, Vec<Point3<f64>>)> {
+        let sigma = cfg.sfm.point_noise_m;
+        let s = mix64(seed ^ 0x0070_6e6f_6973);
+        self.points
+            .iter()
+            .zip(&self.seen_by)
+            .enumerate()
+            .filter(|(_, (_, seen))| seen.len() >= cfg.sfm.min_views)
+            .map(|(i, ((p, _), seen))| {
+                let k = i as i64;
+                let noise = Vector3::new(
+                    gaussian(s, k, 0, 0),
+                    gaussian(s, k, 1, 0),
+                    gaussian(s, k, 2, 0),
+                );
+                let from = seen.iter().map(|&j| self.centres[j as usize]).collect();
+                (p + noise * sigma, from)
+            })
+            .collect()
+    }
+
+    /// The dense points and their cameras.
+    pub fn dense(&self) -> &[Observation] {
+        &self.dense
+    }
+
+    /// Every observation ray: sparse tracks and dense points.
+    pub fn observations(&self, cfg: &CampaignConfig, seed: u64) -> Vec<Observation> {
+        let mut out: Vec<Observation> = self
+            .sparse(cfg, seed)
+            .into_iter()
+            .flat_map(|(p, from)| from.into_iter().map(move |c| (c, p)))
+            .collect();
+        out.extend_from_slice(&self.dense);
+        out
+    }
+}
