@@ -304,3 +304,65 @@ fn unbridged_images_are_named_by_their_place_in_the_routed_path() {
         }
     });
 }
+
+/// With `unknown_space = "occupied"` every waypoint and segment of a plan
+/// keeps the safety distance to space the initial flight never looked
+/// through; with `"free"` (the paper) some do not: the risk the default
+/// removes. Observed space here: rays from the initial cameras to the mesh.
+#[test]
+fn occupied_unknown_space_keeps_plans_in_observed_free_space() {
+    use vp_planner::free_space::{free_space, observations_from_mesh};
+    use vp_planner::UnknownSpace;
+    let (mut inside_free_policy, mut plans) = (0, 0);
+    for seed in [3, 5, 11] {
+        let s = site(seed, 20_000);
+        let acquired = initial_views(&s);
+        let caster = RayCaster::new(&s.mesh);
+        let cams: Vec<_> = acquired.iter().map(|a| a.camera).collect();
+        let base = test_config(&s);
+        let volume = base.flight_volume_aabb().unwrap();
+        let d = base.safety_distance_m;
+        let fs = free_space(
+            &volume,
+            d,
+            1.0,
+            true,
+            &observations_from_mesh(&cams, &caster),
+        )
+        .unwrap();
+        for unknown in [UnknownSpace::Occupied, UnknownSpace::Free] {
+            let cfg = PlannerConfig {
+                unknown_space: unknown,
+                seed,
+                ..base.clone()
+            };
+            let r = common::plan_rock(&s, &acquired, &cfg).unwrap();
+            let start = acquired.last().map(|a| a.camera.center());
+            let pts: Vec<Point3<f64>> = start
+                .into_iter()
+                .chain(r.plan.waypoints.iter().map(|w| Point3::from(w.position)))
+                .collect();
+            let unsafe_legs = pts
+                .windows(2)
+                .filter(|w| !fs.segment_is_clear(&w[0], &w[1], d))
+                .count();
+            if unknown == UnknownSpace::Occupied {
+                plans += usize::from(!r.plan.waypoints.is_empty());
+                assert_eq!(unsafe_legs, 0, "seed {seed}: a leg near unobserved space");
+            } else {
+                inside_free_policy += unsafe_legs;
+            }
+        }
+    }
+    println!(
+        "\"free\" policy: {inside_free_policy} legs within the safety distance of unobserved space"
+    );
+    assert!(
+        plans >= 2,
+        "only {plans} of 3 sites gave a plan under \"occupied\""
+    );
+    assert!(
+        inside_free_policy > 0,
+        "the \"free\" policy never approached unobserved space"
+    );
+}

@@ -6,9 +6,10 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand};
 use nalgebra::Point3;
+use vp_planner::free_space::observations_from_model;
 use vp_planner::grid::GridParams;
 use vp_planner::output::{write_frusta_ply, write_top_view_png, TopView};
-use vp_planner::{AcquiredView, PlanInputs, PlannerConfig, RoiSpec};
+use vp_planner::{AcquiredView, Observation, PlanInputs, PlannerConfig, RoiSpec};
 use vp_scene::plan::{GeodeticOrigin, Plan, Role};
 use vp_scene::roi::Roi;
 use vp_scene::{colmap, fsio, io, Mesh};
@@ -262,11 +263,13 @@ fn outline(roi: &RoiSpec, pts: impl Iterator<Item = Point3<f64>>) -> Vec<[f64; 2
     }
 }
 
+/// The acquired views of the model, its geodetic origin, and its tracks as
+/// observation rays (they carve the planner's observed-free space).
 fn load_acquired(
     model: &Path,
     conf_dir: Option<&Path>,
     frame_unchecked: bool,
-) -> Result<(Vec<AcquiredView>, Option<GeodeticOrigin>)> {
+) -> Result<(Vec<AcquiredView>, Option<GeodeticOrigin>, Vec<Observation>)> {
     let rec = colmap::read_model(model)?;
     let origin = if frame_unchecked {
         None
@@ -285,7 +288,9 @@ fn load_acquired(
     // Errors name the confidence file or the image; the context names the model.
     let views = vp_planner::acquired_from_model(&rec, conf_dir)
         .with_context(|| format!("acquired views of {}", model.display()))?;
-    Ok((views, origin))
+    let observations = observations_from_model(&rec)
+        .with_context(|| format!("observations of {}", model.display()))?;
+    Ok((views, origin, observations))
 }
 
 fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
@@ -293,7 +298,7 @@ fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
     let out_path = c.check_outputs()?.to_path_buf();
     let cfg = c.config()?;
     let mesh = io::read_mesh(required(args.mesh.as_ref(), "--mesh")?)?;
-    let (acquired, model_origin) = load_acquired(
+    let (acquired, model_origin, observations) = load_acquired(
         required(args.cameras.as_ref(), "--cameras")?,
         args.confidence_dir.as_deref(),
         args.frame_unchecked,
@@ -312,7 +317,8 @@ fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
         config: &cfg,
         // --origin wins over the model's frame.json.
         origin: c.origin()?.or(model_origin),
-        observations: None,
+        // A model without tracks: the planner carves from rays to the mesh.
+        observations: (!observations.is_empty()).then_some(&observations[..]),
     })?;
     for it in &r.iterations {
         let times: Vec<String> = it
