@@ -27,6 +27,8 @@ use crate::noise::mix64;
 /// Source tags of image ids: init, grid, then one per strategy.
 const SOURCE_INIT: u64 = 0;
 const SOURCE_GRID: u64 = 1;
+/// A true surface point counts as in the planning mesh within this, metres.
+const MESH_TOLERANCE_M: f64 = 0.5;
 
 fn image_id(source: u64, index: usize) -> u64 {
     source << 32 | index as u64
@@ -247,7 +249,7 @@ fn plan_iteration(
     known: &Known,
     it: usize,
     base: u64,
-) -> Result<vp_planner::PlanResult> {
+) -> Result<(vp_planner::PlanResult, vp_scene::Mesh)> {
     let mesh = planning_mesh(world, &known.seen, cfg, mix64(base ^ it as u64))?;
     let views: Vec<AcquiredView> = known
         .acquired
@@ -275,14 +277,15 @@ fn plan_iteration(
         origin: Some(world.site.origin),
         observations: Some(&observations),
     };
-    plan(&inputs).map_err(|e| {
+    let result = plan(&inputs).map_err(|e| {
         SimError::Campaign(format!(
             "site {}, {} iteration {}: {e}",
             world.site.params.seed,
             strategy.name,
             it + 1
         ))
-    })
+    })?;
+    Ok((result, mesh))
 }
 
 /// Checks a flown path against the truth and says every violation loudly.
@@ -327,7 +330,19 @@ fn run_strategy(
     let mut vehicle = init.acquired.last().map(|a| a.truth.center());
     let mut next_index = 0usize;
     for it in 0..strategy.iterations {
-        let result = plan_iteration(world, cfg, strategy, &known, it, base)?;
+        let (result, mesh) = plan_iteration(world, cfg, strategy, &known, it, base)?;
+        let q = known.sfm.mesh_quality(world, &mesh, MESH_TOLERANCE_M);
+        progress(&format!(
+            "  site {site_seed} {} iteration {}: planning mesh of {} faces, {:.2} m mean ({:.2} m 95th pct) from the truth, {:.0} % of the surface within {MESH_TOLERANCE_M} m, {} under canopies",
+            strategy.name,
+            it + 1,
+            mesh.n_faces(),
+            q.mean_distance_m,
+            q.p95_distance_m,
+            100.0 * q.completeness,
+            q.under_canopy_completeness
+                .map_or("nothing".to_string(), |c| format!("{:.0} %", 100.0 * c)),
+        ));
         let (new_cams, triplets) = plan_cameras(world, &result.plan);
         let path: Vec<Point3<f64>> = new_cams.iter().map(Camera::center).collect();
         let label = format!("site {site_seed} {} iteration {}", strategy.name, it + 1);

@@ -163,3 +163,68 @@ impl SfmState {
         out
     }
 }
+
+/// How close a planning mesh comes to the truth (per iteration, in the
+/// progress output and the findings).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MeshQuality {
+    /// Mean distance of the mesh's vertices to the true surface, metres.
+    pub mean_distance_m: f64,
+    /// 95th percentile of the same, metres.
+    pub p95_distance_m: f64,
+    /// Share of the true surface samples within `tolerance` of the mesh.
+    pub completeness: f64,
+    /// The same over the samples with surface above them (under tree
+    /// canopies and overhangs); `None` when the site has none.
+    pub under_canopy_completeness: Option<f64>,
+}
+
+impl SfmState {
+    /// Compares `mesh` with the truth of `world` (completeness within
+    /// `tolerance_m`).
+    pub fn mesh_quality(
+        &self,
+        world: &World,
+        mesh: &vp_scene::Mesh,
+        tolerance_m: f64,
+    ) -> MeshQuality {
+        let mut d: Vec<f64> = mesh
+            .vertices
+            .par_iter()
+            .map(|v| world.clearance.distance(v))
+            .collect();
+        d.sort_by(f64::total_cmp);
+        let mean = d.iter().sum::<f64>() / d.len().max(1) as f64;
+        let p95 = d.get(d.len() * 95 / 100).copied().unwrap_or(f64::NAN);
+        let planned = vp_scene::clearance::Clearance::new(mesh);
+        // Straight up, tilted a little: the ray caster misses exactly
+        // axis-aligned rays (see vp-planner's safety module).
+        let up = Vector3::new(1e-3, 2e-3, 1.0).normalize();
+        let per_point: Vec<(bool, bool)> = self
+            .points
+            .par_iter()
+            .map(|(p, n)| {
+                let probe = p + n * FACE_VISIBILITY_EPSILON;
+                let covered = planned.point_is_clear(p, tolerance_m);
+                let under = world
+                    .caster
+                    .closest_hit(&probe, &up, f64::INFINITY)
+                    .is_some();
+                (!covered, under)
+            })
+            .collect();
+        let share = |f: &dyn Fn(&(bool, bool)) -> bool| {
+            let (n, k) = per_point
+                .iter()
+                .filter(|x| f(x))
+                .fold((0usize, 0usize), |(n, k), x| (n + 1, k + usize::from(x.0)));
+            (n > 0).then(|| k as f64 / n as f64)
+        };
+        MeshQuality {
+            mean_distance_m: mean,
+            p95_distance_m: p95,
+            completeness: share(&|_| true).unwrap_or(0.0),
+            under_canopy_completeness: share(&|x| x.1),
+        }
+    }
+}
