@@ -201,6 +201,25 @@ pub fn labels_for(
     ))
 }
 
+/// The references of every reconstruction (ids, id order): whose stage-1
+/// support [`labels_for`] needs to label it.
+pub fn references_of(
+    recs: &[TripletReconstruction],
+    params: &LabelParams,
+) -> Result<Vec<(String, Vec<String>)>> {
+    let (sorted, _, refs) = prepare(recs, params)?;
+    Ok(sorted
+        .iter()
+        .zip(&refs)
+        .map(|(r, q)| {
+            (
+                r.id.clone(),
+                q.iter().map(|&i| sorted[i].id.clone()).collect(),
+            )
+        })
+        .collect())
+}
+
 /// Indices (into the id-sorted reconstructions) of `queries`, in id order;
 /// an unknown or repeated id is an error.
 fn select(sorted: &[&TripletReconstruction], queries: &[String]) -> Result<Vec<usize>> {

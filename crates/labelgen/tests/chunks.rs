@@ -6,8 +6,8 @@ mod common;
 
 use common::{scene, world, Errors};
 use vp_labelgen::{
-    generate_labels, labels_for, support_for, LabelParams, LabelSummary, MissingPartMeshes,
-    ReconLabels,
+    generate_labels, labels_for, references_of, support_for, LabelParams, LabelSummary,
+    MissingPartMeshes, ReconLabels,
 };
 
 /// (x, y, label, angle bits) of every labelled pixel of one view.
@@ -56,6 +56,18 @@ fn labels_generated_in_chunks_equal_one_call() {
     assert_eq!(LabelSummary::combine(&summaries), LabelSummary::of(&whole));
     assert!(LabelSummary::of(&whole).positive > 0);
 
+    // Each query needs exactly its references' support.
+    let refs = references_of(&recs, &params).unwrap();
+    assert_eq!(refs.len(), recs.len());
+    for (id, r) in &refs {
+        let needed: Vec<_> = supports
+            .iter()
+            .filter(|(s, _)| r.contains(s))
+            .cloned()
+            .collect();
+        let one = labels_for(&recs, &needed, std::slice::from_ref(id), None, &params).unwrap();
+        assert_eq!(one.len(), 1);
+    }
     // A chunk without the support of its references is refused, by name.
     let e = labels_for(&recs, &supports[..1], &ids[..1], None, &params)
         .unwrap_err()
