@@ -94,7 +94,7 @@ def main() -> None:
         models = {}
         for workers in (1, 2):
             with distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                          dashboard_address=None,
+                                          dashboard_address=":0",
                                           env={"RAYON_NUM_THREADS": "1"}) as cluster, \
                     distributed.Client(cluster) as client:
                 out = Path(tmp) / f"w{workers}"

@@ -92,7 +92,7 @@ def _client(client: ClientLike) -> Iterator[Client]:
             n_workers=n,
             threads_per_worker=1,
             processes=True,
-            dashboard_address=None,
+            dashboard_address=":0",
             env={"RAYON_NUM_THREADS": "1"},
         )
         c = Client(cluster)
