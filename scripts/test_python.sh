@@ -19,7 +19,9 @@ if [ ! -x .venv/bin/python ]; then
   python3 -m venv .venv
 fi
 py=.venv/bin/python
-$py -m pip install --quiet --disable-pip-version-check numpy pytest
+# dask[distributed]: the `dask` extra of py/pyproject.toml (vpctl.distributed,
+# tested on a LocalCluster of 2 workers in py/tests/test_distributed.py).
+$py -m pip install --quiet --disable-pip-version-check numpy pytest "dask[distributed]>=2024.1"
 # The tests build the extension with cargo's dev profile (dependencies at
 # opt-level 2, see Cargo.toml) into cargo's target folder: cold, that is
 # about a third faster than the release profile a user's `pip install ./py`

@@ -16,6 +16,7 @@ use pyo3::prelude::*;
 
 mod campaign;
 mod convert;
+mod distributed;
 mod errors;
 mod forest;
 mod labelgen;
@@ -50,5 +51,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     submodule(m, "planner", planner::register)?;
     submodule(m, "mission", mission::register)?;
     submodule(m, "sim", sim::register)?;
+    submodule(m, "distributed", distributed::register)?;
     Ok(())
 }

@@ -260,6 +260,20 @@ impl LabPlanes {
         planes
     }
 
+    /// Folds the planes' bytes into `h` (see [`crate::TrainingSet::fingerprint`]).
+    pub(crate) fn digest(&self, mut h: u64) -> u64 {
+        let mut chunks = self.data.chunks_exact(8);
+        for c in &mut chunks {
+            let mut b = [0u8; 8];
+            b.copy_from_slice(c);
+            h = crate::train::mix(h, u64::from_le_bytes(b));
+        }
+        for &b in chunks.remainder() {
+            h = crate::train::mix(h, u64::from(b));
+        }
+        h
+    }
+
     /// Image width in pixels (without padding).
     pub fn width(&self) -> u32 {
         self.width

@@ -7,6 +7,11 @@
 //!   images and label images to a [`Forest`], with [`TrainParams`] (the paper's
 //!   defaults) and a seed; same inputs and seed give the same model bytes on
 //!   any number of threads.
+//! - Distributed training: [`train_tree`] (or [`TrainingPlan::train_tree`])
+//!   grows one tree by index, [`TrainedTree::to_bytes`] carries it to
+//!   another process, and [`assemble`] makes the forest: the same model
+//!   bytes as [`train`] with the same set, parameters and seed, wherever the
+//!   trees were trained ([`train`] itself takes this path).
 //! - [`load_label_dir`]: label images as `vpctl labelgen run` writes them,
 //!   paired with their images (scaled for pyramid levels).
 //! - [`Forest::predict_image`]: an RGB image to a b-channel
@@ -50,7 +55,7 @@ pub use lab::LabPlanes;
 pub use label_dir::{load_label_dir, LabelledImage};
 pub use metrics::{accuracy, sparsification, Scored, Sparsification};
 pub use params::{TrainParams, TrainingSummary};
-pub use train::{train, train_with_progress};
+pub use train::{assemble, train, train_tree, train_with_progress, TrainedTree, TrainingPlan};
 pub use tree::Tree;
 pub use vp_scene::raster::{AngleBins, ConfidenceImage, RgbImage};
 

@@ -27,6 +27,7 @@ use vp_scene::fsio::{read_file, write_file_atomic};
 use crate::error::{ForestError, Result};
 use crate::params::{TrainParams, TrainingSummary, MAX_DEPTH_LIMIT};
 use crate::patch::{SplitTest, TestOp};
+use crate::train::{PlanHeader, TrainedTree, TreeStats};
 use crate::tree::{Node, Tree};
 use crate::Forest;
 
@@ -57,25 +58,7 @@ impl Forest {
             out.extend_from_slice(&json);
             out.extend_from_slice(&(self.trees().len() as u32).to_le_bytes());
             for tree in self.trees() {
-                out.extend_from_slice(&(tree.nodes().len() as u32).to_le_bytes());
-                out.extend_from_slice(&(tree.n_leaves() as u32).to_le_bytes());
-                for n in tree.nodes() {
-                    let t = &n.test;
-                    out.extend_from_slice(&[
-                        u8::from(n.is_leaf),
-                        t.channel,
-                        t.op as u8,
-                        t.offset1.0 as u8,
-                        t.offset1.1 as u8,
-                        t.offset2.0 as u8,
-                        t.offset2.1 as u8,
-                    ]);
-                    out.extend_from_slice(&n.threshold.to_le_bytes());
-                    out.extend_from_slice(&n.child.to_le_bytes());
-                }
-                for c in tree.raw_counts() {
-                    out.extend_from_slice(&c.to_le_bytes());
-                }
+                write_tree(out, tree);
             }
         })
     }
@@ -128,6 +111,107 @@ impl Forest {
         }
         r.0.finish("the last tree")?;
         Ok(Forest::from_parts(params, header.summary, trees))
+    }
+}
+
+/// Appends one tree in the model's layout (node count, leaf count, nodes, leaf counts).
+fn write_tree(out: &mut Vec<u8>, tree: &Tree) {
+    out.extend_from_slice(&(tree.nodes().len() as u32).to_le_bytes());
+    out.extend_from_slice(&(tree.n_leaves() as u32).to_le_bytes());
+    for n in tree.nodes() {
+        let t = &n.test;
+        out.extend_from_slice(&[
+            u8::from(n.is_leaf),
+            t.channel,
+            t.op as u8,
+            t.offset1.0 as u8,
+            t.offset1.1 as u8,
+            t.offset2.0 as u8,
+            t.offset2.1 as u8,
+        ]);
+        out.extend_from_slice(&n.threshold.to_le_bytes());
+        out.extend_from_slice(&n.child.to_le_bytes());
+    }
+    for c in tree.raw_counts() {
+        out.extend_from_slice(&c.to_le_bytes());
+    }
+}
+
+/// First bytes of one tree of a distributed training run ([`TrainedTree::to_bytes`]).
+pub const TREE_MAGIC: [u8; 8] = *b"VPFTREE\0";
+/// Version of the tree layout this build writes and reads.
+pub const TREE_FORMAT_VERSION: u32 = 1;
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TreeHeader {
+    index: usize,
+    plan: PlanHeader,
+    stats: TreeStats,
+}
+
+impl TrainedTree {
+    /// Serialises the tree for transport between processes: magic
+    /// [`TREE_MAGIC`], version, a JSON header (index, the shared training
+    /// plan, the tree's statistics), the tree in the model file's layout,
+    /// FNV-1a 64 checksum.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let header = TreeHeader {
+            index: self.index,
+            plan: self.plan.clone(),
+            stats: self.stats,
+        };
+        // Serialising plain numbers and strings cannot fail.
+        let json = serde_json::to_vec(&header).unwrap_or_default();
+        checksummed(TREE_MAGIC, TREE_FORMAT_VERSION, |out| {
+            out.extend_from_slice(&(json.len() as u32).to_le_bytes());
+            out.extend_from_slice(&json);
+            write_tree(out, &self.tree);
+        })
+    }
+
+    /// Parses [`TrainedTree::to_bytes`]; `path` only names the source in errors.
+    pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<TrainedTree> {
+        let mut r = Reader(ByteReader::open_checksummed(
+            path,
+            bytes,
+            TREE_MAGIC,
+            TREE_FORMAT_VERSION,
+            "vp-forest tree",
+        )?);
+        let header_len = r.u32("header length")? as usize;
+        let at = r.0.pos();
+        let header: TreeHeader = serde_json::from_slice(r.take(header_len, "header")?)
+            .map_err(|e| r.error(at, &format!("tree header: {e}")))?;
+        let plan = header.plan;
+        plan.params
+            .validate()
+            .map_err(|e| r.error(at, &e.to_string()))?;
+        if !plan.class_weights.iter().all(|w| w.is_finite() && *w > 0.0) {
+            return Err(r.error(at, "tree header: class weights must be positive"));
+        }
+        if header.index >= plan.params.n_trees {
+            return Err(r.error(
+                at,
+                &format!(
+                    "tree index {} of a forest of {} trees",
+                    header.index, plan.params.n_trees
+                ),
+            ));
+        }
+        let tree = r.tree(
+            header.index,
+            plan.params.bins.len(),
+            plan.class_weights,
+            plan.params.pseudo_count,
+        )?;
+        r.0.finish("the tree")?;
+        Ok(TrainedTree {
+            index: header.index,
+            tree,
+            stats: header.stats,
+            plan,
+        })
     }
 }
 

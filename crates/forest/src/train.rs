@@ -12,6 +12,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use rand::{Rng, RngCore, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 
 use crate::dataset::{Sample, TrainingSet};
 use crate::error::{ForestError, Result};
@@ -41,112 +42,257 @@ pub fn train(set: &TrainingSet, params: &TrainParams, seed: u64) -> Result<Fores
 }
 
 /// [`train`], calling `progress(trees_done)` as trees finish (from worker threads).
+///
+/// The same path as a distributed run: [`TrainingPlan::new`], then
+/// [`TrainingPlan::train_tree`] for every index (here in parallel with
+/// rayon), then [`assemble`].
 pub fn train_with_progress(
     set: &TrainingSet,
     params: &TrainParams,
     seed: u64,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<Forest> {
-    params.validate()?;
-    let mut classes: [Vec<u32>; 2] = [Vec::new(), Vec::new()];
-    for (i, s) in set.samples.iter().enumerate() {
-        classes[usize::from(s.positive)].push(i as u32);
-    }
-    let available = [classes[0].len() as u64, classes[1].len() as u64];
-    if available.contains(&0) {
-        return Err(ForestError::InvalidInput(format!(
-            "the training set needs both classes, it has {} positive and {} negative samples",
-            available[1], available[0]
-        )));
-    }
-    let mut rng = ChaCha8Rng::seed_from_u64(mix(seed, 0x5e1e_c7ed));
-    let mut draw = |v: &mut Vec<u32>, n: usize| {
-        if v.len() > n {
-            let mut keep = rand::seq::index::sample(&mut rng, v.len(), n).into_vec();
-            keep.sort_unstable();
-            *v = keep.into_iter().map(|i| v[i]).collect();
-        }
-    };
-    if params.balance_classes {
-        for class in &mut classes {
-            draw(class, params.samples_per_class);
-        }
-    } else {
-        // Uniform over both classes: the drawn set keeps the labels' class
-        // ratio, so the leaves estimate calibrated probabilities (drawing
-        // per class would pull them towards 0.5).
-        let mut all: Vec<u32> = (0..set.samples.len() as u32).collect();
-        draw(&mut all, 2 * params.samples_per_class);
-        let (pos, neg): (Vec<u32>, Vec<u32>) = all
-            .into_iter()
-            .partition(|&i| set.samples[i as usize].positive);
-        classes = [neg, pos];
-    }
-    let counts = [classes[0].len() as f64, classes[1].len() as f64];
-    let weights = if params.balance_classes {
-        let total = counts[0] + counts[1];
-        [total / (2.0 * counts[0]), total / (2.0 * counts[1])]
-    } else {
-        [1.0, 1.0]
-    };
-    let mut selected: Vec<u32> = classes[0].iter().chain(&classes[1]).copied().collect();
-    selected.sort_unstable();
+    let plan = TrainingPlan::new(set, params, seed)?;
     let done = AtomicUsize::new(0);
-    let grown: Vec<(Tree, TreeStats)> = (0..params.n_trees)
+    let trees: Vec<TrainedTree> = (0..params.n_trees)
         .into_par_iter()
         .map(|t| {
-            let grown = grow_tree(set, &selected, params, weights, mix(seed, t as u64));
+            let tree = plan.train_tree(t);
             progress(done.fetch_add(1, Ordering::Relaxed) + 1);
-            grown
+            tree
         })
         .collect::<Result<_>>()?;
-    let n_beyond = selected
-        .iter()
-        .filter(|&&i| params.bins.bin_of(set.samples[i as usize].angle).is_none())
-        .count() as u64;
-    let summary = summarise(
-        &grown,
-        set,
-        seed,
-        [counts[0] as u64, counts[1] as u64],
-        available,
-        n_beyond,
-        weights,
-    );
+    assemble(trees)
+}
+
+/// Trains tree `index` of the forest [`train`] would make from `set`,
+/// `params` and `seed`: the same tree, bit for bit, wherever it runs.
+/// Trees from separate processes or machines become that forest with
+/// [`assemble`]. Each call repeats the class draw (one pass over the
+/// samples); to train several trees in one process, make one
+/// [`TrainingPlan`] and call [`TrainingPlan::train_tree`].
+pub fn train_tree(
+    set: &TrainingSet,
+    params: &TrainParams,
+    seed: u64,
+    index: usize,
+) -> Result<TrainedTree> {
+    TrainingPlan::new(set, params, seed)?.train_tree(index)
+}
+
+/// What every tree of one forest shares: the class-balanced draw of the
+/// training samples and the class weights, fixed by the set, the
+/// parameters and the seed.
+pub struct TrainingPlan<'a> {
+    set: &'a TrainingSet,
+    selected: Vec<u32>,
+    header: PlanHeader,
+}
+
+impl<'a> TrainingPlan<'a> {
+    /// Validates `params`, draws the samples every tree bags from and
+    /// fixes the class weights.
+    pub fn new(set: &'a TrainingSet, params: &TrainParams, seed: u64) -> Result<Self> {
+        params.validate()?;
+        let mut classes: [Vec<u32>; 2] = [Vec::new(), Vec::new()];
+        for (i, s) in set.samples.iter().enumerate() {
+            classes[usize::from(s.positive)].push(i as u32);
+        }
+        let available = [classes[0].len() as u64, classes[1].len() as u64];
+        if available.contains(&0) {
+            return Err(ForestError::InvalidInput(format!(
+                "the training set needs both classes, it has {} positive and {} negative samples",
+                available[1], available[0]
+            )));
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(mix(seed, 0x5e1e_c7ed));
+        let mut draw = |v: &mut Vec<u32>, n: usize| {
+            if v.len() > n {
+                let mut keep = rand::seq::index::sample(&mut rng, v.len(), n).into_vec();
+                keep.sort_unstable();
+                *v = keep.into_iter().map(|i| v[i]).collect();
+            }
+        };
+        if params.balance_classes {
+            for class in &mut classes {
+                draw(class, params.samples_per_class);
+            }
+        } else {
+            // Uniform over both classes: the drawn set keeps the labels' class
+            // ratio, so the leaves estimate calibrated probabilities (drawing
+            // per class would pull them towards 0.5).
+            let mut all: Vec<u32> = (0..set.samples.len() as u32).collect();
+            draw(&mut all, 2 * params.samples_per_class);
+            let (pos, neg): (Vec<u32>, Vec<u32>) = all
+                .into_iter()
+                .partition(|&i| set.samples[i as usize].positive);
+            classes = [neg, pos];
+        }
+        let counts = [classes[0].len() as f64, classes[1].len() as f64];
+        let class_weights = if params.balance_classes {
+            let total = counts[0] + counts[1];
+            [total / (2.0 * counts[0]), total / (2.0 * counts[1])]
+        } else {
+            [1.0, 1.0]
+        };
+        let mut selected: Vec<u32> = classes[0].iter().chain(&classes[1]).copied().collect();
+        selected.sort_unstable();
+        let n_beyond_gamma_max = selected
+            .iter()
+            .filter(|&&i| params.bins.bin_of(set.samples[i as usize].angle).is_none())
+            .count() as u64;
+        let header = PlanHeader {
+            params: params.clone(),
+            seed,
+            n_images: set.n_images(),
+            n_label_images: set.n_label_images(),
+            available,
+            drawn: [counts[0] as u64, counts[1] as u64],
+            n_beyond_gamma_max,
+            class_weights,
+            set_fingerprint: set.fingerprint(),
+        };
+        Ok(TrainingPlan {
+            set,
+            selected,
+            header,
+        })
+    }
+
+    /// Grows tree `index` (0-based, below `params.n_trees`); its random
+    /// choices are seeded by the forest seed and `index` only.
+    pub fn train_tree(&self, index: usize) -> Result<TrainedTree> {
+        let n_trees = self.header.params.n_trees;
+        if index >= n_trees {
+            return Err(ForestError::InvalidInput(format!(
+                "tree index {index}: the forest has {n_trees} trees (0..{n_trees})"
+            )));
+        }
+        let (tree, stats) = grow_tree(
+            self.set,
+            &self.selected,
+            &self.header.params,
+            self.header.class_weights,
+            mix(self.header.seed, index as u64),
+        )?;
+        Ok(TrainedTree {
+            index,
+            tree,
+            stats,
+            plan: self.header.clone(),
+        })
+    }
+}
+
+/// Assembles a forest from its trees, each trained by [`train_tree`] or
+/// [`TrainingPlan::train_tree`] (here or elsewhere, in any order): the same
+/// model as [`train`] with the same set, parameters and seed. Refuses trees
+/// of different plans (parameters, seed, training set fingerprint), a
+/// missing or repeated index, and a wrong number of trees.
+pub fn assemble(mut trees: Vec<TrainedTree>) -> Result<Forest> {
+    let Some(first) = trees.first() else {
+        return Err(ForestError::InvalidInput(
+            "no trees to assemble a forest from".into(),
+        ));
+    };
+    let plan = first.plan.clone();
+    if let Some(other) = trees.iter().find(|t| t.plan != plan) {
+        return Err(ForestError::InvalidInput(format!(
+            "tree {} comes from another training run than tree {} \
+             (parameters, seed or training set differ)",
+            other.index, first.index
+        )));
+    }
+    trees.sort_by_key(|t| t.index);
+    let n = plan.params.n_trees;
+    for (expected, t) in trees.iter().enumerate() {
+        if t.index != expected {
+            let what = if t.index < expected {
+                format!("tree {} is given twice", t.index)
+            } else {
+                format!("tree {expected} is missing")
+            };
+            return Err(ForestError::InvalidInput(format!(
+                "{what} (a forest of {n} trees needs each of 0..{n} once)"
+            )));
+        }
+    }
+    if trees.len() != n {
+        return Err(ForestError::InvalidInput(format!(
+            "{} trees given, the forest has {n}",
+            trees.len()
+        )));
+    }
+    let grown: Vec<(Tree, TreeStats)> = trees.into_iter().map(|t| (t.tree, t.stats)).collect();
+    let summary = summarise(&grown, &plan);
     let trees = grown.into_iter().map(|(t, _)| t).collect();
-    Ok(Forest::from_parts(params.clone(), summary, trees))
+    Ok(Forest::from_parts(plan.params, summary, trees))
+}
+
+/// One trained tree of a forest, with what [`assemble`] needs to check
+/// that trees belong together and to write the model's summary. Bytes:
+/// [`TrainedTree::to_bytes`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrainedTree {
+    pub(crate) index: usize,
+    pub(crate) tree: Tree,
+    pub(crate) stats: TreeStats,
+    pub(crate) plan: PlanHeader,
+}
+
+impl TrainedTree {
+    /// Its index in the forest.
+    pub fn index(&self) -> usize {
+        self.index
+    }
+
+    /// The tree.
+    pub fn tree(&self) -> &Tree {
+        &self.tree
+    }
+}
+
+/// The part of the training summary every tree of a forest shares.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct PlanHeader {
+    pub params: TrainParams,
+    pub seed: u64,
+    pub n_images: usize,
+    pub n_label_images: usize,
+    /// [negative, positive] samples in the set.
+    pub available: [u64; 2],
+    /// [negative, positive] samples drawn.
+    pub drawn: [u64; 2],
+    pub n_beyond_gamma_max: u64,
+    pub class_weights: [f64; 2],
+    /// [`TrainingSet::fingerprint`]: trees of different data do not mix.
+    pub set_fingerprint: u64,
 }
 
 /// Per-tree statistics for the summary.
-#[derive(Debug, Clone, Copy, Default)]
-struct TreeStats {
-    max_depth: usize,
-    sample_depth_sum: f64,
-    n_samples: f64,
-    correct_weight: f64,
-    total_weight: f64,
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct TreeStats {
+    pub max_depth: usize,
+    pub sample_depth_sum: f64,
+    pub n_samples: f64,
+    pub correct_weight: f64,
+    pub total_weight: f64,
 }
 
-fn summarise(
-    grown: &[(Tree, TreeStats)],
-    set: &TrainingSet,
-    seed: u64,
-    drawn: [u64; 2],
-    available: [u64; 2],
-    n_beyond_gamma_max: u64,
-    class_weights: [f64; 2],
-) -> TrainingSummary {
+fn summarise(grown: &[(Tree, TreeStats)], plan: &PlanHeader) -> TrainingSummary {
     let n = grown.len() as f64;
     TrainingSummary {
-        seed,
-        n_images: set.n_images(),
-        n_label_images: set.n_label_images(),
-        n_positive_available: available[1],
-        n_negative_available: available[0],
-        n_positive: drawn[1],
-        n_negative: drawn[0],
-        n_beyond_gamma_max,
-        class_weights,
+        seed: plan.seed,
+        n_images: plan.n_images,
+        n_label_images: plan.n_label_images,
+        n_positive_available: plan.available[1],
+        n_negative_available: plan.available[0],
+        n_positive: plan.drawn[1],
+        n_negative: plan.drawn[0],
+        n_beyond_gamma_max: plan.n_beyond_gamma_max,
+        class_weights: plan.class_weights,
         n_nodes: grown.iter().map(|(t, _)| t.nodes().len() as u64).sum(),
         n_leaves: grown.iter().map(|(t, _)| t.n_leaves() as u64).sum(),
         max_depth_reached: grown.iter().map(|(_, s)| s.max_depth).max().unwrap_or(0),

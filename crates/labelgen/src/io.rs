@@ -171,13 +171,28 @@ pub fn label_path(out_dir: &Path, id: &str, image: &str) -> Result<PathBuf> {
 /// `force`), so a refusal leaves no output at all.
 pub fn write_labels(out_dir: &Path, labels: &[ReconLabels], force: bool) -> Result<LabelSummary> {
     let summary_path = out_dir.join("summary.json");
+    fsio::check_overwrite(&summary_path, force)?;
+    let summary = write_label_images(out_dir, labels, force)?;
+    write_summary(out_dir, &summary)?;
+    Ok(summary)
+}
+
+/// Writes the label images of `labels` only (no `summary.json`), each file
+/// atomically, after checking that none would be overwritten (unless
+/// `force`); returns their summary. For runs labelled in parts: combine the
+/// parts' summaries with [`LabelSummary::combine`] and write them with
+/// [`write_summary`].
+pub fn write_label_images(
+    out_dir: &Path,
+    labels: &[ReconLabels],
+    force: bool,
+) -> Result<LabelSummary> {
     let mut files = Vec::new();
     for rl in labels {
         for (name, img) in rl.names.iter().zip(&rl.labels) {
             files.push((label_path(out_dir, &rl.id, name)?, img));
         }
     }
-    fsio::check_overwrite(&summary_path, force)?;
     for (p, _) in &files {
         fsio::check_overwrite(p, force)?;
     }
@@ -187,13 +202,17 @@ pub fn write_labels(out_dir: &Path, labels: &[ReconLabels], force: bool) -> Resu
         }
         img.save(p)?;
     }
-    let summary = LabelSummary::of(labels);
-    let json = serde_json::to_string_pretty(&summary)
+    Ok(LabelSummary::of(labels))
+}
+
+/// Writes `<out_dir>/summary.json` atomically.
+pub fn write_summary(out_dir: &Path, summary: &LabelSummary) -> Result<()> {
+    let json = serde_json::to_string_pretty(summary)
         .map_err(|e| LabelgenError::InvalidArgument(format!("summary: {e}")))?;
-    fsio::write_atomic(&summary_path, |w| {
+    fsio::write_atomic(&out_dir.join("summary.json"), |w| {
         use std::io::Write as _;
         w.write_all(json.as_bytes())?;
         w.write_all(b"\n")
     })?;
-    Ok(summary)
+    Ok(())
 }

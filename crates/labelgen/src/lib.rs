@@ -75,21 +75,53 @@ pub fn generate_labels(
     params: &LabelParams,
 ) -> Result<Vec<ReconLabels>> {
     let (sorted, prepared, refs) = prepare(recs, params)?;
-    let tasks: Vec<(usize, usize)> = (0..prepared.len())
-        .flat_map(|q| (0..3).map(move |v| (q, v)))
+    let all: Vec<usize> = (0..sorted.len()).collect();
+    let supports = stage1(&prepared, &refs, &all, params);
+    Ok(stage2(
+        &sorted, &prepared, &refs, &supports, &all, meshes, params,
+    ))
+}
+
+/// Stage 1 for the views of `chosen`: three support maps each, in order.
+fn stage1(
+    prepared: &[Prepared<'_>],
+    refs: &[Vec<usize>],
+    chosen: &[usize],
+    params: &LabelParams,
+) -> Vec<[Vec<u16>; 3]> {
+    let tasks: Vec<(usize, usize)> = chosen
+        .iter()
+        .flat_map(|&q| (0..3).map(move |v| (q, v)))
         .collect();
     let flat: Vec<Vec<u16>> = tasks
         .par_iter()
-        .map(|&(q, v)| support::view_support(&prepared, q, v, &refs[q], params))
+        .map(|&(q, v)| support::view_support(prepared, q, v, &refs[q], params))
         .collect();
-    let supports = regroup(flat);
+    regroup(flat)
+}
+
+/// Stages 2 and 3 for `chosen`, given the support of every reconstruction
+/// (indexed as `prepared`; only the references' are read).
+fn stage2(
+    sorted: &[&TripletReconstruction],
+    prepared: &[Prepared<'_>],
+    refs: &[Vec<usize>],
+    supports: &[[Vec<u16>; 3]],
+    chosen: &[usize],
+    meshes: Option<&MissingPartMeshes>,
+    params: &LabelParams,
+) -> Vec<ReconLabels> {
+    let tasks: Vec<(usize, usize)> = chosen
+        .iter()
+        .flat_map(|&q| (0..3).map(move |v| (q, v)))
+        .collect();
     let flat: Vec<(LabelImage, ViewCounts)> = tasks
         .par_iter()
-        .map(|&(q, v)| voting::label_view(&prepared, &supports, q, v, &refs[q], meshes, params))
+        .map(|&(q, v)| voting::label_view(prepared, supports, q, v, &refs[q], meshes, params))
         .collect();
-    Ok(regroup(flat)
+    regroup(flat)
         .into_iter()
-        .zip(&sorted)
+        .zip(chosen.iter().map(|&q| sorted[q]))
         .map(|(views, rec)| {
             let [(l0, c0), (l1, c1), (l2, c2)] = views;
             ReconLabels {
@@ -99,7 +131,117 @@ pub fn generate_labels(
                 counts: [c0, c1, c2],
             }
         })
+        .collect()
+}
+
+/// Stage 1 for the reconstructions named in `queries` only: the support
+/// maps of their views (as [`support_maps`]), in id order. With
+/// [`labels_for`], label generation splits into independent tasks over
+/// chunks of queries (e.g. on separate machines): every task needs every
+/// reconstruction (the references), and all stage-1 tasks must finish
+/// before the stage-2 tasks that read their support.
+pub fn support_for(
+    recs: &[TripletReconstruction],
+    queries: &[String],
+    params: &LabelParams,
+) -> Result<Vec<(String, [Vec<u16>; 3])>> {
+    let (sorted, prepared, refs) = prepare(recs, params)?;
+    let chosen = select(&sorted, queries)?;
+    let maps = stage1(&prepared, &refs, &chosen, params);
+    Ok(chosen
+        .iter()
+        .map(|&q| sorted[q].id.clone())
+        .zip(maps)
         .collect())
+}
+
+/// Stages 2 and 3 for the reconstructions named in `queries`, in id order,
+/// given the stage-1 support ([`support_for`]) of at least every
+/// reconstruction that references them; the same labels as
+/// [`generate_labels`] gives those queries.
+pub fn labels_for(
+    recs: &[TripletReconstruction],
+    supports: &[(String, [Vec<u16>; 3])],
+    queries: &[String],
+    meshes: Option<&MissingPartMeshes>,
+    params: &LabelParams,
+) -> Result<Vec<ReconLabels>> {
+    let (sorted, prepared, refs) = prepare(recs, params)?;
+    let chosen = select(&sorted, queries)?;
+    let mut by_index: Vec<[Vec<u16>; 3]> = vec![[Vec::new(), Vec::new(), Vec::new()]; sorted.len()];
+    let mut given = vec![false; sorted.len()];
+    for (id, maps) in supports {
+        let Ok(i) = sorted.binary_search_by(|r| r.id.as_str().cmp(id)) else {
+            return Err(LabelgenError::InvalidArgument(format!(
+                "support given for reconstruction {id}, which is not among the reconstructions"
+            )));
+        };
+        for (v, m) in maps.iter().enumerate() {
+            let n = sorted[i].views[v].depth.data.len();
+            if m.len() != n {
+                return Err(LabelgenError::InvalidArgument(format!(
+                    "support of {id} view {v}: {} values for a depth map of {n} pixels",
+                    m.len()
+                )));
+            }
+        }
+        by_index[i].clone_from(maps);
+        given[i] = true;
+    }
+    for &q in &chosen {
+        if let Some(&r) = refs[q].iter().find(|&&r| !given[r]) {
+            return Err(LabelgenError::InvalidArgument(format!(
+                "labelling {} needs the stage-1 support of its reference {}, which was not given",
+                sorted[q].id, sorted[r].id
+            )));
+        }
+    }
+    Ok(stage2(
+        &sorted, &prepared, &refs, &by_index, &chosen, meshes, params,
+    ))
+}
+
+/// The references of every reconstruction (ids, id order): whose stage-1
+/// support [`labels_for`] needs to label it.
+pub fn references_of(
+    recs: &[TripletReconstruction],
+    params: &LabelParams,
+) -> Result<Vec<(String, Vec<String>)>> {
+    let (sorted, _, refs) = prepare(recs, params)?;
+    Ok(sorted
+        .iter()
+        .zip(&refs)
+        .map(|(r, q)| {
+            (
+                r.id.clone(),
+                q.iter().map(|&i| sorted[i].id.clone()).collect(),
+            )
+        })
+        .collect())
+}
+
+/// Indices (into the id-sorted reconstructions) of `queries`, in id order;
+/// an unknown or repeated id is an error.
+fn select(sorted: &[&TripletReconstruction], queries: &[String]) -> Result<Vec<usize>> {
+    let mut chosen = Vec::with_capacity(queries.len());
+    for id in queries {
+        let i = sorted
+            .binary_search_by(|r| r.id.as_str().cmp(id))
+            .map_err(|_| {
+                LabelgenError::InvalidArgument(format!(
+                    "query {id} is not among the reconstructions"
+                ))
+            })?;
+        chosen.push(i);
+    }
+    chosen.sort_unstable();
+    if let Some(w) = chosen.windows(2).find(|w| w[0] == w[1]) {
+        return Err(LabelgenError::InvalidArgument(format!(
+            "query {} given twice",
+            sorted[w[0]].id
+        )));
+    }
+    Ok(chosen)
 }
 
 /// Stage 1 alone: the support of every measurement of every view (0 where
@@ -109,16 +251,8 @@ pub fn support_maps(
     recs: &[TripletReconstruction],
     params: &LabelParams,
 ) -> Result<Vec<(String, [Vec<u16>; 3])>> {
-    let (sorted, prepared, refs) = prepare(recs, params)?;
-    let flat: Vec<Vec<u16>> = (0..prepared.len() * 3)
-        .into_par_iter()
-        .map(|t| support::view_support(&prepared, t / 3, t % 3, &refs[t / 3], params))
-        .collect();
-    Ok(sorted
-        .iter()
-        .map(|r| r.id.clone())
-        .zip(regroup(flat))
-        .collect())
+    let ids: Vec<String> = recs.iter().map(|r| r.id.clone()).collect();
+    support_for(recs, &ids, params)
 }
 
 type PreparedSet<'a> = (

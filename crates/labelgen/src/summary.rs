@@ -91,11 +91,35 @@ impl LabelSummary {
                 }
             }
         }
-        let labelled = s.positive + s.negative_voted + s.negative_missing;
-        s.labelled_share = ratio(labelled, s.pixels);
-        s.labelled_share_of_measured = ratio(s.positive + s.negative_voted, s.measured);
         s.per_bin = per_bin;
-        s
+        s.with_shares()
+    }
+
+    /// The summary of a run labelled in parts (e.g. chunks of queries on
+    /// separate workers): counts add up, shares are recomputed from the
+    /// totals, so it equals [`LabelSummary::of`] over all labels at once.
+    pub fn combine(parts: &[LabelSummary]) -> Self {
+        let mut s = LabelSummary::of(&[]);
+        for p in parts {
+            s.reconstructions += p.reconstructions;
+            s.pixels += p.pixels;
+            s.measured += p.measured;
+            s.positive += p.positive;
+            s.negative_voted += p.negative_voted;
+            s.negative_missing += p.negative_missing;
+            for (a, b) in s.per_bin.iter_mut().zip(&p.per_bin) {
+                a.positive += b.positive;
+                a.negative += b.negative;
+            }
+        }
+        s.with_shares()
+    }
+
+    fn with_shares(mut self) -> Self {
+        let labelled = self.positive + self.negative_voted + self.negative_missing;
+        self.labelled_share = ratio(labelled, self.pixels);
+        self.labelled_share_of_measured = ratio(self.positive + self.negative_voted, self.measured);
+        self
     }
 }
 

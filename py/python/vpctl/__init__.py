@@ -8,7 +8,9 @@ Python bindings of the vpctl Rust crates, one submodule per crate:
 - :mod:`vpctl.labelgen`: triplet sampling and training labels from depth maps;
 - :mod:`vpctl.planner`: the paper's planner (M1-M4) and the grid baseline;
 - :mod:`vpctl.mission`: MAVLink missions, QGC export, upload/download, a simulated vehicle;
-- :mod:`vpctl.sim`: rendering and a virtual MVS.
+- :mod:`vpctl.sim`: rendering and a virtual MVS;
+- :mod:`vpctl.distributed` (not imported here; needs the ``dask`` extra):
+  triplet MVS, labels, training and prediction as Dask tasks.
 
 Arrays are numpy; long calls release the GIL; Rust errors arrive as
 ``ValueError`` (bad values or file contents), ``OSError`` (files, links),
