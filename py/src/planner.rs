@@ -301,6 +301,8 @@ fn plan(
                 roi,
                 config: &cfg,
                 origin,
+                // Free space from rays of the cameras to the mesh.
+                observations: None,
             })
         })
         .py()?;
@@ -323,7 +325,6 @@ fn plan_grid(
     initial: bool,
     config: Option<&Bound<'_, PyAny>>,
     origin: Option<(f64, f64, f64)>,
-    observations: None,
 ) -> PyResult<PyPlan> {
     let cfg = self::config(config)?;
     let mesh = mesh_of(mesh)?;
