@@ -85,6 +85,10 @@ pub enum SceneError {
     /// A value given by the caller is outside its valid range.
     #[error("invalid argument: {0}")]
     InvalidArgument(String),
+    /// Surface reconstruction cannot work on the given samples (too few,
+    /// non-finite, no normal and no viewpoint, degenerate) or produced nothing.
+    #[error("surface reconstruction: {0}")]
+    Surface(String),
     /// The output file exists and overwriting was not allowed.
     #[error("{}: already exists (pass --force to overwrite)", path.display())]
     AlreadyExists {

@@ -33,6 +33,7 @@ pub mod procedural;
 pub mod raster;
 pub mod raycast;
 pub mod roi;
+pub mod surface;
 pub mod triangulation;
 
 pub use camera::{Camera, Intrinsics};
