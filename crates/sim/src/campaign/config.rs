@@ -10,6 +10,7 @@ use vp_forest::TrainParams;
 use vp_labelgen::LabelParams;
 use vp_planner::PlannerConfig;
 use vp_scene::procedural::SiteParams;
+use vp_scene::surface::SurfaceParams;
 
 use crate::error::{Result, SimError};
 use vp_mvs::MvsParams;
@@ -59,6 +60,8 @@ pub struct CampaignConfig {
     pub grid: GridBaseline,
     /// Simulated SfM: pose and point noise, views needed per point.
     pub sfm: SfmConfig,
+    /// The 3D mesher that turns what was seen into the planning mesh.
+    pub surface: SurfaceParams,
     /// Planner parameters (the camera of every flight is `planner.camera`;
     /// `n_triplets` and `seed` are set per strategy and iteration).
     pub planner: PlannerConfig,
@@ -391,6 +394,9 @@ impl CampaignConfig {
         if self.confidence_step == 0 {
             return bad("confidence_step must be at least 1".into());
         }
+        self.surface
+            .validate()
+            .map_err(|e| SimError::InvalidArgument(format!("surface: {e}")))?;
         if self.sfm.min_views == 0 {
             return bad("sfm.min_views must be at least 1".into());
         }

@@ -5,6 +5,7 @@ use vp_forest::TrainParams;
 use vp_labelgen::LabelParams;
 use vp_planner::{CameraConfig, PlannerConfig};
 use vp_scene::procedural::SiteParams;
+use vp_scene::surface::SurfaceParams;
 
 use super::config::{
     CampaignConfig, EvalConfig, GridBaseline, InitFlight, MatchingGate, SfmConfig, TrainingConfig,
@@ -122,6 +123,7 @@ impl CampaignConfig {
                 points_per_m2: 0.5,
                 dense_stride_px: 4,
             },
+            surface: SurfaceParams::default(),
             planner: PlannerConfig {
                 gsd_m: 0.04,
                 accuracy_m: 0.04,

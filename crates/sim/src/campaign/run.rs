@@ -20,7 +20,7 @@ use super::report::{aggregate, CampaignReport, SiteArtifacts, SiteResult, Strate
 use super::sfm::SfmState;
 use super::strategies::Strategy;
 use super::training::train_forest_with_stats;
-use super::world::{acquire, init_cameras, planning_mesh, Acquired, SeenCounter, World};
+use super::world::{acquire, init_cameras, Acquired, World};
 use crate::error::{Result, SimError};
 use crate::noise::mix64;
 
@@ -214,7 +214,6 @@ fn plan_cameras(world: &World, plan: &Plan) -> (Vec<Camera>, BTreeMap<u32, Vec<C
 #[derive(Clone)]
 struct Known {
     acquired: Vec<Acquired>,
-    seen: SeenCounter,
     sfm: SfmState,
 }
 
@@ -227,17 +226,10 @@ impl Known {
         flown: &[Flown],
         seed: u64,
     ) -> Self {
-        let mut seen = SeenCounter::new(&world.site.mesh);
-        let cams: Vec<Camera> = acquired.iter().map(|a| a.truth).collect();
-        seen.add(world, &cams);
         let mut sfm = SfmState::new(world, cfg, seed);
         sfm.add_images(world, &acquired);
         sfm.add_depth(flown, cfg.sfm.dense_stride_px);
-        Known {
-            acquired,
-            seen,
-            sfm,
-        }
+        Known { acquired, sfm }
     }
 }
 
@@ -250,7 +242,7 @@ fn plan_iteration(
     it: usize,
     base: u64,
 ) -> Result<(vp_planner::PlanResult, vp_scene::Mesh)> {
-    let mesh = planning_mesh(world, &known.seen, cfg, mix64(base ^ it as u64))?;
+    let mesh = known.sfm.planning_mesh(cfg, mix64(base ^ it as u64))?;
     let views: Vec<AcquiredView> = known
         .acquired
         .iter()
@@ -401,7 +393,6 @@ fn run_strategy(
                 .sfm
                 .add_depth(&out.flown[first_flown..], cfg.sfm.dense_stride_px);
             known.acquired.extend(new);
-            known.seen.add(world, &new_cams);
         }
         if triplets.is_empty() {
             break;

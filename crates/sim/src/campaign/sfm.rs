@@ -18,11 +18,14 @@
 use nalgebra::{Point2, Point3, Vector3};
 use rayon::prelude::*;
 use vp_scene::raycast::FACE_VISIBILITY_EPSILON;
+use vp_scene::surface::{reconstruct_surface, SurfaceSample};
+use vp_scene::Mesh;
 
 use super::config::CampaignConfig;
 use super::fly::Flown;
-use super::world::{Acquired, World};
-use crate::noise::{gaussian, hash3, mix64, unit};
+use super::world::{point_noise, Acquired, World};
+use crate::error::{Result, SimError};
+use crate::noise::{hash3, mix64, unit};
 
 /// An observation ray: camera centre, observed point.
 pub type Observation = (Point3<f64>, Point3<f64>);
@@ -132,17 +135,10 @@ impl SfmState {
         self.points
             .iter()
             .zip(&self.seen_by)
-            .enumerate()
-            .filter(|(_, (_, seen))| seen.len() >= cfg.sfm.min_views)
-            .map(|(i, ((p, _), seen))| {
-                let k = i as i64;
-                let noise = Vector3::new(
-                    gaussian(s, k, 0, 0),
-                    gaussian(s, k, 1, 0),
-                    gaussian(s, k, 2, 0),
-                );
+            .filter(|(_, seen)| seen.len() >= cfg.sfm.min_views)
+            .map(|((p, _), seen)| {
                 let from = seen.iter().map(|&j| self.centres[j as usize]).collect();
-                (p + noise * sigma, from)
+                (p + point_noise(s, p, sigma), from)
             })
             .collect()
     }
@@ -150,6 +146,38 @@ impl SfmState {
     /// The dense points and their cameras.
     pub fn dense(&self) -> &[Observation] {
         &self.dense
+    }
+
+    /// The mesher's samples: sparse points with their tracks' centres and
+    /// dense points with their camera's; normals are left to the mesher
+    /// (PCA over neighbours, signed towards the observers).
+    pub fn surface_samples(&self, cfg: &CampaignConfig, seed: u64) -> Vec<SurfaceSample> {
+        let mut out: Vec<SurfaceSample> = self
+            .sparse(cfg, seed)
+            .into_iter()
+            .map(|(position, seen_from)| SurfaceSample {
+                position,
+                normal: None,
+                seen_from,
+            })
+            .collect();
+        out.extend(self.dense.iter().map(|(c, p)| SurfaceSample {
+            position: *p,
+            normal: None,
+            seen_from: vec![*c],
+        }));
+        out
+    }
+
+    /// The planning mesh: the 3D mesher over [`SfmState::surface_samples`].
+    pub fn planning_mesh(&self, cfg: &CampaignConfig, seed: u64) -> Result<Mesh> {
+        let samples = self.surface_samples(cfg, seed);
+        reconstruct_surface(&samples, &cfg.surface).map_err(|e| {
+            SimError::Campaign(format!(
+                "planning mesh from {} seen points: {e}",
+                samples.len()
+            ))
+        })
     }
 
     /// Every observation ray: sparse tracks and dense points.
@@ -182,12 +210,7 @@ pub struct MeshQuality {
 impl SfmState {
     /// Compares `mesh` with the truth of `world` (completeness within
     /// `tolerance_m`).
-    pub fn mesh_quality(
-        &self,
-        world: &World,
-        mesh: &vp_scene::Mesh,
-        tolerance_m: f64,
-    ) -> MeshQuality {
+    pub fn mesh_quality(&self, world: &World, mesh: &Mesh, tolerance_m: f64) -> MeshQuality {
         let mut d: Vec<f64> = mesh
             .vertices
             .par_iter()

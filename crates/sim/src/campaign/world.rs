@@ -1,21 +1,11 @@
-//! The held-out world and what the simulated SfM knows about it.
-//!
-//! Planning mesh [vpctl]: the surface the planner plans on is rebuilt after
-//! every flight from what SfM has seen so far: every face of the true mesh
-//! whose centroid is visible (in the frame, front-facing, unoccluded) from at
-//! least `sfm.min_views` acquired images, its vertices moved by seeded
-//! Gaussian noise (`sfm.point_noise_m`). Faces stand in for the sparse
-//! points and their triangulation; unlike a 2.5D height field, the result
-//! keeps surfaces under tree canopies and overhangs as soon as two images
-//! have seen them, and lacks them until then. So the ground under trees is
-//! missing after the nadir initial flight and appears once oblique triplets
-//! look underneath.
+//! The held-out world, the initial flight, and the images acquired in it:
+//! true and SfM-estimated poses, predicted confidence. What SfM and vp-mvs
+//! make of the images (the planning mesh) is [`super::sfm`].
 
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use rayon::prelude::*;
 use vp_forest::Forest;
 use vp_scene::clearance::Clearance;
-use vp_scene::mesh_ops::submesh;
 use vp_scene::procedural::{generate_site, Site};
 use vp_scene::raster::ConfidenceImage;
 use vp_scene::raycast::RayCaster;
@@ -91,43 +81,8 @@ pub struct Acquired {
     pub confidence: Option<ConfidenceImage>,
 }
 
-/// Per true face, how many acquired images see it: the SfM state.
-#[derive(Debug, Clone)]
-pub struct SeenCounter {
-    counts: Vec<u16>,
-}
-
-impl SeenCounter {
-    /// Nothing seen yet.
-    pub fn new(mesh: &Mesh) -> Self {
-        SeenCounter {
-            counts: vec![0; mesh.n_faces()],
-        }
-    }
-
-    /// Counts the faces `cams` see.
-    pub fn add(&mut self, world: &World, cams: &[Camera]) {
-        for cam in cams {
-            let vis = world.caster.visible_faces(cam, &world.site.mesh);
-            for (c, v) in self.counts.iter_mut().zip(vis) {
-                *c = c.saturating_add(u16::from(v));
-            }
-        }
-    }
-
-    /// Faces seen by at least `min_views` images.
-    pub fn known_faces(&self, min_views: usize) -> Vec<u32> {
-        self.counts
-            .iter()
-            .enumerate()
-            .filter(|(_, &c)| usize::from(c) >= min_views)
-            .map(|(f, _)| f as u32)
-            .collect()
-    }
-}
-
 /// Seeded Gaussian noise of a 3D position, a pure function of the position.
-fn point_noise(seed: u64, p: &Point3<f64>, sigma: f64) -> Vector3<f64> {
+pub fn point_noise(seed: u64, p: &Point3<f64>, sigma: f64) -> Vector3<f64> {
     let q = |v: f64| (v * 1e4).round() as i64;
     let (a, b, c) = (q(p.x), q(p.y), q(p.z));
     Vector3::new(
@@ -135,34 +90,6 @@ fn point_noise(seed: u64, p: &Point3<f64>, sigma: f64) -> Vector3<f64> {
         gaussian(seed ^ 0x79, a, b, c),
         gaussian(seed ^ 0x7a, a, b, c),
     ) * sigma
-}
-
-/// The planning mesh from the SfM state (see the module docs).
-pub fn planning_mesh(
-    world: &World,
-    seen: &SeenCounter,
-    cfg: &CampaignConfig,
-    seed: u64,
-) -> Result<Mesh> {
-    let faces = seen.known_faces(cfg.sfm.min_views);
-    if faces.is_empty() {
-        return Err(SimError::InvalidArgument(
-            "the acquired images see no surface point twice: the initial flight misses the site"
-                .into(),
-        ));
-    }
-    let mut mesh = submesh(&world.site.mesh, &faces);
-    let sigma = cfg.sfm.point_noise_m;
-    if sigma > 0.0 {
-        let s = mix64(seed ^ 0x0070_6d65_7368);
-        for v in &mut mesh.vertices {
-            let n = point_noise(s, v, sigma);
-            *v += n;
-        }
-    }
-    // Noise can fold a sliver flat; drop what no longer validates.
-    let (clean, _) = mesh.cleaned();
-    Ok(clean)
 }
 
 /// The camera as SfM estimates it: true pose plus seeded position and rotation noise.
