@@ -129,7 +129,7 @@ fn train_predict_and_eval_learn_texture_and_angle() {
     let o = vpctl(&[
         "forest",
         "eval",
-        "--model",
+        "--forest",
         model.to_str().unwrap(),
         "--images",
         held_images.to_str().unwrap(),
@@ -147,7 +147,7 @@ fn train_predict_and_eval_learn_texture_and_angle() {
     let conf_dir = dir.path().join("conf");
     let o = vpctl(&[
         "predict",
-        "--model",
+        "--forest",
         model.to_str().unwrap(),
         "--out",
         conf_dir.to_str().unwrap(),
@@ -229,7 +229,7 @@ fn bad_inputs_exit_2_and_write_nothing() {
     let conf_dir = dir.path().join("conf");
     let o = vpctl(&[
         "predict",
-        "--model",
+        "--forest",
         model.to_str().unwrap(),
         "--out",
         conf_dir.to_str().unwrap(),
@@ -295,7 +295,7 @@ fn image_names_with_sub_folders_and_dots_survive_train_and_predict() {
     let conf = dir.path().join("conf");
     let o = vpctl(&[
         "predict",
-        "--model",
+        "--forest",
         model.to_str().unwrap(),
         "--out",
         conf.to_str().unwrap(),

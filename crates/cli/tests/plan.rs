@@ -120,7 +120,7 @@ fn plan_writes_plan_ply_and_png_and_refuses_to_overwrite() {
             "plan".to_string(),
             "--mesh".into(),
             p("site.ply"),
-            "--cameras".into(),
+            "--colmap".into(),
             p("model"),
             "--config".into(),
             p("plan.toml"),
@@ -178,7 +178,7 @@ fn bad_inputs_exit_2_without_output() {
         "plan",
         "--mesh",
         &p("site.ply"),
-        "--cameras",
+        "--colmap",
         &p("model"),
         "--config",
         &p("bad.toml"),
@@ -196,7 +196,7 @@ fn bad_inputs_exit_2_without_output() {
         "plan",
         "--mesh",
         &p("site.ply"),
-        "--cameras",
+        "--colmap",
         &p("model"),
         "--config",
         &p("plan.toml"),
@@ -207,21 +207,29 @@ fn bad_inputs_exit_2_without_output() {
     ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("selects no face"), "{}", stderr(&o));
-    // Confidence image missing.
+    // An empty confidence folder: the error says to run `vpctl predict`;
+    // one image's confidence missing: the error names its file.
     std::fs::create_dir(dir.path().join("conf")).unwrap();
-    let o = vpctl(&[
-        "plan",
-        "--mesh",
-        &p("site.ply"),
-        "--cameras",
-        &p("model"),
-        "--config",
-        &p("plan.toml"),
-        "--confidence-dir",
-        &p("conf"),
-        "--out",
-        &p("x.json"),
-    ]);
+    let plan_conf = || {
+        vpctl(&[
+            "plan",
+            "--mesh",
+            &p("site.ply"),
+            "--colmap",
+            &p("model"),
+            "--config",
+            &p("plan.toml"),
+            "--confidence-dir",
+            &p("conf"),
+            "--out",
+            &p("x.json"),
+        ])
+    };
+    let o = plan_conf();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("vpctl predict"), "{}", stderr(&o));
+    std::fs::write(dir.path().join("conf/other.jpg.vpconf"), b"").unwrap();
+    let o = plan_conf();
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("img_001.jpg.vpconf"), "{}", stderr(&o));
     assert!(!dir.path().join("x.json").exists());
@@ -276,7 +284,7 @@ fn plan_refuses_a_distorted_model_and_points_at_colmap_undistort() {
         "plan",
         "--mesh",
         &p("site.ply"),
-        "--cameras",
+        "--colmap",
         &p("model"),
         "--config",
         &p("plan.toml"),
@@ -305,7 +313,7 @@ fn plan_refuses_a_model_without_frame_unless_told() {
             "plan".to_string(),
             "--mesh".into(),
             p("site.ply"),
-            "--cameras".into(),
+            "--colmap".into(),
             p("model"),
             "--config".into(),
             p("plan.toml"),

@@ -269,9 +269,11 @@ impl PathContext<'_> {
                 return Err(Blocked {
                     to: i,
                     message: format!(
-                        "waypoint {i} at ({:.2}, {:.2}, {:.2}) is closer than {} m to the mesh or \
-                         outside the flight volume, geofence or altitude limits",
-                        p.x, p.y, p.z, s.distance
+                        "waypoint {i} at ({:.2}, {:.2}, {:.2}) {}",
+                        p.x,
+                        p.y,
+                        p.z,
+                        broken_constraint(s, &p)
                     ),
                 });
             }
@@ -325,4 +327,38 @@ impl PathContext<'_> {
         }
         None
     }
+}
+
+/// Which safety rule `p` breaks, with the numbers and what to change: the
+/// first of the flight volume, the altitude band, the geofence and the
+/// safety distance that fails.
+fn broken_constraint(s: &Safety, p: &Point3<f64>) -> String {
+    let (lo, hi) = (s.volume.min, s.volume.max);
+    if !s.volume.contains(p) {
+        return format!(
+            "is outside the flight volume [{:.2}, {:.2}, {:.2}] .. [{:.2}, {:.2}, {:.2}] \
+             (`flight_volume` in the planner config; for a grid: a smaller region of interest \
+             or another height)",
+            lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+        );
+    }
+    if p.z < s.altitude.min_m || p.z > s.altitude.max_m {
+        return format!(
+            "is outside the altitude limits {:.2} .. {:.2} m (`altitude_limits` in the planner \
+             config; for a grid: another --height)",
+            s.altitude.min_m, s.altitude.max_m
+        );
+    }
+    if s.geofence
+        .as_ref()
+        .is_some_and(|g| !vp_scene::roi::point_in_polygon(&Point2::new(p.x, p.y), g))
+    {
+        return "is outside the geofence (`geofence` in the planner config)".into();
+    }
+    format!(
+        "is {:.2} m from the mesh, closer than the safety distance {} m \
+         (`safety_distance_m` in the planner config; for a grid: a larger --height)",
+        s.clearance().distance(p),
+        s.distance
+    )
 }

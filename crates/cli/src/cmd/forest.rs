@@ -52,8 +52,8 @@ pub struct TrainArgs {
 /// Arguments of `vpctl predict`.
 #[derive(Debug, Args)]
 pub struct PredictArgs {
-    /// Model file written by `vpctl train`.
-    #[arg(long)]
+    /// Forest file written by `vpctl train` (or `vpctl sim train`).
+    #[arg(long = "forest", alias = "model", value_name = "FILE")]
     model: PathBuf,
     /// Output folder: `<image name>.vpconf` per image (the name `vpctl plan
     /// --confidence-dir` looks for; an image found in a sub-folder of a given
@@ -89,8 +89,8 @@ pub enum ForestCommand {
     /// Score a model on held-out label images: accuracy at confidence 0.5 and
     /// sparsification (AUSC relative to the optimum, and random's).
     Eval {
-        /// Model file.
-        #[arg(long)]
+        /// Forest file.
+        #[arg(long = "forest", alias = "model", value_name = "FILE")]
         model: PathBuf,
         /// Folder of the images.
         #[arg(long)]
