@@ -321,3 +321,27 @@ fn empty_inputs_and_results_are_not_silent() {
     );
     assert_eq!(o.status.code(), Some(2));
 }
+
+/// File formats and exit codes were documented only in rustdoc and source.
+#[test]
+fn formats_doc_lists_every_own_file_and_exit_code() {
+    let doc = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/formats.md"),
+    )
+    .unwrap();
+    for code in 0..=8 {
+        assert!(doc.contains(&format!("\n| {code} |")), "exit code {code}");
+    }
+    for what in [
+        "`format_version` 1",
+        "VPCONF",
+        "VPLABEL",
+        "VPFOREST",
+        "vpctl labelgen triplets v1",
+        "frame.json",
+        "vpctl config --defaults",
+        "vpctl sim config",
+    ] {
+        assert!(doc.contains(what), "{what}");
+    }
+}
