@@ -95,6 +95,10 @@ fn train_predict_and_eval_learn_texture_and_angle() {
     let train_small = |out: &Path| train(&images, &labels, out, &small);
     let o = train_small(&model);
     assert!(o.status.success(), "{}", text(&o));
+    // stderr is not a terminal: one plain progress line per tree, no bar.
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("training: tree 1/"), "{err}");
+    assert!(!err.contains('\r'), "{err:?}");
     // The default balances the classes: the warning says why that is wrong
     // for planning.
     assert!(
