@@ -139,6 +139,11 @@ into_py!(PlannerError, planner);
 into_py!(MissionError, mission);
 into_py!(SimError, sim);
 
+/// A `TypeError` with `msg`.
+pub fn type_error(msg: impl Into<String>) -> PyErr {
+    pyo3::exceptions::PyTypeError::new_err(msg.into())
+}
+
 /// A `ValueError` with `msg`.
 pub fn value_error(msg: impl Into<String>) -> PyErr {
     PyValueError::new_err(msg.into())
