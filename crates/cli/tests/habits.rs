@@ -345,3 +345,61 @@ fn formats_doc_lists_every_own_file_and_exit_code() {
         assert!(doc.contains(what), "{what}");
     }
 }
+
+/// Output extensions were not checked: `plan --png x.jpg` wrote a PNG named
+/// .jpg, `mission export --out m.txt` a QGC file named .txt.
+#[test]
+fn output_extensions_are_checked_and_pick_the_format() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    site(d);
+    let grid = |extra: &[&str]| {
+        let mut args = vec![
+            "plan",
+            "grid",
+            "--mesh",
+            "site.ply",
+            "--height",
+            "30",
+            "--origin",
+            "46.03,10.35,400",
+        ];
+        args.extend_from_slice(extra);
+        vpctl(d, &args)
+    };
+    let o = grid(&["--out", "g.json", "--png", "top.jpg"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = text(&o.stderr);
+    assert!(
+        err.contains("--png") && err.contains("'.jpg'") && err.contains(".png"),
+        "{err}"
+    );
+    assert!(!d.join("g.json").exists(), "refused before any output");
+    let o = grid(&["--out", "g.txt"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("'.txt'"), "{}", text(&o.stderr));
+    let o = grid(&["--out", "g.json", "--png", "top.png"]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    // mission export: the format from the extension; a contradiction is refused.
+    let o = vpctl(d, &["mission", "export", "g.json", "--out", "m.waypoints"]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(std::fs::read_to_string(d.join("m.waypoints"))
+        .unwrap()
+        .starts_with("QGC WPL 110"));
+    let o = vpctl(d, &["mission", "export", "g.json", "--out", "m.plan"]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(std::fs::read_to_string(d.join("m.plan"))
+        .unwrap()
+        .contains("\"fileType\""));
+    let o = vpctl(
+        d,
+        &[
+            "mission", "export", "g.json", "--format", "qgc", "--out", "n.txt",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("'.txt'"), "{}", text(&o.stderr));
+    let o = vpctl(d, &["mission", "export", "g.json", "--out", "m.kml"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("'.kml'"), "{}", text(&o.stderr));
+}

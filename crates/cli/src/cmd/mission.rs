@@ -21,9 +21,10 @@ pub enum MissionCommand {
     Export {
         /// The plan (JSON written by `vpctl plan`).
         plan: PathBuf,
-        /// Output format.
-        #[arg(long, value_enum, default_value_t = ExportFormat::Qgc)]
-        format: ExportFormat,
+        /// Output format (default: from the extension of --out, `.plan` for
+        /// qgc, `.waypoints` or `.txt` for wpl; qgc on standard output).
+        #[arg(long, value_enum)]
+        format: Option<ExportFormat>,
         /// Output file; prints to standard output when absent.
         #[arg(long)]
         out: Option<PathBuf>,
@@ -155,6 +156,7 @@ pub fn run(cmd: MissionCommand, out: &mut dyn Write) -> Result<()> {
             force,
             mission,
         } => {
+            let format = export_format(path.as_deref(), format)?;
             if let Some(p) = &path {
                 fsio::check_overwrite(p, force)?;
             }
@@ -308,6 +310,31 @@ fn write_or_print(path: Option<&Path>, text: &str, out: &mut dyn Write) -> Resul
             Ok(())
         }
     }
+}
+
+/// The export format: `--format`, else from the extension of `--out`
+/// (`.plan`: QGroundControl, `.waypoints` or `.txt`: WPL), else QGC. A
+/// format that contradicts the extension is refused.
+fn export_format(out: Option<&Path>, format: Option<ExportFormat>) -> Result<ExportFormat> {
+    let Some(path) = out else {
+        return Ok(format.unwrap_or(ExportFormat::Qgc));
+    };
+    let by_ext = match format {
+        Some(ExportFormat::Qgc) => super::check_extension(path, "--out", &["plan"]),
+        Some(ExportFormat::Wpl) => super::check_extension(path, "--out", &["waypoints", "txt"]),
+        None => super::check_extension(path, "--out", &["plan", "waypoints", "txt"]),
+    };
+    by_ext?;
+    Ok(format.unwrap_or_else(|| {
+        if path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("plan"))
+        {
+            ExportFormat::Qgc
+        } else {
+            ExportFormat::Wpl
+        }
+    }))
 }
 
 /// Reads a plan for a mission, which needs its geodetic origin: without

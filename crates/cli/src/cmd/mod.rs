@@ -87,6 +87,35 @@ fn is_input_error(e: &(dyn Error + 'static)) -> Option<bool> {
     .or_else(|| e.downcast_ref::<UsageError>().map(|_| true))
 }
 
+/// Refuses an output path whose extension is not one of `expected`
+/// (lower case, no dot), naming the extension found and the flag.
+pub fn check_extension(
+    path: &std::path::Path,
+    flag: &str,
+    expected: &[&str],
+) -> anyhow::Result<()> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    if expected.contains(&ext.as_str()) {
+        return Ok(());
+    }
+    let want: Vec<String> = expected.iter().map(|e| format!(".{e}")).collect();
+    let found = if ext.is_empty() {
+        "no extension".to_string()
+    } else {
+        format!("the extension '.{ext}'")
+    };
+    Err(UsageError(format!(
+        "{flag} {}: {found} is not a file type this output writes (expected {})",
+        path.display(),
+        want.join(" or ")
+    ))
+    .into())
+}
+
 /// Progress on stderr: one line redrawn in place (carriage return) when
 /// stderr is a terminal, plain lines otherwise, so that a log file or a CI
 /// log gets one readable line per step instead of one long line.

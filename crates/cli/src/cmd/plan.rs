@@ -201,6 +201,13 @@ impl Common {
     /// Refuses early, before any work, when an output exists.
     fn check_outputs(&self) -> Result<&Path> {
         let out = required(self.out.as_ref(), "--out")?;
+        super::check_extension(out, "--out", &["json"])?;
+        if let Some(p) = &self.ply {
+            super::check_extension(p, "--ply", &["ply"])?;
+        }
+        if let Some(p) = &self.png {
+            super::check_extension(p, "--png", &["png"])?;
+        }
         for p in [Some(out), self.ply.as_deref(), self.png.as_deref()]
             .into_iter()
             .flatten()
