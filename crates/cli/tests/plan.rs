@@ -153,6 +153,17 @@ fn plan_writes_plan_ply_and_png_and_refuses_to_overwrite() {
     assert_eq!(plan.safety_distance_m, Some(5.0));
     let png = std::fs::read(dir.path().join("top.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
+    // The top view had no title, legend or colour key: the panel below
+    // the map holds the legend swatches (triplet orange) and the f(t) ramp
+    // from red to green.
+    let img = vp_scene::raster::load_rgb(&dir.path().join("top.png")).unwrap();
+    let panel: Vec<[u8; 3]> = (img.height() - 60..img.height())
+        .flat_map(|y| (0..img.width()).map(move |x| (x, y)))
+        .map(|(x, y)| img.get_pixel(x, y).0)
+        .collect();
+    for colour in [[255, 150, 0], [255, 0, 40], [0, 255, 40], [235, 235, 235]] {
+        assert!(panel.contains(&colour), "{colour:?} in the legend panel");
+    }
     let cams = vp_scene::io::read_mesh(&dir.path().join("cams.ply")).unwrap();
     assert_eq!(cams.n_faces(), 6 * plan.waypoints.len());
     // Same inputs, same bytes.
