@@ -42,7 +42,9 @@ fn campaign_config<'py>(
 /// evaluate every strategy on the held-out sites) and returns the table:
 /// one dict per strategy (coverage, f_res, f_unc, f, triplet success, images,
 /// rock coverage; mean and std over sites). `progress(line)` hears each
-/// step. The GIL is released while the campaign runs (minutes for "demo").
+/// step; by default (`None`) each step is a line on `sys.stderr`, and
+/// `progress=False` is silent. The GIL is released while the campaign runs
+/// (minutes for "demo").
 #[pyfunction]
 #[pyo3(signature = (config = None, preset = "demo", progress = None))]
 fn run_campaign<'py>(
@@ -52,6 +54,25 @@ fn run_campaign<'py>(
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let cfg = self::config(config, preset)?;
+    let progress: Option<Py<PyAny>> = match progress {
+        None => Some(default_progress(py)?),
+        Some(p) if p.bind(py).is_instance_of::<pyo3::types::PyBool>() => {
+            if p.bind(py).is_truthy()? {
+                Some(default_progress(py)?)
+            } else {
+                None
+            }
+        }
+        Some(p) => {
+            if !p.bind(py).is_callable() {
+                return Err(crate::errors::type_error(
+                    "progress: expected a callable taking one str, None (log lines on stderr) \
+                     or False (silent)",
+                ));
+            }
+            Some(p)
+        }
+    };
     let mut callback_error: Option<PyErr> = None;
     let report = py.detach(|| {
         campaign::run_campaign(&cfg, &mut |line: &str| {
@@ -67,6 +88,13 @@ fn run_campaign<'py>(
         return Err(e);
     }
     convert::to_py(py, &report.py()?.rows)
+}
+
+/// Progress as log lines on `sys.stderr` (`[vpctl] <step>`), flushed.
+fn default_progress(py: Python<'_>) -> PyResult<Py<PyAny>> {
+    let code = c"import sys\ndef progress(line):\n    print('[vpctl]', line, file=sys.stderr, flush=True)\n";
+    let m = PyModule::from_code(py, code, c"vpctl_progress.py", c"vpctl_progress")?;
+    Ok(m.getattr("progress")?.unbind())
 }
 
 /// Registers the campaign functions in `vpctl.sim`.

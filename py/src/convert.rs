@@ -10,7 +10,49 @@ use serde::de::DeserializeOwned;
 use serde::Serialize;
 use vp_scene::raster::{Label, LabelImage, RgbImage};
 
-use crate::errors::value_error;
+use crate::errors::{type_error, value_error};
+
+/// Any array-like (a numpy array of any numeric dtype or layout, a list,
+/// a tuple) as a C-contiguous numpy array of `dtype` with `ndim`
+/// dimensions: the one conversion at the boundary, as numpy-based
+/// libraries do. `kinds` are the numpy dtype kinds accepted without loss
+/// of meaning ("iu" for indices: a float array of indices is refused, not
+/// truncated; "iuf" for coordinates). Errors name the argument: TypeError
+/// for what is not numbers, ValueError for a wrong number of dimensions.
+pub fn array_like<'py>(
+    obj: &Bound<'py, PyAny>,
+    dtype: &str,
+    kinds: &str,
+    ndim: usize,
+    what: &str,
+) -> PyResult<Bound<'py, PyAny>> {
+    let np = obj.py().import("numpy")?;
+    let a = np
+        .call_method1("asarray", (obj,))
+        .map_err(|e| type_error(format!("{what}: not an array-like of numbers ({e})")))?;
+    let kind: String = a.getattr("dtype")?.getattr("kind")?.extract()?;
+    let shape: Vec<usize> = a.getattr("shape")?.extract()?;
+    // An empty list has dtype float64 whatever is meant: let it through.
+    let empty = shape.contains(&0);
+    if !empty && !kinds.contains(kind.as_str()) {
+        let got: String = a.getattr("dtype")?.str()?.extract()?;
+        return Err(type_error(format!(
+            "{what}: expected {} numbers, got dtype {got}",
+            if kinds == "iu" { "integer" } else { "real" }
+        )));
+    }
+    if shape.len() != ndim {
+        return Err(value_error(format!(
+            "{what}: expected a {ndim}-D array, got shape {shape:?}"
+        )));
+    }
+    np.call_method1("ascontiguousarray", (a, dtype))
+}
+
+/// [`array_like`] as an (N, C) float64 array.
+pub fn f64_2d<'py>(obj: &Bound<'py, PyAny>, what: &str) -> PyResult<PyReadonlyArray2<'py, f64>> {
+    array_like(obj, "float64", "iuf", 2, what)?.extract()
+}
 
 /// An (N, 3) float array as points; `what` names the argument in errors.
 pub fn points(a: &PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<Vec<Point3<f64>>> {

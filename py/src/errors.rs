@@ -52,9 +52,10 @@ pub fn scene(e: &SceneError) -> PyErr {
             _ => PyValueError::new_err(message(e)),
         },
         SceneError::AlreadyExists { .. } => PyFileExistsError::new_err(message(e)),
-        SceneError::Parse { .. } | SceneError::InvalidMesh(_) | SceneError::InvalidArgument(_) => {
-            PyValueError::new_err(message(e))
-        }
+        SceneError::Parse { .. }
+        | SceneError::InvalidMesh(_)
+        | SceneError::InvalidArgument(_)
+        | SceneError::Surface(_) => PyValueError::new_err(message(e)),
     }
 }
 
@@ -138,6 +139,11 @@ into_py!(LabelgenError, labelgen);
 into_py!(PlannerError, planner);
 into_py!(MissionError, mission);
 into_py!(SimError, sim);
+
+/// A `TypeError` with `msg`.
+pub fn type_error(msg: impl Into<String>) -> PyErr {
+    pyo3::exceptions::PyTypeError::new_err(msg.into())
+}
 
 /// A `ValueError` with `msg`.
 pub fn value_error(msg: impl Into<String>) -> PyErr {

@@ -153,7 +153,7 @@ def test_train_and_predict_equal_cli(tmp_path):
             "--seed", "7", "--out", tmp_path / "cli.vpforest")
     forest = vpctl.forest.train_dirs(images, labels, params=TINY, seed=7)
     assert forest.to_bytes() == (tmp_path / "cli.vpforest").read_bytes()
-    run_cli("predict", "--model", tmp_path / "cli.vpforest", "--out", tmp_path / "cli_conf", "--no-previews",
+    run_cli("predict", "--forest", tmp_path / "cli.vpforest", "--out", tmp_path / "cli_conf", "--no-previews",
             images / "img1.png")
     forest.predict(vpctl.scene.load_image(images / "img1.png")).save(tmp_path / "py.vpconf")
     assert (tmp_path / "py.vpconf").read_bytes() == (tmp_path / "cli_conf" / "img1.png.vpconf").read_bytes()

@@ -54,7 +54,7 @@ def test_triplet_list_round_trip(scene_files):
 
 def test_sample_triplets_equals_cli(scene_files, tmp_path):
     root, _, model, _, _ = scene_files
-    run_cli("labelgen", "triplets", "--model", root / "model", "--per-bin", "3", "--seed", "4",
+    run_cli("labelgen", "triplets", "--colmap", root / "model", "--per-bin", "3", "--seed", "4",
             "--out", tmp_path / "cli.txt")
     t = vpctl.labelgen.sample_triplets(model, per_bin=3, seed=4)
     assert len(t) > 0
@@ -68,8 +68,8 @@ def test_sample_triplets_equals_cli(scene_files, tmp_path):
 
 def test_labels_equal_cli_run(scene_files, tmp_path):
     root, mesh, model, triplets, _ = scene_files
-    run_cli("labelgen", "run", "--model", root / "model", "--triplets", root / "triplets.txt",
-            "--depth-dir", root / "depth", "--mesh", root / "mesh.ply", "--out-dir", tmp_path / "cli",
+    run_cli("labelgen", "run", "--colmap", root / "model", "--triplets", root / "triplets.txt",
+            "--depth-dir", root / "depth", "--mesh", root / "mesh.ply", "--out", tmp_path / "cli",
             "--frame-unchecked")
     recs = vpctl.labelgen.load_reconstructions(model, triplets, root / "depth")
     assert [r.id for r in recs] == [f"t{t:04}/level1" for t in range(4)]

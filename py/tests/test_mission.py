@@ -21,10 +21,12 @@ def plan_file(site, tmp_path_factory):
 @pytest.mark.parametrize("fmt", ["qgc", "wpl"])
 def test_export_equals_cli(plan_file, tmp_path, fmt):
     path, plan = plan_file
-    run_cli("mission", "export", path, "--format", fmt, "--out", tmp_path / "cli", "--hold", "3")
+    # The CLI checks the extension against the format.
+    cli = tmp_path / ("cli.plan" if fmt == "qgc" else "cli.waypoints")
+    run_cli("mission", "export", path, "--format", fmt, "--out", cli, "--hold", "3")
     text = vpctl.mission.export(plan, format=fmt, out=tmp_path / "py", hold=3.0)
-    assert (tmp_path / "py").read_bytes() == (tmp_path / "cli").read_bytes()
-    assert text == (tmp_path / "cli").read_text()
+    assert (tmp_path / "py").read_bytes() == cli.read_bytes()
+    assert text == cli.read_text()
     with pytest.raises(FileExistsError):
         vpctl.mission.export(plan, format=fmt, out=tmp_path / "py")
 

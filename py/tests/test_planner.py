@@ -47,7 +47,7 @@ def planning(site, tmp_path_factory):
 def test_plan_equals_cli_plan(planning, site, tmp_path):
     root, cfg, model, roi, _ = planning
     roi_arg = ",".join(str(x) for x in roi)
-    run_cli("plan", "--mesh", root / "site.ply", "--cameras", root / "model", "--config", root / "plan.toml",
+    run_cli("plan", "--mesh", root / "site.ply", "--colmap", root / "model", "--config", root / "plan.toml",
             "--roi-box", roi_arg, "--out", tmp_path / "cli.json", "--no-timings", "--frame-unchecked")
     r = vpctl.planner.plan(root / "site.ply", root / "model", config=root / "plan.toml", roi=roi)
     r.plan.save(tmp_path / "py.json", no_timings=True)

@@ -132,8 +132,10 @@ def test_camera_projection_and_depth_render():
     assert np.all(depth > 0) and np.all(face >= 0)
     with pytest.raises(ValueError, match="rotation"):
         vpctl.scene.Camera(64, 48, fx, fy, cx, cy, 2 * np.eye(4))
+    # Straight down is the aerial view, not an error (see below); the same
+    # point twice is.
     with pytest.raises(ValueError):
-        vpctl.scene.Camera.look_at(64, 48, 60.0, [0.0, 0.0, 10.0], [0.0, 0.0, 0.0])
+        vpctl.scene.Camera.look_at(64, 48, 60.0, [0.0, 0.0, 10.0], [0.0, 0.0, 10.0])
 
 
 def test_clearance_distances():
@@ -173,3 +175,66 @@ def test_colmap_model_and_depth_map_round_trip(tmp_path):
     depth, _ = caster.render_depth(cams[0][1])
     vpctl.scene.write_depth_map(tmp_path / "d.bin", depth)
     assert np.array_equal(vpctl.scene.read_depth_map(tmp_path / "d.bin"), depth)
+
+
+def test_array_likes_are_converted_once_at_the_boundary(tmp_path):
+    """The stubs promise npt.ArrayLike: lists, float32 vertices and int32
+    faces (what open3d gives) were refused."""
+    v = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
+    ref = vpctl.scene.Mesh(np.array(v), np.array([[0, 1, 2]]))
+    for verts, faces in [
+        (v, [[0, 1, 2]]),
+        (np.array(v, dtype=np.float32), np.array([[0, 1, 2]], dtype=np.int32)),
+        (np.asfortranarray(np.array(v)), np.array([[0, 1, 2]], dtype=np.uint16)),
+        (tuple(map(tuple, v)), ((0, 1, 2),)),
+    ]:
+        m = vpctl.scene.Mesh(verts, faces, [0])
+        assert np.array_equal(m.vertices, ref.vertices) and np.array_equal(m.faces, ref.faces)
+    # Errors name the argument: TypeError for what is not numbers of the
+    # right kind (float indices are not truncated), ValueError for shapes.
+    with pytest.raises(TypeError, match="faces"):
+        vpctl.scene.Mesh(v, [[0.0, 1.0, 2.0]])
+    with pytest.raises(TypeError, match="vertices"):
+        vpctl.scene.Mesh([["a", "b", "c"]], [[0, 1, 2]])
+    with pytest.raises(ValueError, match="faces"):
+        vpctl.scene.Mesh(v, [0, 1, 2])
+    cam = vpctl.scene.Camera.look_at(64, 48, 60.0, [0, 0, 10], [0, 0, 0])
+    assert np.allclose(cam.project([[0.0, 0.0, 0.0]]), [[32.0, 24.0]])
+    with pytest.raises(ValueError, match="pts"):
+        cam.project([1.0, 2.0, 3.0])
+    # write_depth_map takes float64 too; every writer refuses to overwrite.
+    d = np.full((4, 5), 2.0)
+    vpctl.scene.write_depth_map(tmp_path / "d.bin", d)
+    assert np.array_equal(vpctl.scene.read_depth_map(tmp_path / "d.bin"), d.astype(np.float32))
+    with pytest.raises(FileExistsError):
+        vpctl.scene.write_depth_map(tmp_path / "d.bin", d)
+    vpctl.scene.write_depth_map(tmp_path / "d.bin", d, force=True)
+
+
+def test_look_at_straight_down_is_the_aerial_view():
+    """Camera.look_at refused the normal aerial view (straight down)."""
+    cam = vpctl.scene.Camera.look_at(64, 48, 60.0, [3.0, 4.0, 30.0], [3.0, 4.0, 0.0])
+    r = cam.world_from_cam[:3, :3]
+    assert np.allclose(r[:, 2], [0, 0, -1])  # optical axis down
+    assert np.allclose(r[:, 0], [1, 0, 0])   # image x east
+    assert np.allclose(cam.project([[3.0, 4.0, 0.0]]), [[32.0, 24.0]])
+    with pytest.raises(ValueError, match="center"):
+        vpctl.scene.Camera.look_at(64, 48, 60.0, [1, 1, 1], [1, 1, 1])
+
+
+def test_colmap_save_refuses_to_overwrite_and_takes_the_cli_names(tmp_path):
+    mesh = heightfield()
+    caster = vpctl.scene.RayCaster(mesh)
+    cams = [(f"i{i}.png", vpctl.scene.Camera.look_at(64, 48, 60.0, [i, 0.5, 20.0], [0.0, 0.0, 0.0]))
+            for i in range(3)]
+    model = vpctl.labelgen.sparse_model(cams, caster, mesh.vertices[::5])
+    model.save(tmp_path / "m", format="txt")
+    assert (tmp_path / "m" / "images.txt").is_file()
+    with pytest.raises(FileExistsError):
+        model.save(tmp_path / "m", format="text")
+    model.save(tmp_path / "m", format="text", force=True)
+    model.save(tmp_path / "m", format="bin")
+    with pytest.raises(ValueError, match="format"):
+        model.save(tmp_path / "x", format="json")
+    with pytest.raises(TypeError, match="progress"):
+        vpctl.sim.run_campaign(preset="quick", progress=42)

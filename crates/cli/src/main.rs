@@ -86,8 +86,54 @@ fn run(args: Args, out: &mut dyn Write) -> anyhow::Result<()> {
     }
 }
 
+/// Old spellings kept as hidden aliases: (command, old flag, new flag).
+/// The command is the first word after `vpctl` ("" matches any).
+const DEPRECATED_FLAGS: &[(&str, &str, &str)] = &[
+    ("labelgen", "--model", "--colmap"),
+    ("colmap", "--model", "--colmap"),
+    ("plan", "--cameras", "--colmap"),
+    ("predict", "--model", "--forest"),
+    ("forest", "--model", "--forest"),
+    ("demo", "--model", "--forest"),
+    ("sim", "--model", "--forest"),
+    ("demo", "--save-model", "--save-forest"),
+    ("sim", "--save-model", "--save-forest"),
+    ("labelgen", "--out-dir", "--out"),
+    ("labelgen", "--params", "--config"),
+];
+
+/// Deprecation notes for the old spellings in `argv` (one per flag used).
+fn deprecation_notes(argv: &[String]) -> Vec<String> {
+    let Some(command) = argv.get(1) else {
+        return Vec::new();
+    };
+    let mut notes = Vec::new();
+    for a in argv.iter().skip(2).take_while(|a| *a != "--") {
+        let flag = a.split('=').next().unwrap_or(a);
+        for (cmd, old, new) in DEPRECATED_FLAGS {
+            if cmd == command && flag == *old {
+                let note = format!(
+                    "warning: `vpctl {command} {old}` is deprecated and will be removed; use {new}"
+                );
+                if !notes.contains(&note) {
+                    notes.push(note);
+                }
+            }
+        }
+    }
+    notes
+}
+
 fn main() -> ExitCode {
-    let args = Args::parse();
+    let argv_os: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    let argv: Vec<String> = argv_os
+        .iter()
+        .map(|a| a.to_string_lossy().into_owned())
+        .collect();
+    let args = Args::parse_from(&argv_os);
+    for note in deprecation_notes(&argv) {
+        eprintln!("{note}");
+    }
     let stdout = io::stdout();
     let mut out = stdout.lock();
     match run(args, &mut out).and_then(|()| out.flush().map_err(Into::into)) {

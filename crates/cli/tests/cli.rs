@@ -102,8 +102,9 @@ fn mesh_info_reads_meshlab_and_obj_files() {
     assert!(stdout(&o).contains("faces: 5804"));
 }
 
+/// `mesh info` exited 2 both for "problems found" and for a missing file.
 #[test]
-fn mesh_info_reports_problems_with_exit_code_2() {
+fn mesh_info_reports_problems_with_their_own_exit_code() {
     let dir = tempfile::tempdir().unwrap();
     let bad = dir.path().join("bad.obj");
     std::fs::write(
@@ -112,7 +113,7 @@ fn mesh_info_reports_problems_with_exit_code_2() {
     )
     .unwrap();
     let o = vpctl(&["mesh", "info", bad.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert_eq!(o.status.code(), Some(8), "{}", stderr(&o));
     let text = stdout(&o);
     assert!(text.contains("1 faces using a non-finite vertex"), "{text}");
     assert!(text.contains("1 degenerate faces"), "{text}");
@@ -479,7 +480,7 @@ fn colmap_undistort_writes_a_pinhole_workspace_and_refuses_bad_input() {
         vpctl(&[
             "colmap",
             "undistort",
-            "--model",
+            "--colmap",
             model.to_str().unwrap(),
             "--images",
             images.to_str().unwrap(),
@@ -588,7 +589,7 @@ fn colmap_align_recovers_metric_scale_and_flags_a_bad_position() {
         vpctl(&[
             "colmap",
             "align",
-            "--model",
+            "--colmap",
             model.to_str().unwrap(),
             "--positions",
             dir.path().join(csv).to_str().unwrap(),
@@ -649,7 +650,7 @@ fn colmap_align_refuses_bad_positions_with_exit_2_and_writes_nothing() {
         vpctl(&[
             "colmap",
             "align",
-            "--model",
+            "--colmap",
             model.to_str().unwrap(),
             "--positions",
             path.to_str().unwrap(),

@@ -29,11 +29,13 @@ fn quick_demo_prints_the_table_and_writes_the_report() {
         "--quick",
         "--out",
         s(&out),
-        "--save-model",
+        "--save-forest",
         s(&model),
     ]);
     assert!(o.status.success(), "stderr: {}", text(&o.stderr));
     let stdout = text(&o.stdout);
+    // One held-out site: no std column ("± 0.0" said nothing).
+    assert!(!stdout.contains('±'), "{stdout}");
     for row in [
         "| Init |",
         "| Grid |",
@@ -116,9 +118,9 @@ fn a_saved_forest_is_reused_and_gives_the_same_table() {
             s(&model),
         ])
     };
-    let o = run(&first, "--save-model");
+    let o = run(&first, "--save-forest");
     assert!(o.status.success(), "stderr: {}", text(&o.stderr));
-    let o2 = run(&again, "--model");
+    let o2 = run(&again, "--forest");
     assert!(o2.status.success(), "stderr: {}", text(&o2.stderr));
     assert!(!text(&o2.stderr).contains("training site"));
     assert_eq!(
@@ -164,7 +166,7 @@ fn sim_config_prints_a_loadable_config_and_sim_run_checks_it() {
     let model = dir.path().join("broken.vpf");
     std::fs::write(&model, b"not a model").unwrap();
     let out = dir.path().join("r2");
-    let o = vpctl(&["demo", "--quick", "--model", s(&model), "--out", s(&out)]);
+    let o = vpctl(&["demo", "--quick", "--forest", s(&model), "--out", s(&out)]);
     assert_eq!(o.status.code(), Some(2), "stderr: {}", text(&o.stderr));
     assert!(!out.exists());
 }

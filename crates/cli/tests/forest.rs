@@ -95,6 +95,10 @@ fn train_predict_and_eval_learn_texture_and_angle() {
     let train_small = |out: &Path| train(&images, &labels, out, &small);
     let o = train_small(&model);
     assert!(o.status.success(), "{}", text(&o));
+    // stderr is not a terminal: one plain progress line per tree, no bar.
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("training: tree 1/"), "{err}");
+    assert!(!err.contains('\r'), "{err:?}");
     // The default balances the classes: the warning says why that is wrong
     // for planning.
     assert!(
@@ -129,7 +133,7 @@ fn train_predict_and_eval_learn_texture_and_angle() {
     let o = vpctl(&[
         "forest",
         "eval",
-        "--model",
+        "--forest",
         model.to_str().unwrap(),
         "--images",
         held_images.to_str().unwrap(),
@@ -147,7 +151,7 @@ fn train_predict_and_eval_learn_texture_and_angle() {
     let conf_dir = dir.path().join("conf");
     let o = vpctl(&[
         "predict",
-        "--model",
+        "--forest",
         model.to_str().unwrap(),
         "--out",
         conf_dir.to_str().unwrap(),
@@ -229,7 +233,7 @@ fn bad_inputs_exit_2_and_write_nothing() {
     let conf_dir = dir.path().join("conf");
     let o = vpctl(&[
         "predict",
-        "--model",
+        "--forest",
         model.to_str().unwrap(),
         "--out",
         conf_dir.to_str().unwrap(),
@@ -295,7 +299,7 @@ fn image_names_with_sub_folders_and_dots_survive_train_and_predict() {
     let conf = dir.path().join("conf");
     let o = vpctl(&[
         "predict",
-        "--model",
+        "--forest",
         model.to_str().unwrap(),
         "--out",
         conf.to_str().unwrap(),

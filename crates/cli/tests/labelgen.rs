@@ -112,7 +112,7 @@ fn run_args(f: &Fixture, out: &str) -> Vec<String> {
     [
         "labelgen",
         "run",
-        "--model",
+        "--colmap",
         &f.p("model"),
         "--triplets",
         &f.p("triplets.txt"),
@@ -120,7 +120,7 @@ fn run_args(f: &Fixture, out: &str) -> Vec<String> {
         &f.p("depth"),
         "--mesh",
         &f.p("mesh.ply"),
-        "--out-dir",
+        "--out",
         &f.p(out),
         "--frame-unchecked",
     ]
@@ -138,7 +138,7 @@ fn triplets_command_writes_list_and_image_lists() {
     let args = [
         "labelgen",
         "triplets",
-        "--model",
+        "--colmap",
         &f.p("model"),
         "--per-bin",
         "2",

@@ -97,6 +97,11 @@ fn upload_then_download_round_trips_through_a_simulated_vehicle() {
     );
     assert!(stdout.contains("verified: yes"), "{stdout}");
     assert_eq!(vehicle.mission().len(), 11);
+    // stderr is a pipe here: progress comes as plain lines, not one long
+    // line of carriage returns.
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains('\r'), "{err:?}");
+    assert!(err.lines().count() >= 2, "{err:?}");
 
     let o = vpctl(&["mission", "download", "--url", &url]);
     assert!(o.status.success());

@@ -120,7 +120,7 @@ fn plan_writes_plan_ply_and_png_and_refuses_to_overwrite() {
             "plan".to_string(),
             "--mesh".into(),
             p("site.ply"),
-            "--cameras".into(),
+            "--colmap".into(),
             p("model"),
             "--config".into(),
             p("plan.toml"),
@@ -153,6 +153,17 @@ fn plan_writes_plan_ply_and_png_and_refuses_to_overwrite() {
     assert_eq!(plan.safety_distance_m, Some(5.0));
     let png = std::fs::read(dir.path().join("top.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
+    // The top view had no title, legend or colour key: the panel below
+    // the map holds the legend swatches (triplet orange) and the f(t) ramp
+    // from red to green.
+    let img = vp_scene::raster::load_rgb(&dir.path().join("top.png")).unwrap();
+    let panel: Vec<[u8; 3]> = (img.height() - 60..img.height())
+        .flat_map(|y| (0..img.width()).map(move |x| (x, y)))
+        .map(|(x, y)| img.get_pixel(x, y).0)
+        .collect();
+    for colour in [[255, 150, 0], [255, 0, 40], [0, 255, 40], [235, 235, 235]] {
+        assert!(panel.contains(&colour), "{colour:?} in the legend panel");
+    }
     let cams = vp_scene::io::read_mesh(&dir.path().join("cams.ply")).unwrap();
     assert_eq!(cams.n_faces(), 6 * plan.waypoints.len());
     // Same inputs, same bytes.
@@ -178,7 +189,7 @@ fn bad_inputs_exit_2_without_output() {
         "plan",
         "--mesh",
         &p("site.ply"),
-        "--cameras",
+        "--colmap",
         &p("model"),
         "--config",
         &p("bad.toml"),
@@ -196,7 +207,7 @@ fn bad_inputs_exit_2_without_output() {
         "plan",
         "--mesh",
         &p("site.ply"),
-        "--cameras",
+        "--colmap",
         &p("model"),
         "--config",
         &p("plan.toml"),
@@ -207,21 +218,29 @@ fn bad_inputs_exit_2_without_output() {
     ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("selects no face"), "{}", stderr(&o));
-    // Confidence image missing.
+    // An empty confidence folder: the error says to run `vpctl predict`;
+    // one image's confidence missing: the error names its file.
     std::fs::create_dir(dir.path().join("conf")).unwrap();
-    let o = vpctl(&[
-        "plan",
-        "--mesh",
-        &p("site.ply"),
-        "--cameras",
-        &p("model"),
-        "--config",
-        &p("plan.toml"),
-        "--confidence-dir",
-        &p("conf"),
-        "--out",
-        &p("x.json"),
-    ]);
+    let plan_conf = || {
+        vpctl(&[
+            "plan",
+            "--mesh",
+            &p("site.ply"),
+            "--colmap",
+            &p("model"),
+            "--config",
+            &p("plan.toml"),
+            "--confidence-dir",
+            &p("conf"),
+            "--out",
+            &p("x.json"),
+        ])
+    };
+    let o = plan_conf();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("vpctl predict"), "{}", stderr(&o));
+    std::fs::write(dir.path().join("conf/other.jpg.vpconf"), b"").unwrap();
+    let o = plan_conf();
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("img_001.jpg.vpconf"), "{}", stderr(&o));
     assert!(!dir.path().join("x.json").exists());
@@ -276,7 +295,7 @@ fn plan_refuses_a_distorted_model_and_points_at_colmap_undistort() {
         "plan",
         "--mesh",
         &p("site.ply"),
-        "--cameras",
+        "--colmap",
         &p("model"),
         "--config",
         &p("plan.toml"),
@@ -305,7 +324,7 @@ fn plan_refuses_a_model_without_frame_unless_told() {
             "plan".to_string(),
             "--mesh".into(),
             p("site.ply"),
-            "--cameras".into(),
+            "--colmap".into(),
             p("model"),
             "--config".into(),
             p("plan.toml"),

@@ -274,7 +274,7 @@ impl PathContext<'_> {
                 return Err(Blocked {
                     to: i,
                     message: format!(
-                        "waypoint {i} at ({:.2}, {:.2}, {:.2}) is {problem}",
+                        "waypoint {i} at ({:.2}, {:.2}, {:.2}) {problem}",
                         p.x, p.y, p.z
                     ),
                 });

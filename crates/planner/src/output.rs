@@ -8,6 +8,7 @@ use image::{Rgb, RgbImage};
 use nalgebra::{Point2, Point3};
 use vp_scene::io::{write_mesh, MeshFormat};
 use vp_scene::plan::{Plan, Role};
+use vp_scene::raster::{draw_text, text_width};
 use vp_scene::{fsio, Intrinsics, Material, Mesh};
 
 use crate::error::{PlannerError, Result};
@@ -174,7 +175,8 @@ fn ramp(f: f64) -> Rgb<u8> {
 /// Renders the top view: mesh faces from below to above shaded by height,
 /// sampled triangles coloured by f(t) (red 0 to green 1), the ROI outline in
 /// blue, the path in white, cameras as dots (triplet members orange,
-/// bridges cyan, grid and initial views magenta) with heading ticks.
+/// bridges cyan, grid and initial views magenta) with heading ticks; below
+/// the map a panel with a title, the legend, the colour keys and the scale.
 pub fn render_top_view(view: &TopView) -> RgbImage {
     let b = view.mesh.bounds();
     let mut ext = b.extent();
@@ -220,7 +222,7 @@ pub fn render_top_view(view: &TopView) -> RgbImage {
     for i in 0..n {
         let (a, c) = (view.roi_outline[i], view.roi_outline[(i + 1) % n]);
         let (pa, pc) = (cv.px(a[0], a[1]), cv.px(c[0], c[1]));
-        cv.line(pa, pc, Rgb([60, 120, 255]));
+        cv.line(pa, pc, ROI_COLOUR);
     }
     let wps = &view.plan.waypoints;
     for pair in wps.windows(2) {
@@ -232,9 +234,9 @@ pub fn render_top_view(view: &TopView) -> RgbImage {
     }
     for v in wps {
         let colour = match v.role {
-            Role::TripletMember => Rgb([255, 150, 0]),
-            Role::Bridge => Rgb([0, 220, 220]),
-            Role::Grid | Role::Initial => Rgb([230, 0, 230]),
+            Role::TripletMember => TRIPLET_COLOUR,
+            Role::Bridge => BRIDGE_COLOUR,
+            Role::Grid | Role::Initial => GRID_COLOUR,
         };
         let p = cv.px(v.position[0], v.position[1]);
         let yaw = v.yaw_deg.to_radians();
@@ -242,7 +244,85 @@ pub fn render_top_view(view: &TopView) -> RgbImage {
         cv.line(p, (p.0 + tick * yaw.cos(), p.1 - tick * yaw.sin()), colour);
         cv.dot(p, r + 1, colour);
     }
-    cv.img
+    with_legend(&cv.img, view, w as f64 / scale)
+}
+
+const TRIPLET_COLOUR: Rgb<u8> = Rgb([255, 150, 0]);
+const BRIDGE_COLOUR: Rgb<u8> = Rgb([0, 220, 220]);
+const GRID_COLOUR: Rgb<u8> = Rgb([230, 0, 230]);
+const ROI_COLOUR: Rgb<u8> = Rgb([60, 120, 255]);
+const TEXT_COLOUR: Rgb<u8> = Rgb([235, 235, 235]);
+/// Height of one legend line, pixels.
+const LINE_PX: u32 = 14;
+
+/// The map with a panel below it: a title (waypoints by role), the legend
+/// of the marks, the colour key of f(t) and of the mesh's height shading,
+/// and the map's scale.
+fn with_legend(map: &RgbImage, view: &TopView, width_m: f64) -> RgbImage {
+    let wps = &view.plan.waypoints;
+    let count = |f: &dyn Fn(Role) -> bool| wps.iter().filter(|v| f(v.role)).count();
+    let members = count(&|r| r == Role::TripletMember);
+    let bridges = count(&|r| r == Role::Bridge);
+    let grid = count(&|r| matches!(r, Role::Grid | Role::Initial));
+    let mut title = format!(
+        "vpctl plan: {} waypoints ({members} triplet, {bridges} bridge, {grid} grid)",
+        wps.len()
+    );
+    if view.plan.cut_short {
+        title.push_str(", cut short");
+    }
+    let lines = 4;
+    let panel = 6 + lines * LINE_PX;
+    let w = map.width().max(text_width(&title) as u32 + 12).max(420);
+    let mut img = RgbImage::from_pixel(w, map.height() + panel, Rgb([20, 20, 30]));
+    image::imageops::overlay(&mut img, map, 0, 0);
+    let y0 = i64::from(map.height()) + 4;
+    let row = |k: i64| y0 + k * i64::from(LINE_PX);
+    draw_text(&mut img, 6, row(0), &title, TEXT_COLOUR);
+    let mut x = 6;
+    for (c, label) in [
+        (TRIPLET_COLOUR, "triplet"),
+        (BRIDGE_COLOUR, "bridge"),
+        (GRID_COLOUR, "grid"),
+        (Rgb([255, 255, 255]), "path"),
+        (ROI_COLOUR, "ROI"),
+    ] {
+        fill(&mut img, x, row(1), 8, 8, c);
+        draw_text(&mut img, x + 11, row(1), label, TEXT_COLOUR);
+        x += 11 + text_width(label) + 12;
+    }
+    // Colour keys: f(t) of the sampled triangles, the mesh by height.
+    let label = "f(t) 0";
+    draw_text(&mut img, 6, row(2), label, TEXT_COLOUR);
+    let bar_x = 6 + text_width(label) + 4;
+    for i in 0..100 {
+        fill(&mut img, bar_x + i, row(2), 1, 8, ramp(i as f64 / 99.0));
+    }
+    draw_text(&mut img, bar_x + 104, row(2), "1", TEXT_COLOUR);
+    let label = "mesh: low";
+    let mx = bar_x + 124;
+    draw_text(&mut img, mx, row(2), label, TEXT_COLOUR);
+    let gx = mx + text_width(label) + 4;
+    for i in 0..60 {
+        let g = (60.0 + 170.0 * i as f64 / 59.0) as u8;
+        fill(&mut img, gx + i, row(2), 1, 8, Rgb([g, g, g]));
+    }
+    draw_text(&mut img, gx + 64, row(2), "high", TEXT_COLOUR);
+    let note = if view.fulfillment.is_empty() {
+        format!("north up, {width_m:.0} m across; no f(t): a grid plan")
+    } else {
+        format!("north up, {width_m:.0} m across")
+    };
+    draw_text(&mut img, 6, row(3), &note, TEXT_COLOUR);
+    img
+}
+
+fn fill(img: &mut RgbImage, x: i64, y: i64, w: i64, h: i64, c: Rgb<u8>) {
+    for yy in y.max(0)..(y + h).min(i64::from(img.height())) {
+        for xx in x.max(0)..(x + w).min(i64::from(img.width())) {
+            img.put_pixel(xx as u32, yy as u32, c);
+        }
+    }
 }
 
 /// Writes the top view as PNG, atomically; refuses to overwrite unless `force`.

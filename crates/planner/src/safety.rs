@@ -70,21 +70,40 @@ impl Safety {
         self.free_space.as_ref()
     }
 
-    /// What the rules say about `p`, for an error message: `None` when
-    /// [`Safety::point_ok`].
+    /// What the rules say about `p`, for an error message ("is ...", with
+    /// the config key to change): `None` when [`Safety::point_ok`].
     pub fn point_problem(&self, p: &Point3<f64>) -> Option<String> {
-        let d = self.distance;
-        if !self.within_limits(p) {
-            Some("outside the flight volume, the geofence or the altitude limits".into())
+        let (lo, hi, d) = (self.volume.min, self.volume.max, self.distance);
+        if !self.volume.contains(p) {
+            Some(format!(
+                "is outside the flight volume [{:.2}, {:.2}, {:.2}] .. [{:.2}, {:.2}, {:.2}] \
+                 (`flight_volume` in the planner config; for a grid: a smaller region of interest \
+                 or another height)",
+                lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+            ))
+        } else if p.z < self.altitude.min_m || p.z > self.altitude.max_m {
+            Some(format!(
+                "is outside the altitude limits {:.2} .. {:.2} m (`altitude_limits` in the planner \
+                 config; for a grid: another --height)",
+                self.altitude.min_m, self.altitude.max_m
+            ))
+        } else if !self.within_limits(p) {
+            Some("is outside the geofence (`geofence` in the planner config)".into())
         } else if !self.clearance.point_is_clear(p, d + CLEARANCE_MARGIN_M) {
-            Some(format!("closer than {d} m to the mesh"))
+            Some(format!(
+                "is {:.2} m from the mesh, closer than the safety distance {d} m \
+                 (`safety_distance_m` in the planner config; for a grid: a larger --height)",
+                self.clearance.distance(p)
+            ))
         } else if !self
             .free_space
             .as_ref()
             .is_none_or(|f| f.point_is_clear(p, d))
         {
             Some(format!(
-                "closer than {d} m to space no camera has observed (unknown_space = \"occupied\")"
+                "is closer than the safety distance {d} m to space no camera has observed \
+                 (`unknown_space = \"occupied\"` in the planner config: fly where the cameras \
+                 have looked, or \"free\" to accept the risk)"
             ))
         } else {
             None

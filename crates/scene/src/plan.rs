@@ -319,6 +319,8 @@ impl Plan {
         #[derive(Deserialize)]
         struct Probe {
             format_version: Option<serde_json::Value>,
+            #[serde(rename = "fileType")]
+            file_type: Option<serde_json::Value>,
         }
         let json_err = |e: &serde_json::Error| {
             SceneError::parse(
@@ -329,11 +331,21 @@ impl Plan {
         };
         let probe: Probe = serde_json::from_str(text).map_err(|e| json_err(&e))?;
         match probe.format_version {
+            None if probe.file_type.as_ref().and_then(|v| v.as_str()) == Some("Plan") => {
+                return Err(SceneError::parse(
+                    path,
+                    Location::Header,
+                    "this is a QGroundControl plan (.plan, as `vpctl mission export` writes), \
+                     not a vpctl plan: pass the vpctl plan JSON it was exported from (the \
+                     `--out` of `vpctl plan` or `vpctl plan grid`)",
+                ))
+            }
             None => {
                 return Err(SceneError::parse(
                     path,
                     Location::Header,
-                    "missing \"format_version\": not a vpctl plan file",
+                    "missing \"format_version\": not a vpctl plan file (the JSON that \
+                     `vpctl plan` or `vpctl plan grid` writes)",
                 ))
             }
             Some(serde_json::Value::Number(n))

@@ -14,6 +14,8 @@
 //!   spatially coherent blobs, with depth noise from the triplet's first-order
 //!   3D uncertainty and a share of outliers.
 //!
+//! - [`flight::fly`]: a plan flown in the simulated world: its images and
+//!   the COLMAP model SfM would give (`vpctl sim fly`).
 //! - [`campaign`]: closed-loop acquisition campaigns (training, flights with
 //!   every strategy of the paper, Table-1 evaluation, report).
 //!
@@ -23,6 +25,7 @@
 
 pub mod campaign;
 pub mod error;
+pub mod flight;
 pub mod mvs;
 pub mod noise;
 pub mod render;

@@ -33,5 +33,5 @@ def campaign_config(
 def run_campaign(
     config: Union[Mapping[str, Any], str, PathLike[str], None] = None,
     preset: str = "demo",
-    progress: Optional[Callable[[str], Any]] = None,
+    progress: Union[Callable[[str], Any], bool, None] = None,
 ) -> list[dict[str, Any]]: ...

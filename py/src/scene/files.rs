@@ -25,15 +25,26 @@ impl PyColmap {
         py.detach(|| colmap::read_model(&path)).py().map(PyColmap)
     }
 
-    /// Writes the model into `path` as `binary` or `text` files.
-    #[pyo3(signature = (path, format = "binary"))]
-    fn save(&self, py: Python<'_>, path: PathBuf, format: &str) -> PyResult<()> {
-        match format {
-            "binary" => py.detach(|| colmap::write_binary(&path, &self.0)).py(),
-            "text" => py.detach(|| colmap::write_text(&path, &self.0)).py(),
-            other => Err(value_error(format!(
-                "format {other:?}: expected \"binary\" or \"text\""
-            ))),
+    /// Writes the model into the folder `path` as `binary` (or `bin`) or
+    /// `text` (or `txt`, the CLI's `--output-type` names) files; refuses to
+    /// overwrite existing model files unless `force`.
+    #[pyo3(signature = (path, format = "binary", force = false))]
+    fn save(&self, py: Python<'_>, path: PathBuf, format: &str, force: bool) -> PyResult<()> {
+        let kind = match format {
+            "binary" | "bin" => colmap::ModelFormat::Binary,
+            "text" | "txt" => colmap::ModelFormat::Text,
+            other => {
+                return Err(value_error(format!(
+                    "format: {other:?} is not \"binary\" (\"bin\") or \"text\" (\"txt\")"
+                )))
+            }
+        };
+        for f in kind.files(&path) {
+            fsio::check_overwrite(&f, force).py()?;
+        }
+        match kind {
+            colmap::ModelFormat::Binary => py.detach(|| colmap::write_binary(&path, &self.0)).py(),
+            colmap::ModelFormat::Text => py.detach(|| colmap::write_text(&path, &self.0)).py(),
         }
     }
 
@@ -71,9 +82,18 @@ pub(super) fn read_depth_map(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_
     image2(py, d.width, d.height, d.data)
 }
 
-/// Writes an (H, W) float32 array as a COLMAP depth map (.bin).
+/// Writes an (H, W) real array as a COLMAP depth map (.bin, float32);
+/// refuses to overwrite unless `force`.
 #[pyfunction]
-pub(super) fn write_depth_map(path: PathBuf, depth: PyReadonlyArray2<'_, f32>) -> PyResult<()> {
+#[pyo3(signature = (path, depth, force = false))]
+pub(super) fn write_depth_map(
+    path: PathBuf,
+    depth: &Bound<'_, PyAny>,
+    force: bool,
+) -> PyResult<()> {
+    let depth: PyReadonlyArray2<'_, f32> =
+        crate::convert::array_like(depth, "float32", "iuf", 2, "depth")?.extract()?;
+    fsio::check_overwrite(&path, force).py()?;
     colmap::write_depth_map(&path, &depth_map(&depth)).py()
 }
 

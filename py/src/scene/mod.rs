@@ -28,14 +28,22 @@ pub struct PyMesh(pub Mesh);
 
 #[pymethods]
 impl PyMesh {
-    /// Vertices (N, 3) float64, faces (M, 3) integer, materials (M,) uint8 or None.
+    /// Vertices (N, 3) real, faces (M, 3) integer, materials (M,) integer
+    /// ids or None: numpy arrays of any numeric dtype (float32 vertices and
+    /// int32 faces as open3d gives them) or nested lists.
     #[new]
     #[pyo3(signature = (vertices, faces, materials = None))]
     fn new(
-        vertices: PyReadonlyArray2<'_, f64>,
-        faces: PyReadonlyArray2<'_, i64>,
-        materials: Option<PyReadonlyArray1<'_, u8>>,
+        vertices: &Bound<'_, PyAny>,
+        faces: &Bound<'_, PyAny>,
+        materials: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
+        let vertices = convert::f64_2d(vertices, "vertices")?;
+        let faces: PyReadonlyArray2<'_, i64> =
+            convert::array_like(faces, "int64", "iu", 2, "faces")?.extract()?;
+        let materials: Option<PyReadonlyArray1<'_, i64>> = materials
+            .map(|m| convert::array_like(m, "int64", "iu", 1, "materials")?.extract())
+            .transpose()?;
         let verts = points(&vertices, "vertices")?;
         let f = faces.as_array();
         if f.ncols() != 3 {
@@ -58,7 +66,9 @@ impl PyMesh {
                 m.as_array()
                     .iter()
                     .map(|&id| {
-                        Material::from_id(id)
+                        u8::try_from(id)
+                            .ok()
+                            .and_then(Material::from_id)
                             .ok_or_else(|| value_error(format!("materials: unknown id {id}")))
                     })
                     .collect::<PyResult<Vec<_>>>()?,
@@ -185,9 +195,10 @@ impl PyCamera {
         fy: f64,
         cx: f64,
         cy: f64,
-        world_from_cam: PyReadonlyArray2<'_, f64>,
+        world_from_cam: &Bound<'_, PyAny>,
     ) -> PyResult<Self> {
         let k = intrinsics(width, height, fx, fy, cx, cy)?;
+        let world_from_cam = convert::f64_2d(world_from_cam, "world_from_cam")?;
         Ok(PyCamera(Camera::new(
             k,
             convert::isometry(&world_from_cam, "world_from_cam")?,
@@ -195,7 +206,9 @@ impl PyCamera {
     }
 
     /// A camera at `center` looking at `target`, roll 0, with horizontal
-    /// field of view `hfov_deg`.
+    /// field of view `hfov_deg`. Straight down (the usual aerial view) or
+    /// up, where roll is undefined, the image's top points north and its x
+    /// axis east (as a map).
     #[staticmethod]
     fn look_at(
         width: u32,
@@ -205,8 +218,22 @@ impl PyCamera {
         target: [f64; 3],
     ) -> PyResult<Self> {
         let k = Intrinsics::from_hfov(width, height, hfov_deg).py()?;
-        Camera::look_at(k, Point3::from(center), Point3::from(target))
+        let (c, t) = (Point3::from(center), Point3::from(target));
+        let d = t - c;
+        if d.norm() > 0.0 && d.x.hypot(d.y) < 1e-9 * d.norm() {
+            // Heading north: the image's top is north and its x axis east,
+            // as a map (and as vp-sim's initial flights).
+            let pitch = std::f64::consts::FRAC_PI_2.copysign(d.z);
+            return Ok(PyCamera(Camera::from_yaw_pitch(
+                k,
+                c,
+                std::f64::consts::FRAC_PI_2,
+                pitch,
+            )));
+        }
+        Camera::look_at(k, c, t)
             .py()
+            .map_err(|e| value_error(format!("center, target: {e}")))
             .map(PyCamera)
     }
 
@@ -239,9 +266,9 @@ impl PyCamera {
     fn project<'py>(
         &self,
         py: Python<'py>,
-        pts: PyReadonlyArray2<'_, f64>,
+        pts: &Bound<'_, PyAny>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let p = points(&pts, "points")?;
+        let p = points(&convert::f64_2d(pts, "pts")?, "pts")?;
         let flat: Vec<f64> = p
             .iter()
             .flat_map(|q| match self.0.project(q) {

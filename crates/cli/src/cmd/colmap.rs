@@ -39,7 +39,7 @@ pub enum ColmapCommand {
 #[derive(Debug, clap::Args)]
 pub struct AlignArgs {
     /// The sparse model (text or binary).
-    #[arg(long)]
+    #[arg(long = "colmap", alias = "model", value_name = "DIR")]
     pub model: PathBuf,
     /// CSV of image positions: name,lat,lon,alt per line (WGS84 degrees,
     /// metres; an optional header line, `#` comments).
@@ -50,7 +50,7 @@ pub struct AlignArgs {
     #[arg(long)]
     pub out: PathBuf,
     /// A position farther than this from its aligned camera is an outlier (m).
-    #[arg(long, default_value_t = 3.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 3.0)]
     pub max_error: f64,
     /// Replace an existing output folder.
     #[arg(long)]
@@ -61,7 +61,7 @@ pub struct AlignArgs {
 #[derive(Debug, clap::Args)]
 pub struct UndistortArgs {
     /// The sparse model (e.g. `sparse/0`), with distorted cameras.
-    #[arg(long)]
+    #[arg(long = "colmap", alias = "model", value_name = "DIR")]
     pub model: PathBuf,
     /// The folder of the photos the model names.
     #[arg(long)]
@@ -74,7 +74,7 @@ pub struct UndistortArgs {
     pub force: bool,
     /// 0: crop to the pixels every ray covers (no black border, COLMAP's
     /// default); 1: keep every input pixel (black corners).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.0)]
     pub blank_pixels: f64,
 }
 

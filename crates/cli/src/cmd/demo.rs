@@ -16,14 +16,14 @@ pub struct CampaignArgs {
     /// Report directory (table.md, table.csv, report.json, plots, plans, .plan missions).
     #[arg(long, default_value = "vpctl-report")]
     pub out: PathBuf,
-    /// Overwrite the report directory (and --save-model) if they exist.
+    /// Overwrite the report directory (and --save-forest) if they exist.
     #[arg(long)]
     pub force: bool,
     /// Use this trained forest instead of running the training campaign.
-    #[arg(long)]
+    #[arg(long = "forest", alias = "model", value_name = "FILE")]
     pub model: Option<PathBuf>,
-    /// Save the trained forest here (for a later --model).
-    #[arg(long)]
+    /// Save the trained forest here (for a later --forest).
+    #[arg(long = "save-forest", alias = "save-model", value_name = "FILE")]
     pub save_model: Option<PathBuf>,
 }
 
@@ -39,7 +39,7 @@ pub struct DemoArgs {
     pub quick: bool,
 }
 
-/// Runs `cfg`: trains (or loads `--model`), flies, prints the table, writes the report.
+/// Runs `cfg`: trains (or loads `--forest`), flies, prints the table, writes the report.
 pub fn run_config(cfg: &CampaignConfig, args: &CampaignArgs, out: &mut dyn Write) -> Result<()> {
     // Refuse before hours of work, not after.
     if args.out.exists() && !args.force {
@@ -71,11 +71,19 @@ pub fn run_config(cfg: &CampaignConfig, args: &CampaignArgs, out: &mut dyn Write
         say(&format!("forest saved to {}", p.display()));
     }
     write_report(&report, &args.out, args.force)?;
-    writeln!(
-        out,
-        "Table 1 (percent; mean ± std over held-out sites {:?}):\n",
-        cfg.held_out_seeds
-    )?;
+    if cfg.held_out_seeds.len() == 1 {
+        writeln!(
+            out,
+            "Table 1 (percent; held-out site {}):\n",
+            cfg.held_out_seeds[0]
+        )?;
+    } else {
+        writeln!(
+            out,
+            "Table 1 (percent; mean ± std over held-out sites {:?}):\n",
+            cfg.held_out_seeds
+        )?;
+    }
     write!(out, "{}", report.table_markdown())?;
     writeln!(
         out,

@@ -52,8 +52,8 @@ pub struct TrainArgs {
 /// Arguments of `vpctl predict`.
 #[derive(Debug, Args)]
 pub struct PredictArgs {
-    /// Model file written by `vpctl train`.
-    #[arg(long)]
+    /// Forest file written by `vpctl train` (or `vpctl sim train`).
+    #[arg(long = "forest", alias = "model", value_name = "FILE")]
     model: PathBuf,
     /// Output folder: `<image name>.vpconf` per image (the name `vpctl plan
     /// --confidence-dir` looks for; an image found in a sub-folder of a given
@@ -89,8 +89,8 @@ pub enum ForestCommand {
     /// Score a model on held-out label images: accuracy at confidence 0.5 and
     /// sparsification (AUSC relative to the optimum, and random's).
     Eval {
-        /// Model file.
-        #[arg(long)]
+        /// Forest file.
+        #[arg(long = "forest", alias = "model", value_name = "FILE")]
         model: PathBuf,
         /// Folder of the images.
         #[arg(long)]
@@ -142,11 +142,25 @@ pub fn train(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
         set.n_negative()
     )?;
 
-    let bar = ProgressBar::new(params.n_trees as u64).with_style(
-        ProgressStyle::with_template("training {bar:30} {pos}/{len} trees, {elapsed}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    let forest = train_with_progress(&set, &params, a.seed, &|_| bar.inc(1))?;
+    // A bar on a terminal; one plain line per tree otherwise (a log file).
+    let tty = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let bar = if tty {
+        ProgressBar::new(params.n_trees as u64).with_style(
+            ProgressStyle::with_template("training {bar:30} {pos}/{len} trees, {elapsed}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        )
+    } else {
+        ProgressBar::hidden()
+    };
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let n_trees = params.n_trees;
+    let forest = train_with_progress(&set, &params, a.seed, &|_| {
+        bar.inc(1);
+        if !tty {
+            let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            eprintln!("training: tree {k}/{n_trees}");
+        }
+    })?;
     bar.finish_and_clear();
     forest.save(&a.out)?;
     print_summary(&forest, out)?;

@@ -36,7 +36,7 @@ pub enum LabelgenCommand {
 #[derive(Debug, Args)]
 pub struct TripletsArgs {
     /// COLMAP sparse model folder (cameras, images, points3D; .bin or .txt).
-    #[arg(long)]
+    #[arg(long = "colmap", alias = "model", value_name = "DIR")]
     model: PathBuf,
     /// Triplets drawn per angle bin.
     #[arg(long, default_value_t = 10)]
@@ -48,10 +48,10 @@ pub struct TripletsArgs {
     #[arg(long, default_value_t = 20)]
     min_shared_points: usize,
     /// Fewest shared points as a share of the points of the image that sees fewest.
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.1)]
     min_shared_share: f64,
     /// Smallest / largest pairwise angle at the median point.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.5)]
     min_equilateral: f64,
     /// Output triplet list.
     #[arg(long)]
@@ -69,7 +69,7 @@ pub struct TripletsArgs {
 pub struct RunArgs {
     /// COLMAP sparse model folder with the poses of every image, aligned by
     /// `vpctl colmap align` (its `frame.json` is checked).
-    #[arg(long)]
+    #[arg(long = "colmap", alias = "model", value_name = "DIR")]
     model: PathBuf,
     /// Skip the frame check (`frame.json`, scale, gravity): only for a model
     /// already in metric, gravity-aligned local ENU.
@@ -86,11 +86,11 @@ pub struct RunArgs {
     #[arg(long)]
     mesh: Option<PathBuf>,
     /// Output folder for label images and summary.json.
-    #[arg(long)]
+    #[arg(long = "out", alias = "out-dir", value_name = "DIR")]
     out_dir: PathBuf,
     /// Label parameters as TOML (any subset of the keys `vpctl labelgen
     /// defaults` prints).
-    #[arg(long, visible_alias = "params")]
+    #[arg(long, alias = "params")]
     config: Option<PathBuf>,
     /// Overwrite existing label files.
     #[arg(long)]
@@ -120,6 +120,19 @@ fn sample(a: &TripletsArgs, out: &mut dyn Write) -> Result<()> {
         ..TripletParams::default()
     };
     let sampled = triplets::sample_triplets(&model, &params)?;
+    if sampled.is_empty() {
+        return Err(super::UsageError(format!(
+            "no triplet found in {} ({} images, {} points): no three images share {} points \
+             (--min-shared-points) and {} of their points (--min-shared-share) at the \
+             angles of the bins; lower those, or acquire images with more overlap",
+            a.model.display(),
+            model.images.len(),
+            model.points.len(),
+            a.min_shared_points,
+            a.min_shared_share
+        ))
+        .into());
+    }
     // Image lists first: they refuse to overwrite one by one, and a refusal
     // should leave no triplet list behind either.
     if let Some(dir) = &a.image_lists {

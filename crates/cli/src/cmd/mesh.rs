@@ -15,7 +15,8 @@ pub enum MeshCommand {
     /// Print faces, vertices, bounds, materials and the problems found in a
     /// PLY or OBJ mesh (non-finite coordinates, bad indices, degenerate faces).
     ///
-    /// Exits with 0 when the mesh is usable as it is, 2 when it has problems.
+    /// Exits with 0 when the mesh is usable as it is, 8 when it has problems,
+    /// 2 when it cannot be read.
     Info {
         /// The mesh file (.ply or .obj).
         file: PathBuf,
@@ -39,7 +40,7 @@ pub enum MeshCommand {
         #[arg(long)]
         out: PathBuf,
         /// Longest allowed face edge, metres.
-        #[arg(long, default_value_t = MeshingParams::default().max_edge)]
+        #[arg(long, allow_negative_numbers = true, default_value_t = MeshingParams::default().max_edge)]
         max_edge: f64,
         /// Overwrite the output file if it exists.
         #[arg(long)]
@@ -140,9 +141,12 @@ fn info(file: &std::path::Path, out: &mut dyn Write) -> Result<()> {
     if i.usable {
         Ok(())
     } else {
-        Err(
-            vp_scene::SceneError::InvalidMesh(format!("{}: {}", file.display(), i.problems_line()))
-                .into(),
-        )
+        Err(super::ProblemsFound(format!(
+            "{}: {} (exit code {})",
+            file.display(),
+            i.problems_line(),
+            super::EXIT_PROBLEMS_FOUND
+        ))
+        .into())
     }
 }

@@ -21,9 +21,10 @@ pub enum MissionCommand {
     Export {
         /// The plan (JSON written by `vpctl plan`).
         plan: PathBuf,
-        /// Output format.
-        #[arg(long, value_enum, default_value_t = ExportFormat::Qgc)]
-        format: ExportFormat,
+        /// Output format (default: from the extension of --out, `.plan` for
+        /// qgc, `.waypoints` or `.txt` for wpl; qgc on standard output).
+        #[arg(long, value_enum)]
+        format: Option<ExportFormat>,
         /// Output file; prints to standard output when absent.
         #[arg(long)]
         out: Option<PathBuf>,
@@ -136,7 +137,7 @@ pub struct LinkArgs {
     #[arg(long, default_value = "udpout:127.0.0.1:14550")]
     url: String,
     /// Seconds to wait for the vehicle's heartbeat.
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 5.0)]
     heartbeat_timeout: f64,
 }
 
@@ -155,10 +156,11 @@ pub fn run(cmd: MissionCommand, out: &mut dyn Write) -> Result<()> {
             force,
             mission,
         } => {
+            let format = export_format(path.as_deref(), format)?;
             if let Some(p) = &path {
                 fsio::check_overwrite(p, force)?;
             }
-            let plan = Plan::load(&plan)?;
+            let plan = load_plan(&plan)?;
             let opts = mission.options()?;
             let text = match format {
                 ExportFormat::Qgc => export_qgc(&plan, &opts, &QgcOptions::default())?,
@@ -186,7 +188,7 @@ fn upload(
     mission: &MissionArgs,
     out: &mut dyn Write,
 ) -> Result<()> {
-    let plan = Plan::load(plan_path)?;
+    let plan = load_plan(plan_path)?;
     let m = build_mission(&plan, &mission.options()?)?;
     writeln!(
         out,
@@ -195,8 +197,10 @@ fn upload(
         m.photos,
         m.autopilot
     )?;
-    let (report, info) = vp_mission::upload(&link.url, &m, &link.options()?, &mut progress)?;
-    eprintln!();
+    let bar = super::Progress::new();
+    let (report, info) =
+        vp_mission::upload(&link.url, &m, &link.options()?, &mut |p| progress(&bar, &p))?;
+    bar.finish();
     writeln!(
         out,
         "vehicle: system {} component {} ({:?})",
@@ -218,8 +222,10 @@ fn upload(
 }
 
 fn download(link: &LinkArgs, out: &mut dyn Write) -> Result<()> {
-    let (items, report, info) = vp_mission::download(&link.url, &link.options()?, &mut progress)?;
-    eprintln!();
+    let bar = super::Progress::new();
+    let (items, report, info) =
+        vp_mission::download(&link.url, &link.options()?, &mut |p| progress(&bar, &p))?;
+    bar.finish();
     writeln!(
         out,
         "vehicle: system {} component {}; {} items in {:.2} s",
@@ -273,11 +279,12 @@ fn vehicle(
     Ok(())
 }
 
-fn progress(p: Progress) {
-    eprint!(
-        "\r{:?}: {}/{} items (attempt {})   ",
+/// One progress report: redrawn in place on a terminal, a line otherwise.
+fn progress(bar: &super::Progress, p: &Progress) {
+    bar.line(&format!(
+        "{:?}: {}/{} items (attempt {})",
         p.phase, p.done, p.total, p.attempt
-    );
+    ));
 }
 
 fn print_item(seq: usize, item: &MissionItem, out: &mut dyn Write) -> Result<()> {
@@ -303,4 +310,46 @@ fn write_or_print(path: Option<&Path>, text: &str, out: &mut dyn Write) -> Resul
             Ok(())
         }
     }
+}
+
+/// The export format: `--format`, else from the extension of `--out`
+/// (`.plan`: QGroundControl, `.waypoints` or `.txt`: WPL), else QGC. A
+/// format that contradicts the extension is refused.
+fn export_format(out: Option<&Path>, format: Option<ExportFormat>) -> Result<ExportFormat> {
+    let Some(path) = out else {
+        return Ok(format.unwrap_or(ExportFormat::Qgc));
+    };
+    let by_ext = match format {
+        Some(ExportFormat::Qgc) => super::check_extension(path, "--out", &["plan"]),
+        Some(ExportFormat::Wpl) => super::check_extension(path, "--out", &["waypoints", "txt"]),
+        None => super::check_extension(path, "--out", &["plan", "waypoints", "txt"]),
+    };
+    by_ext?;
+    Ok(format.unwrap_or_else(|| {
+        if path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("plan"))
+        {
+            ExportFormat::Qgc
+        } else {
+            ExportFormat::Wpl
+        }
+    }))
+}
+
+/// Reads a plan for a mission, which needs its geodetic origin: without
+/// one the error says where it comes from.
+fn load_plan(path: &Path) -> Result<Plan> {
+    let plan = Plan::load(path)?;
+    if plan.origin.is_none() {
+        return Err(super::UsageError(format!(
+            "{}: the plan has no geodetic origin, which a mission needs to place its waypoints \
+             on the earth; plan again with --origin LAT,LON,ALT (`vpctl plan grid ... --origin \
+             46.03,10.35,400`), or plan on a model aligned by `vpctl colmap align` (its \
+             frame.json holds the origin)",
+            path.display()
+        ))
+        .into());
+    }
+    Ok(plan)
 }

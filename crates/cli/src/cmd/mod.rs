@@ -12,7 +12,9 @@ pub mod plan;
 pub mod scene;
 pub mod sim;
 
+use std::cell::Cell;
 use std::error::Error;
+use std::io::IsTerminal;
 
 use vp_forest::ForestError;
 use vp_labelgen::LabelgenError;
@@ -28,13 +30,30 @@ use vp_sim::SimError;
 #[error("{0}")]
 pub struct UsageError(pub String);
 
+/// Exit code when a check ran and found problems (`vpctl mesh info` on a
+/// mesh with defects): distinct from 2 (the input could not be read at all)
+/// and from the mission codes 3-7.
+pub const EXIT_PROBLEMS_FOUND: u8 = 8;
+
+/// A check that ran to the end and found problems: exit code
+/// [`EXIT_PROBLEMS_FOUND`].
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct ProblemsFound(pub String);
+
 /// Exit code for an error: 2 when the user's input is at fault (bad file,
 /// bad argument, refusing to overwrite, missing file, bad URL), 1 otherwise
 /// (I/O failures). Mission failures have one code per outcome
 /// ([`MissionError::exit_code`]: 3 no vehicle, 4 timeout, 5 rejected,
-/// 6 verification failed, 7 protocol violation). The outermost library
+/// 6 verification failed, 7 protocol violation); a check that found
+/// problems exits [`EXIT_PROBLEMS_FOUND`]. The outermost library
 /// error in the chain decides.
 pub fn exit_code(e: &anyhow::Error) -> u8 {
+    if e.chain()
+        .any(|c| c.downcast_ref::<ProblemsFound>().is_some())
+    {
+        return EXIT_PROBLEMS_FOUND;
+    }
     if let Some(m) = e.chain().find_map(|c| c.downcast_ref::<MissionError>()) {
         return m.exit_code();
     }
@@ -66,4 +85,80 @@ fn is_input_error(e: &(dyn Error + 'static)) -> Option<bool> {
     .or_else(|| e.downcast_ref::<SimError>().map(SimError::is_input_error))
     .or_else(|| e.downcast_ref::<MvsError>().map(MvsError::is_input_error))
     .or_else(|| e.downcast_ref::<UsageError>().map(|_| true))
+}
+
+/// Refuses an output path whose extension is not one of `expected`
+/// (lower case, no dot), naming the extension found and the flag.
+pub fn check_extension(
+    path: &std::path::Path,
+    flag: &str,
+    expected: &[&str],
+) -> anyhow::Result<()> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    if expected.contains(&ext.as_str()) {
+        return Ok(());
+    }
+    let want: Vec<String> = expected.iter().map(|e| format!(".{e}")).collect();
+    let found = if ext.is_empty() {
+        "no extension".to_string()
+    } else {
+        format!("the extension '.{ext}'")
+    };
+    Err(UsageError(format!(
+        "{flag} {}: {found} is not a file type this output writes (expected {})",
+        path.display(),
+        want.join(" or ")
+    ))
+    .into())
+}
+
+/// Progress on stderr: one line redrawn in place (carriage return) when
+/// stderr is a terminal, plain lines otherwise, so that a log file or a CI
+/// log gets one readable line per step instead of one long line.
+pub struct Progress {
+    tty: bool,
+    dirty: Cell<bool>,
+}
+
+impl Progress {
+    /// Progress on this process's stderr.
+    pub fn new() -> Self {
+        Progress {
+            tty: std::io::stderr().is_terminal(),
+            dirty: Cell::new(false),
+        }
+    }
+
+    /// Reports `message` (redrawn in place on a terminal).
+    pub fn line(&self, message: &str) {
+        if self.tty {
+            eprint!("\r\x1b[2K{message}");
+            self.dirty.set(true);
+        } else {
+            eprintln!("{message}");
+        }
+    }
+
+    /// Ends a line redrawn in place (nothing on a non-terminal).
+    pub fn finish(&self) {
+        if self.dirty.replace(false) {
+            eprintln!();
+        }
+    }
+}
+
+impl Default for Progress {
+    fn default() -> Self {
+        Progress::new()
+    }
+}
+
+impl Drop for Progress {
+    fn drop(&mut self) {
+        self.finish();
+    }
 }

@@ -32,7 +32,12 @@ pub struct PlanArgs {
     #[arg(long, required = true)]
     mesh: Option<PathBuf>,
     /// COLMAP sparse model directory (text or binary): the acquired cameras.
-    #[arg(long, required = true)]
+    #[arg(
+        long = "colmap",
+        alias = "cameras",
+        required = true,
+        value_name = "DIR"
+    )]
     cameras: Option<PathBuf>,
     /// Directory of confidence images: `<image name>.vpconf` (extension
     /// replaced) per image of the model. Without it: no prediction (NP).
@@ -54,14 +59,18 @@ pub struct PlanArgs {
 /// Options shared by `plan` and `plan grid`.
 #[derive(Debug, Args)]
 struct Common {
-    /// Region of interest as JSON (a vp-scene `Roi`: {"kind": "box", "min": [..], "max": [..]},
-    /// "polygon" or "image_polygon"). Default: the whole mesh.
-    #[arg(long, conflicts_with = "roi_box")]
-    roi: Option<PathBuf>,
+    /// Region of interest: inline JSON or a JSON file. One of
+    /// {"kind": "box", "min": [x, y, z], "max": [x, y, z]},
+    /// {"kind": "polygon", "polygon": [[x, y], ...], "z_min": z, "z_max": z}
+    /// or {"kind": "image_polygon", "camera": {...}, "polygon": [[u, v], ...]}
+    /// (metres, local ENU; pixels; docs/formats.md). Default: the whole mesh.
+    #[arg(long, conflicts_with = "roi_box", value_name = "JSON|FILE")]
+    roi: Option<String>,
     /// Region of interest box: xmin,ymin,zmin,xmax,ymax,zmax (metres).
     #[arg(long, allow_hyphen_values = true, value_parser = floats::<6>)]
     roi_box: Option<[f64; 6]>,
-    /// Planner configuration (TOML); `vpctl config --defaults` prints one.
+    /// Planner configuration (TOML; `vpctl config --defaults` prints one),
+    /// or a campaign config (`vpctl sim config`), whose `[planner]` section is used.
     #[arg(long)]
     config: Option<PathBuf>,
     /// WGS84 position of the local origin: lat,lon,alt (degrees, metres).
@@ -112,16 +121,16 @@ struct GridArgs {
     #[arg(long)]
     mesh: PathBuf,
     /// Height above the lowest point of the region of interest, metres.
-    #[arg(long, default_value_t = 50.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 50.0)]
     height: f64,
     /// Ground sampling distance (m/px) instead of a height.
-    #[arg(long, conflicts_with = "height")]
+    #[arg(long, allow_negative_numbers = true, conflicts_with = "height")]
     gsd: Option<f64>,
     /// Front and side overlap, in [0, 1).
-    #[arg(long, default_value_t = 0.8)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.8)]
     overlap: f64,
     /// Side overlap, if different from --overlap.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     side_overlap: Option<f64>,
     /// Camera pitch, degrees (-90 nadir).
     #[arg(long, default_value_t = -90.0, allow_negative_numbers = true)]
@@ -168,7 +177,7 @@ fn required<'a>(v: Option<&'a PathBuf>, flag: &str) -> Result<&'a Path> {
 impl Common {
     fn config(&self) -> Result<PlannerConfig> {
         Ok(match &self.config {
-            Some(p) => PlannerConfig::load(p)?,
+            Some(p) => load_planner_config(p)?,
             None => PlannerConfig::default(),
         })
     }
@@ -178,7 +187,7 @@ impl Common {
             return Ok(RoiSpec::Region(Roi::from_box(*b)?));
         }
         Ok(match &self.roi {
-            Some(path) => RoiSpec::Region(Roi::load(path)?),
+            Some(arg) => RoiSpec::Region(parse_roi(arg)?),
             None => RoiSpec::All,
         })
     }
@@ -193,6 +202,13 @@ impl Common {
     /// Refuses early, before any work, when an output exists.
     fn check_outputs(&self) -> Result<&Path> {
         let out = required(self.out.as_ref(), "--out")?;
+        super::check_extension(out, "--out", &["json"])?;
+        if let Some(p) = &self.ply {
+            super::check_extension(p, "--ply", &["ply"])?;
+        }
+        if let Some(p) = &self.png {
+            super::check_extension(p, "--png", &["png"])?;
+        }
         for p in [Some(out), self.ply.as_deref(), self.png.as_deref()]
             .into_iter()
             .flatten()
@@ -235,6 +251,33 @@ impl Common {
     }
 }
 
+/// `--roi`: inline JSON (starting with `{`) or the path of a JSON file.
+fn parse_roi(arg: &str) -> Result<Roi> {
+    if arg.trim_start().starts_with('{') {
+        return serde_json::from_str(arg).map_err(|e| {
+            super::UsageError(format!(
+                "--roi: column {}: not a region of interest ({{\"kind\": \"box\" | \
+                 \"polygon\" | \"image_polygon\", ...}}, see docs/formats.md): {e}",
+                e.column()
+            ))
+            .into()
+        });
+    }
+    Ok(Roi::load(Path::new(arg))?)
+}
+
+/// A planner config, or a campaign config's `[planner]` section (a file
+/// with a `[site]` or `[planner]` table), so that the config `sim fly
+/// --site` flies with plans with the same camera.
+pub fn load_planner_config(path: &Path) -> Result<PlannerConfig> {
+    let text = fsio::read_text(path)?;
+    let table: toml::Table = vp_scene::config_file::parse_toml(&text, path)?;
+    if table.contains_key("planner") || table.contains_key("site") {
+        return Ok(vp_sim::campaign::CampaignConfig::from_toml(&text, path)?.planner);
+    }
+    Ok(PlannerConfig::from_toml(&text, path)?)
+}
+
 /// ROI outline for the top view: the box or polygon, else the x/y bounds of `pts`.
 fn outline(roi: &RoiSpec, pts: impl Iterator<Item = Point3<f64>>) -> Vec<[f64; 2]> {
     match roi {
@@ -263,6 +306,40 @@ fn outline(roi: &RoiSpec, pts: impl Iterator<Item = Point3<f64>>) -> Vec<[f64; 2
     }
 }
 
+/// Refuses a confidence folder without any `.vpconf`, saying where they come from.
+fn check_confidence_dir(dir: &Path) -> Result<()> {
+    fn has_vpconf(dir: &Path, depth: usize) -> bool {
+        std::fs::read_dir(dir).is_ok_and(|entries| {
+            entries.flatten().any(|e| {
+                let p = e.path();
+                p.extension().is_some_and(|x| x == "vpconf")
+                    || (depth < 8 && p.is_dir() && has_vpconf(&p, depth + 1))
+            })
+        })
+    }
+    if !dir.is_dir() {
+        return Err(super::UsageError(format!(
+            "--confidence-dir {}: no such folder; write it with `vpctl predict --forest FOREST \
+             --out {} IMAGES` (the model's images), or leave --confidence-dir out to plan \
+             without prediction (NP)",
+            dir.display(),
+            dir.display()
+        ))
+        .into());
+    }
+    if !has_vpconf(dir, 0) {
+        return Err(super::UsageError(format!(
+            "--confidence-dir {}: no confidence images (.vpconf) in it; run `vpctl predict \
+             --forest FOREST --out {} IMAGES` on the model's images first, or leave \
+             --confidence-dir out to plan without prediction (NP)",
+            dir.display(),
+            dir.display()
+        ))
+        .into());
+    }
+    Ok(())
+}
+
 /// The acquired views of the model, its geodetic origin, and its tracks as
 /// observation rays (they carve the planner's observed-free space).
 fn load_acquired(
@@ -285,6 +362,9 @@ fn load_acquired(
         );
         Some(check.frame.origin)
     };
+    if let Some(dir) = conf_dir {
+        check_confidence_dir(dir)?;
+    }
     // Errors name the confidence file or the image; the context names the model.
     let views = vp_planner::acquired_from_model(&rec, conf_dir)
         .with_context(|| format!("acquired views of {}", model.display()))?;
@@ -299,7 +379,7 @@ fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
     let cfg = c.config()?;
     let mesh = io::read_mesh(required(args.mesh.as_ref(), "--mesh")?)?;
     let (acquired, model_origin, observations) = load_acquired(
-        required(args.cameras.as_ref(), "--cameras")?,
+        required(args.cameras.as_ref(), "--colmap")?,
         args.confidence_dir.as_deref(),
         args.frame_unchecked,
     )?;

@@ -1,13 +1,15 @@
 //! `vpctl scene ...`: procedural scenes.
 
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Result;
-use clap::{Subcommand, ValueEnum};
+use clap::Subcommand;
 use vp_scene::io::{self, MeshFormat};
 use vp_scene::procedural::{generate_site, SiteParams};
 use vp_scene::{fsio, Material};
+
+use super::UsageError;
 
 /// Scene subcommands.
 #[derive(Debug, Subcommand)]
@@ -17,34 +19,58 @@ pub enum SceneCommand {
     ///
     /// The same seed and face count give a byte-identical file.
     Generate {
-        /// Random seed.
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// Approximate number of faces (10k to 1M).
-        #[arg(long, default_value_t = 200_000)]
-        faces: usize,
-        /// Output mesh (.ply or .obj).
+        /// Random seed (default: the config's `site.seed`, else 1).
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Approximate number of faces, 5k to 20M (default: the config's
+        /// `site.target_faces`, else 200000).
+        #[arg(long)]
+        faces: Option<usize>,
+        /// Campaign config (TOML): the site is its `[site]` section
+        /// (`vpctl sim config > site.toml`), the world `vpctl sim fly --site`
+        /// flies in. `--seed` and `--faces` override it.
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Output mesh; the extension picks the file type (.ply or .obj).
         #[arg(long)]
         out: PathBuf,
-        /// Mesh encoding; PLY keeps the materials as a face property, OBJ as
-        /// `usemtl` groups.
-        #[arg(long, value_enum, default_value_t = Format::PlyBinary)]
-        format: Format,
+        /// Mesh encoding (default from the extension: binary PLY for .ply,
+        /// OBJ for .obj): ply-binary-le, ply-ascii, ply-binary-be or obj, the
+        /// names Python's `write_mesh(format=)` takes. PLY keeps the
+        /// materials as a face property, OBJ as `usemtl` groups.
+        #[arg(long, value_parser = parse_mesh_format)]
+        format: Option<MeshFormat>,
         /// Overwrite the output file if it exists.
         #[arg(long)]
         force: bool,
     },
 }
 
-/// Mesh encodings offered on the command line.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum Format {
-    /// Binary little-endian PLY.
-    PlyBinary,
-    /// ASCII PLY.
-    PlyAscii,
-    /// Wavefront OBJ.
-    Obj,
+/// A mesh encoding by its vp-scene name; `ply-binary` (the old spelling)
+/// is binary little-endian PLY.
+fn parse_mesh_format(s: &str) -> std::result::Result<MeshFormat, String> {
+    if s.eq_ignore_ascii_case("ply-binary") {
+        return Ok(MeshFormat::PlyBinaryLittleEndian);
+    }
+    s.parse::<MeshFormat>().map_err(|e| e.to_string())
+}
+
+/// The encoding of `path`: `format` if given (it must fit the extension),
+/// else the extension's usual one. The error names the extension.
+pub fn output_mesh_format(path: &Path, format: Option<MeshFormat>) -> Result<MeshFormat> {
+    let by_ext = MeshFormat::for_path(path)?;
+    match format {
+        None => Ok(by_ext),
+        Some(f) if f.file_type() == by_ext.file_type() => Ok(f),
+        Some(f) => Err(UsageError(format!(
+            "--format {f} does not fit the extension of {} (.{}): name the file .{} or drop \
+             --format",
+            path.display(),
+            by_ext.file_type().extension(),
+            f.file_type().extension()
+        ))
+        .into()),
+    }
 }
 
 pub fn run(cmd: SceneCommand, out: &mut dyn Write) -> Result<()> {
@@ -52,22 +78,27 @@ pub fn run(cmd: SceneCommand, out: &mut dyn Write) -> Result<()> {
         SceneCommand::Generate {
             seed,
             faces,
+            config,
             out: path,
             format,
             force,
         } => {
+            let format = output_mesh_format(&path, format)?;
             fsio::check_overwrite(&path, force)?;
-            let params = SiteParams {
-                seed,
-                target_faces: faces,
-                ..SiteParams::default()
+            let mut params = match &config {
+                Some(c) => vp_sim::campaign::CampaignConfig::load(c)?.site,
+                None => SiteParams {
+                    seed: 1,
+                    ..SiteParams::default()
+                },
             };
+            if let Some(s) = seed {
+                params.seed = s;
+            }
+            if let Some(f) = faces {
+                params.target_faces = f;
+            }
             let site = generate_site(&params)?;
-            let format = match format {
-                Format::PlyBinary => MeshFormat::PlyBinaryLittleEndian,
-                Format::PlyAscii => MeshFormat::PlyAscii,
-                Format::Obj => MeshFormat::Obj,
-            };
             io::write_mesh(&path, &site.mesh, format)?;
             let s = site.summary();
             writeln!(out, "wrote {}", path.display())?;

@@ -2,16 +2,17 @@
 //! `run` and `config` of closed-loop campaigns live in [`super::demo`]).
 
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use clap::Subcommand;
 use nalgebra::Point3;
 use vp_scene::colmap::write_depth_map;
 use vp_scene::procedural::{generate_site, SiteParams};
 use vp_scene::raster::save_rgb;
 use vp_scene::raycast::RayCaster;
-use vp_scene::{fsio, Camera, Intrinsics, Material};
+use vp_scene::{colmap, fsio, Camera, Intrinsics, Material};
+use vp_sim::flight::FlyOptions;
 use vp_sim::{render, RenderParams, SimError};
 
 /// Simulation subcommands.
@@ -40,7 +41,7 @@ pub enum SimCommand {
         #[arg(long, default_value_t = 768)]
         height: u32,
         /// Horizontal field of view in degrees.
-        #[arg(long, default_value_t = 60.0)]
+        #[arg(long, allow_negative_numbers = true, default_value_t = 60.0)]
         hfov: f64,
         /// Turn sun shadows off (faster).
         #[arg(long)]
@@ -65,6 +66,56 @@ pub enum SimCommand {
         config: PathBuf,
         #[command(flatten)]
         common: super::demo::CampaignArgs,
+    },
+    /// Fly plans in the simulated world: render each waypoint's image over
+    /// the site of a campaign config and write the images with the COLMAP
+    /// model SfM would give (PINHOLE cameras, poses with the config's SfM
+    /// noise or exact, sparse points: surface points seen by at least
+    /// `sfm.min_views` images, with their tracks) and its `frame.json`
+    /// (the site's geodetic origin), ready for `vpctl predict` and `vpctl
+    /// plan --colmap DIR/sparse`. Several plans fly one after the other
+    /// into one model (the acquired images so far).
+    ///
+    /// Writes DIR/images/<plan stem>_<index>.png and DIR/sparse/.
+    #[command(after_help = "Example: vpctl sim fly grid.json --site site.toml --out flight1")]
+    Fly {
+        /// Plan files (JSON from `vpctl plan` or `vpctl plan grid`), flown in order.
+        #[arg(required = true)]
+        plans: Vec<PathBuf>,
+        /// Campaign config (TOML) whose `[site]`, `[render]`, `[sfm]` and
+        /// `[planner.camera]` sections describe the world and the camera
+        /// (`vpctl sim config > site.toml`); missing keys take the demo's values.
+        #[arg(long, visible_alias = "config")]
+        site: PathBuf,
+        /// Output directory (images/, sparse/).
+        #[arg(long)]
+        out: PathBuf,
+        /// Exact poses and points (no SfM noise).
+        #[arg(long)]
+        exact: bool,
+        /// Model encoding, as COLMAP's `--output_type`: txt or bin.
+        #[arg(long, default_value = "txt", value_parser = ["txt", "bin"])]
+        output_type: String,
+        /// Largest number of sparse points.
+        #[arg(long, default_value_t = 20_000)]
+        max_points: usize,
+        /// Overwrite the output directory's files if they exist.
+        #[arg(long)]
+        force: bool,
+    },
+    /// Run only the training campaign of a config (training sites, random
+    /// triplets reconstructed by vp-mvs, labelgen labels) and save the
+    /// trained confidence forest, for `vpctl predict --forest`.
+    Train {
+        /// Campaign configuration (TOML); missing keys take the demo's values.
+        #[arg(long)]
+        config: PathBuf,
+        /// The forest file to write (.vpforest).
+        #[arg(long)]
+        out: PathBuf,
+        /// Overwrite the output if it exists.
+        #[arg(long)]
+        force: bool,
     },
     /// Print a complete campaign configuration (TOML, every key written out).
     Config {
@@ -113,6 +164,28 @@ fn camera(k: Intrinsics, from: [f64; 3], at: [f64; 3]) -> Result<Camera> {
 
 pub fn run(cmd: SimCommand, out: &mut dyn Write) -> Result<()> {
     match cmd {
+        SimCommand::Fly {
+            plans,
+            site,
+            out: dir,
+            exact,
+            output_type,
+            max_points,
+            force,
+        } => fly(
+            &plans,
+            &site,
+            &dir,
+            &FlyOptions { exact, max_points },
+            output_type == "bin",
+            force,
+            out,
+        ),
+        SimCommand::Train {
+            config,
+            out: path,
+            force,
+        } => train(&config, &path, force, out),
         SimCommand::Run { config, common } => {
             let cfg = vp_sim::campaign::CampaignConfig::load(&config)?;
             super::demo::run_config(&cfg, &common, out)
@@ -177,4 +250,106 @@ pub fn run(cmd: SimCommand, out: &mut dyn Write) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// `vpctl sim fly`.
+fn fly(
+    plans: &[PathBuf],
+    site: &Path,
+    dir: &Path,
+    opts: &FlyOptions,
+    binary: bool,
+    force: bool,
+    out: &mut dyn Write,
+) -> Result<()> {
+    let cfg = vp_sim::campaign::CampaignConfig::load(site)?;
+    let sparse = dir.join("sparse");
+    let images_dir = dir.join("images");
+    let model_files = if binary {
+        colmap::ModelFormat::Binary.files(&sparse)
+    } else {
+        colmap::ModelFormat::Text.files(&sparse)
+    };
+    for p in model_files.iter().chain([&sparse.join(colmap::FRAME_FILE)]) {
+        fsio::check_overwrite(p, force)?;
+    }
+    let mut loaded = Vec::with_capacity(plans.len());
+    for p in plans {
+        let plan = vp_scene::plan::Plan::load(p)?;
+        let label = p
+            .file_stem()
+            .map_or_else(|| "view".into(), |s| s.to_string_lossy().into_owned());
+        if loaded.iter().any(|(l, _)| *l == label) {
+            return Err(super::UsageError(format!(
+                "two plans are named {label}: image names would clash; rename one"
+            ))
+            .into());
+        }
+        loaded.push((label, plan));
+    }
+    let progress = super::Progress::new();
+    let flight = vp_sim::flight::fly(&cfg, &loaded, opts, &mut |m| progress.line(m))?;
+    std::fs::create_dir_all(&images_dir)
+        .with_context(|| format!("creating {}", images_dir.display()))?;
+    for (name, img) in &flight.images {
+        let p = images_dir.join(name);
+        fsio::check_overwrite(&p, force)?;
+        save_rgb(img, &p)?;
+    }
+    if binary {
+        colmap::write_binary(&sparse, &flight.model)?;
+    } else {
+        colmap::write_text(&sparse, &flight.model)?;
+    }
+    flight.frame.save(&sparse)?;
+    writeln!(
+        out,
+        "wrote {} images to {}",
+        flight.images.len(),
+        images_dir.display()
+    )?;
+    writeln!(
+        out,
+        "wrote {} ({} images, {} sparse points seen by >= {} images, {} poses)",
+        sparse.display(),
+        flight.model.images.len(),
+        flight.model.points.len(),
+        cfg.sfm.min_views.max(2),
+        if opts.exact { "exact" } else { "noisy" }
+    )?;
+    if flight.model.points.is_empty() {
+        eprintln!(
+            "warning: no surface point is seen by two images: `vpctl plan` will have nothing \
+             to plan on; fly with more overlap (plan grid --overlap)"
+        );
+    }
+    Ok(())
+}
+
+/// `vpctl sim train`.
+fn train(config: &Path, path: &Path, force: bool, out: &mut dyn Write) -> Result<()> {
+    fsio::check_overwrite(path, force)?;
+    let cfg = vp_sim::campaign::CampaignConfig::load(config)?;
+    let t0 = std::time::Instant::now();
+    let mut curves =
+        vp_sim::campaign::curves::CurveAccumulator::new(cfg.training.forest.bins.clone());
+    let mut say = |m: &str| eprintln!("[{:6.1} s] {m}", t0.elapsed().as_secs_f64());
+    let (forest, stats) = vp_sim::campaign::train_forest_with_stats(&cfg, &mut curves, &mut say)?;
+    forest
+        .save(path)
+        .with_context(|| format!("saving the forest to {}", path.display()))?;
+    writeln!(out, "wrote {}", path.display())?;
+    writeln!(
+        out,
+        "training: {} sites, {} triplets ({} with output), {} positive and {} negative \
+                 pixels",
+        stats.sites, stats.triplets, stats.successful_triplets, stats.positives, stats.negatives
+    )?;
+    if stats.positives == 0 || stats.negatives == 0 {
+        eprintln!(
+            "warning: the training labels hold only one class: the forest predicts a \
+                     constant; add training sites or triplets ([training] in the config)"
+        );
+    }
+    Ok(())
 }

@@ -369,7 +369,7 @@ pub struct FrameCheck {
 /// The error says which check failed and how to fix it.
 pub fn check_frame(dir: &Path, rec: &Reconstruction) -> Result<FrameCheck> {
     let frame_path: PathBuf = dir.join(FRAME_FILE);
-    let fix = "align it with `vpctl colmap align --model DIR --positions positions.csv --out \
+    let fix = "align it with `vpctl colmap align --colmap DIR --positions positions.csv --out \
                ALIGNED` (or pass --frame-unchecked if the model is already in metric, \
                gravity-aligned local ENU)";
     if !frame_path.is_file() {

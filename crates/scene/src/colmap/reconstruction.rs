@@ -12,7 +12,7 @@ pub(crate) fn distorted_message(cam: &ColmapCamera) -> String {
     format!(
         "camera {} is {} with lens distortion: vpctl plans, labels and predicts with \
          pinhole cameras and does not approximate a distorted one silently; undistort \
-         the model and images first: vpctl colmap undistort --model MODEL --images IMAGES \
+         the model and images first: vpctl colmap undistort --colmap MODEL --images IMAGES \
          --out WORKSPACE (then use WORKSPACE/sparse and WORKSPACE/images)",
         cam.id, cam.model
     )

@@ -39,6 +39,7 @@
 mod bins;
 mod confidence;
 mod label;
+mod text;
 
 use std::io::{Cursor, Write};
 use std::path::Path;
@@ -50,6 +51,7 @@ pub use bins::AngleBins;
 pub use confidence::ConfidenceImage;
 pub use image::RgbImage;
 pub use label::{Label, LabelImage};
+pub use text::{draw_text, text_width, GLYPH_PX};
 
 /// Format version of both binary raster formats.
 const FORMAT_VERSION: u32 = 1;

@@ -1,14 +1,12 @@
 //! PNG plots of the report, drawn with the `image` crate; titles, axis
-//! labels and legends in the 8 x 8 bitmap font of `font8x8` (no font files,
-//! no rasteriser).
+//! labels and legends in vp-scene's bitmap font ([`draw_text`]).
 
 use std::path::Path;
 
-use font8x8::{UnicodeFonts, BASIC_FONTS};
 use image::Rgb;
 use vp_planner::output::{render_top_view, TopView};
 use vp_scene::plan::Plan;
-use vp_scene::raster::{save_rgb, RgbImage};
+use vp_scene::raster::{draw_text, save_rgb, text_width, RgbImage, GLYPH_PX as GLYPH};
 
 use super::curves::ConfidenceCurve;
 use super::report::SiteArtifacts;
@@ -37,34 +35,12 @@ fn line(img: &mut RgbImage, a: (f64, f64), b: (f64, f64), c: Rgb<u8>) {
     }
 }
 
-/// Side of a glyph of the bitmap font, pixels.
-const GLYPH: i64 = 8;
 const BLACK: Rgb<u8> = Rgb([0, 0, 0]);
 const TRUTH: Rgb<u8> = Rgb([220, 40, 40]);
 const LEARNED: Rgb<u8> = Rgb([40, 70, 220]);
 
-/// Writes `s` with its top-left corner at (x, y); characters outside basic
-/// Latin are drawn as `?`.
 fn text(img: &mut RgbImage, x: i64, y: i64, s: &str, c: Rgb<u8>) {
-    for (k, ch) in s.chars().enumerate() {
-        let glyph = BASIC_FONTS
-            .get(ch)
-            .or_else(|| BASIC_FONTS.get('?'))
-            .unwrap_or([0; 8]);
-        let left = x + GLYPH * k as i64;
-        for (row, bits) in (0..).zip(glyph) {
-            for col in 0..GLYPH {
-                if bits >> col & 1 == 1 {
-                    put(img, left + col, y + row, c);
-                }
-            }
-        }
-    }
-}
-
-/// Width of `s` in pixels.
-fn text_width(s: &str) -> i64 {
-    GLYPH * s.chars().count() as i64
+    draw_text(img, x, y, s, c);
 }
 
 /// One material's learned (blue) and true (red) confidence over the angle,
@@ -219,29 +195,4 @@ pub fn write_site_plots(a: &SiteArtifacts, dir: &Path) -> Result<()> {
         save_rgb(&img, &dir.join(format!("fulfillment_{file}.png")))?;
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn text_draws_the_glyphs_bits_left_to_right() {
-        let mut img = RgbImage::from_pixel(20, 10, Rgb([255, 255, 255]));
-        text(&mut img, 1, 1, "1", BLACK);
-        let inked: Vec<(u32, u32)> = (0..10)
-            .flat_map(|y| (0..20).map(move |x| (x, y)))
-            .filter(|&(x, y)| img.get_pixel(x, y) == &BLACK)
-            .collect();
-        let glyph = BASIC_FONTS.get('1').unwrap();
-        let bits: u32 = glyph.iter().map(|b| b.count_ones()).sum();
-        assert_eq!(inked.len() as u32, bits);
-        // Every inked pixel is inside the glyph cell at (1, 1).
-        assert!(inked
-            .iter()
-            .all(|&(x, y)| (1..9).contains(&x) && (1..9).contains(&y)));
-        // Off-image text is clipped, not a panic.
-        text(&mut img, 15, 8, "WWW", BLACK);
-        text(&mut img, -30, -30, "x", BLACK);
-    }
 }

@@ -182,9 +182,11 @@ impl CampaignReport {
         self.rows.iter().find(|r| r.strategy == strategy)
     }
 
-    /// The table as Markdown (percent, mean ± std over held-out sites; the
+    /// The table as Markdown (percent, mean ± std over held-out sites;
+    /// the mean alone when there is one site, whose std says nothing; the
     /// clearance is the minimum and the violations the sum over sites).
     pub fn table_markdown(&self) -> String {
+        let one_site = self.config.held_out_seeds.len() == 1;
         let clearance = |m: f64| {
             if m.is_finite() {
                 format!("{m:.1}")
@@ -195,6 +197,8 @@ impl CampaignReport {
         let pm = |m: f64, s: f64| {
             if m.is_nan() {
                 "-".to_string()
+            } else if one_site {
+                format!("{m:.1}")
             } else {
                 format!("{m:.1} ± {s:.1}")
             }
@@ -222,6 +226,16 @@ impl CampaignReport {
             );
         }
         t
+    }
+
+    /// What the table's cells are: "Mean ± standard deviation over them" or,
+    /// for one site, "One site: no standard deviation".
+    pub fn table_caption(&self) -> &'static str {
+        if self.config.held_out_seeds.len() == 1 {
+            "One site: values of that site, no standard deviation"
+        } else {
+            "Mean ± standard deviation over them"
+        }
     }
 
     /// The table as CSV (one column per mean and per standard deviation).
@@ -358,8 +372,9 @@ fn fill(report: &CampaignReport, dir: &Path) -> Result<()> {
     let mut md = String::from("# vpctl campaign report\n\n");
     let _ = writeln!(
         md,
-        "Held-out sites (never trained on): {:?}. Mean ± standard deviation over them, percent.\n",
-        report.config.held_out_seeds
+        "Held-out sites (never trained on): {:?}. {}, percent.\n",
+        report.config.held_out_seeds,
+        report.table_caption()
     );
     md.push_str(&report.table_markdown());
     md.push_str("\n## Learned confidence against the MVS's measured success\n\n```\n");

@@ -250,7 +250,7 @@ pub fn train_forest_with_stats(
 }
 
 /// [`train_forest_with_stats`] without progress or statistics: the forest
-/// `vpctl demo --save-model` writes and `--model` reuses.
+/// `vpctl demo --save-forest` writes and `--forest` reuses.
 pub fn train_forest(cfg: &CampaignConfig) -> Result<Forest> {
     let mut curves = CurveAccumulator::new(cfg.training.forest.bins.clone());
     Ok(train_forest_with_stats(cfg, &mut curves, &mut |_| {})?.0)

@@ -81,7 +81,8 @@ pub struct Acquired {
     pub confidence: Option<ConfidenceImage>,
 }
 
-/// Seeded Gaussian noise of a 3D position, a pure function of the position.
+/// Seeded Gaussian noise of a 3D position, a pure function of the position
+/// (standard deviation `sigma` per axis).
 pub fn point_noise(seed: u64, p: &Point3<f64>, sigma: f64) -> Vector3<f64> {
     let q = |v: f64| (v * 1e4).round() as i64;
     let (a, b, c) = (q(p.x), q(p.y), q(p.z));

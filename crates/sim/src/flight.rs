@@ -1,0 +1,181 @@
+//! Flying a plan in the simulated world (`vpctl sim fly`): the images a
+//! drone would bring back and the COLMAP model SfM would make of them, so
+//! that the manual loop `scene generate -> plan grid -> sim fly -> predict
+//! -> plan -> sim fly` runs without a drone.
+//!
+//! The world is a campaign's site ([`CampaignConfig::site`], its own seed);
+//! the camera is the campaign's `planner.camera`; the lighting its `render`
+//! section. Poses and points are what the campaign's simulated SfM gives
+//! ([`world::sfm_camera`], [`world::point_noise`] with `sfm` noise), or
+//! exact. The sparse points are surface points (face centroids, thinned to
+//! at most [`FlyOptions::max_points`]) that at least `sfm.min_views` images
+//! see, each with its track, as SfM triangulates them.
+
+use nalgebra::Point3;
+use vp_labelgen::synthetic::sparse_model;
+use vp_scene::colmap::{ModelFrame, Reconstruction, Sim3};
+use vp_scene::plan::Plan;
+use vp_scene::raster::RgbImage;
+use vp_scene::Camera;
+
+use crate::campaign::world::{point_noise, sfm_camera, World};
+use crate::campaign::CampaignConfig;
+use crate::error::{Result, SimError};
+use crate::noise::mix64;
+use crate::render::render;
+
+/// Options of [`fly`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FlyOptions {
+    /// Exact poses and points instead of the campaign's SfM noise.
+    pub exact: bool,
+    /// Largest number of sparse points written (surface points are thinned
+    /// evenly to this many before the visibility test).
+    pub max_points: usize,
+}
+
+impl Default for FlyOptions {
+    fn default() -> Self {
+        FlyOptions {
+            exact: false,
+            max_points: 20_000,
+        }
+    }
+}
+
+/// What a flight brought back.
+pub struct Flight {
+    /// Image names (as in the model) and rendered images, in flight order.
+    pub images: Vec<(String, RgbImage)>,
+    /// The sparse model: PINHOLE cameras, SfM poses, sparse points.
+    pub model: Reconstruction,
+    /// The model's geodetic frame (`frame.json`): the site's origin,
+    /// identity transform (the model is already in the site's ENU frame).
+    pub frame: ModelFrame,
+    /// Sparse points with fewer than `min_views` views were left out; this
+    /// many surface points were candidates.
+    pub candidate_points: usize,
+}
+
+/// Renders every waypoint of `plans` (in order; image names
+/// `<label>_<index>.png` with the label given per plan) over the campaign
+/// site of `cfg` and builds the sparse model SfM would give. `progress`
+/// hears one line per rendered image.
+pub fn fly(
+    cfg: &CampaignConfig,
+    plans: &[(String, Plan)],
+    opts: &FlyOptions,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Flight> {
+    let n_views: usize = plans.iter().map(|(_, p)| p.waypoints.len()).sum();
+    if n_views == 0 {
+        return Err(SimError::InvalidArgument(
+            "the plans have no waypoints: nothing to fly".into(),
+        ));
+    }
+    let world = World::new(cfg, cfg.site.seed)?;
+    let k = world.intrinsics;
+    let mut rp = cfg.render.clone();
+    rp.texture_seed = world.site.params.seed;
+    let mut named: Vec<(String, Camera)> = Vec::with_capacity(n_views);
+    let mut images = Vec::with_capacity(n_views);
+    for (label, plan) in plans {
+        for (i, w) in plan.waypoints.iter().enumerate() {
+            let cam = w.to_camera(k);
+            let name = format!("{label}_{i:04}.png");
+            let r = render(&world.site.mesh, &world.caster, &cam, &rp)?;
+            progress(&format!("rendered {name} ({}/{n_views})", images.len() + 1));
+            images.push((name.clone(), r.rgb));
+            named.push((name, cam));
+        }
+    }
+    // Candidate surface points: face centroids, thinned evenly.
+    let mesh = &world.site.mesh;
+    let stride = mesh.n_faces().div_ceil(opts.max_points.max(1)).max(1);
+    let points: Vec<Point3<f64>> = (0..mesh.n_faces())
+        .step_by(stride)
+        .map(|f| mesh.face_centroid(f))
+        .collect();
+    let mut model = sparse_model(&named, &world.caster, &points);
+    let min_views = cfg.sfm.min_views.max(2);
+    model.points.retain(|_, p| p.track.len() >= min_views);
+    let kept: std::collections::BTreeSet<u64> = model.points.keys().copied().collect();
+    for img in model.images.values_mut() {
+        for p2 in &mut img.points2d {
+            if p2.point3d_id.is_some_and(|id| !kept.contains(&id)) {
+                p2.point3d_id = None;
+            }
+        }
+    }
+    if !opts.exact {
+        for (index, (img, (_, cam))) in model.images.values_mut().zip(&named).enumerate() {
+            img.cam_from_world = sfm_camera(cam, cfg, cfg.seed, index as u64).cam_from_world();
+        }
+        let sigma = cfg.sfm.point_noise_m;
+        if sigma > 0.0 {
+            let s = mix64(cfg.seed ^ 0x0073_7061_7273);
+            for p in model.points.values_mut() {
+                let n = point_noise(s, &p.xyz, sigma);
+                p.xyz += n;
+            }
+        }
+    }
+    let frame = ModelFrame {
+        origin: world.site.origin,
+        sim3: Sim3 {
+            scale: 1.0,
+            rotation_wxyz: [1.0, 0.0, 0.0, 0.0],
+            translation: [0.0; 3],
+        },
+        rms_m: 0.0,
+        residuals: Vec::new(),
+    };
+    Ok(Flight {
+        images,
+        model,
+        frame,
+        candidate_points: points.len(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vp_scene::plan::{PlannedView, Role};
+
+    fn nadir_plan(cfg: &CampaignConfig) -> Plan {
+        let mut plan = Plan::new(None);
+        let z = 20.0;
+        for (i, x) in [-4.0, 0.0, 4.0].into_iter().enumerate() {
+            let cam = Camera::from_yaw_pitch(
+                cfg.planner.camera.intrinsics(),
+                Point3::new(x, 0.0, z),
+                0.0,
+                -std::f64::consts::FRAC_PI_2,
+            );
+            let mut v = PlannedView::from_camera(&cam, Role::Grid);
+            v.triplet_id = Some(i as u32);
+            plan.waypoints.push(v);
+        }
+        plan
+    }
+
+    #[test]
+    fn a_flight_gives_one_image_per_waypoint_and_points_seen_twice() {
+        let cfg = CampaignConfig::quick();
+        let plan = nadir_plan(&cfg);
+        let f = fly(
+            &cfg,
+            &[("grid".into(), plan)],
+            &FlyOptions::default(),
+            &mut |_| {},
+        )
+        .unwrap();
+        assert_eq!(f.images.len(), 3);
+        assert_eq!(f.model.images.len(), 3);
+        assert!(f.model.points.len() > 100, "{}", f.model.points.len());
+        assert!(f.model.points.values().all(|p| p.track.len() >= 2));
+        f.model.validate().unwrap();
+        assert_eq!(f.model.images[&1].name, "grid_0000.png");
+    }
+}
