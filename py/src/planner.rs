@@ -301,6 +301,7 @@ fn plan(
                 roi,
                 config: &cfg,
                 origin,
+                observations: None,
             })
         })
         .py()?;
@@ -323,7 +324,6 @@ fn plan_grid(
     initial: bool,
     config: Option<&Bound<'_, PyAny>>,
     origin: Option<(f64, f64, f64)>,
-    observations: None,
 ) -> PyResult<PyPlan> {
     let cfg = self::config(config)?;
     let mesh = mesh_of(mesh)?;
