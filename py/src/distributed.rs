@@ -9,24 +9,15 @@
 
 use std::path::PathBuf;
 
-use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use vp_forest::{Forest, TrainParams, TrainedTree, TrainingPlan, TrainingSet};
 use vp_labelgen::{io, LabelParams, LabelSummary, MissingPartMeshes, TripletReconstruction};
-use vp_mvs::{MvsError, MvsParams};
+use vp_mvs::MvsParams;
 use vp_scene::colmap;
 
 use crate::convert;
 use crate::errors::{value_error, IntoPy};
 use crate::forest::PyForest;
-
-fn mvs_error(e: &MvsError) -> PyErr {
-    match e {
-        MvsError::Scene(s) => crate::errors::scene(s),
-        _ if e.is_input_error() => PyValueError::new_err(e.to_string()),
-        _ => PyRuntimeError::new_err(e.to_string()),
-    }
-}
 
 /// A training set loaded once per worker process from the layout `vpctl
 /// train` reads (images folder, label folder), from which any tree of a
@@ -136,7 +127,7 @@ fn mvs_image_set(
         let ws = vp_mvs::Workspace::open(&workspace)?;
         vp_mvs::run_image_set(&ws, &images, level, depth_range, &p, &out_dir, &mut |_| {})
     })
-    .map_err(|e| mvs_error(&e))
+    .map_err(|e| crate::errors::mvs(&e))
 }
 
 /// Every reconstruction of a labelling run (model, triplet list, depth-map

@@ -14,6 +14,7 @@ use pyo3::PyErr;
 use vp_forest::ForestError;
 use vp_labelgen::LabelgenError;
 use vp_mission::MissionError;
+use vp_mvs::MvsError;
 use vp_planner::PlannerError;
 use vp_scene::SceneError;
 use vp_sim::SimError;
@@ -143,6 +144,20 @@ into_py!(SimError, sim);
 /// A `TypeError` with `msg`.
 pub fn type_error(msg: impl Into<String>) -> PyErr {
     pyo3::exceptions::PyTypeError::new_err(msg.into())
+}
+
+/// Converts a vp-mvs error: file errors as vp-scene's, a missing file as
+/// `FileNotFoundError`, the user's other mistakes as `ValueError`.
+pub fn mvs(e: &MvsError) -> PyErr {
+    match e {
+        MvsError::Scene(s) => scene(s),
+        MvsError::Io { source, .. } => match source.kind() {
+            std::io::ErrorKind::NotFound => PyFileNotFoundError::new_err(message(e)),
+            _ => PyOSError::new_err(message(e)),
+        },
+        _ if e.is_input_error() => PyValueError::new_err(message(e)),
+        _ => PyRuntimeError::new_err(message(e)),
+    }
 }
 
 /// A `ValueError` with `msg`.

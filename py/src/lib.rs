@@ -1,7 +1,7 @@
 //! `vpctl._native`: the Python extension module of vpctl (pyo3).
 //!
 //! One submodule per crate (`scene`, `forest`, `labelgen`, `planner`,
-//! `mission`, `sim`), re-exported by the pure-Python package `vpctl`. The
+//! `mission`, `sim`, `mvs`), re-exported by the pure-Python package `vpctl`. The
 //! bindings convert arguments and results (numpy arrays, dicts through
 //! serde) and call the crates; they hold no algorithm of their own. Long
 //! calls release the GIL; every Rust error becomes a Python exception
@@ -21,6 +21,7 @@ mod errors;
 mod forest;
 mod labelgen;
 mod mission;
+mod mvs;
 mod planner;
 mod scene;
 mod sim;
@@ -51,6 +52,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     submodule(m, "planner", planner::register)?;
     submodule(m, "mission", mission::register)?;
     submodule(m, "sim", sim::register)?;
+    submodule(m, "mvs", mvs::register)?;
     submodule(m, "distributed", distributed::register)?;
     Ok(())
 }

@@ -10,7 +10,7 @@ import pytest
 
 import vpctl
 
-MODULES = ["scene", "forest", "labelgen", "planner", "mission", "sim"]
+MODULES = ["scene", "forest", "labelgen", "planner", "mission", "sim", "mvs"]
 DUNDERS = {"__init__", "__len__", "__getitem__", "__enter__", "__exit__"}
 
 

@@ -9,6 +9,8 @@ Python bindings of the vpctl Rust crates, one submodule per crate:
 - :mod:`vpctl.planner`: the paper's planner (M1-M4) and the grid baseline;
 - :mod:`vpctl.mission`: MAVLink missions, QGC export, upload/download, a simulated vehicle;
 - :mod:`vpctl.sim`: rendering and a virtual MVS;
+- :mod:`vpctl.mvs`: dense multi-view stereo on the CPU (PatchMatch) on a
+  COLMAP dense workspace or on triplets, the files ``vpctl mvs run`` writes;
 - :mod:`vpctl.distributed` (not imported here; needs the ``dask`` extra):
   triplet MVS, labels, training and prediction as Dask tasks.
 
@@ -17,7 +19,7 @@ Arrays are numpy; long calls release the GIL; Rust errors arrive as
 ``TimeoutError`` (no answer from a vehicle) or ``RuntimeError`` (a refused plan).
 """
 
-from vpctl import forest, labelgen, mission, planner, scene, sim
+from vpctl import forest, labelgen, mission, mvs, planner, scene, sim
 from vpctl._native import __version__
 
-__all__ = ["__version__", "forest", "labelgen", "mission", "planner", "scene", "sim"]
+__all__ = ["__version__", "forest", "labelgen", "mission", "mvs", "planner", "scene", "sim"]
