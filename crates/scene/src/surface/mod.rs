@@ -266,6 +266,30 @@ pub fn reconstruct_surface_with_report(
     Ok((mesh, report))
 }
 
+/// Samples from a COLMAP model's points: each seen from the centres of the
+/// images in its track (an image id the model lacks is skipped; a point left
+/// with no image keeps an empty `seen_from`, which [`reconstruct_surface`]
+/// refuses by name).
+pub fn samples_from_model(model: &crate::colmap::Reconstruction) -> Vec<SurfaceSample> {
+    model
+        .points
+        .values()
+        .map(|p| {
+            let mut ids: Vec<u32> = p.track.iter().map(|&(image, _)| image).collect();
+            ids.sort_unstable();
+            ids.dedup();
+            SurfaceSample {
+                position: p.xyz,
+                normal: None,
+                seen_from: ids
+                    .iter()
+                    .filter_map(|id| model.images.get(id).map(crate::colmap::ColmapImage::center))
+                    .collect(),
+            }
+        })
+        .collect()
+}
+
 /// Refuses what no method could mesh, naming the first sample at fault.
 fn check_samples(samples: &[SurfaceSample]) -> Result<()> {
     let err = |msg: String| Err(SceneError::Surface(msg));
