@@ -194,6 +194,8 @@ fn mesh_build_meshes_colmap_points_and_refuses_too_few() {
         out.to_str().unwrap(),
         "--max-edge",
         "10",
+        "--method",
+        "height-field",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stdout(&o).contains("points: 140"), "{}", stdout(&o));
@@ -220,6 +222,116 @@ fn mesh_build_meshes_colmap_points_and_refuses_too_few() {
     ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(!out2.exists());
+}
+
+/// A binary little-endian PLY in the layout of vp-mvs's fused.ply (x y z
+/// nx ny nz as float, red green blue as uchar).
+fn write_fused_ply(path: &Path, points: &[([f32; 3], [f32; 3])]) {
+    let mut bytes = format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\n\
+         property float y\nproperty float z\nproperty float nx\nproperty float ny\n\
+         property float nz\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n\
+         end_header\n",
+        points.len()
+    )
+    .into_bytes();
+    for (p, n) in points {
+        for v in p.iter().chain(n) {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+        bytes.extend_from_slice(&[128, 128, 128]);
+    }
+    std::fs::write(path, bytes).unwrap();
+}
+
+/// Faces of `mesh` whose centroid is within 1 m of the vertical axis and
+/// within 0.2 m of height `z`.
+fn faces_at(mesh: &vp_scene::Mesh, z: f64) -> usize {
+    (0..mesh.n_faces())
+        .filter(|&f| {
+            let c = mesh.face_centroid(f);
+            c.x.hypot(c.y) < 1.0 && (c.z - z).abs() < 0.2
+        })
+        .count()
+}
+
+#[test]
+fn mesh_build_keeps_ground_under_a_roof_from_fused_points_unlike_the_height_field() {
+    // Ground z = 0 over 16 m x 16 m, and a 6 m x 6 m slab at 3.8..4 m seen
+    // from above and below (a canopy), on the same x-y grid.
+    let mut pts = Vec::new();
+    for i in 0..=64 {
+        for j in 0..=64 {
+            let (x, y) = (-8.0 + 0.25 * i as f32, -8.0 + 0.25 * j as f32);
+            pts.push(([x, y, 0.0], [0.0, 0.0, 1.0]));
+            if x.abs() <= 3.0 && y.abs() <= 3.0 {
+                pts.push(([x, y, 4.0], [0.0, 0.0, 1.0]));
+                pts.push(([x, y, 3.8], [0.0, 0.0, -1.0]));
+            }
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let fused = dir.path().join("fused.ply");
+    write_fused_ply(&fused, &pts);
+    let build = |method: &str, out: &Path| {
+        vpctl(&[
+            "mesh",
+            "build",
+            "--points",
+            fused.to_str().unwrap(),
+            "--method",
+            method,
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
+    let out3d = dir.path().join("imls.ply");
+    let o = build("imls", &out3d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("normals: 5475 given, 0 estimated"),
+        "{}",
+        stdout(&o)
+    );
+    let mesh = vp_scene::io::read_mesh(&out3d).unwrap();
+    assert!(faces_at(&mesh, 0.0) > 10, "no ground under the roof");
+    assert!(faces_at(&mesh, 4.0) > 10, "no roof");
+
+    let out25 = dir.path().join("hf.ply");
+    let o = build("height-field", &out25);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mesh = vp_scene::io::read_mesh(&out25).unwrap();
+    assert_eq!(
+        faces_at(&mesh, 0.0),
+        0,
+        "a height field keeps the highest point"
+    );
+    assert!(faces_at(&mesh, 4.0) > 10);
+
+    // Points without normals and without cameras: a 3D surface cannot
+    // orient them. Exit 2, the file named, no output.
+    let obj = dir.path().join("pts.obj");
+    let mut text = String::new();
+    for (p, _) in &pts {
+        writeln!(text, "v {} {} {}", p[0], p[1], p[2]).unwrap();
+    }
+    std::fs::write(&obj, text).unwrap();
+    let out = dir.path().join("none.ply");
+    let o = vpctl(&[
+        "mesh",
+        "build",
+        "--points",
+        obj.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("pts.obj: point 0 has no normal"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.exists());
 }
 
 #[test]

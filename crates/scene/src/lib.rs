@@ -5,7 +5,8 @@
 //! ([`io`] for PLY/OBJ, [`colmap`] for COLMAP models and depth maps), ray
 //! casting for visibility ([`raycast`], obvhs CWBVH), clearance to obstacles
 //! ([`clearance`], parry3d), the mesh operations of the paper
-//! ([`mesh_ops`]), triangulation angle and uncertainty ([`triangulation`]),
+//! ([`mesh_ops`]), 2.5D and 3D surface reconstruction from points
+//! ([`height_field`], [`surface`]), triangulation angle and uncertainty ([`triangulation`]),
 //! raster types ([`raster`]), the plan file ([`plan`]) and
 //! deterministic procedural scenes ([`procedural`]) that feed every crate's
 //! tests and the simulator.

@@ -7,7 +7,24 @@ use anyhow::Result;
 use clap::Subcommand;
 use vp_scene::height_field::{mesh_from_points, MeshingParams};
 use vp_scene::io::{self, MeshFormat};
-use vp_scene::{colmap, fsio, Material};
+use vp_scene::surface::{
+    reconstruct_surface_with_report, samples_from_model, SurfaceParams, SurfaceSample,
+    SurfaceSolver,
+};
+use vp_scene::{colmap, fsio, Material, Mesh};
+
+/// How `vpctl mesh build` meshes the points.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Method {
+    /// 3D surface, implicit moving least squares: ground under canopies and
+    /// overhangs where they were seen. Needs normals or visibility.
+    Imls,
+    /// 3D surface, screened Poisson: for small scenes (slow beyond ~30 m at
+    /// 0.5 m cells).
+    Poisson,
+    /// 2.5D height field (Delaunay in x-y, highest point kept): open terrain.
+    HeightField,
+}
 
 /// Mesh subcommands.
 #[derive(Debug, Subcommand)]
@@ -21,31 +38,152 @@ pub enum MeshCommand {
         /// The mesh file (.ply or .obj).
         file: PathBuf,
     },
-    /// Build a 2.5D surface mesh (height field, Delaunay in x-y) from sparse
-    /// points: a COLMAP model's points3D or the vertices of a PLY/OBJ file.
+    /// Build a surface mesh from points: a COLMAP model's points3D (seen from
+    /// the centres of the images in their tracks) and/or a point file (.ply
+    /// or .obj vertices; a PLY's `nx ny nz` are used as normals, as in
+    /// vp-mvs's and COLMAP's `fused.ply`).
     ///
-    /// Spikes (points far from their neighbours' heights) are removed and faces
-    /// with an edge longer than --max-edge are dropped, so unseen gaps stay
-    /// open. Where points stack (canopy over ground) the highest is kept.
-    /// The points must be in a z-up frame (local ENU): align a COLMAP model
-    /// first (e.g. `colmap model_orientation_aligner` or georegistration).
+    /// The default method (imls) builds a 3D surface: ground under a canopy
+    /// is kept when it was seen. Faces farther than the trim distance from
+    /// every point are dropped, so unseen gaps stay open. `--method
+    /// height-field` builds the 2.5D mesh (spikes removed, faces longer than
+    /// --max-edge dropped; where points stack the highest is kept). The points
+    /// must be in a z-up frame (local ENU): align a COLMAP model first (e.g.
+    /// `colmap model_orientation_aligner` or georegistration).
     Build {
         /// A COLMAP sparse model directory (text or binary).
-        #[arg(long, conflicts_with = "points", required_unless_present = "points")]
+        #[arg(long, required_unless_present = "points")]
         colmap: Option<PathBuf>,
-        /// A point file (.ply or .obj; only its vertices are used).
+        /// A point file (.ply or .obj; only its vertices, and a PLY's vertex
+        /// normals, are used).
         #[arg(long)]
         points: Option<PathBuf>,
         /// Output mesh (.ply or .obj).
         #[arg(long)]
         out: PathBuf,
-        /// Longest allowed face edge, metres.
+        /// Meshing method.
+        #[arg(long, value_enum, default_value_t = Method::Imls)]
+        method: Method,
+        /// 3D methods: side of the grid cells the surface is extracted on, metres.
+        #[arg(long, allow_negative_numbers = true, default_value_t = SurfaceParams::default().cell_size)]
+        cell_size: f64,
+        /// 3D methods: drop faces farther than this from every point, metres
+        /// (default: 3 times the larger of the point spacing and the cell).
+        #[arg(long, allow_negative_numbers = true)]
+        trim_distance: Option<f64>,
+        /// Height field: longest allowed face edge, metres.
         #[arg(long, allow_negative_numbers = true, default_value_t = MeshingParams::default().max_edge)]
         max_edge: f64,
         /// Overwrite the output file if it exists.
         #[arg(long)]
         force: bool,
     },
+}
+
+/// Samples from the inputs; errors name the file.
+fn load_samples(
+    colmap_dir: Option<&std::path::Path>,
+    points: Option<&std::path::Path>,
+) -> Result<Vec<SurfaceSample>> {
+    let mut samples = Vec::new();
+    if let Some(dir) = colmap_dir {
+        samples.extend(samples_from_model(&colmap::read_model(dir)?));
+    }
+    if let Some(file) = points {
+        let (pts, normals) = io::load_points_with_normals(file)?;
+        let normals: Vec<Option<nalgebra::Vector3<f64>>> = match normals {
+            Some(n) => n.into_iter().map(Some).collect(),
+            None => vec![None; pts.len()],
+        };
+        samples.extend(
+            pts.into_iter()
+                .zip(normals)
+                .map(|(position, normal)| SurfaceSample {
+                    position,
+                    normal,
+                    seen_from: Vec::new(),
+                }),
+        );
+    }
+    Ok(samples)
+}
+
+fn build_3d(
+    samples: &[SurfaceSample],
+    points: Option<&std::path::Path>,
+    params: &SurfaceParams,
+    out: &mut dyn Write,
+) -> Result<Mesh> {
+    if let (Some(file), Some(i)) = (
+        points,
+        samples
+            .iter()
+            .position(|s| s.normal.is_none() && s.seen_from.is_empty()),
+    ) {
+        return Err(super::UsageError(format!(
+            "{}: point {i} has no normal (no 'nx ny nz' vertex properties?) and no camera saw \
+             it: a 3D surface needs one or the other; give a fused.ply with normals, a COLMAP \
+             model (--colmap), or use --method height-field",
+            file.display()
+        ))
+        .into());
+    }
+    let (mesh, r) = reconstruct_surface_with_report(samples, params)?;
+    writeln!(out, "points: {}", r.samples)?;
+    writeln!(
+        out,
+        "normals: {} given, {} estimated from neighbours and cameras",
+        r.samples - r.estimated_normals,
+        r.estimated_normals
+    )?;
+    writeln!(
+        out,
+        "spacing: {:.3} m; cell {:.3} m; trim distance {:.3} m",
+        r.spacing, r.leaf, r.trim_distance
+    )?;
+    writeln!(
+        out,
+        "faces: {} ({} far from the points and {} in small pieces dropped)",
+        mesh.n_faces(),
+        r.trimmed_faces,
+        r.small_piece_faces
+    )?;
+    Ok(mesh)
+}
+
+fn build_height_field(
+    samples: &[SurfaceSample],
+    max_edge: f64,
+    out: &mut dyn Write,
+) -> Result<Mesh> {
+    let pts: Vec<_> = samples.iter().map(|s| s.position).collect();
+    let params = MeshingParams {
+        max_edge,
+        ..MeshingParams::default()
+    };
+    let (mesh, report) = mesh_from_points(&pts, &params)?;
+    if mesh.n_faces() == 0 {
+        return Err(super::UsageError(format!(
+            "no surface could be built from {} points (need at least 3 spread in x-y \
+             within --max-edge {max_edge} m)",
+            report.input_points
+        ))
+        .into());
+    }
+    writeln!(out, "points: {}", report.input_points)?;
+    writeln!(
+        out,
+        "dropped: {} non-finite, {} stacked, {} spikes",
+        report.non_finite, report.merged, report.spikes
+    )?;
+    writeln!(
+        out,
+        "faces: {} ({} longer than {max_edge} m and {} slivers dropped)",
+        mesh.n_faces(),
+        report.long_faces,
+        report.slivers
+    )?;
+    Ok(mesh)
 }
 
 pub fn run(cmd: MeshCommand, out: &mut dyn Write) -> Result<()> {
@@ -55,47 +193,32 @@ pub fn run(cmd: MeshCommand, out: &mut dyn Write) -> Result<()> {
             colmap,
             points,
             out: path,
+            method,
+            cell_size,
+            trim_distance,
             max_edge,
             force,
         } => {
             fsio::check_overwrite(&path, force)?;
             let format = MeshFormat::for_path(&path)?;
-            let pts = match (colmap, points) {
-                (Some(dir), _) => colmap::read_model(&dir)?
-                    .points
-                    .values()
-                    .map(|p| p.xyz)
-                    .collect(),
-                (None, Some(file)) => io::load_mesh_raw(&file)?.vertices,
-                (None, None) => unreachable!("clap requires one of --colmap and --points"),
+            let samples = load_samples(colmap.as_deref(), points.as_deref())?;
+            let mesh = match method {
+                Method::HeightField => build_height_field(&samples, max_edge, out)?,
+                Method::Imls | Method::Poisson => {
+                    let params = SurfaceParams {
+                        solver: if method == Method::Poisson {
+                            SurfaceSolver::Poisson
+                        } else {
+                            SurfaceSolver::Imls
+                        },
+                        cell_size,
+                        trim_distance,
+                        ..SurfaceParams::default()
+                    };
+                    build_3d(&samples, points.as_deref(), &params, out)?
+                }
             };
-            let params = MeshingParams {
-                max_edge,
-                ..MeshingParams::default()
-            };
-            let (mesh, report) = mesh_from_points(&pts, &params)?;
-            if mesh.n_faces() == 0 {
-                return Err(super::UsageError(format!(
-                    "no surface could be built from {} points (need at least 3 spread in x-y \
-                     within --max-edge {max_edge} m)",
-                    report.input_points
-                ))
-                .into());
-            }
             io::write_mesh(&path, &mesh, format)?;
-            writeln!(out, "points: {}", report.input_points)?;
-            writeln!(
-                out,
-                "dropped: {} non-finite, {} stacked, {} spikes",
-                report.non_finite, report.merged, report.spikes
-            )?;
-            writeln!(
-                out,
-                "faces: {} ({} longer than {max_edge} m and {} slivers dropped)",
-                mesh.n_faces(),
-                report.long_faces,
-                report.slivers
-            )?;
             writeln!(out, "wrote {}", path.display())?;
             Ok(())
         }

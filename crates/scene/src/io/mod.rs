@@ -27,6 +27,8 @@ use std::io::Write;
 use std::path::Path;
 use std::str::FromStr;
 
+use nalgebra::{Point3, Vector3};
+
 use crate::error::{Location, Result, SceneError};
 use crate::fsio;
 use crate::mesh::Mesh;
@@ -215,6 +217,24 @@ pub fn parse_mesh(bytes: &[u8], file_type: FileType, origin: &Path) -> Result<Me
     match validate::first_problem(&mut mesh) {
         None => Ok(mesh),
         Some(problem) => Err(validate::error(&problem, &mesh, bytes, file_type, origin)),
+    }
+}
+
+/// Points of a point file (PLY or OBJ; faces ignored) with their normals:
+/// `Some` with one per point when the file is a PLY with vertex properties
+/// `nx ny nz` (vp-mvs's and COLMAP's `fused.ply`), else `None`. Only format
+/// errors are reported; coordinates may be non-finite.
+#[allow(clippy::type_complexity)] // (points, normals) reads better than a one-use struct
+pub fn load_points_with_normals(
+    path: &Path,
+) -> Result<(Vec<Point3<f64>>, Option<Vec<Vector3<f64>>>)> {
+    let bytes = fsio::read_file(path)?;
+    match FileType::from_path(path)? {
+        FileType::Ply => {
+            let (mesh, normals) = ply::parse_with_normals(&bytes, path)?;
+            Ok((mesh.vertices, normals))
+        }
+        FileType::Obj => Ok((obj::parse(&bytes, path)?.vertices, None)),
     }
 }
 

@@ -1,5 +1,6 @@
-//! 3D surface reconstruction from observed points: screened Poisson on
-//! oriented samples, trimmed to where the data is.
+//! 3D surface reconstruction from observed points: an implicit surface
+//! (IMLS by default, or screened Poisson) on oriented samples, trimmed to
+//! where the data is.
 //!
 //! Unlike the 2.5D [`height_field`](crate::height_field), this represents
 //! two surfaces above one another (ground under a canopy, an overhang), as
@@ -13,19 +14,22 @@
 //! 2. normals: the sample's own, else the least-variance axis of its
 //!    [`SurfaceParams::normal_neighbours`] nearest samples, signed towards
 //!    the mean direction to its observing cameras;
-//! 3. screened Poisson (the `poisson_reconstruction` crate) at
-//!    [`SurfaceParams::cell_size`];
-//! 4. marching cubes of our own over the cells near samples only, in a fixed
-//!    order, so the result is the same bytes for the same input;
+//! 3. the implicit function of [`SurfaceParams::solver`]: IMLS (default) or
+//!    screened Poisson (the `poisson_reconstruction` crate, slow beyond a
+//!    ~30 m extent: see [`SurfaceSolver::Poisson`]);
+//! 4. marching cubes of our own on a [`SurfaceParams::cell_size`] grid, over
+//!    the cells near samples only, in a fixed order, so the result is the
+//!    same bytes for the same input;
 //! 5. trim: faces whose centroid is farther than the trim distance from every
 //!    sample are dropped (Poisson closes the surface and invents faces far
 //!    from the data), then connected pieces smaller than
 //!    [`SurfaceParams::min_component_faces`] faces.
 //!
 //! # Performance
-//! Near-linear in the samples; rayon parallelises normals, the implicit
-//! function's evaluation and trimming. About 1-2 s for 30k samples over a
-//! 60 m site at 0.5 m cells (see `docs/surface-reconstruction.md`).
+//! With IMLS, near-linear in the samples; rayon parallelises normals, the
+//! implicit function's evaluation and trimming. 5-12 s for 60k samples over
+//! a 60 m site at 0.5 m cells on a loaded 2-core machine (see
+//! `docs/surface-reconstruction.md`).
 
 mod extract;
 mod grid;
@@ -77,21 +81,22 @@ pub enum SurfaceSolver {
 pub struct SurfaceParams {
     /// The implicit function meshed: `imls` (default) or `poisson`.
     pub solver: SurfaceSolver,
-    /// Side of the finest Poisson cell, metres (upper bound: the octree depth
-    /// is the smallest whose leaf is at most this). Smaller: more detail,
-    /// needs denser samples, costs more.
+    /// Side of the marching-cubes cell, metres (Poisson: an upper bound, the
+    /// octree depth is the smallest whose leaf is at most this). Smaller:
+    /// more detail, needs denser samples, costs more.
     pub cell_size: f64,
-    /// Cap on the octree depth (the leaf is the samples' extent / 2^depth).
+    /// Poisson: cap on the octree depth (the leaf is the samples' extent /
+    /// 2^depth).
     pub max_depth: usize,
-    /// Sample density is estimated this many levels above the finest: more
+    /// Poisson: sample density is estimated this many levels above the finest: more
     /// levels smooth over holes and uneven sampling.
     pub density_levels: usize,
-    /// Screening weight of the samples' positions (0 = plain Poisson, the
+    /// Poisson: screening weight of the samples' positions (0 = plain Poisson, the
     /// default: the crate's screened solve visits every point of the 27
     /// cells around each of 125 neighbours of each node, so on coarse levels,
     /// where a cell holds thousands of points, it takes minutes).
     pub screening: f64,
-    /// Conjugate-gradient iterations per octree level.
+    /// Poisson: conjugate-gradient iterations per octree level.
     pub solver_iterations: usize,
     /// IMLS: samples weighed at each point of space.
     pub field_neighbours: usize,
@@ -103,7 +108,7 @@ pub struct SurfaceParams {
     pub normal_neighbours: usize,
     /// Faces whose centroid is farther than this from every sample are
     /// dropped (metres). `None`: `trim_spacing_factor` times the larger of the
-    /// median sample spacing and the Poisson leaf.
+    /// median sample spacing and the cell.
     pub trim_distance: Option<f64>,
     /// See `trim_distance`.
     pub trim_spacing_factor: f64,
@@ -200,9 +205,9 @@ pub struct SurfaceReport {
     pub estimated_normals: usize,
     /// Median distance from a sample to its nearest other sample, metres.
     pub spacing: f64,
-    /// Octree depth used.
+    /// Octree depth used (Poisson; 0 for IMLS).
     pub depth: usize,
-    /// Side of the finest cell, metres.
+    /// Side of the marching-cubes cell, metres.
     pub leaf: f64,
     /// Trim distance used, metres.
     pub trim_distance: f64,
@@ -264,6 +269,30 @@ pub fn reconstruct_surface_with_report(
         small_piece_faces: before_pieces - mesh.faces.len(),
     };
     Ok((mesh, report))
+}
+
+/// Samples from a COLMAP model's points: each seen from the centres of the
+/// images in its track (an image id the model lacks is skipped; a point left
+/// with no image keeps an empty `seen_from`, which [`reconstruct_surface`]
+/// refuses by name).
+pub fn samples_from_model(model: &crate::colmap::Reconstruction) -> Vec<SurfaceSample> {
+    model
+        .points
+        .values()
+        .map(|p| {
+            let mut ids: Vec<u32> = p.track.iter().map(|&(image, _)| image).collect();
+            ids.sort_unstable();
+            ids.dedup();
+            SurfaceSample {
+                position: p.xyz,
+                normal: None,
+                seen_from: ids
+                    .iter()
+                    .filter_map(|id| model.images.get(id).map(crate::colmap::ColmapImage::center))
+                    .collect(),
+            }
+        })
+        .collect()
 }
 
 /// Refuses what no method could mesh, naming the first sample at fault.

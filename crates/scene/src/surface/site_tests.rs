@@ -6,7 +6,7 @@
 //! an oblique flight see them (in frame, unoccluded), with 2 cm noise.
 //!
 //! The figures of `docs/surface-reconstruction.md` come from
-//! `cargo test --release -p vp-scene surface_figures -- --ignored --nocapture`.
+//! `cargo test -p vp-scene --lib surface_figures -- --ignored --nocapture`.
 
 use std::time::Instant;
 
@@ -343,7 +343,7 @@ fn surface_from_points_with_normals_is_accurate() {
 
 /// Prints the table of `docs/surface-reconstruction.md`.
 #[test]
-#[ignore = "measurement: about a minute in release; run with --ignored --nocapture"]
+#[ignore = "measurement: a few minutes; run with --ignored --nocapture"]
 fn surface_figures() {
     println!(
         "| site seed | points | method | mean (m) | p95 (m) | mean bare (m) | p95 bare (m) | under canopy | ground + canopy above | trees | seen surface | faces | time (s) |"
@@ -357,7 +357,7 @@ fn surface_figures() {
         let t = Instant::now();
         let hf = height_field(&obs);
         let t_hf = t.elapsed().as_secs_f64();
-        for (name, m, secs) in [("poisson", &mesh, t_ours), ("height field", &hf, t_hf)] {
+        for (name, m, secs) in [("imls (3D)", &mesh, t_ours), ("height field", &hf, t_hf)] {
             let f = figures(&obs, m, 0.5);
             println!(
                 "| {seed} | {} | {name} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {} | {secs:.2} |",

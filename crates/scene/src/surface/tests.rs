@@ -196,3 +196,20 @@ fn bad_parameters_are_refused_by_name() {
     let e = toml::from_str::<SurfaceParams>("cell_sise = 1.0").unwrap_err();
     assert!(e.to_string().contains("cell_sise"), "{e}");
 }
+
+#[test]
+fn poisson_solver_meshes_a_small_sphere() {
+    // Depth 4 (8 m extent at 0.5 m): the crate is quick at small depths.
+    let samples = sphere(1500, 4.0);
+    let params = SurfaceParams {
+        solver: SurfaceSolver::Poisson,
+        ..SurfaceParams::default()
+    };
+    let (mesh, report) = reconstruct_surface_with_report(&samples, &params).unwrap();
+    assert_eq!(report.depth, 4);
+    let err = max_vertex_error(&mesh, |p| (p.coords.norm() - 4.0).abs());
+    assert!(err < 0.3, "vertex off the sphere by {err} m");
+    let area: f64 = mesh.face_areas().iter().sum();
+    let want = 4.0 * std::f64::consts::PI * 16.0;
+    assert!((area - want).abs() < 0.15 * want, "area {area} vs {want}");
+}

@@ -6,8 +6,6 @@
 
 use std::path::Path;
 
-use nalgebra::Point3;
-
 use super::header::{Header, Kind, Scalar};
 use super::{Builder, Plan, Role};
 use crate::error::{Location, Result, SceneError};
@@ -57,7 +55,7 @@ pub(super) fn read(
                 SceneError::parse(path, Location::Line(n), format!("{} {i}: {msg}", el.name))
             };
             let mut tokens = text::tokens(line);
-            let mut xyz = [0.0f64; 3];
+            let mut vals = [0.0f64; 6]; // x y z nx ny nz
             let mut material = None;
             let first_triangle = out.faces.len();
             for (prop, &role) in el.props.iter().zip(roles) {
@@ -68,8 +66,8 @@ pub(super) fn read(
                     // Skipped scalars are only counted, not parsed: they
                     // cannot change the mesh.
                     Kind::Scalar(t) => match role {
-                        Role::Coord(k) => {
-                            xyz[k] = value(t, token)
+                        Role::Coord(k) | Role::Normal(k) => {
+                            vals[k + role.normal_offset()] = value(t, token)
                                 .ok_or_else(|| at(bad_value(token, t, &prop.name)))?;
                         }
                         Role::Material => {
@@ -113,7 +111,7 @@ pub(super) fn read(
                 )));
             }
             if is_vertex {
-                out.vertices.push(Point3::from(xyz));
+                out.vertex(vals);
             }
             if let Some(id) = material {
                 out.face_material(id).map_err(at)?;

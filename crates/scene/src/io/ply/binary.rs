@@ -6,8 +6,6 @@
 
 use std::path::Path;
 
-use nalgebra::Point3;
-
 use super::header::{Element, Header, Kind, Property, Scalar};
 use super::{Builder, Plan, Role};
 use crate::error::{Location, Result, SceneError};
@@ -126,7 +124,7 @@ pub(super) fn read<O: Order>(
                 byte: Some(start as u64),
             };
             let at = |msg: String| SceneError::parse(path, location(), msg);
-            let mut xyz = [0.0f64; 3];
+            let mut vals = [0.0f64; 6]; // x y z nx ny nz
             let mut material = None;
             let first_triangle = out.faces.len();
             for (prop, &role) in el.props.iter().zip(roles) {
@@ -135,7 +133,9 @@ pub(super) fn read<O: Order>(
                         let b = take(bytes, &mut pos, t.size())
                             .ok_or_else(|| at(ends_inside(prop, bytes.len())))?;
                         match role {
-                            Role::Coord(k) => xyz[k] = float::<O>(t, b),
+                            Role::Coord(k) | Role::Normal(k) => {
+                                vals[k + role.normal_offset()] = float::<O>(t, b);
+                            }
                             Role::Material => material = Some(int::<O>(t, b)),
                             Role::Skip | Role::Indices => {}
                         }
@@ -168,7 +168,7 @@ pub(super) fn read<O: Order>(
                 }
             }
             if is_vertex {
-                out.vertices.push(Point3::from(xyz));
+                out.vertex(vals);
             }
             if let Some(id) = material {
                 out.face_material(id).map_err(at)?;

@@ -13,7 +13,7 @@ mod write;
 
 use std::path::Path;
 
-use nalgebra::Point3;
+use nalgebra::{Point3, Vector3};
 
 use self::header::{Element, Encoding, Header, Kind};
 use super::{Found, Target};
@@ -32,6 +32,20 @@ enum Role {
     Indices,
     /// The face's material id.
     Material,
+    /// Vertex normal component 0 (nx), 1 (ny) or 2 (nz).
+    Normal(usize),
+}
+
+impl Role {
+    /// 3 for a normal component, 0 otherwise: where a vertex scalar goes in
+    /// `[x, y, z, nx, ny, nz]` is `k + normal_offset()`.
+    fn normal_offset(self) -> usize {
+        if matches!(self, Role::Normal(_)) {
+            3
+        } else {
+            0
+        }
+    }
 }
 
 /// Which element is which, and the role of each property.
@@ -63,6 +77,18 @@ fn plan(header: &Header, path: &Path) -> Result<Plan> {
             return Err(err(format!("vertex property '{axis}' is a list")));
         }
         roles[vertex][p] = Role::Coord(k);
+    }
+    // Normals (nx, ny, nz; vp-mvs's and COLMAP's fused.ply): all three
+    // scalars or none used.
+    let el = &header.elements[vertex];
+    let normal = ["nx", "ny", "nz"].map(|n| {
+        el.property(n)
+            .filter(|&p| matches!(el.props[p].kind, Kind::Scalar(_)))
+    });
+    if let [Some(x), Some(y), Some(z)] = normal {
+        for (k, p) in [x, y, z].into_iter().enumerate() {
+            roles[vertex][p] = Role::Normal(k);
+        }
     }
     if let Some(f) = face {
         let el = &header.elements[f];
@@ -101,6 +127,7 @@ struct Builder {
     vertices: Vec<Point3<f64>>,
     faces: Vec<[u32; 3]>,
     materials: Option<Vec<Material>>,
+    normals: Option<Vec<Vector3<f64>>>,
     target: Option<Target>,
 }
 
@@ -117,6 +144,9 @@ impl Builder {
             vertices: Vec::with_capacity(cap(&header.elements[plan.vertex])),
             faces: Vec::with_capacity(face_cap),
             materials: has_material.then(|| Vec::with_capacity(face_cap)),
+            normals: plan.roles[plan.vertex]
+                .contains(&Role::Normal(0))
+                .then(|| Vec::with_capacity(cap(&header.elements[plan.vertex]))),
             target,
         }
     }
@@ -169,12 +199,23 @@ impl Builder {
         }
     }
 
-    fn finish(self) -> Mesh {
-        Mesh {
-            vertices: self.vertices,
-            faces: self.faces,
-            materials: self.materials,
+    /// Records a vertex and its normal (kept only if the file has normals).
+    fn vertex(&mut self, v: [f64; 6]) {
+        self.vertices.push(Point3::new(v[0], v[1], v[2]));
+        if let Some(normals) = &mut self.normals {
+            normals.push(Vector3::new(v[3], v[4], v[5]));
         }
+    }
+
+    fn finish(self) -> (Mesh, Option<Vec<Vector3<f64>>>) {
+        (
+            Mesh {
+                vertices: self.vertices,
+                faces: self.faces,
+                materials: self.materials,
+            },
+            self.normals,
+        )
     }
 }
 
@@ -188,7 +229,12 @@ pub(crate) fn known_materials() -> String {
 }
 
 /// Reads the body, stopping early with the target's location if one is set.
-fn read_body(bytes: &[u8], path: &Path, target: Option<Target>) -> Result<(Mesh, Option<Found>)> {
+#[allow(clippy::type_complexity)] // one private function: a struct would only rename the tuple
+fn read_body(
+    bytes: &[u8],
+    path: &Path,
+    target: Option<Target>,
+) -> Result<(Mesh, Option<Vec<Vector3<f64>>>, Option<Found>)> {
     let header = header::parse(bytes, path)?;
     let plan = plan(&header, path)?;
     let body = &bytes[header.body_start..];
@@ -202,7 +248,8 @@ fn read_body(bytes: &[u8], path: &Path, target: Option<Target>) -> Result<(Mesh,
             binary::read::<binary::Be>(bytes, &header, &plan, path, &mut builder)?
         }
     };
-    Ok((builder.finish(), found))
+    let (mesh, normals) = builder.finish();
+    Ok((mesh, normals, found))
 }
 
 /// Parses a whole PLY file. Only format errors are reported; the mesh may
@@ -211,9 +258,19 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     Ok(read_body(bytes, path, None)?.0)
 }
 
+/// Parses a whole PLY file with its vertex normals (`nx ny nz`), if it has
+/// them: one per vertex.
+pub(crate) fn parse_with_normals(
+    bytes: &[u8],
+    path: &Path,
+) -> Result<(Mesh, Option<Vec<Vector3<f64>>>)> {
+    let (mesh, normals, _) = read_body(bytes, path, None)?;
+    Ok((mesh, normals))
+}
+
 /// Where in the file a vertex or triangle of the parsed mesh came from.
 pub(crate) fn locate(bytes: &[u8], path: &Path, target: Target) -> Option<Found> {
-    read_body(bytes, path, Some(target)).ok()?.1
+    read_body(bytes, path, Some(target)).ok()?.2
 }
 
 #[cfg(test)]

@@ -497,3 +497,32 @@ fn blender_free_text_header_line_reads_as_a_comment() {
         assert_eq!(mesh.faces, vec![[0, 1, 2]]);
     }
 }
+
+#[test]
+fn vertex_normals_are_read_from_ascii_and_binary() {
+    use nalgebra::Vector3;
+    let ascii = b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n\
+property float z\nproperty float nx\nproperty float ny\nproperty float nz\nproperty uchar red\n\
+end_header\n0 0 0 0 0 1 255\n1 2 3 0.5 0.5 0 7\n";
+    let (mesh, normals) = super::parse_with_normals(ascii, Path::new("a.ply")).unwrap();
+    assert_eq!(mesh.vertices.len(), 2);
+    assert_eq!(
+        normals.unwrap(),
+        vec![Vector3::new(0.0, 0.0, 1.0), Vector3::new(0.5, 0.5, 0.0)]
+    );
+    let mut bin = b"ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\n\
+property float y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float nz\n\
+end_header\n"
+        .to_vec();
+    for v in [1.0f32, 2.0, 3.0, 0.0, -1.0, 0.0] {
+        bin.extend_from_slice(&v.to_le_bytes());
+    }
+    let (_, normals) = super::parse_with_normals(&bin, Path::new("b.ply")).unwrap();
+    assert_eq!(normals.unwrap(), vec![Vector3::new(0.0, -1.0, 0.0)]);
+    let plain = b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n\
+property float z\nend_header\n1 2 3\n";
+    assert!(super::parse_with_normals(plain, Path::new("c.ply"))
+        .unwrap()
+        .1
+        .is_none());
+}
