@@ -3,7 +3,7 @@
 //! (reconstructed planning mesh, observed-free space with
 //! `unknown_space = "occupied"`). The long run (50 random sites, both
 //! policies) is `#[ignore]`d: `cargo test --release -p vp-sim --test
-//! safety_truth -- --ignored --nocapture`.
+//! safety_truth -- --ignored --nocapture` (`VPCTL_SITES=n` for fewer).
 
 use vp_forest::Forest;
 use vp_planner::UnknownSpace;
@@ -53,13 +53,18 @@ fn planned_flights_keep_the_safety_distance_to_the_truth() {
     assert_eq!(violations, 0, "closest approach {clearance:.2} m");
 }
 
+/// `VPCTL_SITES` sites (default 50).
 #[test]
 #[ignore = "long: 50 random sites with both policies"]
 fn fifty_sites_with_both_unknown_space_policies() {
+    let n: u64 = std::env::var("VPCTL_SITES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(50);
     let forest = train_forest(&config(0, UnknownSpace::Occupied)).unwrap();
     for unknown in [UnknownSpace::Occupied, UnknownSpace::Free] {
-        let (v, c, n) = fly(&forest, &sites(50), unknown);
-        println!("unknown_space = {unknown:?}: 50 sites, {v} safety violations, closest approach {c:.2} m, {n} images");
+        let (v, c, images) = fly(&forest, &sites(n), unknown);
+        println!("unknown_space = {unknown:?}: {n} sites, {v} safety violations, closest approach {c:.2} m, {images} images");
         if unknown == UnknownSpace::Occupied {
             assert_eq!(v, 0);
         }

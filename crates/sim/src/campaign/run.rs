@@ -41,12 +41,13 @@ fn name_hash(s: &str) -> u64 {
     })
 }
 
-/// Reconstructs a flight that is not a set of triplets (the initial images,
-/// the Grid): with vp-mvs as the paper's Grid, every image against its
-/// best overlapping neighbours; with the virtual MVS (triplets only),
-/// sliding triplets (i, i+1, i+2) along the flight in order.
+/// Flies a flight that is not a set of triplets (the initial images, the
+/// Grid): checks its path (waypoints in order, from its first) against the
+/// truth and reconstructs it: with vp-mvs as the paper's Grid, every image
+/// against its best overlapping neighbours; with the virtual MVS (triplets
+/// only), sliding triplets (i, i+1, i+2) along the flight in order.
 #[allow(clippy::too_many_arguments)]
-fn reconstruct_flight(
+fn fly_flight(
     world: &World,
     matcher: &Matcher<'_>,
     cfg: &CampaignConfig,
@@ -55,7 +56,11 @@ fn reconstruct_flight(
     seed: u64,
     curves: &mut CurveAccumulator,
     progress: &mut dyn FnMut(&str),
-) -> Result<Vec<Flown>> {
+) -> Result<(Vec<Flown>, PathCheck)> {
+    let mut check = PathCheck::default();
+    let path: Vec<Point3<f64>> = cams.iter().map(Camera::center).collect();
+    let label = format!("site {} {name}", world.site.params.seed);
+    check_path(&mut check, world, cfg, (None, &path), &label, progress);
     let scene = world.scene();
     let ids: Vec<u64> = (0..cams.len()).map(|i| image_id(source, i)).collect();
     let flown = if cfg.mvs == MvsKind::Patchmatch {
@@ -77,36 +82,6 @@ fn reconstruct_flight(
     let tol = cfg.eval.depth_tolerance_m;
     let site = world.site.params.seed;
     progress(&flight_line(site, name, cams.len(), &flown, tol));
-    Ok(flown)
-}
-
-/// Flies a whole flight (Init, Grid): reconstructs it and checks its path
-/// (waypoints in order, from its first) against the truth.
-#[allow(clippy::too_many_arguments)]
-fn fly_flight(
-    world: &World,
-    matcher: &Matcher<'_>,
-    cfg: &CampaignConfig,
-    (name, cams): (&str, &[Camera]),
-    source: u64,
-    seed: u64,
-    curves: &mut CurveAccumulator,
-    progress: &mut dyn FnMut(&str),
-) -> Result<(Vec<Flown>, PathCheck)> {
-    let flown = reconstruct_flight(
-        world,
-        matcher,
-        cfg,
-        (name, cams),
-        source,
-        seed,
-        curves,
-        progress,
-    )?;
-    let mut check = PathCheck::default();
-    let path: Vec<Point3<f64>> = cams.iter().map(Camera::center).collect();
-    let label = format!("site {} {name}", world.site.params.seed);
-    check_path(&mut check, world, cfg, (None, &path), &label, progress);
     Ok((flown, check))
 }
 
