@@ -24,23 +24,26 @@ pub const MAX_BRIDGES: usize = 8;
 /// Height step of the climb-traverse-descend search, metres.
 const CLIMB_STEP_M: f64 = 2.0;
 
+/// Rays of `cam` through the centres of a `grid` (columns, rows) of
+/// equal cells over the image.
+pub fn grid_rays(cam: &Camera, (gx, gy): (u32, u32)) -> Vec<(Point3<f64>, nalgebra::Vector3<f64>)> {
+    let k = cam.intrinsics;
+    (0..gy)
+        .flat_map(|j| (0..gx).map(move |i| (i, j)))
+        .map(|(i, j)| {
+            cam.ray(&Point2::new(
+                (f64::from(i) + 0.5) * f64::from(k.width) / f64::from(gx),
+                (f64::from(j) + 0.5) * f64::from(k.height) / f64::from(gy),
+            ))
+        })
+        .collect()
+}
+
 /// Surface points seen through a regular grid of pixel rays of `cam`,
 /// with the normal of the face hit.
 pub fn grid_hits(cam: &Camera, caster: &RayCaster, mesh: &Mesh) -> Vec<Point3<f64>> {
-    let (gx, gy) = OVERLAP_GRID;
-    let k = cam.intrinsics;
-    let rays: Vec<_> = (0..gy)
-        .flat_map(|j| (0..gx).map(move |i| (i, j)))
-        .map(|(i, j)| {
-            let px = Point2::new(
-                (f64::from(i) + 0.5) * f64::from(k.width) / f64::from(gx),
-                (f64::from(j) + 0.5) * f64::from(k.height) / f64::from(gy),
-            );
-            cam.ray(&px)
-        })
-        .collect();
     caster
-        .closest_hits(&rays, f64::INFINITY)
+        .closest_hits(&grid_rays(cam, OVERLAP_GRID), f64::INFINITY)
         .into_iter()
         .flatten()
         .map(|h| h.point + mesh.face_normal(h.face as usize) * FACE_VISIBILITY_EPSILON)

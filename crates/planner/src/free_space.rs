@@ -10,7 +10,7 @@
 //! the mesh ([`observations_from_mesh`]; weaker: a hole in the mesh lets a
 //! ray carve space behind it).
 
-use nalgebra::{Point2, Point3};
+use nalgebra::Point3;
 use serde::{Deserialize, Serialize};
 use vp_scene::colmap::Reconstruction;
 use vp_scene::occupancy::{FreeSpace, OccupancyMap};
@@ -18,6 +18,7 @@ use vp_scene::raycast::RayCaster;
 use vp_scene::{Aabb, Camera};
 
 use crate::error::Result;
+use crate::flight_path::grid_rays;
 
 /// An observation ray: the centre of a camera and a point it observed.
 pub type Observation = (Point3<f64>, Point3<f64>);
@@ -61,19 +62,9 @@ pub fn observations_from_model(rec: &Reconstruction) -> Result<Vec<Observation>>
 /// Rays from each camera through a regular pixel grid to the first surface
 /// of the mesh behind `caster` (rays that hit nothing observe nothing).
 pub fn observations_from_mesh(cameras: &[Camera], caster: &RayCaster) -> Vec<Observation> {
-    let (gx, gy) = MESH_RAY_GRID;
     let mut out = Vec::new();
     for cam in cameras {
-        let k = cam.intrinsics;
-        let rays: Vec<_> = (0..gy)
-            .flat_map(|j| (0..gx).map(move |i| (i, j)))
-            .map(|(i, j)| {
-                cam.ray(&Point2::new(
-                    (f64::from(i) + 0.5) * f64::from(k.width) / f64::from(gx),
-                    (f64::from(j) + 0.5) * f64::from(k.height) / f64::from(gy),
-                ))
-            })
-            .collect();
+        let rays = grid_rays(cam, MESH_RAY_GRID);
         let c = cam.center();
         out.extend(
             caster

@@ -81,15 +81,15 @@ impl SfmState {
 
     /// Adds the images of `acquired`: which candidates each one sees.
     pub fn add_images(&mut self, world: &World, acquired: &[Acquired]) {
+        let probes: Vec<Point3<f64>> = self
+            .points
+            .iter()
+            .map(|(p, n)| p + n * FACE_VISIBILITY_EPSILON)
+            .collect();
         for a in acquired {
             let id = self.centres.len() as u32;
             self.centres.push(a.sfm.center());
             let c = a.truth.center();
-            let probes: Vec<Point3<f64>> = self
-                .points
-                .iter()
-                .map(|(p, n)| p + n * FACE_VISIBILITY_EPSILON)
-                .collect();
             let front: Vec<bool> = self
                 .points
                 .iter()
