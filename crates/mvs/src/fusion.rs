@@ -13,7 +13,7 @@ use crate::patchmatch::DepthNormalMap;
 use crate::view::{unproject, View};
 
 /// A fused point.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct FusedPoint {
     /// World position: mean of the fused pixels' points.
     pub position: Point3<f64>,
@@ -23,6 +23,10 @@ pub struct FusedPoint {
     pub color: [u8; 3],
     /// Number of pixels fused (reference included).
     pub n_pixels: usize,
+    /// The views whose pixels were fused, the reference first: who saw the
+    /// point (what COLMAP writes to `fused.ply.vis`), so a free-space map
+    /// carves only rays that really reached it.
+    pub views: Vec<usize>,
 }
 
 /// Fuses the geometric maps: every kept pixel not yet used starts a point
@@ -94,6 +98,7 @@ pub fn fuse(
                 normal: normal.try_normalize(0.0).unwrap_or_else(Vector3::z),
                 color: color.map(|c| (c / k).round().clamp(0.0, 255.0) as u8),
                 n_pixels: members.len(),
+                views: members.iter().map(|&(v, _)| v).collect(),
             });
         }
     }

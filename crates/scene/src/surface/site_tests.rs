@@ -375,3 +375,51 @@ fn surface_figures() {
         }
     }
 }
+
+/// SfM and MVS together, as the simulator's planning geometry mixes them:
+/// sparse points all over (0.5 per m² of surface) plus a dense patch where
+/// a triplet was flown, 10x finer. The median spacing (the IMLS bandwidth
+/// and the trim distance) then comes from the patch; more data must still
+/// not make the mesh worse elsewhere.
+#[test]
+fn dense_patches_do_not_degrade_the_sparse_surface() {
+    let area: f64 = site(3).mesh.face_areas().iter().sum();
+    let sparse = observe(3, (0.5 * area) as usize, 0.05, false);
+    let dense_obs = observe(3, 40_000, 0.02, false);
+    let centre = Point3::new(8.0, 4.0, 0.0);
+    let mut mixed = sparse.samples.clone();
+    mixed.extend(
+        dense_obs
+            .samples
+            .iter()
+            .filter(|s| (s.position.xy() - centre.xy()).norm() < 10.0)
+            .map(|s| SurfaceSample {
+                seen_from: s.seen_from[..1].to_vec(),
+                ..s.clone()
+            }),
+    );
+    let params = SurfaceParams::default();
+    let alone = figures(
+        &sparse,
+        &reconstruct_surface(&sparse.samples, &params).expect("sparse surface"),
+        0.5,
+    );
+    let both = figures(
+        &sparse,
+        &reconstruct_surface(&mixed, &params).expect("mixed surface"),
+        0.5,
+    );
+    eprintln!(
+        "{} sparse samples: {alone:?}\n{} with the dense patch: {both:?}",
+        sparse.samples.len(),
+        mixed.len()
+    );
+    assert!(
+        both.mean_bare <= alone.mean_bare * 1.1 && both.p95 <= alone.p95 * 1.1,
+        "the dense patch made the mesh worse: mean to bare truth {:.3} -> {:.3} m, 95th pct {:.3} -> {:.3} m",
+        alone.mean_bare,
+        both.mean_bare,
+        alone.p95,
+        both.p95
+    );
+}

@@ -181,9 +181,14 @@ pub struct SfmConfig {
     pub min_views: usize,
     /// Candidate sparse points per square metre of true surface.
     pub points_per_m2: f64,
-    /// Every this-many-th pixel (in x and y) of a flown depth map becomes a
-    /// dense point of the planning geometry.
-    pub dense_stride_px: usize,
+    /// vp-mvs's fused points are thinned to one per cube of this side
+    /// (metres, the first in flight order kept) before they join the
+    /// planning geometry: the mesher's cost and its sample spacing stay
+    /// those of the site, not of the closest image.
+    pub dense_spacing_m: f64,
+    /// A thinning cube joins the planning geometry once this many fused
+    /// points fell in it.
+    pub dense_min_points: usize,
 }
 
 /// The evaluation of the paper's Table 1.
@@ -401,9 +406,12 @@ impl CampaignConfig {
             return bad("sfm.min_views must be at least 1".into());
         }
         if !(self.sfm.points_per_m2.is_finite() && self.sfm.points_per_m2 > 0.0)
-            || self.sfm.dense_stride_px == 0
+            || !(self.sfm.dense_spacing_m.is_finite() && self.sfm.dense_spacing_m > 0.0)
         {
-            return bad("sfm: points_per_m2 must be > 0 and dense_stride_px >= 1".into());
+            return bad("sfm: points_per_m2 and dense_spacing_m must be > 0".into());
+        }
+        if self.sfm.dense_min_points == 0 {
+            return bad("sfm.dense_min_points must be at least 1".into());
         }
         Ok(())
     }

@@ -14,6 +14,7 @@
 use nalgebra::Point2;
 use serde::{Deserialize, Serialize};
 use vp_mvs::{MvsParams, View};
+use vp_scene::surface::SurfaceSample;
 use vp_scene::colmap::DepthMap;
 use vp_scene::raster::RgbImage;
 use vp_scene::raycast::RayCaster;
@@ -98,6 +99,10 @@ pub struct Flown {
     /// One depth map per camera at full resolution (0 = no depth); a camera
     /// used only as a source has an empty (0 x 0) map.
     pub depth: Vec<DepthMap>,
+    /// vp-mvs's fused points started by this set's reference pixels, as
+    /// mesher samples seen from the cameras fused into them (empty with
+    /// the virtual MVS, which has no point cloud).
+    pub fused: Vec<SurfaceSample>,
     /// What came out.
     pub stats: OutputStats,
     /// Whether the set counts as having produced 3D output (see
@@ -115,6 +120,8 @@ pub struct TripletRun {
     pub truth: [Vec<PixelTruth>; 3],
     /// The images at the level's resolution (what the forest learns from).
     pub images: [RgbImage; 3],
+    /// vp-mvs's fused points (see [`Flown::fused`]).
+    pub fused: Vec<SurfaceSample>,
     /// Counted over every pixel with a surface, or those in `region`.
     pub stats: OutputStats,
     /// The gate's view (virtual MVS only).
@@ -237,12 +244,14 @@ impl<'a> Matcher<'a> {
         let images: [RgbImage; 3] = images
             .try_into()
             .map_err(|_| SimError::Campaign("three renders expected".into()))?;
-        let (depth, truth, gate) = if let Some(mvs) = &self.virtual_mvs {
-            self.virtual_triplet(mvs, scene, cams, &level_cams, level, seed)?
+        let (depth, truth, gate, fused) = if let Some(mvs) = &self.virtual_mvs {
+            let (depth, truth, gate) =
+                self.virtual_triplet(mvs, scene, cams, &level_cams, level, seed)?;
+            (depth, truth, gate, Vec::new())
         } else {
-            let (depth, truth) =
+            let (depth, truth, fused) =
                 self.patchmatch_triplet(scene, cams, &level_cams, &images, level, seed)?;
-            (depth, truth, None)
+            (depth, truth, None, fused)
         };
         let stats = self.measure(&level_cams, &depth, &truth, region);
         self.add_measured(&depth, &truth, curves);
@@ -250,6 +259,7 @@ impl<'a> Matcher<'a> {
             depth,
             truth,
             images,
+            fused,
             stats,
             gate,
         })
@@ -290,7 +300,7 @@ impl<'a> Matcher<'a> {
         images: &[RgbImage; 3],
         level: u8,
         seed: u64,
-    ) -> Result<([DepthMap; 3], [Vec<PixelTruth>; 3])> {
+    ) -> Result<([DepthMap; 3], [Vec<PixelTruth>; 3], Vec<SurfaceSample>)> {
         let truth = triplet_truth(
             scene.mesh,
             scene.caster,
@@ -306,14 +316,14 @@ impl<'a> Matcher<'a> {
             );
             let Some(range) = range else {
                 // A view that sees (almost) no surface: nothing to match.
-                return Ok((level_cams.each_ref().map(zero_depth), truth));
+                return Ok((level_cams.each_ref().map(zero_depth), truth, Vec::new()));
             };
             views.push(View::new(&format!("v{v}"), *cam, images[v].clone(), range)?);
         }
         let sources = vec![vec![1, 2], vec![0, 2], vec![0, 1]];
         let out = vp_mvs::reconstruct(&views, &sources, &self.params(seed), &mut |_| {})?;
         let depth = [0, 1, 2].map(|v| depth_of(out.geometric[v].as_ref(), &level_cams[v]));
-        Ok((depth, truth))
+        Ok((depth, truth, fused_samples(&out.fused, level_cams)))
     }
 
     /// Counts the pixels of `depth` against the truth (see [`OutputStats`]).
@@ -408,6 +418,11 @@ impl<'a> Matcher<'a> {
             return Ok(Vec::new());
         }
         let out = vp_mvs::reconstruct(&views, &sources, &params, &mut |_| {})?;
+        // Each fused point goes to the set of the reference that started it.
+        let mut fused_by_reference: Vec<Vec<SurfaceSample>> = vec![Vec::new(); cams.len()];
+        for (p, sample) in out.fused.iter().zip(fused_samples(&out.fused, cams)) {
+            fused_by_reference[p.views[0]].push(sample);
+        }
         let tol = self.cfg.eval.depth_tolerance_m as f32;
         let mut flown = Vec::with_capacity(cams.len());
         for (r, src) in sources.iter().enumerate() {
@@ -445,6 +460,7 @@ impl<'a> Matcher<'a> {
                 ids: group_ids,
                 cams: group_cams,
                 depth: group_depth,
+                fused: std::mem::take(&mut fused_by_reference[r]),
                 success: self.succeeded(&stats),
                 stats,
                 gate: None,
@@ -476,10 +492,24 @@ impl<'a> Matcher<'a> {
             cams: cams.to_vec(),
             success: self.succeeded(&run.stats),
             depth: run.depth.to_vec(),
+            fused: run.fused,
             stats: run.stats,
             gate: run.gate,
         })
     }
+}
+
+/// vp-mvs's fused points as mesher samples: position, normal, and the
+/// centres of the views (indices into `cams`) fused into each.
+fn fused_samples(fused: &[vp_mvs::FusedPoint], cams: &[Camera]) -> Vec<SurfaceSample> {
+    fused
+        .iter()
+        .map(|p| SurfaceSample {
+            position: p.position,
+            normal: Some(p.normal),
+            seen_from: p.views.iter().map(|&v| cams[v].center()).collect(),
+        })
+        .collect()
 }
 
 /// A triplet's depth maps, truth, and the gate's view (virtual only).

@@ -71,6 +71,13 @@ impl CampaignConfig {
             patchmatch: MvsParams {
                 iterations: 4,
                 max_sources: 3,
+                // The planning geometry takes fused points: a triplet's
+                // point needs all three views to agree. With two, stray
+                // matches grew phantom surfaces the planner then avoided
+                // (site 8: mesh 0.12 -> 0.80 m from the truth over five
+                // iterations, loop stalled; with three: 0.12 -> 0.30 m, no
+                // stall; docs/campaign-findings.md).
+                min_fused_pixels: 3,
                 ..MvsParams::default()
             },
             profile: MvsProfile::sure_like(),
@@ -121,7 +128,8 @@ impl CampaignConfig {
                 point_noise_m: 0.05,
                 min_views: 2,
                 points_per_m2: 0.5,
-                dense_stride_px: 4,
+                dense_spacing_m: 0.25,
+                dense_min_points: 4,
             },
             surface: SurfaceParams::default(),
             planner: PlannerConfig {

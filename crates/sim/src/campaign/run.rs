@@ -203,7 +203,7 @@ impl Known {
     ) -> Self {
         let mut sfm = SfmState::new(world, cfg, seed);
         sfm.add_images(world, &acquired);
-        sfm.add_depth(flown, cfg.sfm.dense_stride_px);
+        sfm.add_fused(flown, cfg.sfm.dense_spacing_m);
         Known { acquired, sfm }
     }
 }
@@ -217,7 +217,7 @@ fn plan_iteration(
     it: usize,
     base: u64,
 ) -> Result<(vp_planner::PlanResult, vp_scene::Mesh)> {
-    let mesh = known.sfm.planning_mesh(cfg, mix64(base ^ it as u64))?;
+    let mesh = known.sfm.planning_mesh(cfg)?;
     let views: Vec<AcquiredView> = known
         .acquired
         .iter()
@@ -233,9 +233,7 @@ fn plan_iteration(
     let mut pc = cfg.planner.clone();
     pc.n_triplets = strategy.per_iteration;
     pc.seed = mix64(base ^ 0x706c_616e ^ it as u64);
-    let observations = known
-        .sfm
-        .observations(cfg, mix64(base ^ 0x6f62 ^ it as u64));
+    let observations = known.sfm.observations(cfg);
     let inputs = PlanInputs {
         mesh: &mesh,
         acquired: &views,
@@ -298,9 +296,9 @@ fn run_strategy(
     let mut next_index = 0usize;
     for it in 0..strategy.iterations {
         let (result, mesh) = plan_iteration(world, cfg, strategy, &known, it, base)?;
-        let q = known.sfm.mesh_quality(world, &mesh, MESH_TOLERANCE_M);
+        let q = known.sfm.mesh_quality(world, cfg, &mesh, MESH_TOLERANCE_M);
         progress(&format!(
-            "  site {site_seed} {} iteration {}: planning mesh of {} faces, {:.2} m mean ({:.2} m 95th pct) from the truth, {:.0} % of the surface within {MESH_TOLERANCE_M} m, {} under canopies",
+            "  site {site_seed} {} iteration {}: planning mesh of {} faces, {:.2} m mean ({:.2} m 95th pct) from the truth, {:.0} % of the surface within {MESH_TOLERANCE_M} m, {} under canopies; {} dense points, {:.1} % farther than {MESH_TOLERANCE_M} m",
             strategy.name,
             it + 1,
             mesh.n_faces(),
@@ -309,6 +307,8 @@ fn run_strategy(
             100.0 * q.completeness,
             q.under_canopy_completeness
                 .map_or("nothing".to_string(), |c| format!("{:.0} %", 100.0 * c)),
+            q.dense_points,
+            100.0 * q.dense_outlier_share,
         ));
         let (new_cams, triplets) = plan_cameras(world, &result.plan);
         let path: Vec<Point3<f64>> = new_cams.iter().map(Camera::center).collect();
@@ -366,7 +366,7 @@ fn run_strategy(
             known.sfm.add_images(world, &new);
             known
                 .sfm
-                .add_depth(&out.flown[first_flown..], cfg.sfm.dense_stride_px);
+                .add_fused(&out.flown[first_flown..], cfg.sfm.dense_spacing_m);
             known.acquired.extend(new);
         }
         if triplets.is_empty() {

@@ -7,15 +7,23 @@
 //! position plus seeded noise (`sfm.point_noise_m`), observed from the SfM
 //! estimates of those images' centres. Texture does not decide matching
 //! here: a simplification in SfM's favour, named in the docs. Dense points:
-//! every `sfm.dense_stride_px`-th pixel of each flown reference depth map
-//! (after vp-mvs's geometric filter, the points its fusion merges),
-//! observed from that camera.
+//! vp-mvs's fused points of every flown image set (pixels of at least two
+//! views that agree, as COLMAP's stereo_fusion keeps them), with their
+//! normals, observed from the views fused into them, thinned to one per
+//! `sfm.dense_spacing_m` cube that holds at least `sfm.dense_min_points`
+//! of them (a voxel grid with a minimum count, as PCL's VoxelGrid offers):
+//! a surface fills its cubes with many points, a stray match does not.
+//! Keeping the first point of every cube instead would favour outliers,
+//! which land in empty cubes while inliers land in full ones.
 //!
 //! From this state come the planning mesh (the 3D mesher) and the
 //! observation rays that carve the planner's free space: what the planner
 //! knows is what was seen, never the true mesh.
 
-use nalgebra::{Point2, Point3, Vector3};
+use std::collections::hash_map::Entry;
+use std::collections::HashMap;
+
+use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
 use vp_scene::raycast::FACE_VISIBILITY_EPSILON;
 use vp_scene::surface::{reconstruct_surface, SurfaceSample};
@@ -39,8 +47,14 @@ pub struct SfmState {
     seen_by: Vec<Vec<u32>>,
     /// SfM centres of the acquired images.
     centres: Vec<Point3<f64>>,
-    /// Dense points with the centre of the camera that measured them.
-    dense: Vec<Observation>,
+    /// Per thinning cube, in the order the cubes were first hit: how many
+    /// fused points fell in it, and the first of them.
+    dense: Vec<(usize, SurfaceSample)>,
+    /// Index into `dense` of each cube.
+    dense_cells: HashMap<[i64; 3], usize>,
+    /// Seeds the candidates and their SfM noise: a point's estimate is the
+    /// same whenever it is asked for (mesh, free space, every iteration).
+    seed: u64,
 }
 
 impl SfmState {
@@ -76,6 +90,8 @@ impl SfmState {
             points,
             centres: Vec::new(),
             dense: Vec::new(),
+            dense_cells: HashMap::new(),
+            seed,
         }
     }
 
@@ -104,34 +120,34 @@ impl SfmState {
         }
     }
 
-    /// Adds the dense points of the reference depth maps of `flown`.
-    pub fn add_depth(&mut self, flown: &[Flown], stride_px: usize) {
-        let stride = stride_px.max(1);
-        for fl in flown {
-            for (cam, map) in fl.cams.iter().zip(&fl.depth) {
-                let w = map.width as usize;
-                if w == 0 {
-                    continue;
-                }
-                let c = cam.center();
-                // A map may be at a coarser level than the camera.
-                let scale = f64::from(cam.intrinsics.width) / f64::from(map.width);
-                for (i, &z) in map.data.iter().enumerate() {
-                    let (x, y) = (i % w, i / w);
-                    if z > 0.0 && x % stride == 0 && y % stride == 0 {
-                        let px = Point2::new((x as f64 + 0.5) * scale, (y as f64 + 0.5) * scale);
-                        self.dense.push((c, cam.unproject(&px, f64::from(z))));
-                    }
+    /// Adds the fused points of `flown` to the thinning cubes of side
+    /// `spacing_m`.
+    pub fn add_fused(&mut self, flown: &[Flown], spacing_m: f64) {
+        for p in flown.iter().flat_map(|fl| &fl.fused) {
+            let c = p.position.coords.map(|c| (c / spacing_m).floor() as i64);
+            match self.dense_cells.entry([c.x, c.y, c.z]) {
+                Entry::Occupied(e) => self.dense[*e.get()].0 += 1,
+                Entry::Vacant(e) => {
+                    e.insert(self.dense.len());
+                    self.dense.push((1, p.clone()));
                 }
             }
         }
     }
 
+    /// The dense points: one per cube holding at least `min_points`.
+    fn dense(&self, min_points: usize) -> impl Iterator<Item = &SurfaceSample> {
+        self.dense
+            .iter()
+            .filter(move |(n, _)| *n >= min_points)
+            .map(|(_, p)| p)
+    }
+
     /// Sparse points SfM has (seen by at least `min_views` images), with
     /// their noisy positions and observing centres.
-    pub fn sparse(&self, cfg: &CampaignConfig, seed: u64) -> Vec<(Point3<f64>, Vec<Point3<f64>>)> {
+    pub fn sparse(&self, cfg: &CampaignConfig) -> Vec<(Point3<f64>, Vec<Point3<f64>>)> {
         let sigma = cfg.sfm.point_noise_m;
-        let s = mix64(seed ^ 0x0070_6e6f_6973);
+        let s = mix64(self.seed ^ 0x0070_6e6f_6973);
         self.points
             .iter()
             .zip(&self.seen_by)
@@ -143,17 +159,12 @@ impl SfmState {
             .collect()
     }
 
-    /// The dense points and their cameras.
-    pub fn dense(&self) -> &[Observation] {
-        &self.dense
-    }
-
-    /// The mesher's samples: sparse points with their tracks' centres and
-    /// dense points with their camera's; normals are left to the mesher
-    /// (PCA over neighbours, signed towards the observers).
-    pub fn surface_samples(&self, cfg: &CampaignConfig, seed: u64) -> Vec<SurfaceSample> {
+    /// The mesher's samples: sparse points with their tracks' centres
+    /// (normals left to the mesher: PCA over neighbours, signed towards the
+    /// observers) and the fused dense points with their own.
+    pub fn surface_samples(&self, cfg: &CampaignConfig) -> Vec<SurfaceSample> {
         let mut out: Vec<SurfaceSample> = self
-            .sparse(cfg, seed)
+            .sparse(cfg)
             .into_iter()
             .map(|(position, seen_from)| SurfaceSample {
                 position,
@@ -161,17 +172,13 @@ impl SfmState {
                 seen_from,
             })
             .collect();
-        out.extend(self.dense.iter().map(|(c, p)| SurfaceSample {
-            position: *p,
-            normal: None,
-            seen_from: vec![*c],
-        }));
+        out.extend(self.dense(cfg.sfm.dense_min_points).cloned());
         out
     }
 
     /// The planning mesh: the 3D mesher over [`SfmState::surface_samples`].
-    pub fn planning_mesh(&self, cfg: &CampaignConfig, seed: u64) -> Result<Mesh> {
-        let samples = self.surface_samples(cfg, seed);
+    pub fn planning_mesh(&self, cfg: &CampaignConfig) -> Result<Mesh> {
+        let samples = self.surface_samples(cfg);
         reconstruct_surface(&samples, &cfg.surface).map_err(|e| {
             SimError::Campaign(format!(
                 "planning mesh from {} seen points: {e}",
@@ -181,13 +188,16 @@ impl SfmState {
     }
 
     /// Every observation ray: sparse tracks and dense points.
-    pub fn observations(&self, cfg: &CampaignConfig, seed: u64) -> Vec<Observation> {
+    pub fn observations(&self, cfg: &CampaignConfig) -> Vec<Observation> {
         let mut out: Vec<Observation> = self
-            .sparse(cfg, seed)
+            .sparse(cfg)
             .into_iter()
             .flat_map(|(p, from)| from.into_iter().map(move |c| (c, p)))
             .collect();
-        out.extend_from_slice(&self.dense);
+        out.extend(
+            self.dense(cfg.sfm.dense_min_points)
+                .flat_map(|d| d.seen_from.iter().map(|c| (*c, d.position))),
+        );
         out
     }
 }
@@ -205,12 +215,23 @@ pub struct MeshQuality {
     /// The same over the samples with surface above them (under tree
     /// canopies and overhangs); `None` when the site has none.
     pub under_canopy_completeness: Option<f64>,
+    /// Dense points the mesher was given.
+    pub dense_points: usize,
+    /// Share of them farther than `tolerance` from the true surface: what
+    /// the geometric filter let through.
+    pub dense_outlier_share: f64,
 }
 
 impl SfmState {
     /// Compares `mesh` with the truth of `world` (completeness within
     /// `tolerance_m`).
-    pub fn mesh_quality(&self, world: &World, mesh: &Mesh, tolerance_m: f64) -> MeshQuality {
+    pub fn mesh_quality(
+        &self,
+        world: &World,
+        cfg: &CampaignConfig,
+        mesh: &Mesh,
+        tolerance_m: f64,
+    ) -> MeshQuality {
         let mut d: Vec<f64> = mesh
             .vertices
             .par_iter()
@@ -243,7 +264,14 @@ impl SfmState {
                 .fold((0usize, 0usize), |(n, k), x| (n + 1, k + usize::from(x.0)));
             (n > 0).then(|| k as f64 / n as f64)
         };
+        let dense: Vec<&SurfaceSample> = self.dense(cfg.sfm.dense_min_points).collect();
+        let dense_outliers = dense
+            .par_iter()
+            .filter(|d| world.clearance.distance(&d.position) > tolerance_m)
+            .count();
         MeshQuality {
+            dense_points: dense.len(),
+            dense_outlier_share: dense_outliers as f64 / dense.len().max(1) as f64,
             mean_distance_m: mean,
             p95_distance_m: p95,
             completeness: share(&|_| true).unwrap_or(0.0),
