@@ -1,7 +1,7 @@
 //! The offline training campaign: procedural training sites, random camera
 //! triplets over the triangulation-angle range reconstructed by the
 //! campaign's MVS at each pyramid level, vp-labelgen labels (on SfM's noisy
-//! poses, stage 3 on a 2.5D mesh of sparse points, as a user has them),
+//! poses, stage 3 on the 3D mesh of sparse points, as a user has them),
 //! vp-forest training on the rendered pixels. The held-out sites are never
 //! among them.
 
@@ -13,7 +13,7 @@ use rand_chacha::ChaCha8Rng;
 use vp_forest::{Forest, TrainingSet};
 use vp_labelgen::{generate_labels, MissingPartMeshes, TripletReconstruction, View};
 use vp_scene::colmap::DepthMap;
-use vp_scene::height_field::{mesh_from_points, MeshingParams};
+use vp_scene::surface::{reconstruct_surface, SurfaceSample};
 use vp_scene::procedural::{generate_site, Site};
 use vp_scene::raster::{Label, RgbImage};
 use vp_scene::raycast::RayCaster;
@@ -104,7 +104,7 @@ fn sparse_points(
     truth: &[Vec<PixelTruth>; 3],
     cfg: &CampaignConfig,
     seed: u64,
-    out: &mut Vec<Point3<f64>>,
+    out: &mut Vec<SurfaceSample>,
 ) {
     for (v, cam) in cams.iter().enumerate() {
         let w = cam.intrinsics.width as usize;
@@ -116,7 +116,11 @@ fn sparse_points(
             let px = nalgebra::Point2::new((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
             let p = cam.unproject(&px, f64::from(t.true_depth));
             let g = |k: i64| gaussian(seed, v as i64, i as i64, k);
-            out.push(p + Vector3::new(g(0), g(1), g(2)) * cfg.sfm.point_noise_m);
+            out.push(SurfaceSample {
+                position: p + Vector3::new(g(0), g(1), g(2)) * cfg.sfm.point_noise_m,
+                normal: None,
+                seen_from: vec![cam.center()],
+            });
         }
     }
 }
@@ -198,8 +202,14 @@ fn train_site(
         "training site {seed}: {n} triplets reconstructed, {} with output; labelling",
         stats.successful_triplets
     ));
-    // Stage 3's mesh as a user has it: a 2.5D mesh of the sparse points.
-    let (mesh, _) = mesh_from_points(&points, &MeshingParams::default())?;
+    // Stage 3's mesh as a user has it: `vpctl mesh build`'s 3D mesher on
+    // the sparse points.
+    let mesh = reconstruct_surface(&points, &cfg.surface).map_err(|e| {
+        SimError::Campaign(format!(
+            "training site {seed}: stage-3 mesh from {} sparse points: {e}",
+            points.len()
+        ))
+    })?;
     let meshes = MissingPartMeshes::new(&mesh, t.labels.mesh_iterations);
     let labels = generate_labels(&recs, Some(&meshes), &t.labels)?;
     let k_sigma = t.labels.k_sigma as f32;
