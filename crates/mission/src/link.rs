@@ -248,8 +248,9 @@ impl Link for MavLink {
             };
             match r {
                 Ok(Some(m)) => return Ok(Some(m)),
-                // Ignored for its signature, or an unknown message id.
-                Ok(None) => {}
+                // Ignored for its signature, a corrupt frame or a message
+                // outside the common dialect: skip it.
+                Ok(None) | Err(MessageReadError::Parse(_)) => {}
                 Err(MessageReadError::Io(e))
                     if matches!(
                         e.kind(),
@@ -261,8 +262,6 @@ impl Link for MavLink {
                         self.url
                     )))
                 }
-                // A corrupt frame or a message outside the common dialect: skip it.
-                Err(MessageReadError::Parse(_)) => {}
             }
             if Instant::now() >= deadline {
                 return Ok(None);

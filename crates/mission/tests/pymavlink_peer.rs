@@ -211,7 +211,7 @@ fn a_pymavlink_vehicle_with_another_key_is_not_trusted() {
     assert!(rep["rejected"].as_u64().unwrap() > 0, "{rep}");
 }
 
-/// Runs the pymavlink ground station against `vehicle_addr`.
+/// Runs the pymavlink ground station against the vehicle on `port`; its JSON report.
 fn py_ground(port: u16, key: Option<&Path>, n_items: usize) -> Value {
     let out = Command::new(python())
         .arg(script())
