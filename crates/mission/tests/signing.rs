@@ -9,10 +9,10 @@ use std::time::Duration;
 use mavlink::dialects::common::{MavMessage, MavMissionType, MISSION_REQUEST_INT_DATA};
 use mavlink::{MAVLinkMessageRaw, MavHeader, MavlinkReader, MavlinkVersion};
 use vp_mission::signing::{SignedLink, Signer, LINK_ID};
-use vp_mission::sim_vehicle::{spawn_udp_vehicle, UdpVehicle, VehicleConfig};
+use vp_mission::sim_vehicle::{spawn_udp_vehicle, Impairment, UdpRelay, UdpVehicle, VehicleConfig};
 use vp_mission::{
-    build_mission, download, upload, Autopilot, ConnectOptions, Mission, MissionError,
-    MissionOptions, ProtocolConfig, SigningKey,
+    build_mission, connect, download, upload, upload_over, Autopilot, ConnectOptions, Mission,
+    MissionError, MissionOptions, ProtocolConfig, SigningKey,
 };
 use vp_scene::plan::{GeodeticOrigin, Plan, PlannedView, Role};
 
@@ -77,6 +77,34 @@ fn signed_upload_to_a_signing_vehicle_verifies() {
     assert_eq!(v.ignored().foreign(), 0, "{}", v.ignored());
     let (items, _, _) = download(&url(&v), &opts(Some(key(1))), &mut |_| {}).unwrap();
     assert_eq!(items, m.items);
+}
+
+#[test]
+fn signed_uploads_through_a_lossy_relay_verify() {
+    // Duplicated and overtaken datagrams arrive with stale timestamps and
+    // are dropped as replays: to the protocol that is more loss.
+    let v = vehicle(Some(key(1)));
+    let imp = Impairment {
+        drop: 0.1,
+        duplicate: 0.2,
+        reorder: 0.1,
+    };
+    let relay = UdpRelay::spawn(v.addr(), imp, 7).unwrap();
+    let o = opts(Some(key(1)));
+    let (mut link, info) = connect(&format!("udpout:{}", relay.addr()), &o).unwrap();
+    let m = mission();
+    for k in 0..5 {
+        let r = upload_over(&mut link, info.target, &m, &o.protocol, true, &mut |_| {})
+            .unwrap_or_else(|e| panic!("upload {k}: {e}"));
+        assert!(r.verified);
+    }
+    assert_eq!(v.mission(), m.items);
+    let (ours, theirs) = (link.ignored(), v.ignored());
+    assert_eq!(ours.foreign() + theirs.foreign(), 0, "{ours} / {theirs}");
+    assert!(
+        ours.stale + theirs.stale > 0,
+        "duplicates were dropped as stale"
+    );
 }
 
 #[test]
