@@ -12,12 +12,16 @@ echo "== cargo clippy (warnings denied)"
 cargo clippy --workspace --all-targets --locked -- -D warnings
 
 # A virtualenv for the Python-side peers (MAVSDK as an independent MAVLink
-# vehicle). Created once; pip is a no-op when the pins are already installed.
+# vehicle, pymavlink for MAVLink 2 signing). Created once; pip is a no-op when
+# the pins are already installed.
 if [ ! -x .venv/bin/python ]; then
   python3 -m venv .venv
 fi
-.venv/bin/python -m pip install --quiet --disable-pip-version-check -r crates/mission/tests/mavsdk/requirements.txt
+.venv/bin/python -m pip install --quiet --disable-pip-version-check \
+  -r crates/mission/tests/mavsdk/requirements.txt \
+  -r crates/mission/tests/pymavlink/requirements.txt
 export VP_MAVSDK_PYTHON="$PWD/.venv/bin/python" VP_REQUIRE_MAVSDK=1
+export VP_PYMAVLINK_PYTHON="$PWD/.venv/bin/python"
 
 echo "== cargo test"
 cargo test --workspace --locked

@@ -146,3 +146,136 @@ fn no_vehicle_and_bad_inputs_fail_clearly() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("bad.json"));
 }
+
+/// A key file with `mode`; the key is 64 hex digits.
+fn write_key(path: &Path, hex: &str, mode: u32) {
+    std::fs::write(path, format!("{hex}\n")).unwrap();
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(path, std::fs::Permissions::from_mode(mode)).unwrap();
+    }
+    #[cfg(not(unix))]
+    let _ = mode;
+}
+
+const KEY: &str = "c0ffee00c0ffee00c0ffee00c0ffee00c0ffee00c0ffee00c0ffee00c0ffee01";
+
+#[test]
+fn signed_upload_verifies_and_never_shows_the_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = dir.path().join("plan.json");
+    write_plan(&plan);
+    let key = dir.path().join("vehicle.key");
+    write_key(&key, KEY, 0o600);
+    let vehicle = spawn_udp_vehicle(
+        "127.0.0.1:0",
+        VehicleConfig {
+            signing: Some(vp_mission::SigningKey::from_hex(KEY).unwrap()),
+            ..VehicleConfig::default()
+        },
+    )
+    .unwrap();
+    let url = format!("udpout:{}", vehicle.addr());
+    let args = |k: &Path| {
+        vpctl(&[
+            "mission",
+            "upload",
+            plan.to_str().unwrap(),
+            "--url",
+            &url,
+            "--signing-key",
+            k.to_str().unwrap(),
+        ])
+    };
+    let o = args(&key);
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr),
+    );
+    assert_eq!(o.status.code(), Some(0), "{stdout}\n{stderr}");
+    assert!(stdout.contains("verified: yes"), "{stdout}");
+    assert!(!stderr.contains("warning"), "mode 600: {stderr}");
+    assert_eq!(vehicle.mission().len(), 11);
+    assert_eq!(vehicle.ignored().foreign(), 0);
+
+    // Readable by others: a warning as ssh gives, the upload still works.
+    #[cfg(unix)]
+    {
+        write_key(&key, KEY, 0o644);
+        let o = args(&key);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(0), "{stderr}");
+        assert!(
+            stderr.contains("warning")
+                && stderr.contains("vehicle.key")
+                && stderr.contains("chmod 600"),
+            "{stderr}"
+        );
+        for text in [&stderr, &String::from_utf8_lossy(&o.stdout)] {
+            assert!(
+                !text.to_lowercase().contains("c0ffee"),
+                "the key leaked: {text}"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_vehicle_that_does_not_sign_is_refused_with_exit_9() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = dir.path().join("plan.json");
+    write_plan(&plan);
+    let key = dir.path().join("k.hex");
+    write_key(&key, KEY, 0o600);
+    let vehicle = spawn_udp_vehicle("127.0.0.1:0", VehicleConfig::default()).unwrap();
+    let url = format!("udpout:{}", vehicle.addr());
+    let o = vpctl(&[
+        "mission",
+        "upload",
+        plan.to_str().unwrap(),
+        "--url",
+        &url,
+        "--signing-key",
+        key.to_str().unwrap(),
+        "--heartbeat-timeout",
+        "1.5",
+    ]);
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr),
+    );
+    assert_eq!(o.status.code(), Some(9), "{stdout}\n{stderr}");
+    assert!(!stdout.contains("verified"), "{stdout}");
+    assert!(stderr.contains("unsigned"), "{stderr}");
+    assert!(vehicle.mission().is_empty());
+}
+
+#[test]
+fn bad_key_files_are_input_errors_naming_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = dir.path().join("plan.json");
+    write_plan(&plan);
+    let short = dir.path().join("short.key");
+    write_key(&short, "my secret passphrase", 0o600);
+    let missing = dir.path().join("missing.key");
+    for (file, expect) in [(&short, "64 hexadecimal digits"), (&missing, "cannot read")] {
+        for cmd in [
+            vec!["mission", "upload", plan.to_str().unwrap()],
+            vec!["mission", "download"],
+            vec!["mission", "vehicle", "--seconds", "1"],
+        ] {
+            let mut args = cmd.clone();
+            args.extend(["--signing-key", file.to_str().unwrap()]);
+            let o = vpctl(&args);
+            let stderr = String::from_utf8_lossy(&o.stderr);
+            assert_eq!(o.status.code(), Some(2), "{args:?}: {stderr}");
+            assert!(
+                stderr.contains(file.file_name().unwrap().to_str().unwrap())
+                    && stderr.contains(expect),
+                "{args:?}: {stderr}"
+            );
+            assert!(!stderr.contains("passphrase"), "the key leaked: {stderr}");
+        }
+    }
+}

@@ -76,6 +76,23 @@ pub enum MissionError {
         /// Which field differs, with both values.
         detail: String,
     },
+    /// A MAVLink signing key file is missing, unreadable or malformed.
+    #[error("signing key file {}: {message}", path.display())]
+    SigningKey {
+        /// The key file as given.
+        path: std::path::PathBuf,
+        /// What is wrong (never the file's content).
+        message: String,
+    },
+    /// The vehicle went silent (or never answered) while messages were
+    /// ignored for their signature: the two ends do not share a key.
+    #[error("{source}; {detail}")]
+    Signing {
+        /// What was ignored and what to check.
+        detail: String,
+        /// The timeout or missing vehicle it explains.
+        source: Box<MissionError>,
+    },
     /// The vehicle sent something the protocol does not allow.
     #[error("{operation}: protocol error: {message}")]
     Protocol {
@@ -93,7 +110,9 @@ impl MissionError {
     pub fn is_input_error(&self) -> bool {
         match self {
             MissionError::Scene(e) => e.is_input_error(),
-            MissionError::InvalidInput(_) | MissionError::BadUrl { .. } => true,
+            MissionError::InvalidInput(_)
+            | MissionError::BadUrl { .. }
+            | MissionError::SigningKey { .. } => true,
             _ => false,
         }
     }
@@ -106,7 +125,9 @@ impl MissionError {
     /// stopped answering mid-protocol, after every retry), 5 rejected
     /// (MISSION_ACK with MAV_MISSION_DENIED, NO_SPACE, INVALID_SEQUENCE,
     /// UNSUPPORTED_FRAME, ...), 6 verification failed (the read-back differs
-    /// from the upload), 7 protocol violation, 1 anything else (I/O).
+    /// from the upload), 7 protocol violation, 9 signing (the vehicle's
+    /// messages are not signed with our key, or it signs and we do not),
+    /// 1 anything else (I/O).
     pub fn exit_code(&self) -> u8 {
         if self.is_input_error() {
             return 2;
@@ -117,6 +138,7 @@ impl MissionError {
             MissionError::Rejected { .. } => 5,
             MissionError::VerifyMismatch { .. } => 6,
             MissionError::Protocol { .. } => 7,
+            MissionError::Signing { .. } => 9,
             _ => 1,
         }
     }

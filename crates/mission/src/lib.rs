@@ -7,6 +7,8 @@
 //!   download, clear) over the [`protocol::Link`] trait.
 //! - [`link`]: real connections (`udpin`, `udpout`, `tcpout`, `serial`) and
 //!   the heartbeat handshake.
+//! - [`signing`]: MAVLink 2 message signing (key files, checks that say
+//!   why a message was ignored).
 //! - [`qgc`] and [`wpl`]: QGroundControl `.plan` and `QGC WPL 110` export.
 //! - [`sim_vehicle`]: the simulated vehicle (`vpctl mission vehicle`): a vehicle-side mission server, a virtual-time link and a
 //!   lossy UDP relay, for tests and the simulator.
@@ -21,6 +23,7 @@ pub mod items;
 pub mod link;
 pub mod protocol;
 pub mod qgc;
+pub mod signing;
 pub mod sim_vehicle;
 pub mod wpl;
 
@@ -34,6 +37,7 @@ pub use items::{
 pub use link::{MavLink, VehicleInfo};
 pub use protocol::{DownloadReport, Link, Progress, ProtocolConfig, Target, UploadReport};
 pub use qgc::{export_qgc, QgcOptions};
+pub use signing::SigningKey;
 pub use wpl::{export_wpl, parse_wpl};
 
 /// How to reach the vehicle.
@@ -45,6 +49,9 @@ pub struct ConnectOptions {
     pub target_system: Option<u8>,
     /// Protocol timing.
     pub protocol: ProtocolConfig,
+    /// MAVLink 2 signing key: sign everything sent, ignore whatever is not
+    /// signed with it (unsigned, another key, replays).
+    pub signing: Option<SigningKey>,
 }
 
 impl ConnectOptions {
@@ -76,6 +83,7 @@ impl Default for ConnectOptions {
             heartbeat_timeout: Duration::from_secs(5),
             target_system: None,
             protocol: ProtocolConfig::default(),
+            signing: None,
         }
     }
 }
@@ -129,8 +137,10 @@ pub fn upload_over(
 
 /// Opens `url`, waits for the vehicle's heartbeat and returns the link.
 pub fn connect(url: &str, opts: &ConnectOptions) -> Result<(MavLink, VehicleInfo)> {
-    let mut link = MavLink::open(url)?;
-    let info = link.wait_vehicle(opts.heartbeat_timeout, opts.target_system)?;
+    let mut link = MavLink::open_signed(url, opts.signing.as_ref())?;
+    let info = link
+        .wait_vehicle(opts.heartbeat_timeout, opts.target_system)
+        .map_err(|e| link.explain(e))?;
     Ok((link, info))
 }
 
@@ -160,7 +170,8 @@ pub fn upload(
         &opts.protocol,
         true,
         progress,
-    )?;
+    )
+    .map_err(|e| link.explain(e))?;
     Ok((report, info))
 }
 
@@ -171,13 +182,14 @@ pub fn download(
     progress: &mut dyn FnMut(Progress),
 ) -> Result<(Vec<MissionItem>, DownloadReport, VehicleInfo)> {
     let (mut link, info) = connect(url, opts)?;
-    let (items, report) = protocol::download(&mut link, info.target, &opts.protocol, progress)?;
+    let (items, report) = protocol::download(&mut link, info.target, &opts.protocol, progress)
+        .map_err(|e| link.explain(e))?;
     Ok((items, report, info))
 }
 
 /// Connects to `url` and deletes the vehicle's mission.
 pub fn clear(url: &str, opts: &ConnectOptions) -> Result<VehicleInfo> {
     let (mut link, info) = connect(url, opts)?;
-    protocol::clear(&mut link, info.target, &opts.protocol)?;
+    protocol::clear(&mut link, info.target, &opts.protocol).map_err(|e| link.explain(e))?;
     Ok(info)
 }

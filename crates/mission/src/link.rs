@@ -5,6 +5,10 @@
 //! `udpout:HOST:PORT` (send to a vehicle listening there), `tcpout:HOST:PORT`,
 //! `serial:DEVICE:BAUD`. Every read has a short timeout so that no call
 //! blocks forever (the crate's `recv` would otherwise wait for a packet).
+//!
+//! With a signing key ([`MavLink::open_signed`]) everything sent is signed
+//! and only messages signed with the key are received (see
+//! [`crate::signing`]).
 
 use std::net::{TcpStream, ToSocketAddrs};
 use std::time::{Duration, Instant};
@@ -18,6 +22,7 @@ use mavlink::{Connectable, MavConnection, MavHeader, SerialConfig, TcpConfig, Ud
 use crate::error::{MissionError, Result};
 use crate::items::Autopilot;
 use crate::protocol::{Link, Target, GCS_COMPONENT_ID, GCS_SYSTEM_ID};
+use crate::signing::{IgnoredCounts, SignedLink, SigningKey, LINK_ID};
 
 /// Granularity of receive timeouts.
 const POLL: Duration = Duration::from_millis(5);
@@ -28,8 +33,11 @@ pub struct MavLink {
     url: String,
     start: Instant,
     header: MavHeader,
-    // Serial reads retry timeouts inside `recv`; `try_recv` returns them.
+    // Serial reads retry timeouts inside `recv` and `recv_raw`; `try_recv`
+    // returns them. So a serial link checks signatures in the crate (which
+    // does not say why it dropped a message) and the others in `signed`.
     use_try_recv: bool,
+    signed: SignedLink,
 }
 
 /// What the vehicle's heartbeat told us.
@@ -71,6 +79,12 @@ fn check_host_port(url: &str, addr: &str) -> Result<std::net::SocketAddr> {
 impl MavLink {
     /// Opens a connection (no traffic yet).
     pub fn open(url: &str) -> Result<Self> {
+        Self::open_signed(url, None)
+    }
+
+    /// Opens a connection that signs what it sends with `key` and ignores
+    /// what is not signed with it (no signing when `None`).
+    pub fn open_signed(url: &str, key: Option<&SigningKey>) -> Result<Self> {
         let (scheme, rest) = url
             .split_once(':')
             .ok_or_else(|| bad_url(url, "missing transport prefix"))?;
@@ -79,7 +93,7 @@ impl MavLink {
             source: e,
         };
         let mut use_try_recv = false;
-        let conn: Box<dyn MavConnection<MavMessage> + Send + Sync> = match scheme {
+        let mut conn: Box<dyn MavConnection<MavMessage> + Send + Sync> = match scheme {
             "udpin" | "udpout" => {
                 check_host_port(url, rest)?;
                 let mode = if scheme == "udpin" {
@@ -123,6 +137,12 @@ impl MavLink {
             }
             other => return Err(bad_url(url, format!("unknown transport {other:?}"))),
         };
+        let signed = if use_try_recv {
+            conn.setup_signing(key.map(|k| k.config(LINK_ID)));
+            SignedLink::new(None, LINK_ID)
+        } else {
+            SignedLink::new(key, LINK_ID)
+        };
         Ok(MavLink {
             conn,
             url: url.to_string(),
@@ -133,7 +153,20 @@ impl MavLink {
                 sequence: 0,
             },
             use_try_recv,
+            signed,
         })
+    }
+
+    /// Messages ignored so far for their signature (always zero on a
+    /// serial link, where the `mavlink` crate drops them without a word).
+    pub fn ignored(&self) -> IgnoredCounts {
+        self.signed.ignored
+    }
+
+    /// `e`, with what signing explains about it (see
+    /// [`SignedLink::explain`]).
+    pub fn explain(&self, e: MissionError) -> MissionError {
+        self.signed.explain(e)
     }
 
     /// The URL this link was opened with.
@@ -199,8 +232,8 @@ impl Link for MavLink {
     fn send(&mut self, msg: &MavMessage) -> Result<()> {
         // Ok(0) means "no peer yet" (udpin before the vehicle spoke): the
         // protocol's timeouts and resends cover it.
-        self.conn
-            .send(&self.header, msg)
+        self.signed
+            .send(&*self.conn, &self.header, msg)
             .map(|_| ())
             .map_err(|e| MissionError::Link(format!("{}: send failed: {e}", self.url)))
     }
@@ -209,12 +242,15 @@ impl Link for MavLink {
         let deadline = Instant::now() + timeout;
         loop {
             let r = if self.use_try_recv {
-                self.conn.try_recv()
+                self.conn.try_recv().map(Some)
             } else {
-                self.conn.recv()
+                self.signed.recv(&*self.conn)
             };
             match r {
-                Ok(m) => return Ok(Some(m)),
+                Ok(Some(m)) => return Ok(Some(m)),
+                // Ignored for its signature, a corrupt frame or a message
+                // outside the common dialect: skip it.
+                Ok(None) | Err(MessageReadError::Parse(_)) => {}
                 Err(MessageReadError::Io(e))
                     if matches!(
                         e.kind(),
@@ -226,8 +262,6 @@ impl Link for MavLink {
                         self.url
                     )))
                 }
-                // A corrupt frame or a message outside the common dialect: skip it.
-                Err(MessageReadError::Parse(_)) => {}
             }
             if Instant::now() >= deadline {
                 return Ok(None);

@@ -54,6 +54,7 @@ fn fast_opts() -> ConnectOptions {
         heartbeat_timeout: Duration::from_secs(5),
         target_system: None,
         protocol: ProtocolConfig::default().scaled(SCALE),
+        signing: None,
     }
 }
 

@@ -9,7 +9,7 @@ use clap::{Args, Subcommand, ValueEnum};
 use vp_mission::sim_vehicle::{spawn_udp_vehicle, VehicleConfig};
 use vp_mission::{
     build_mission, export_qgc, export_wpl, Autopilot, ConnectOptions, MissionItem, MissionOptions,
-    Progress, QgcOptions,
+    Progress, QgcOptions, SigningKey,
 };
 use vp_scene::fsio;
 use vp_scene::plan::Plan;
@@ -40,7 +40,8 @@ pub enum MissionCommand {
     ///
     /// Exit codes: 0 verified, 2 bad input, 3 no vehicle, 4 timeout, 5
     /// rejected by the vehicle, 6 read-back differs, 7 protocol violation,
-    /// 1 other failures.
+    /// 9 signing (the vehicle's messages are not signed with our key, or it
+    /// signs and we were given no key), 1 other failures.
     Upload {
         /// The plan (JSON written by `vpctl plan`).
         plan: PathBuf,
@@ -67,6 +68,10 @@ pub enum MissionCommand {
         /// Stop after this many seconds (default: run until interrupted).
         #[arg(long)]
         seconds: Option<u64>,
+        /// MAVLink 2 signing: sign every message with the key in FILE (64
+        /// hexadecimal digits) and ignore messages not signed with it.
+        #[arg(long, value_name = "FILE")]
+        signing_key: Option<PathBuf>,
     },
 }
 
@@ -139,12 +144,32 @@ pub struct LinkArgs {
     /// Seconds to wait for the vehicle's heartbeat.
     #[arg(long, allow_negative_numbers = true, default_value_t = 5.0)]
     heartbeat_timeout: f64,
+    /// MAVLink 2 signing: sign every message with the key in FILE (64
+    /// hexadecimal digits; see docs/formats.md) and ignore messages from
+    /// the vehicle that are not signed with it (unsigned, another key,
+    /// replays).
+    #[arg(long, value_name = "FILE")]
+    signing_key: Option<PathBuf>,
 }
 
 impl LinkArgs {
     fn options(&self) -> Result<ConnectOptions> {
-        Ok(ConnectOptions::from_user(self.heartbeat_timeout, 1.0)?)
+        Ok(ConnectOptions {
+            signing: load_key(self.signing_key.as_deref())?,
+            ..ConnectOptions::from_user(self.heartbeat_timeout, 1.0)?
+        })
     }
+}
+
+/// Reads a signing key file; its permission warning goes to standard
+/// error (never the key).
+fn load_key(path: Option<&Path>) -> Result<Option<SigningKey>> {
+    let Some(path) = path else { return Ok(None) };
+    let loaded = SigningKey::load(path)?;
+    if let Some(w) = loaded.warning {
+        eprintln!("{w}");
+    }
+    Ok(Some(loaded.key))
 }
 
 pub fn run(cmd: MissionCommand, out: &mut dyn Write) -> Result<()> {
@@ -178,7 +203,8 @@ pub fn run(cmd: MissionCommand, out: &mut dyn Write) -> Result<()> {
             bind,
             autopilot,
             seconds,
-        } => vehicle(&bind, autopilot, seconds, out),
+            signing_key,
+        } => vehicle(&bind, autopilot, seconds, signing_key.as_deref(), out),
     }
 }
 
@@ -188,6 +214,7 @@ fn upload(
     mission: &MissionArgs,
     out: &mut dyn Write,
 ) -> Result<()> {
+    let opts = link.options()?;
     let plan = load_plan(plan_path)?;
     let m = build_mission(&plan, &mission.options()?)?;
     writeln!(
@@ -198,8 +225,7 @@ fn upload(
         m.autopilot
     )?;
     let bar = super::Progress::new();
-    let (report, info) =
-        vp_mission::upload(&link.url, &m, &link.options()?, &mut |p| progress(&bar, &p))?;
+    let (report, info) = vp_mission::upload(&link.url, &m, &opts, &mut |p| progress(&bar, &p))?;
     bar.finish();
     writeln!(
         out,
@@ -244,25 +270,40 @@ fn vehicle(
     bind: &str,
     autopilot: AutopilotArg,
     seconds: Option<u64>,
+    signing_key: Option<&Path>,
     out: &mut dyn Write,
 ) -> Result<()> {
     let cfg = VehicleConfig {
         autopilot: autopilot.into(),
+        signing: load_key(signing_key)?,
         ..VehicleConfig::default()
     };
+    let signing = cfg.signing.is_some();
     let vehicle = spawn_udp_vehicle(bind, cfg)?;
     writeln!(
         out,
-        "simulated {:?} vehicle listening on {} (connect with --url udpout:{})",
+        "simulated {:?} vehicle listening on {} (connect with --url udpout:{}){}",
         Autopilot::from(autopilot),
         vehicle.addr(),
-        vehicle.addr()
+        vehicle.addr(),
+        if signing {
+            "; MAVLink 2 signing on"
+        } else {
+            ""
+        }
     )?;
     out.flush()?;
     let deadline = seconds.map(|s| std::time::Instant::now() + Duration::from_secs(s));
     let mut last = (0, 0);
+    let mut last_ignored = vp_mission::signing::IgnoredCounts::default();
     while deadline.is_none_or(|d| std::time::Instant::now() < d) {
         std::thread::sleep(Duration::from_millis(100));
+        let ignored = vehicle.ignored();
+        if ignored != last_ignored {
+            writeln!(out, "ignored messages: {ignored}")?;
+            out.flush()?;
+            last_ignored = ignored;
+        }
         let counts = vehicle.upload_counts();
         if counts != last {
             writeln!(

@@ -45,7 +45,7 @@ pub struct ProblemsFound(pub String);
 /// bad argument, refusing to overwrite, missing file, bad URL), 1 otherwise
 /// (I/O failures). Mission failures have one code per outcome
 /// ([`MissionError::exit_code`]: 3 no vehicle, 4 timeout, 5 rejected,
-/// 6 verification failed, 7 protocol violation); a check that found
+/// 6 verification failed, 7 protocol violation, 9 signing); a check that found
 /// problems exits [`EXIT_PROBLEMS_FOUND`]. The outermost library
 /// error in the chain decides.
 pub fn exit_code(e: &anyhow::Error) -> u8 {

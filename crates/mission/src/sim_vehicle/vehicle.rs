@@ -9,6 +9,10 @@
 //! after `protocol_timeout` without progress, answers a repeated last item
 //! with its ACK again, and serves downloads statelessly. In ArduPilot mode
 //! it overwrites seq 0 with its own home position, as ArduPilot does.
+//!
+//! With a signing key the UDP vehicle signs what it sends and ignores what
+//! is not signed with the key, as an autopilot with signing enabled does
+//! (ArduPilot also accepts unsigned on USB, which we do not mimic).
 
 use std::net::{SocketAddr, UdpSocket};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -22,12 +26,13 @@ use mavlink::dialects::common::{
     HEARTBEAT_DATA, MISSION_ACK_DATA, MISSION_COUNT_DATA, MISSION_REQUEST_DATA,
     MISSION_REQUEST_INT_DATA,
 };
-use mavlink::{Connectable, MavConnection, MavHeader, UdpConfig, UdpMode};
+use mavlink::{Connectable, MavHeader, UdpConfig, UdpMode};
 use vp_scene::plan::GeodeticOrigin;
 
 use crate::error::{MissionError, Result};
 use crate::geodesy::deg_to_e7;
 use crate::items::{Autopilot, MissionItem};
+use crate::signing::{IgnoredCounts, SignedLink, SigningKey, LINK_ID};
 
 /// How the simulated vehicle behaves.
 #[derive(Debug, Clone, PartialEq)]
@@ -52,6 +57,11 @@ pub struct VehicleConfig {
     pub legacy_requests: bool,
     /// Send a HEARTBEAT this often (`None`: never).
     pub heartbeat: Option<Duration>,
+    /// MAVLink 2 signing key of the UDP vehicle ([`spawn_udp_vehicle`]):
+    /// sign everything, ignore what is not signed with it. (The
+    /// virtual-time [`super::SimLink`] carries decoded messages and has no
+    /// signatures.)
+    pub signing: Option<SigningKey>,
 }
 
 impl Default for VehicleConfig {
@@ -71,6 +81,7 @@ impl Default for VehicleConfig {
             protocol_timeout: Duration::from_secs(5),
             legacy_requests: false,
             heartbeat: Some(Duration::from_secs(1)),
+            signing: None,
         }
     }
 }
@@ -397,6 +408,7 @@ impl MissionServer {
 pub struct UdpVehicle {
     addr: SocketAddr,
     server: Arc<Mutex<MissionServer>>,
+    ignored: Arc<Mutex<IgnoredCounts>>,
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
 }
@@ -420,6 +432,11 @@ impl UdpVehicle {
     pub fn upload_counts(&self) -> (u32, u32) {
         let s = self.server.lock().unwrap_or_else(PoisonError::into_inner);
         (s.uploads, s.abandoned)
+    }
+
+    /// Messages ignored so far for their signature (with a signing key).
+    pub fn ignored(&self) -> IgnoredCounts {
+        *self.ignored.lock().unwrap_or_else(PoisonError::into_inner)
     }
 }
 
@@ -445,31 +462,36 @@ pub fn spawn_udp_vehicle(bind: &str, cfg: VehicleConfig) -> Result<UdpVehicle> {
         .read_timeout(Duration::from_millis(2))
         .connect::<MavMessage>()
         .map_err(io)?;
+    let mut link = SignedLink::new(cfg.signing.as_ref(), LINK_ID);
     let server = Arc::new(Mutex::new(MissionServer::new(cfg)));
+    let ignored = Arc::new(Mutex::new(IgnoredCounts::default()));
     let stop = Arc::new(AtomicBool::new(false));
-    let (srv, stp) = (Arc::clone(&server), Arc::clone(&stop));
+    let (srv, ign, stp) = (Arc::clone(&server), Arc::clone(&ignored), Arc::clone(&stop));
     let thread = std::thread::spawn(move || {
         let start = Instant::now();
         while !stp.load(Ordering::Relaxed) {
-            let received = conn.recv();
+            let received = link.recv(&conn);
+            *ign.lock().unwrap_or_else(PoisonError::into_inner) = link.ignored;
             let mut s = srv.lock().unwrap_or_else(PoisonError::into_inner);
             let now = start.elapsed();
             let mut out = match received {
-                Ok((h, msg)) => s.handle(now, &h, &msg),
-                Err(_) => Vec::new(), // read timeout or a corrupt frame
+                Ok(Some((h, msg))) => s.handle(now, &h, &msg),
+                // Ignored for its signature, a read timeout or a corrupt frame.
+                Ok(None) | Err(_) => Vec::new(),
             };
             out.extend(s.poll(now));
             let header = s.header();
             drop(s);
             for m in &out {
                 // Before the ground has spoken, udpin has no peer: Ok(0), fine.
-                let _ = conn.send(&header, m);
+                let _ = link.send(&conn, &header, m);
             }
         }
     });
     Ok(UdpVehicle {
         addr,
         server,
+        ignored,
         stop,
         thread: Some(thread),
     })
