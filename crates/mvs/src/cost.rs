@@ -518,10 +518,7 @@ mod tests {
                 let reference = source_cost(&slow, &win, 30.5, 20.5, &h, &img);
                 assert!((fast - reference).abs() < 1e-4, "{fast} vs {reference}");
             }
-            assert_eq!(
-                source_cost(&patch, &win, 30.5, 20.5, &hs[2], &img),
-                MAX_COST
-            );
+            assert!(source_cost(&patch, &win, 30.5, 20.5, &hs[2], &img) >= MAX_COST);
             assert!(source_cost(&patch, &win, 30.5, 20.5, &hs[0], &img) < 1.0);
         }
     }
