@@ -4,9 +4,11 @@
 //! hypotheses per second.
 //!
 //! Tiers: `fast` (256x256, 2 iterations) and `paper` (1024x1024, default
-//! parameters). `cargo bench --bench mvs -- --test` runs only the fast tier
-//! once (set VPCTL_BENCH_FULL=1 to include the paper tier); a plain
-//! `cargo bench --bench mvs` runs both.
+//! parameters, coarse-to-fine), with `paper_single_scale` beside it (the
+//! same without the half-resolution level; the printed ratio is what
+//! coarse-to-fine buys). `cargo bench --bench mvs -- --test` runs only the
+//! fast tier once (set VPCTL_BENCH_FULL=1 to include the paper tiers); a
+//! plain `cargo bench --bench mvs` runs all.
 //!
 //! Lives in the workspace's benches (not `crates/mvs/benches`) because the
 //! textured images come from vp-sim's renderer, which vp-mvs must not
@@ -62,17 +64,31 @@ fn tier(
     name: &str,
     size: u32,
     params: &MvsParams,
-) {
+) -> f64 {
     let views = triplet(site, caster, size);
     // One timed run first, for the figures criterion does not print.
     let start = Instant::now();
     let out = reconstruct(&views, &sources(), params, &mut |_| {}).expect("reconstruct");
     let secs = start.elapsed().as_secs_f64();
     let px = 3.0 * f64::from(size) * f64::from(size);
-    // Hypotheses scored per pixel and pass: 1 initial + (4 propagated + 3
-    // refined) per iteration; the geometric pass repeats that.
-    let passes = if params.geom_consistency { 2.0 } else { 1.0 };
-    let hyps = passes * px * (1.0 + 7.0 * f64::from(params.iterations));
+    // Hypotheses considered per pixel and pass: 1 initial + (4 propagated +
+    // 3 refined) per iteration (an upper bound: repeated planes and
+    // hypotheses that provably lose are not scored); a half-resolution
+    // level counts a quarter; the geometric pass runs `iterations` at full
+    // resolution from the photometric result.
+    let per_pass = |it: u32| 1.0 + 7.0 * f64::from(it);
+    let c2f = params.coarse_levels > 0 && size / 2 >= params.coarse_min_size;
+    let photometric = if c2f {
+        0.25 * per_pass(params.iterations) + per_pass(params.fine_iterations)
+    } else {
+        per_pass(params.iterations)
+    };
+    let geometric = if params.geom_consistency {
+        per_pass(params.iterations)
+    } else {
+        0.0
+    };
+    let hyps = px * (photometric + geometric);
     let samples = params.window_offsets_len().pow(2) as f64 * 2.0;
     eprintln!(
         "mvs/{name}: {size}x{size} triplet: {secs:.2} s per triplet ({:.2} s per Mpx triplet), \
@@ -92,6 +108,7 @@ fn tier(
         });
     });
     group.finish();
+    secs
 }
 
 fn mvs(c: &mut Criterion) {
@@ -109,7 +126,17 @@ fn mvs(c: &mut Criterion) {
     tier(c, &site, &caster, "fast_256", 256, &fast);
     let test_mode = std::env::args().any(|a| a == "--test");
     if !test_mode || std::env::var_os("VPCTL_BENCH_FULL").is_some() {
-        tier(c, &site, &caster, "paper_1024", 1024, &MvsParams::default());
+        let params = MvsParams::default();
+        let multi = tier(c, &site, &caster, "paper_1024", 1024, &params);
+        let single = MvsParams {
+            coarse_levels: 0,
+            ..params
+        };
+        let one = tier(c, &site, &caster, "paper_single_scale_1024", 1024, &single);
+        eprintln!(
+            "mvs: coarse-to-fine is {:.2}x the speed of single scale",
+            one / multi
+        );
     }
 }
 

@@ -1,17 +1,20 @@
 //! `vpctl._native.mvs`: vp-mvs (CPU PatchMatch multi-view stereo) on a
 //! COLMAP dense workspace or on labelgen triplets, writing exactly the files
-//! `vpctl mvs run` writes. The logic is [`vp_mvs::run_workspace`] and
-//! [`vp_mvs::run_image_set`]; this module only translates arguments.
+//! `vpctl mvs run` writes, or on images in memory returning numpy maps. The
+//! logic is [`vp_mvs::run_workspace`], [`vp_mvs::run_image_set`] and
+//! [`vp_mvs::reconstruct`]; this module only translates arguments.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
+use numpy::{PyArray2, PyArray3, PyReadonlyArray3};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use vp_mvs::{MvsError, MvsParams, RunOptions};
+use vp_mvs::{DepthNormalMap, MvsError, MvsParams, RunOptions, View};
 
-use crate::convert;
-use crate::errors::IntoPy;
+use crate::convert::{self, image2, image3, rgb};
+use crate::errors::{value_error, IntoPy};
+use crate::scene::PyCamera;
 
 fn params_with_seed(params: Option<&Bound<'_, PyAny>>, seed: Option<u64>) -> PyResult<MvsParams> {
     let mut p: MvsParams = convert::from_py(params, "params")?;
@@ -106,8 +109,90 @@ fn run_triplets(
     .map_err(|e| crate::errors::mvs(&e))
 }
 
+/// Depth (H, W), normal (H, W, 3) and cost (H, W) arrays of one map.
+type MapArrays<'py> = (
+    Bound<'py, PyArray2<f32>>,
+    Bound<'py, PyArray3<f32>>,
+    Bound<'py, PyArray2<f32>>,
+);
+
+fn map_arrays(py: Python<'_>, m: DepthNormalMap) -> PyResult<MapArrays<'_>> {
+    let (w, h) = (m.width, m.height);
+    let normal: Vec<f32> = m.normal.into_iter().flatten().collect();
+    Ok((
+        image2(py, w, h, m.depth)?,
+        image3(py, (h as usize, w as usize, 3), normal)?,
+        image2(py, w, h, m.cost)?,
+    ))
+}
+
+/// PatchMatch on images in memory ([`vp_mvs::reconstruct`]): `images`
+/// (H, W, 3) uint8 with their posed `cameras`, one depth range per image
+/// (or one for all), `sources[i]` the source images of image i (default:
+/// [`vp_mvs::frustum_sources`]). Returns per image (depth, normal, cost)
+/// arrays, geometrically filtered (`filtered`) or photometric, or `None`
+/// for an image without sources.
+#[pyfunction]
+#[pyo3(signature = (images, cameras, depth_ranges, sources = None, params = None, seed = None, filtered = true))]
+#[allow(clippy::too_many_arguments)]
+fn patch_match<'py>(
+    py: Python<'py>,
+    images: Vec<PyReadonlyArray3<'py, u8>>,
+    cameras: Vec<PyCamera>,
+    depth_ranges: Vec<(f64, f64)>,
+    sources: Option<Vec<Vec<usize>>>,
+    params: Option<&Bound<'py, PyAny>>,
+    seed: Option<u64>,
+    filtered: bool,
+) -> PyResult<Vec<Option<MapArrays<'py>>>> {
+    let p = params_with_seed(params, seed)?;
+    let n = images.len();
+    if cameras.len() != n {
+        return Err(value_error(format!(
+            "{n} images and {} cameras: one camera per image",
+            cameras.len()
+        )));
+    }
+    let ranges = match depth_ranges.len() {
+        1 => vec![depth_ranges[0]; n],
+        m if m == n => depth_ranges,
+        m => {
+            return Err(value_error(format!(
+                "depth_ranges: {m} ranges for {n} images (one per image, or one for all)"
+            )))
+        }
+    };
+    let mut views = Vec::with_capacity(n);
+    for (i, (img, cam)) in images.iter().zip(&cameras).enumerate() {
+        let rgb = rgb(img, &format!("images[{i}]"))?;
+        let view = View::new(&format!("images[{i}]"), cam.0, rgb, ranges[i])
+            .map_err(|e| crate::errors::mvs(&e))?;
+        views.push(view);
+    }
+    let cams: Vec<_> = cameras.iter().map(|c| c.0).collect();
+    let sources = sources.unwrap_or_else(|| vp_mvs::frustum_sources(&cams, &ranges, &p));
+    if sources.len() != n {
+        return Err(value_error(format!(
+            "sources: {} lists for {n} images",
+            sources.len()
+        )));
+    }
+    let out = py
+        .detach(|| vp_mvs::reconstruct(&views, &sources, &p, &mut |_| {}))
+        .map_err(|e| crate::errors::mvs(&e))?;
+    let maps = if filtered {
+        out.geometric
+    } else {
+        out.photometric
+    };
+    maps.into_iter()
+        .map(|m| m.map(|m| map_arrays(py, m)).transpose())
+        .collect()
+}
+
 /// Registers the submodule.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(patch_match, m)?)?;
     m.add_function(wrap_pyfunction!(run_workspace, m)?)?;
     m.add_function(wrap_pyfunction!(run_triplets, m)?)?;
     Ok(())

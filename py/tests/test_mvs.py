@@ -1,11 +1,13 @@
-"""vpctl.mvs.reconstruct on the committed real photo sequence
-(tests/data/real-mvs/visp-cube): the same files, byte for byte, as `vpctl
-mvs run` for the same inputs and seed, for a workspace run and a triplet
-run; errors that name the argument or file."""
+"""vpctl.mvs: reconstruct on the committed real photo sequence
+(tests/data/real-mvs/visp-cube) writes the same files, byte for byte, as
+`vpctl mvs run` for the same inputs and seed, for a workspace run and a
+triplet run; patch_match on rendered images in memory returns depth, normal
+and cost arrays near the truth; errors name the argument or file."""
 
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import vpctl
@@ -103,3 +105,63 @@ def test_errors_name_the_argument_or_file(tmp_path):
         vpctl.mvs.reconstruct(ws, triplets=t, out=tmp_path / "d", params=PARAMS)
     assert not (tmp_path / "d").exists()
     assert not (ws / "fused.ply").exists() and not (ws / "stereo/depth_maps").exists()
+
+
+def rendered_triplet(site, size=(96, 72)):
+    """Three rendered views of the site's rock, about 10 deg apart."""
+    mesh = site.mesh
+    caster = vpctl.scene.RayCaster(mesh)
+    lo, hi = site.rock_bounds
+    c = (lo + hi) / 2
+    cams = [
+        vpctl.scene.Camera.look_at(*size, 60.0, [c[0] + dx, c[1] - 20.0, hi[2] + 15.0], c.tolist())
+        for dx in (-2.5, 0.0, 2.5)
+    ]
+    renders = [vpctl.sim.render(mesh, caster, cam) for cam in cams]
+    return cams, renders
+
+
+def test_patch_match_in_memory_returns_maps_near_the_truth(site):
+    cams, renders = rendered_triplet(site)
+    images = [r["rgb"] for r in renders]
+    truth = [r["depth"] for r in renders]
+    valid = np.concatenate([t[t > 0] for t in truth])
+    depth_range = (0.8 * valid.min(), 1.2 * valid.max())
+    sources = [[1, 2], [0, 2], [0, 1]]
+    params = {"iterations": 3}
+    maps = vpctl.mvs.patch_match(images, cams, depth_range, sources=sources, params=params, seed=1)
+    assert len(maps) == 3
+    for (depth, normal, cost), t in zip(maps, truth):
+        assert depth.shape == (72, 96) and depth.dtype == np.float32
+        assert normal.shape == (72, 96, 3) and cost.shape == (72, 96)
+        kept = depth > 0
+        assert kept.mean() > 0.2, kept.mean()
+        # Unit normals where a depth is kept, zero elsewhere.
+        assert np.allclose(np.linalg.norm(normal[kept], axis=1), 1.0, atol=1e-4)
+        assert np.all(normal[~kept] == 0)
+        ok = kept & (t > 0)
+        rel = np.abs(depth[ok] - t[ok]) / t[ok]
+        assert np.median(rel) < 0.01, np.median(rel)
+    # Same inputs and seed, same arrays; the photometric maps keep more.
+    again = vpctl.mvs.patch_match(images, cams, depth_range, sources=sources, params=params, seed=1)
+    for a, b in zip(maps, again):
+        for x, y in zip(a, b):
+            assert np.array_equal(x, y)
+    photo = vpctl.mvs.patch_match(images, cams, depth_range, sources=sources, params=params,
+                                  seed=1, filtered=False)
+    assert sum((p[0] > 0).sum() for p in photo) >= sum((m[0] > 0).sum() for m in maps)
+
+
+def test_patch_match_errors_name_the_argument(site):
+    cams, renders = rendered_triplet(site, size=(32, 24))
+    images = [r["rgb"] for r in renders]
+    with pytest.raises(ValueError, match="cameras"):
+        vpctl.mvs.patch_match(images, cams[:2], (5.0, 50.0))
+    with pytest.raises(ValueError, match="depth range"):
+        vpctl.mvs.patch_match(images, cams, (50.0, 5.0))
+    with pytest.raises(ValueError, match="depth_ranges"):
+        vpctl.mvs.patch_match(images, cams, [(5.0, 50.0)] * 2)
+    with pytest.raises(ValueError, match="images\\[1\\]"):
+        vpctl.mvs.patch_match([images[0], images[1][:10], images[2]], cams, (5.0, 50.0))
+    with pytest.raises(ValueError, match="source"):
+        vpctl.mvs.patch_match(images, cams, (5.0, 50.0), sources=[[1], [7], [0]])

@@ -241,8 +241,11 @@ fn same_bytes_with_one_and_two_threads() {
     let k = Intrinsics::from_hfov(160, 120, 60.0).unwrap();
     let cams = triplet_cameras(&site, k, 26.0, 55.0, 30.0, 12.0);
     let (views, _) = render_views(&site, &caster, &cams);
+    // With a half-resolution level, so that both pyramid levels are checked.
     let params = MvsParams {
         iterations: 3,
+        coarse_levels: 1,
+        coarse_min_size: 48,
         ..MvsParams::default()
     };
     let run = |threads: usize| {
@@ -282,4 +285,49 @@ fn same_bytes_with_one_and_two_threads() {
     )
     .unwrap();
     assert_ne!(bits(&a), bits(&c));
+}
+
+/// Coarse-to-fine (a half-resolution level, then `fine_iterations` at full
+/// resolution) keeps the quality of a single-scale run on rock and ground:
+/// completeness within 3 points, outliers within 1 point. Guards the speed-up
+/// of the pyramid against a silent loss of quality.
+#[test]
+fn coarse_to_fine_keeps_single_scale_quality() {
+    let site = site();
+    let caster = RayCaster::new(&site.mesh);
+    let k = Intrinsics::from_hfov(320, 240, 60.0).unwrap();
+    let cams = triplet_cameras(&site, k, 26.0, 55.0, 120.0, 14.0);
+    let (views, renders) = render_views(&site, &caster, &cams);
+    let score = |params: &MvsParams| {
+        let out = reconstruct(&views, &triplet_sources(3), params, &mut |_| {}).unwrap();
+        let mut tally = [[Tally::default(); 4]; 5];
+        evaluate(&site, &views, &renders, &out, &mut tally);
+        let c = [Material::Rock, Material::Ground]
+            .iter()
+            .flat_map(|&m| tally[m as usize][1..3].iter())
+            .fold(Tally::default(), |a, c| Tally {
+                visible: a.visible + c.visible,
+                complete: a.complete + c.complete,
+                output: a.output + c.output,
+                outliers: a.outliers + c.outliers,
+                gross: a.gross + c.gross,
+            });
+        (
+            c.complete as f64 / c.visible.max(1) as f64,
+            c.outliers as f64 / c.output.max(1) as f64,
+        )
+    };
+    let single = score(&MvsParams {
+        coarse_levels: 0,
+        ..MvsParams::default()
+    });
+    let multi = score(&MvsParams {
+        coarse_levels: 1,
+        coarse_min_size: 100,
+        ..MvsParams::default()
+    });
+    eprintln!("single scale: {single:?}, coarse-to-fine: {multi:?} (completeness, outliers)");
+    assert!(single.0 > 0.8, "single scale completeness {}", single.0);
+    assert!(multi.0 >= single.0 - 0.03, "{multi:?} vs {single:?}");
+    assert!(multi.1 <= single.1 + 0.01, "{multi:?} vs {single:?}");
 }

@@ -13,66 +13,166 @@ pub(crate) const MAX_COST: f32 = 2.0;
 /// that counts as texture.
 const MIN_VARIANCE: f32 = 1e-6;
 
+/// Distance (pixels) the corners of a warped window keep from the source
+/// image's border in the fast path, so that rounding between the corner
+/// test and the interior samples cannot step outside.
+const EDGE_MARGIN: f32 = 1e-3;
+
+/// Samples of a window row whose coordinates are computed together.
+const CHUNK: usize = 8;
+
+/// The sparse matching window, fixed for a run: the sample offsets along
+/// one axis and the spatial half of the bilateral weights, computed once
+/// instead of once per pixel.
+#[derive(Debug, Clone)]
+pub(crate) struct Window {
+    /// Offsets along one axis: `-r, -r + step, ..., <= r`.
+    pub offsets: Vec<i32>,
+    /// `exp(-(dx^2 + dy^2) / (2 sigma_s^2))`, row-major over the grid.
+    spatial: Vec<f32>,
+    /// `1 / (2 sigma_c^2)`.
+    inv_color: f32,
+}
+
+impl Window {
+    pub fn new(params: &MvsParams) -> Self {
+        let offsets = params.window_offsets();
+        let inv_s = 1.0 / (2.0 * params.sigma_spatial * params.sigma_spatial);
+        let spatial = offsets
+            .iter()
+            .flat_map(|&oy| {
+                offsets
+                    .iter()
+                    .map(move |&ox| (-((ox * ox + oy * oy) as f32) * inv_s).exp())
+            })
+            .collect();
+        Window {
+            offsets,
+            spatial,
+            inv_color: 1.0 / (2.0 * params.sigma_color * params.sigma_color),
+        }
+    }
+
+    /// Samples along one axis.
+    #[inline]
+    pub fn n(&self) -> usize {
+        self.offsets.len()
+    }
+
+    /// Samples stored per window row in a full patch: the row padded to
+    /// whole chunks of [`CHUNK`] with zero weights.
+    #[inline]
+    pub fn stride(&self) -> usize {
+        self.n().div_ceil(CHUNK) * CHUNK
+    }
+
+    fn first(&self) -> i32 {
+        self.offsets[0]
+    }
+
+    fn last(&self) -> i32 {
+        self.offsets[self.offsets.len() - 1]
+    }
+
+    fn step(&self) -> f32 {
+        self.offsets
+            .get(1)
+            .map_or(1.0, |&o| (o - self.offsets[0]) as f32)
+    }
+}
+
 /// The reference side of the NCC at one pixel: the window samples that fall
 /// inside the image, their bilateral weights and their weighted-mean-free
-/// intensities. Built once per pixel and iteration, shared by every
-/// hypothesis scored there.
+/// intensities (times the weight). Built once per pixel and iteration,
+/// shared by every hypothesis and source scored there; the vectors are
+/// reused from pixel to pixel, so the hot loop allocates nothing.
 #[derive(Debug, Default)]
 pub(crate) struct RefPatch {
-    pub dx: Vec<f32>,
-    pub dy: Vec<f32>,
-    pub w: Vec<f32>,
-    /// Intensity minus the weighted mean.
-    pub r: Vec<f32>,
-    pub sum_w: f32,
-    /// Sum of w * r^2.
-    pub var: f32,
+    /// Sample offsets; filled only for a window cut by the image border.
+    dx: Vec<f32>,
+    dy: Vec<f32>,
+    /// Bilateral weight of each sample.
+    w: Vec<f32>,
+    /// Weight times (intensity minus the weighted mean).
+    wr: Vec<f32>,
+    sum_w: f32,
+    /// Sum of w * (intensity - mean)^2.
+    var: f32,
+    /// Whether every sample of the window lies inside the image: then the
+    /// samples are the full grid, row-major, each row padded to
+    /// [`Window::stride`] with zero weights, and a source is scored by the
+    /// incremental fast path ([`source_cost`]).
+    full: bool,
 }
 
 impl RefPatch {
     /// Fills the patch of pixel (x, y) of `image`.
-    pub fn build(
-        &mut self,
-        image: &GreyImage,
-        x: usize,
-        y: usize,
-        offsets: &[i32],
-        params: &MvsParams,
-    ) {
+    pub fn build(&mut self, image: &GreyImage, x: usize, y: usize, win: &Window) {
         self.dx.clear();
         self.dy.clear();
         self.w.clear();
-        self.r.clear();
+        self.wr.clear();
+        self.sum_w = 0.0;
+        self.var = 0.0;
         let (xi, yi) = (x as i32, y as i32);
         let Some(centre) = image.at(xi, yi) else {
-            self.sum_w = 0.0;
-            self.var = 0.0;
+            self.full = false;
             return;
         };
-        let inv_s = 1.0 / (2.0 * params.sigma_spatial * params.sigma_spatial);
-        let inv_c = 1.0 / (2.0 * params.sigma_color * params.sigma_color);
-        let (mut sw, mut swr) = (0.0f32, 0.0f32);
-        for &oy in offsets {
-            for &ox in offsets {
-                let Some(v) = image.at(xi + ox, yi + oy) else {
-                    continue;
-                };
-                let dist2 = (ox * ox + oy * oy) as f32;
-                let dc = v - centre;
-                let w = (-dist2 * inv_s - dc * dc * inv_c).exp();
-                self.dx.push(ox as f32);
-                self.dy.push(oy as f32);
-                self.w.push(w);
-                self.r.push(v);
-                sw += w;
-                swr += w * v;
+        let (iw, ih) = (image.width as i32, image.height as i32);
+        self.full = xi + win.first() >= 0
+            && yi + win.first() >= 0
+            && xi + win.last() < iw
+            && yi + win.last() < ih;
+        let mut sw = 0.0f32;
+        let mut swv = 0.0f32;
+        if self.full {
+            let w = image.width as usize;
+            let pad = win.stride() - win.n();
+            let mut k = 0;
+            for &oy in &win.offsets {
+                let row = &image.data[(yi + oy) as usize * w..][..w];
+                for &ox in &win.offsets {
+                    let v = row[(xi + ox) as usize];
+                    let dc = v - centre;
+                    let wt = win.spatial[k] * (-dc * dc * win.inv_color).exp();
+                    // `wr` holds the intensity until the mean is known.
+                    self.w.push(wt);
+                    self.wr.push(v);
+                    sw += wt;
+                    swv += wt * v;
+                    k += 1;
+                }
+                for _ in 0..pad {
+                    self.w.push(0.0);
+                    self.wr.push(0.0);
+                }
+            }
+        } else {
+            let mut k = 0;
+            for &oy in &win.offsets {
+                for &ox in &win.offsets {
+                    k += 1;
+                    let Some(v) = image.at(xi + ox, yi + oy) else {
+                        continue;
+                    };
+                    let dc = v - centre;
+                    let wt = win.spatial[k - 1] * (-dc * dc * win.inv_color).exp();
+                    self.dx.push(ox as f32);
+                    self.dy.push(oy as f32);
+                    self.w.push(wt);
+                    self.wr.push(v);
+                    sw += wt;
+                    swv += wt * v;
+                }
             }
         }
-        let mean = swr / sw;
+        let mean = swv / sw;
         let mut var = 0.0;
-        for (r, &w) in self.r.iter_mut().zip(&self.w) {
-            *r -= mean;
-            var += w * *r * *r;
+        for (wr, &wt) in self.wr.iter_mut().zip(&self.w) {
+            let r = *wr - mean;
+            var += wt * r * r;
+            *wr = wt * r;
         }
         self.sum_w = sw;
         self.var = var;
@@ -132,10 +232,132 @@ pub(crate) fn homography(
 /// leaves the source image or the source patch is flat.
 ///
 /// # Performance
-/// The hot loop of the whole MVS: per sample one homography step (the
-/// projective division included), one bilinear tap and three weighted sums.
+/// The hot loop of the whole MVS: per sample one projective division, one
+/// bilinear tap and three weighted sums. For a window inside the reference
+/// image (nearly every pixel) the warped window is tested once, at its four
+/// corners (the homography maps the square grid into the convex hull of the
+/// corners' images when the plane is in front of both cameras there), and
+/// the homography is evaluated row by row from the first sample, without a
+/// per-sample bounds test.
 #[inline]
-pub(crate) fn source_cost(patch: &RefPatch, u: f32, v: f32, h: &[f32; 9], src: &GreyImage) -> f32 {
+pub(crate) fn source_cost(
+    patch: &RefPatch,
+    win: &Window,
+    u: f32,
+    v: f32,
+    h: &[f32; 9],
+    src: &GreyImage,
+) -> f32 {
+    let sums = if patch.full {
+        sums_full(patch, win, u, v, h, src)
+    } else {
+        sums_partial(patch, u, v, h, src)
+    };
+    let Some((s1, s2, sr)) = sums else {
+        return MAX_COST;
+    };
+    let var_s = s2 - s1 * s1 / patch.sum_w;
+    if !(var_s > MIN_VARIANCE * patch.sum_w) {
+        return MAX_COST;
+    }
+    let ncc = sr / (patch.var * var_s).sqrt();
+    (1.0 - ncc).clamp(0.0, MAX_COST)
+}
+
+/// Weighted sums (w s, w s^2, w r s) over the full window grid.
+#[inline]
+fn sums_full(
+    patch: &RefPatch,
+    win: &Window,
+    u: f32,
+    v: f32,
+    h: &[f32; 9],
+    src: &GreyImage,
+) -> Option<(f32, f32, f32)> {
+    let n = win.n();
+    let step = win.step();
+    let o0 = win.first() as f32;
+    let (u0, v0) = (u + o0, v + o0);
+    let a0 = h[0] * u0 + h[1] * v0 + h[2];
+    let b0 = h[3] * u0 + h[4] * v0 + h[5];
+    let c0 = h[6] * u0 + h[7] * v0 + h[8];
+    let span = (win.last() - win.first()) as f32;
+    let x_max = src.width as f32 - 0.5 - EDGE_MARGIN;
+    let y_max = src.height as f32 - 0.5 - EDGE_MARGIN;
+    for (cx, cy) in [(0.0, 0.0), (span, 0.0), (0.0, span), (span, span)] {
+        let z = c0 + h[6] * cx + h[7] * cy;
+        if !(z > 0.0) {
+            return None;
+        }
+        let x = (a0 + h[0] * cx + h[1] * cy) / z;
+        let y = (b0 + h[3] * cx + h[4] * cy) / z;
+        if !(x >= 0.5 + EDGE_MARGIN && y >= 0.5 + EDGE_MARGIN && x < x_max && y < y_max) {
+            return None;
+        }
+    }
+    let sw = src.width as usize;
+    let data = &src.data[..];
+    // One partial sum per lane: the adds of neighbouring samples do not
+    // wait on each other, and the lane loops vectorise.
+    let (mut s1, mut s2, mut sr) = ([0.0f32; CHUNK], [0.0f32; CHUNK], [0.0f32; CHUNK]);
+    let stride = win.stride();
+    let rows = patch
+        .w
+        .chunks_exact(stride)
+        .zip(patch.wr.chunks_exact(stride));
+    for (j, (w_row, wr_row)) in rows.enumerate() {
+        let fj = j as f32 * step;
+        let (ra, rb, rc) = (a0 + h[1] * fj, b0 + h[4] * fj, c0 + h[7] * fj);
+        let chunks = w_row.chunks_exact(CHUNK).zip(wr_row.chunks_exact(CHUNK));
+        for (c, (w, wr)) in chunks.enumerate() {
+            // Coordinates of the whole chunk first (branch-free, so the
+            // divisions vectorise); lanes past the row's end stay unused.
+            let first = c * CHUNK;
+            let mut fx = [0.0f32; CHUNK];
+            let mut fy = [0.0f32; CHUNK];
+            for i in 0..CHUNK {
+                let fi = (first + i) as f32 * step;
+                let iz = 1.0 / (rc + h[6] * fi);
+                fx[i] = (ra + h[0] * fi) * iz - 0.5;
+                fy[i] = (rb + h[3] * fi) * iz - 0.5;
+            }
+            // Padding lanes keep s = 0 (and have weight 0).
+            let mut sv = [0.0f32; CHUNK];
+            for i in 0..CHUNK.min(n - first) {
+                // In range by the corner test: the casts cannot saturate.
+                let (x0, y0) = (fx[i] as usize, fy[i] as usize);
+                let (ax, ay) = (fx[i] - x0 as f32, fy[i] - y0 as f32);
+                let i0 = y0 * sw + x0;
+                let top = &data[i0..i0 + 2];
+                let bottom = &data[i0 + sw..i0 + sw + 2];
+                let t = top[0] + ax * (top[1] - top[0]);
+                let b = bottom[0] + ax * (bottom[1] - bottom[0]);
+                sv[i] = t + ay * (b - t);
+            }
+            for i in 0..CHUNK {
+                let ws = w[i] * sv[i];
+                s1[i] += ws;
+                s2[i] += ws * sv[i];
+                sr[i] += wr[i] * sv[i];
+            }
+        }
+    }
+    let total = |a: [f32; CHUNK]| {
+        let q = [a[0] + a[4], a[1] + a[5], a[2] + a[6], a[3] + a[7]];
+        (q[0] + q[2]) + (q[1] + q[3])
+    };
+    Some((total(s1), total(s2), total(sr)))
+}
+
+/// Weighted sums over the samples of a window cut by the reference image's
+/// border, each tested against the source image.
+fn sums_partial(
+    patch: &RefPatch,
+    u: f32,
+    v: f32,
+    h: &[f32; 9],
+    src: &GreyImage,
+) -> Option<(f32, f32, f32)> {
     let hp = [
         h[0] * u + h[1] * v + h[2],
         h[3] * u + h[4] * v + h[5],
@@ -146,26 +368,18 @@ pub(crate) fn source_cost(patch: &RefPatch, u: f32, v: f32, h: &[f32; 9], src: &
         let (dx, dy) = (patch.dx[i], patch.dy[i]);
         let z = hp[2] + h[6] * dx + h[7] * dy;
         if !(z > 0.0) {
-            return MAX_COST;
+            return None;
         }
         let iz = 1.0 / z;
         let x = (hp[0] + h[0] * dx + h[1] * dy) * iz;
         let y = (hp[1] + h[3] * dx + h[4] * dy) * iz;
-        let Some(s) = src.sample(x, y) else {
-            return MAX_COST;
-        };
-        let w = patch.w[i];
-        let ws = w * s;
+        let s = src.sample(x, y)?;
+        let ws = patch.w[i] * s;
         s1 += ws;
         s2 += ws * s;
-        sr += patch.r[i] * ws;
+        sr += patch.wr[i] * s;
     }
-    let var_s = s2 - s1 * s1 / patch.sum_w;
-    if !(var_s > MIN_VARIANCE * patch.sum_w) {
-        return MAX_COST;
-    }
-    let ncc = sr / (patch.var * var_s).sqrt();
-    (1.0 - ncc).clamp(0.0, MAX_COST)
+    Some((s1, s2, sr))
 }
 
 /// View selection: the means of the `k` smallest costs (all of them when
@@ -179,6 +393,22 @@ pub(crate) fn aggregate(costs: &mut [(f32, f32)], k: usize) -> (f32, f32) {
         .iter()
         .fold((0.0, 0.0), |s, c| (s.0 + c.0, s.1 + c.1));
     (a / k as f32, b / k as f32)
+}
+
+/// A lower bound of [`aggregate`]'s first mean when only `costs` (ranking
+/// costs, each >= 0) of `m` sources are known: the unscored sources may
+/// cost 0, so only the smallest `k - (m - scored)` known costs are certain
+/// to count. Lets a hypothesis stop as soon as it cannot beat the current
+/// best.
+#[inline]
+pub(crate) fn aggregate_lower_bound(costs: &mut [(f32, f32)], m: usize, k: usize) -> f32 {
+    let k = k.min(m).max(1);
+    let unknown = m - costs.len();
+    if unknown >= k {
+        return 0.0;
+    }
+    costs.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+    costs[..k - unknown].iter().map(|c| c.0).sum::<f32>() / k as f32
 }
 
 #[cfg(test)]
@@ -241,5 +471,91 @@ mod tests {
             (0.3, 0.25)
         );
         assert_eq!(aggregate(&mut [(0.5, 0.2)], 3), (0.5, 0.2));
+    }
+
+    /// A textured image: smooth random-looking intensities.
+    fn texture(w: u32, h: u32) -> GreyImage {
+        let data = (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32, (i / w) as f32);
+                0.5 + 0.2 * (0.37 * x + 0.11 * y).sin()
+                    + 0.2 * (0.05 * x * y).cos() * (0.23 * y).sin()
+            })
+            .collect();
+        GreyImage {
+            width: w,
+            height: h,
+            data,
+        }
+    }
+
+    #[test]
+    fn fast_path_scores_like_the_per_sample_path() {
+        // Same window, one scored by the corner test + row-wise homography,
+        // one by the per-sample path: the costs agree to rounding, and both
+        // refuse a window that leaves the source.
+        let img = texture(64, 48);
+        let hs = [
+            [1.02f32, 0.03, -1.5, -0.02, 0.98, 2.0, 1e-4, -2e-4, 1.0],
+            [0.9, -0.1, 4.0, 0.05, 1.1, -3.0, -3e-4, 1e-4, 1.01],
+            [1.0, 0.0, 30.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0], // leaves the image
+        ];
+        // The default window (6 samples a row) and one wider than a chunk.
+        for (radius, step) in [(5, 2), (9, 1)] {
+            let params = MvsParams {
+                window_radius: radius,
+                window_step: step,
+                ..MvsParams::default()
+            };
+            let win = Window::new(&params);
+            let mut patch = RefPatch::default();
+            patch.build(&img, 30, 20, &win);
+            assert!(patch.full && patch.textured());
+            let mut slow = RefPatch::default();
+            patch_clone_partial(&patch, &win, &mut slow);
+            for h in hs {
+                let fast = source_cost(&patch, &win, 30.5, 20.5, &h, &img);
+                let reference = source_cost(&slow, &win, 30.5, 20.5, &h, &img);
+                assert!((fast - reference).abs() < 1e-4, "{fast} vs {reference}");
+            }
+            assert!(source_cost(&patch, &win, 30.5, 20.5, &hs[2], &img) >= MAX_COST);
+            assert!(source_cost(&patch, &win, 30.5, 20.5, &hs[0], &img) < 1.0);
+        }
+    }
+
+    fn patch_clone_partial(full: &RefPatch, win: &Window, out: &mut RefPatch) {
+        for &oy in &win.offsets {
+            for &ox in &win.offsets {
+                out.dx.push(ox as f32);
+                out.dy.push(oy as f32);
+            }
+        }
+        for (w, wr) in full
+            .w
+            .chunks_exact(win.stride())
+            .zip(full.wr.chunks_exact(win.stride()))
+        {
+            out.w.extend_from_slice(&w[..win.n()]);
+            out.wr.extend_from_slice(&wr[..win.n()]);
+        }
+        out.sum_w = full.sum_w;
+        out.var = full.var;
+        out.full = false;
+    }
+
+    #[test]
+    fn lower_bound_never_exceeds_the_aggregate() {
+        let all = [(0.7f32, 0.7f32), (0.2, 0.2), (1.5, 1.5), (0.4, 0.4)];
+        for k in 1..=4 {
+            let want = aggregate(&mut all.clone(), k).0;
+            for scored in 1..=4 {
+                let mut part = all[..scored].to_vec();
+                let lb = aggregate_lower_bound(&mut part, all.len(), k);
+                assert!(lb <= want + 1e-6, "k {k}, {scored} scored: {lb} > {want}");
+                if scored == all.len() {
+                    assert!((lb - want).abs() < 1e-6);
+                }
+            }
+        }
     }
 }

@@ -26,6 +26,7 @@ pub mod fusion;
 pub mod geometric;
 pub mod params;
 pub mod patchmatch;
+mod pyramid;
 mod rng;
 pub mod view;
 pub mod workspace;

@@ -23,8 +23,18 @@ pub struct MvsParams {
     pub sigma_spatial: f32,
     /// Colour sigma of the bilateral weights, grey levels in [0, 1].
     pub sigma_color: f32,
-    /// PatchMatch iterations (each: red pixels, then black pixels).
+    /// PatchMatch iterations (each: red pixels, then black pixels); with
+    /// coarse-to-fine, the iterations of the coarsest level.
     pub iterations: u32,
+    /// Coarse-to-fine: number of half-resolution levels solved before the
+    /// full resolution (0: none). A level is only added while its smaller
+    /// side keeps `coarse_min_size` pixels.
+    pub coarse_levels: u32,
+    /// Coarse-to-fine: smallest side (pixels) a halved level may have.
+    pub coarse_min_size: u32,
+    /// Coarse-to-fine: iterations of each level finer than the coarsest,
+    /// which starts from the coarser level's planes.
+    pub fine_iterations: u32,
     /// Number of best source costs averaged per hypothesis (view selection:
     /// an occluded or mismatched source beyond the best k does not count).
     pub top_k_sources: usize,
@@ -73,6 +83,9 @@ impl Default for MvsParams {
             sigma_spatial: 5.0,
             sigma_color: 0.1,
             iterations: 6,
+            coarse_levels: 1,
+            coarse_min_size: 256,
+            fine_iterations: 2,
             top_k_sources: 3,
             max_sources: 8,
             depth_range_margin: 0.2,
@@ -110,6 +123,13 @@ impl MvsParams {
             return bad(format!(
                 "sigma_spatial = {} and sigma_color = {} must be positive",
                 self.sigma_spatial, self.sigma_color
+            ));
+        }
+        if self.coarse_levels > 0 && self.coarse_min_size < 2 * self.window_radius + 1 {
+            return bad(format!(
+                "coarse_min_size = {} is smaller than the window (2 * window_radius + 1 = {})",
+                self.coarse_min_size,
+                2 * self.window_radius + 1
             ));
         }
         if self.top_k_sources == 0 || self.max_sources == 0 {
@@ -178,13 +198,16 @@ impl MvsParams {
     /// The defaults as TOML, each field preceded by its documentation.
     pub fn defaults_toml() -> String {
         let d = MvsParams::default();
-        let fields: [(&str, &str, String); 19] = [
+        let fields: [(&str, &str, String); 22] = [
             ("seed", "Seed of every random choice (same seed, same bytes for any thread count).", d.seed.to_string()),
             ("window_radius", "Half size of the matching window, pixels (5: an 11x11 window).", d.window_radius.to_string()),
             ("window_step", "Step between window samples, pixels.", d.window_step.to_string()),
             ("sigma_spatial", "Spatial sigma of the bilateral NCC weights, pixels.", fmt_f(f64::from(d.sigma_spatial))),
             ("sigma_color", "Colour sigma of the bilateral NCC weights, grey levels in [0, 1].", fmt_f(f64::from(d.sigma_color))),
-            ("iterations", "PatchMatch iterations (red-black propagation + random refinement).", d.iterations.to_string()),
+            ("iterations", "PatchMatch iterations (red-black propagation + random refinement); with coarse-to-fine, at the coarsest level.", d.iterations.to_string()),
+            ("coarse_levels", "Coarse-to-fine: half-resolution levels solved before the full resolution (0: none).", d.coarse_levels.to_string()),
+            ("coarse_min_size", "Coarse-to-fine: smallest side (pixels) of a halved level; smaller images skip the level.", d.coarse_min_size.to_string()),
+            ("fine_iterations", "Coarse-to-fine: iterations at each level finer than the coarsest (it starts from the coarser planes).", d.fine_iterations.to_string()),
             ("top_k_sources", "View selection: the best k source costs are averaged per hypothesis.", d.top_k_sources.to_string()),
             ("max_sources", "Most source images per reference image.", d.max_sources.to_string()),
             ("depth_range_margin", "Margin on both sides of a depth range from sparse points, share of the range.", fmt_f(d.depth_range_margin)),

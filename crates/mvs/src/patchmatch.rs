@@ -4,9 +4,12 @@
 
 use rayon::prelude::*;
 
-use crate::cost::{aggregate, homography, source_cost, RefPatch, MAX_COST};
+use crate::cost::{
+    aggregate, aggregate_lower_bound, homography, source_cost, RefPatch, Window, MAX_COST,
+};
 use crate::error::{MvsError, Result};
 use crate::params::MvsParams;
+use crate::pyramid::{half, half_k, upsample};
 use crate::rng::PixelRng;
 use crate::view::{k_of, pixel_ray, GreyImage, Relative, View};
 
@@ -76,9 +79,12 @@ struct Problem<'a> {
     /// Cosine of the largest normal-to-view angle.
     min_cos: f32,
     top_k: usize,
-    offsets: Vec<i32>,
+    win: Window,
     params: &'a MvsParams,
     view_key: u64,
+    /// Pyramid level (0 = full resolution): part of the random keys, so
+    /// that each level draws its own numbers.
+    level: u32,
 }
 
 /// The raw PatchMatch state of one view (every pixel's winning hypothesis).
@@ -164,14 +170,18 @@ pub(crate) fn patch_match_raw(
         range: (view.depth_range.0 as f32, view.depth_range.1 as f32),
         min_cos: params.max_normal_view_angle_deg.to_radians().cos(),
         top_k: params.top_k_sources,
-        offsets: params.window_offsets(),
+        win: Window::new(params),
         params,
         view_key: reference as u64,
+        level: 0,
     };
     let init = previous
         .and_then(|p| p.get(reference))
         .and_then(Option::as_ref);
-    Ok(problem.run(init))
+    Ok(match init {
+        Some(init) => problem.run(Some(init), params.iterations),
+        None => problem.solve(params.coarse_levels),
+    })
 }
 
 impl RawState {
@@ -199,10 +209,58 @@ impl RawState {
 }
 
 impl Problem<'_> {
-    fn run(&self, init: Option<&RawState>) -> RawState {
+    /// PatchMatch from random planes, first on `levels` halvings of the
+    /// images (while their smaller side keeps `coarse_min_size` pixels):
+    /// the coarsest level runs `iterations`, each finer one starts from the
+    /// coarser winners and runs `fine_iterations`.
+    fn solve(&self, levels: u32) -> RawState {
         let (w, h) = (self.image.width as usize, self.image.height as usize);
-        // The geometric pass draws other numbers than the photometric one.
-        let pass = if self.geom.is_some() { 1u64 << 32 } else { 0 };
+        if levels == 0 || (w.min(h) / 2) < self.params.coarse_min_size as usize {
+            return self.run(None, self.params.iterations);
+        }
+        let images: Vec<GreyImage> = std::iter::once(self.image)
+            .chain(self.sources.iter().map(|s| s.1))
+            .map(half)
+            .collect();
+        let coarse = Problem {
+            image: &images[0],
+            k: half_k(&self.k),
+            sources: self
+                .sources
+                .iter()
+                .zip(&images[1..])
+                .map(|((rel, _), img)| {
+                    (
+                        Relative {
+                            k: half_k(&rel.k),
+                            ..*rel
+                        },
+                        img,
+                    )
+                })
+                .collect(),
+            geom: None,
+            range: self.range,
+            min_cos: self.min_cos,
+            top_k: self.top_k,
+            win: self.win.clone(),
+            params: self.params,
+            view_key: self.view_key,
+            level: self.level + 1,
+        };
+        let low = coarse.solve(levels - 1);
+        let init = upsample(&low, &coarse.k, w, h, &self.k, MAX_COST);
+        self.run(Some(&init), self.params.fine_iterations)
+    }
+
+    /// `iterations` of PatchMatch from `init` (scored afresh) or, without
+    /// it, from random planes.
+    fn run(&self, init: Option<&RawState>, iterations: u32) -> RawState {
+        let (w, h) = (self.image.width as usize, self.image.height as usize);
+        // The geometric pass and each pyramid level draw other numbers
+        // than the full-resolution photometric pass.
+        let pass =
+            (if self.geom.is_some() { 1u64 << 32 } else { 0 }) | (u64::from(self.level) << 40);
         let mut state: Vec<Hyp> = vec![
             Hyp {
                 d: 0.0,
@@ -224,12 +282,12 @@ impl Problem<'_> {
                     let d = self.random_depth(&mut rng);
                     (d, random_normal(&mut rng, &ray))
                 };
-                patch.build(self.image, x, y, &self.offsets, self.params);
-                let (cost, photo) = self.cost(&patch, x, y, &ray, d, &n);
+                patch.build(self.image, x, y, &self.win);
+                let (cost, photo) = self.cost(&patch, (x, y), &ray, d, &n, f32::INFINITY);
                 *hyp = Hyp { d, n, cost, photo };
             }
         });
-        for it in 0..self.params.iterations {
+        for it in 0..iterations {
             for colour in 0..2 {
                 let prev = state.clone();
                 let step = pass + 1 + 2 * u64::from(it) + colour as u64;
@@ -305,15 +363,18 @@ impl Problem<'_> {
         (du * du + dv * dv).sqrt().min(cap)
     }
 
-    /// Costs (ranking, photometric) of plane (d, n) at pixel (x, y).
+    /// Costs (ranking, photometric) of plane (d, n) at pixel (x, y); the
+    /// worst costs as soon as the ranking cost provably reaches `bound`
+    /// (the current best: the hypothesis would be rejected anyway, so the
+    /// remaining sources are not scored).
     fn cost(
         &self,
         patch: &RefPatch,
-        x: usize,
-        y: usize,
+        (x, y): (usize, usize),
         ray: &[f32; 3],
         d: f32,
         n: &[f32; 3],
+        bound: f32,
     ) -> (f32, f32) {
         let worst = (MAX_COST + self.geom_worst(), MAX_COST);
         if !(d >= self.range.0 && d <= self.range.1 && patch.textured()) {
@@ -330,7 +391,7 @@ impl Problem<'_> {
         let (u, v) = (x as f32 + 0.5, y as f32 + 0.5);
         for (k, (rel, src)) in self.sources.iter().enumerate() {
             let photo = homography(rel, &self.k, d, n, ray)
-                .map_or(MAX_COST, |h| source_cost(patch, u, v, &h, src));
+                .map_or(MAX_COST, |h| source_cost(patch, &self.win, u, v, &h, src));
             let geo = match &self.geom {
                 Some(g) => {
                     self.params.geom_regularizer * self.reprojection_error(rel, &g[k], x, y, ray, d)
@@ -338,6 +399,9 @@ impl Problem<'_> {
                 None => 0.0,
             };
             costs[k] = (photo + geo, photo);
+            if k + 1 < m && aggregate_lower_bound(&mut costs[..=k], m, self.top_k) >= bound {
+                return worst;
+            }
         }
         aggregate(&mut costs[..m], self.top_k)
     }
@@ -363,13 +427,13 @@ impl Problem<'_> {
         let h = self.image.height as usize;
         let idx = y * w + x;
         let ray = pixel_ray(&self.k, x, y);
-        patch.build(self.image, x, y, &self.offsets, self.params);
+        patch.build(self.image, x, y, &self.win);
         let mut best = prev[idx];
         if !patch.textured() {
             return best;
         }
         let consider = |d: f32, n: [f32; 3], best: &mut Hyp| {
-            let (cost, photo) = self.cost(patch, x, y, &ray, d, &n);
+            let (cost, photo) = self.cost(patch, (x, y), &ray, d, &n, best.cost);
             if cost < best.cost {
                 *best = Hyp { d, n, cost, photo };
             }

@@ -4,7 +4,7 @@ import os as _os
 
 from vpctl._native import mvs as _native_mvs
 
-__all__ = ["reconstruct"]
+__all__ = ["patch_match", "reconstruct"]
 
 
 def _existing(value, name, kind):
@@ -70,3 +70,39 @@ def reconstruct(workspace, *, images=None, triplets=None, levels=(1,), out=None,
         raise ValueError(f"levels: expected pyramid levels >= 1 (1 = full size), got {levels!r}")
     tri = _existing(triplets, "triplets", "file")
     return _native_mvs.run_triplets(ws, tri, _os.fspath(out), levels, depth_range, params, seed, force)
+
+
+def patch_match(images, cameras, depth_ranges, *, sources=None, params=None, seed=None,
+                filtered=True):
+    """PatchMatch multi-view stereo on images in memory (vp-mvs's
+    ``reconstruct``: PatchMatch per image, the geometric pass and filter).
+
+    ``images``: (H, W, 3) uint8 arrays; ``cameras``: one posed
+    :class:`vpctl.scene.Camera` per image, of the image's size;
+    ``depth_ranges``: ``(min, max)`` along the optical axis, one per image or
+    one for all; ``sources``: ``sources[i]`` lists the source images of image
+    ``i`` (default: the cameras whose frusta overlap most, at least
+    ``min_triangulation_angle_deg`` apart). ``params``: any subset of
+    ``vpctl mvs defaults``; ``seed`` overrides its seed.
+
+    Returns, per image, ``(depth, normal, cost)``: float32 arrays (H, W),
+    (H, W, 3) (unit normals in the camera frame) and (H, W) (1 - NCC of the
+    winner), with depth 0 and normal 0 where a filter rejected the pixel;
+    geometrically filtered maps when ``filtered`` (else PatchMatch's
+    photometric maps); ``None`` for an image without sources. Same inputs
+    and seed, same arrays.
+
+    Raises ``ValueError`` for mismatched lengths, an image whose size is not
+    its camera's, an empty or inverted depth range, or unknown source indices.
+    """
+    images = list(images)
+    cameras = list(cameras)
+    if len(depth_ranges) == 2 and all(isinstance(v, (int, float)) for v in depth_ranges):
+        depth_ranges = [depth_ranges]
+    try:
+        depth_ranges = [(float(lo), float(hi)) for lo, hi in depth_ranges]
+    except (TypeError, ValueError):
+        raise ValueError(f"depth_ranges: expected (min, max) or a list of them, got {depth_ranges!r}") from None
+    if sources is not None:
+        sources = [[int(s) for s in src] for src in sources]
+    return _native_mvs.patch_match(images, cameras, depth_ranges, sources, params, seed, bool(filtered))

@@ -3,6 +3,11 @@
 from os import PathLike
 from typing import Any, Mapping, Optional, Sequence, Union
 
+import numpy as np
+import numpy.typing as npt
+
+from vpctl.scene import Camera
+
 _Path = Union[str, PathLike[str]]
 
 def reconstruct(
@@ -20,4 +25,20 @@ def reconstruct(
     """Runs ``vpctl mvs run`` on `workspace` (with `triplets` and `out`:
     ``--triplets --levels --out``) and returns its summary; writes the same
     files, byte for byte, for the same inputs and seed."""
+    ...
+
+def patch_match(
+    images: Sequence[npt.NDArray[np.uint8]],
+    cameras: Sequence[Camera],
+    depth_ranges: Union[tuple[float, float], Sequence[tuple[float, float]]],
+    *,
+    sources: Optional[Sequence[Sequence[int]]] = None,
+    params: Optional[Mapping[str, Any]] = None,
+    seed: Optional[int] = None,
+    filtered: bool = True,
+) -> list[Optional[tuple[npt.NDArray[np.float32], npt.NDArray[np.float32], npt.NDArray[np.float32]]]]:
+    """PatchMatch on images in memory: per image (depth (H, W), normal
+    (H, W, 3), cost (H, W)) float32 arrays, geometrically filtered when
+    `filtered`; ``None`` for an image without sources. Same inputs and seed,
+    same arrays."""
     ...
