@@ -16,6 +16,7 @@
 #![warn(missing_docs)]
 
 pub mod error;
+pub mod export;
 pub mod geodesy;
 pub mod items;
 pub mod link;
@@ -27,6 +28,7 @@ pub mod wpl;
 use std::time::Duration;
 
 pub use error::{MissionError, Result};
+pub use export::{export_text, ExportFormat};
 pub use items::{
     build_mission, compare_items, Autopilot, CameraTrigger, GimbalCommand, Mission, MissionItem,
     MissionOptions,
