@@ -19,6 +19,11 @@ fi
 .venv/bin/python -m pip install --quiet --disable-pip-version-check -r crates/mission/tests/mavsdk/requirements.txt
 export VP_MAVSDK_PYTHON="$PWD/.venv/bin/python" VP_REQUIRE_MAVSDK=1
 
+# The view checks' node packages (tests/js: gltf-validator, playwright-core),
+# exactly as pinned in its package-lock.json. No node or npm: this fails.
+echo "== npm ci (tests/js)"
+npm ci --prefix tests/js --no-audit --no-fund --loglevel=error
+
 echo "== cargo test"
 cargo test --workspace --locked
 
