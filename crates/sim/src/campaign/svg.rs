@@ -120,14 +120,14 @@ impl LinePlot<'_> {
         let _ = write!(
             s,
             r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">{}</text>"#,
-            (bx0 + bx1) / 2.0,
+            f64::midpoint(bx0, bx1),
             H - 6.0,
             escape(self.x_label)
         );
         let _ = write!(
             s,
             r#"<text transform="translate(12 {:.1}) rotate(-90)" text-anchor="middle">{}</text>"#,
-            (by0 + by1) / 2.0,
+            f64::midpoint(by0, by1),
             escape(self.y_label)
         );
         for (i, series) in self.series.iter().enumerate() {

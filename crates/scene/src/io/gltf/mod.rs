@@ -295,7 +295,7 @@ impl Builder {
             let primitives = self.primitives(part)?;
             let mesh = self.root.push(json::Mesh {
                 extensions: None,
-                extras: Default::default(),
+                extras: json::extras::Extras::default(),
                 name: Some(name.clone()),
                 primitives,
                 weights: None,
@@ -312,14 +312,14 @@ impl Builder {
                 name: None,
                 uri: None,
                 extensions: None,
-                extras: Default::default(),
+                extras: json::extras::Extras::default(),
             });
         }
         // A scene must list at least one node (schema: minItems 1).
         if !nodes.is_empty() {
             let s = self.root.push(json::Scene {
                 extensions: None,
-                extras: Default::default(),
+                extras: json::extras::Extras::default(),
                 name: Some("vpctl (ENU z-up written as glTF y-up)".into()),
                 nodes,
             });
@@ -363,7 +363,7 @@ impl Builder {
         json::mesh::Primitive {
             attributes: BTreeMap::from([(Valid(json::mesh::Semantic::Positions), positions)]),
             extensions: None,
-            extras: Default::default(),
+            extras: json::extras::Extras::default(),
             indices,
             material: Some(material),
             mode: Valid(mode),
@@ -412,7 +412,7 @@ impl Builder {
             name: None,
             target: Some(Valid(target)),
             extensions: None,
-            extras: Default::default(),
+            extras: json::extras::Extras::default(),
         })
     }
 
@@ -476,7 +476,7 @@ impl Builder {
             count: USize64::from(count),
             component_type: Valid(json::accessor::GenericComponentType(component)),
             extensions: None,
-            extras: Default::default(),
+            extras: json::extras::Extras::default(),
             type_: Valid(kind),
             min,
             max,

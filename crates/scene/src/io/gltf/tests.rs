@@ -1,6 +1,8 @@
 //! The GLB writer: container layout, the Y-up frame, per-material
 //! primitives, determinism and the file checks. (The Khronos validator
 //! checks the files end to end in the CLI's `views` tests.)
+// Exact: the written f32 values are exact images of small integers.
+#![allow(clippy::float_cmp)]
 
 use gltf_json as json;
 use nalgebra::{Point3, Vector3};
@@ -141,7 +143,7 @@ fn frusta_and_paths_are_lines_and_the_bytes_repeat() {
     let glb = scene.to_glb().unwrap();
     assert_eq!(glb, scene.to_glb().unwrap(), "same scene, same bytes");
     let (root, bin) = split(&glb);
-    let mode = |m: usize| root.meshes[m].primitives[0].mode.clone();
+    let mode = |m: usize| root.meshes[m].primitives[0].mode;
     assert_eq!(
         mode(0),
         json::validation::Checked::Valid(json::mesh::Mode::Lines)
