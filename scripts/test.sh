@@ -23,6 +23,11 @@ fi
 export VP_MAVSDK_PYTHON="$PWD/.venv/bin/python" VP_REQUIRE_MAVSDK=1
 export VP_PYMAVLINK_PYTHON="$PWD/.venv/bin/python"
 
+# The view checks' node packages (tests/js: gltf-validator, playwright-core),
+# exactly as pinned in its package-lock.json. No node or npm: this fails.
+echo "== npm ci (tests/js)"
+npm ci --prefix tests/js --no-audit --no-fund --loglevel=error
+
 echo "== cargo test"
 cargo test --workspace --locked
 

@@ -9,8 +9,8 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use vp_mission::sim_vehicle::{spawn_udp_vehicle, UdpVehicle, VehicleConfig};
 use vp_mission::{
-    build_mission, export_qgc, export_wpl, Autopilot, ConnectOptions, Mission, MissionItem,
-    MissionOptions, QgcOptions,
+    build_mission, export_text, export_wpl, Autopilot, ConnectOptions, ExportFormat, Mission,
+    MissionItem, MissionOptions,
 };
 use vp_scene::fsio;
 
@@ -110,13 +110,16 @@ fn py_build_mission(
 }
 
 /// The plan as export text: QGroundControl `.plan` JSON (`format="qgc"`)
-/// or `QGC WPL 110` (`"wpl"`); written to `out` when given, atomically,
-/// refusing to overwrite unless `force` (same bytes as `vpctl mission export`).
+/// or `QGC WPL 110` (`"wpl"`); without `format`, from the extension of
+/// `out` (`.plan`, `.waypoints`/`.txt`) as `vpctl mission export`, which
+/// refuses the same files; QGC when there is no `out`. Written to `out`
+/// when given, atomically, refusing to overwrite unless `force` (same
+/// bytes as `vpctl mission export`).
 #[pyfunction]
-#[pyo3(signature = (plan, format = "qgc", out = None, force = false, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true))]
+#[pyo3(signature = (plan, format = None, out = None, force = false, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true))]
 fn export(
     plan: PyRef<'_, PyPlan>,
-    format: &str,
+    format: Option<&str>,
     out: Option<PathBuf>,
     force: bool,
     autopilot: &str,
@@ -125,19 +128,13 @@ fn export(
     takeoff: f32,
     rtl: bool,
 ) -> PyResult<String> {
+    let format = format.map(ExportFormat::from_name).transpose().py()?;
+    let format = ExportFormat::for_output(out.as_deref(), format).py()?;
     if let Some(p) = &out {
         fsio::check_overwrite(p, force).py()?;
     }
     let o = options(autopilot, hold, speed, takeoff, rtl)?;
-    let text = match format {
-        "qgc" => export_qgc(&plan.0, &o, &QgcOptions::default()).py()?,
-        "wpl" => export_wpl(&build_mission(&plan.0, &o).py()?).py()?,
-        other => {
-            return Err(value_error(format!(
-                "format {other:?}: expected \"qgc\" or \"wpl\""
-            )))
-        }
-    };
+    let text = export_text(&plan.0, format, &o).py()?;
     if let Some(p) = &out {
         use std::io::Write;
         fsio::write_atomic(p, |w| w.write_all(text.as_bytes())).py()?;

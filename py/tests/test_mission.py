@@ -1,13 +1,14 @@
 """vpctl.mission: export equals `vpctl mission export`; upload/download
 against the simulated vehicle with the GIL released."""
 
+import subprocess
 import threading
 import time
 
 import pytest
 
 import vpctl
-from conftest import run_cli
+from conftest import run_cli, vpctl_bin
 
 
 @pytest.fixture(scope="module")
@@ -24,11 +25,31 @@ def test_export_equals_cli(plan_file, tmp_path, fmt):
     # The CLI checks the extension against the format.
     cli = tmp_path / ("cli.plan" if fmt == "qgc" else "cli.waypoints")
     run_cli("mission", "export", path, "--format", fmt, "--out", cli, "--hold", "3")
-    text = vpctl.mission.export(plan, format=fmt, out=tmp_path / "py", hold=3.0)
-    assert (tmp_path / "py").read_bytes() == cli.read_bytes()
+    py = tmp_path / ("py.plan" if fmt == "qgc" else "py.waypoints")
+    text = vpctl.mission.export(plan, format=fmt, out=py, hold=3.0)
+    assert py.read_bytes() == cli.read_bytes()
     assert text == cli.read_text()
     with pytest.raises(FileExistsError):
-        vpctl.mission.export(plan, format=fmt, out=tmp_path / "py")
+        vpctl.mission.export(plan, format=fmt, out=py)
+    # Without a format, the extension picks it, as in the CLI.
+    again = tmp_path / ("again.plan" if fmt == "qgc" else "again.txt")
+    assert vpctl.mission.export(plan, out=again, hold=3.0) == text
+
+
+def test_export_checks_the_extension_like_the_cli(plan_file, tmp_path):
+    path, plan = plan_file
+    for name, fmt in [("m.json", None), ("m.plan", "wpl"), ("m", None)]:
+        out = tmp_path / name
+        with pytest.raises(ValueError, match=name.replace(".", r"\.")):
+            vpctl.mission.export(plan, format=fmt, out=out)
+        assert not out.exists()
+        args = ["--format", fmt] if fmt else []
+        r = subprocess.run(
+            [vpctl_bin(), "mission", "export", str(path), *args, "--out", str(out)],
+            capture_output=True,
+            text=True,
+        )
+        assert r.returncode == 2 and name in r.stderr, r.stderr
 
 
 def test_build_mission_items(plan_file):

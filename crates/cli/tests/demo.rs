@@ -64,6 +64,9 @@ fn quick_demo_prints_the_table_and_writes_the_report() {
         "plans/F1x2/iter1.json",
         "plans/NP1x2/iter1.plan",
         "plans/Grid/iter1.plan",
+        // Checked by the glTF validator and in Chromium in views.rs.
+        "report.html",
+        "scene.glb",
     ] {
         let p = out.join(f);
         assert!(

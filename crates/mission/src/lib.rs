@@ -18,6 +18,7 @@
 #![warn(missing_docs)]
 
 pub mod error;
+pub mod export;
 pub mod geodesy;
 pub mod items;
 pub mod link;
@@ -30,6 +31,7 @@ pub mod wpl;
 use std::time::Duration;
 
 pub use error::{MissionError, Result};
+pub use export::{export_text, ExportFormat};
 pub use items::{
     build_mission, compare_items, Autopilot, CameraTrigger, GimbalCommand, Mission, MissionItem,
     MissionOptions,

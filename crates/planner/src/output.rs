@@ -1,15 +1,18 @@
 //! Outputs besides the plan JSON: a PLY of the planned cameras as small
-//! pyramids for MeshLab/CloudCompare, and a PNG top view.
+//! pyramids for MeshLab/CloudCompare, a glTF scene (mesh, acquired and
+//! planned cameras as frusta, flight paths) for any glTF viewer, and a PNG
+//! top view.
 
 use std::io::Write;
 use std::path::Path;
 
 use image::{Rgb, RgbImage};
-use nalgebra::{Point2, Point3};
+use nalgebra::Point3;
+use vp_scene::io::gltf::{write_glb, GltfScene};
 use vp_scene::io::{write_mesh, MeshFormat};
 use vp_scene::plan::{Plan, Role};
 use vp_scene::raster::{draw_text, text_width};
-use vp_scene::{fsio, Intrinsics, Material, Mesh};
+use vp_scene::{fsio, Camera, Intrinsics, Material, Mesh};
 
 use crate::error::{PlannerError, Result};
 
@@ -33,16 +36,11 @@ pub fn frusta_mesh(plan: &Plan, k: Intrinsics, depth: f64) -> Mesh {
         faces: Vec::new(),
         materials: Some(Vec::new()),
     };
-    let (w, h) = (f64::from(k.width), f64::from(k.height));
     for v in &plan.waypoints {
         let cam = v.to_camera(k);
         let base = mesh.vertices.len() as u32;
         mesh.vertices.push(cam.center());
-        for (x, y) in [(0.0, 0.0), (w, 0.0), (w, h), (0.0, h)] {
-            let (o, d) = cam.ray(&Point2::new(x, y));
-            let along = d.dot(&cam.axis());
-            mesh.vertices.push(o + d * (depth / along));
-        }
+        mesh.vertices.extend(cam.frustum_corners(depth));
         let faces = [
             [0, 1, 2],
             [0, 2, 3],
@@ -75,6 +73,84 @@ pub fn write_frusta_ply(
         &frusta_mesh(plan, k, depth),
         MeshFormat::PlyBinaryLittleEndian,
     )?;
+    Ok(())
+}
+
+/// What the 3D scene of a plan shows ([`plan_scene`]).
+pub struct SceneView<'a> {
+    /// The scene mesh (coloured by material).
+    pub mesh: &'a Mesh,
+    /// The cameras already acquired (e.g. the COLMAP model's images).
+    pub acquired: &'a [Camera],
+    /// Plans to show, each under a name (its nodes are prefixed with it).
+    pub plans: &'a [(&'a str, &'a Plan)],
+    /// The planned camera, for the frusta of the plans' views.
+    pub intrinsics: Intrinsics,
+    /// Depth of the frusta along the optical axis, metres.
+    pub frustum_depth: f64,
+}
+
+/// The colour of a planned view in the top view and the 3D scene.
+fn role_colour(role: Role) -> Rgb<u8> {
+    match role {
+        Role::TripletMember => TRIPLET_COLOUR,
+        Role::Bridge => BRIDGE_COLOUR,
+        Role::Grid | Role::Initial => GRID_COLOUR,
+    }
+}
+
+/// Frusta of the acquired cameras.
+const ACQUIRED_COLOUR: Rgb<u8> = Rgb([90, 160, 255]);
+/// The flight path in 3D (white would vanish on a viewer's light background).
+const PATH_3D_COLOUR: Rgb<u8> = Rgb([255, 230, 0]);
+
+/// The plan scene as glTF nodes: `mesh`; `acquired cameras` (blue frusta);
+/// per plan, `<name>: triplet views` (orange), `<name>: bridging views`
+/// (cyan), `<name>: grid views` (magenta) as frusta, and `<name>: flight
+/// path` (yellow line strip through the views in flight order). The colours
+/// are the top view's. Empty groups are left out.
+pub fn plan_scene(view: &SceneView) -> Result<GltfScene> {
+    let mut scene = GltfScene::new();
+    scene.add_mesh("mesh", view.mesh)?;
+    scene.add_frusta(
+        "acquired cameras",
+        view.acquired,
+        view.frustum_depth,
+        ACQUIRED_COLOUR.0,
+    )?;
+    for (name, plan) in view.plans {
+        for (roles, label) in [
+            (&[Role::TripletMember][..], "triplet views"),
+            (&[Role::Bridge][..], "bridging views"),
+            (&[Role::Grid, Role::Initial][..], "grid views"),
+        ] {
+            let cams: Vec<Camera> = plan
+                .waypoints
+                .iter()
+                .filter(|w| roles.contains(&w.role))
+                .map(|w| w.to_camera(view.intrinsics))
+                .collect();
+            scene.add_frusta(
+                &format!("{name}: {label}"),
+                &cams,
+                view.frustum_depth,
+                role_colour(roles[0]).0,
+            )?;
+        }
+        let path = plan
+            .waypoints
+            .iter()
+            .map(|w| Point3::from(w.position))
+            .collect();
+        scene.add_line_strip(&format!("{name}: flight path"), path, PATH_3D_COLOUR.0)?;
+    }
+    Ok(scene)
+}
+
+/// Writes [`plan_scene`] as a glTF binary (`.glb`), atomically; refuses to
+/// overwrite unless `force`, and a path without the `.glb` extension.
+pub fn write_plan_glb(path: &Path, view: &SceneView, force: bool) -> Result<()> {
+    write_glb(path, &plan_scene(view)?, force)?;
     Ok(())
 }
 
@@ -164,6 +240,61 @@ impl Canvas {
     }
 }
 
+/// Per mesh face, the f(t) of the nearest sampled triangle (3D distance
+/// between centroids) within 1.5 sample spacings, else `None` (not
+/// sampled: outside the ROI, or too far from any sample). The spacing is
+/// that of the samples spread evenly over their x/y bounding box (padded).
+///
+/// # Performance
+/// Samples are bucketed in an x/y grid of that radius; each face looks at
+/// its 3 x 3 cells only.
+fn face_fulfillment(mesh: &Mesh, samples: &[(Point3<f64>, f64)]) -> Vec<Option<f64>> {
+    if samples.is_empty() {
+        return vec![None; mesh.n_faces()];
+    }
+    let mut lo = [f64::INFINITY; 2];
+    let mut hi = [f64::NEG_INFINITY; 2];
+    for (p, _) in samples {
+        lo = [lo[0].min(p.x), lo[1].min(p.y)];
+        hi = [hi[0].max(p.x), hi[1].max(p.y)];
+    }
+    // Padded by one spacing of the longer side, so that samples along a
+    // line still get a spacing.
+    let (w, h) = (hi[0] - lo[0], hi[1] - lo[1]);
+    let pad = w.max(h) / (samples.len() as f64).sqrt();
+    let area = ((w + pad) * (h + pad)).max(1e-12);
+    let radius = (1.5 * (area / samples.len() as f64).sqrt()).max(1e-6);
+    let cell = |x: f64, y: f64| {
+        (
+            ((x - lo[0]) / radius).floor() as i64,
+            ((y - lo[1]) / radius).floor() as i64,
+        )
+    };
+    let mut grid: std::collections::HashMap<(i64, i64), Vec<usize>> =
+        std::collections::HashMap::new();
+    for (i, (p, _)) in samples.iter().enumerate() {
+        grid.entry(cell(p.x, p.y)).or_default().push(i);
+    }
+    (0..mesh.n_faces())
+        .map(|f| {
+            let c = mesh.face_centroid(f);
+            let (cx, cy) = cell(c.x, c.y);
+            let mut best: Option<(f64, f64)> = None;
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    for &i in grid.get(&(cx + dx, cy + dy)).map_or(&[][..], Vec::as_slice) {
+                        let d = (samples[i].0 - c).norm();
+                        if d <= radius && best.is_none_or(|(bd, _)| d < bd) {
+                            best = Some((d, samples[i].1));
+                        }
+                    }
+                }
+            }
+            best.map(|(_, v)| v)
+        })
+        .collect()
+}
+
 /// Red (0) through yellow to green (1).
 fn ramp(f: f64) -> Rgb<u8> {
     let f = f.clamp(0.0, 1.0);
@@ -172,8 +303,9 @@ fn ramp(f: f64) -> Rgb<u8> {
     Rgb([r, g, 40])
 }
 
-/// Renders the top view: mesh faces from below to above shaded by height,
-/// sampled triangles coloured by f(t) (red 0 to green 1), the ROI outline in
+/// Renders the top view: mesh faces from below to above, each coloured by
+/// the f(t) of the nearest sampled triangle (red 0 to green 1, brighter
+/// higher up) or, where nothing was sampled, grey by height; the ROI outline in
 /// blue, the path in white, cameras as dots (triplet members orange,
 /// bridges cyan, grid and initial views magenta) with heading ticks; below
 /// the map a panel with a title, the legend, the colour keys and the scale.
@@ -208,16 +340,22 @@ pub fn render_top_view(view: &TopView) -> RgbImage {
         .collect();
     order.sort_by(|&a, &b| cz[a].total_cmp(&cz[b]));
     let dz = (b.max.z - b.min.z).max(1e-9);
+    let shaded = face_fulfillment(view.mesh, view.fulfillment);
     for f in order {
         let t = view.mesh.triangle(f).map(|p| cv.px(p.x, p.y));
-        let g = (60.0 + 170.0 * (cz[f] - b.min.z) / dz) as u8;
-        cv.triangle(t, Rgb([g, g, g]));
+        let height = (cz[f] - b.min.z) / dz;
+        let g = (60.0 + 170.0 * height) as u8;
+        let colour = match shaded[f] {
+            // f(t) colour, darker low and brighter high so relief still shows.
+            Some(v) => {
+                let k = 0.6 + 0.4 * height;
+                Rgb(ramp(v).0.map(|c| (f64::from(c) * k) as u8))
+            }
+            None => Rgb([g, g, g]),
+        };
+        cv.triangle(t, colour);
     }
     let r = (0.004 * f64::from(w.max(h))).ceil().max(1.0) as i64;
-    for (p, f) in view.fulfillment {
-        let q = cv.px(p.x, p.y);
-        cv.dot(q, r, ramp(*f));
-    }
     let n = view.roi_outline.len();
     for i in 0..n {
         let (a, c) = (view.roi_outline[i], view.roi_outline[(i + 1) % n]);
@@ -233,11 +371,7 @@ pub fn render_top_view(view: &TopView) -> RgbImage {
         cv.line(a, c, Rgb([255, 255, 255]));
     }
     for v in wps {
-        let colour = match v.role {
-            Role::TripletMember => TRIPLET_COLOUR,
-            Role::Bridge => BRIDGE_COLOUR,
-            Role::Grid | Role::Initial => GRID_COLOUR,
-        };
+        let colour = role_colour(v.role);
         let p = cv.px(v.position[0], v.position[1]);
         let yaw = v.yaw_deg.to_radians();
         let tick = 4.0 * r as f64;
@@ -271,9 +405,18 @@ fn with_legend(map: &RgbImage, view: &TopView, width_m: f64) -> RgbImage {
     if view.plan.cut_short {
         title.push_str(", cut short");
     }
+    let note = if view.fulfillment.is_empty() {
+        format!("north up, {width_m:.0} m across; no f(t): a grid plan")
+    } else {
+        format!("north up, {width_m:.0} m across; faces: f(t) of the nearest sample, grey: none")
+    };
     let lines = 4;
     let panel = 6 + lines * LINE_PX;
-    let w = map.width().max(text_width(&title) as u32 + 12).max(420);
+    let w = map
+        .width()
+        .max(text_width(&title) as u32 + 12)
+        .max(text_width(&note) as u32 + 12)
+        .max(420);
     let mut img = RgbImage::from_pixel(w, map.height() + panel, Rgb([20, 20, 30]));
     image::imageops::overlay(&mut img, map, 0, 0);
     let y0 = i64::from(map.height()) + 4;
@@ -308,11 +451,6 @@ fn with_legend(map: &RgbImage, view: &TopView, width_m: f64) -> RgbImage {
         fill(&mut img, gx + i, row(2), 1, 8, Rgb([g, g, g]));
     }
     draw_text(&mut img, gx + 64, row(2), "high", TEXT_COLOUR);
-    let note = if view.fulfillment.is_empty() {
-        format!("north up, {width_m:.0} m across; no f(t): a grid plan")
-    } else {
-        format!("north up, {width_m:.0} m across")
-    };
     draw_text(&mut img, 6, row(3), &note, TEXT_COLOUR);
     img
 }
@@ -337,4 +475,35 @@ pub fn write_top_view_png(path: &Path, view: &TopView, force: bool) -> Result<()
         })?;
     fsio::write_atomic(path, |w| w.write_all(buf.get_ref()))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn faces_take_the_f_of_the_nearest_sample_and_far_faces_stay_unshaded() {
+        // A strip of 10 unit squares along x; samples on the first two only.
+        let mut vertices = Vec::new();
+        let mut faces = Vec::new();
+        for i in 0..=10 {
+            vertices.push(Point3::new(f64::from(i), 0.0, 0.0));
+            vertices.push(Point3::new(f64::from(i), 1.0, 0.0));
+        }
+        for i in 0..10u32 {
+            let (a, b, c, d) = (2 * i, 2 * i + 2, 2 * i + 3, 2 * i + 1);
+            faces.push([a, b, c]);
+            faces.push([a, c, d]);
+        }
+        let mesh = Mesh::new(vertices, faces, None).unwrap();
+        let samples = [
+            (Point3::new(0.5, 0.5, 0.0), 0.2),
+            (Point3::new(1.5, 0.5, 0.0), 0.9),
+        ];
+        let f = face_fulfillment(&mesh, &samples);
+        assert_eq!(f[0], Some(0.2));
+        assert_eq!(f[2], Some(0.9));
+        assert_eq!(f[19], None, "9 m from any sample");
+        assert!(face_fulfillment(&mesh, &[]).iter().all(Option::is_none));
+    }
 }

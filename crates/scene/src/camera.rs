@@ -247,6 +247,18 @@ impl Camera {
         self.world_from_cam.transform_point(&p)
     }
 
+    /// The image corners (top left, top right, bottom right, bottom left)
+    /// at `depth` along the optical axis: with the centre, the pyramid that
+    /// camera pictures draw (PLY pyramids, glTF frusta).
+    pub fn frustum_corners(&self, depth: f64) -> [Point3<f64>; 4] {
+        let (w, h) = (
+            f64::from(self.intrinsics.width),
+            f64::from(self.intrinsics.height),
+        );
+        [(0.0, 0.0), (w, 0.0), (w, h), (0.0, h)]
+            .map(|(x, y)| self.unproject(&Point2::new(x, y), depth))
+    }
+
     /// Ray through pixel `px`: origin (camera centre) and unit direction in the world frame.
     pub fn ray(&self, px: &Point2<f64>) -> (Point3<f64>, Vector3<f64>) {
         let k = &self.intrinsics;

@@ -43,7 +43,7 @@ def build_mission(
 ) -> Mission: ...
 def export(
     plan: Plan,
-    format: str = "qgc",
+    format: Optional[str] = None,
     out: Optional[_Path] = None,
     force: bool = False,
     autopilot: str = "px4",

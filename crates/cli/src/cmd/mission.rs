@@ -8,8 +8,8 @@ use anyhow::{Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
 use vp_mission::sim_vehicle::{spawn_udp_vehicle, VehicleConfig};
 use vp_mission::{
-    build_mission, export_qgc, export_wpl, Autopilot, ConnectOptions, MissionItem, MissionOptions,
-    Progress, QgcOptions, SigningKey,
+    build_mission, export_text, Autopilot, ConnectOptions, MissionItem, MissionOptions, Progress,
+    SigningKey,
 };
 use vp_scene::fsio;
 use vp_scene::plan::Plan;
@@ -187,10 +187,7 @@ pub fn run(cmd: MissionCommand, out: &mut dyn Write) -> Result<()> {
             }
             let plan = load_plan(&plan)?;
             let opts = mission.options()?;
-            let text = match format {
-                ExportFormat::Qgc => export_qgc(&plan, &opts, &QgcOptions::default())?,
-                ExportFormat::Wpl => export_wpl(&build_mission(&plan, &opts)?)?,
-            };
+            let text = export_text(&plan, format, &opts)?;
             write_or_print(path.as_deref(), &text, out)
         }
         MissionCommand::Upload {
@@ -354,28 +351,19 @@ fn write_or_print(path: Option<&Path>, text: &str, out: &mut dyn Write) -> Resul
 }
 
 /// The export format: `--format`, else from the extension of `--out`
-/// (`.plan`: QGroundControl, `.waypoints` or `.txt`: WPL), else QGC. A
-/// format that contradicts the extension is refused.
-fn export_format(out: Option<&Path>, format: Option<ExportFormat>) -> Result<ExportFormat> {
-    let Some(path) = out else {
-        return Ok(format.unwrap_or(ExportFormat::Qgc));
-    };
-    let by_ext = match format {
-        Some(ExportFormat::Qgc) => super::check_extension(path, "--out", &["plan"]),
-        Some(ExportFormat::Wpl) => super::check_extension(path, "--out", &["waypoints", "txt"]),
-        None => super::check_extension(path, "--out", &["plan", "waypoints", "txt"]),
-    };
-    by_ext?;
-    Ok(format.unwrap_or_else(|| {
-        if path
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("plan"))
-        {
-            ExportFormat::Qgc
-        } else {
-            ExportFormat::Wpl
-        }
-    }))
+/// (vp-mission's rule, the same as Python's); the error names the flag.
+fn export_format(
+    out: Option<&Path>,
+    format: Option<ExportFormat>,
+) -> Result<vp_mission::ExportFormat> {
+    let format = format.map(|f| match f {
+        ExportFormat::Qgc => vp_mission::ExportFormat::Qgc,
+        ExportFormat::Wpl => vp_mission::ExportFormat::Wpl,
+    });
+    vp_mission::ExportFormat::for_output(out, format).map_err(|e| match e {
+        vp_mission::MissionError::InvalidInput(m) => super::UsageError(format!("--out {m}")).into(),
+        other => other.into(),
+    })
 }
 
 /// Reads a plan for a mission, which needs its geodetic origin: without

@@ -116,6 +116,40 @@ pub fn check_extension(
     .into())
 }
 
+/// Refuses, before any work, an output path whose folder does not exist or
+/// cannot be written (probed with a temporary file that is removed again),
+/// naming the flag and the file: exit code 2, nothing written.
+pub fn check_output_writable(path: &std::path::Path, flag: &str) -> anyhow::Result<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => std::path::Path::new("."),
+    };
+    if !dir.is_dir() {
+        return Err(UsageError(format!(
+            "{flag} {}: the folder {} does not exist",
+            path.display(),
+            dir.display()
+        ))
+        .into());
+    }
+    let name = path
+        .file_name()
+        .map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
+    let probe = dir.join(format!(".{name}.probe-{}", std::process::id()));
+    match std::fs::File::create(&probe) {
+        Ok(_) => {
+            let _ = std::fs::remove_file(&probe);
+            Ok(())
+        }
+        Err(e) => Err(UsageError(format!(
+            "{flag} {}: cannot write in {}: {e}",
+            path.display(),
+            dir.display()
+        ))
+        .into()),
+    }
+}
+
 /// Progress on stderr: one line redrawn in place (carriage return) when
 /// stderr is a terminal, plain lines otherwise, so that a log file or a CI
 /// log gets one readable line per step instead of one long line.

@@ -8,13 +8,15 @@ use clap::{Args, Subcommand};
 use nalgebra::Point3;
 use vp_planner::free_space::observations_from_model;
 use vp_planner::grid::GridParams;
-use vp_planner::output::{write_frusta_ply, write_top_view_png, TopView};
+use vp_planner::output::{
+    write_frusta_ply, write_plan_glb, write_top_view_png, SceneView, TopView,
+};
 use vp_planner::{AcquiredView, Observation, PlanInputs, PlannerConfig, RoiSpec};
 use vp_scene::plan::{GeodeticOrigin, Plan, Role};
 use vp_scene::roi::Roi;
-use vp_scene::{colmap, fsio, io, Mesh};
+use vp_scene::{colmap, fsio, io, Camera, Mesh};
 
-/// Depth of the camera pyramids in the PLY, metres.
+/// Depth of the camera pyramids in the PLY and the GLB, metres.
 const FRUSTUM_DEPTH_M: f64 = 2.0;
 /// Longest side of the top view, pixels.
 const TOP_VIEW_SIZE: u32 = 1024;
@@ -85,6 +87,11 @@ struct Common {
     /// Also write a top view (PNG): mesh shaded by f(t), ROI, cameras, path.
     #[arg(long)]
     png: Option<PathBuf>,
+    /// Also write a 3D scene (glTF 2.0 binary, .glb) for any glTF viewer:
+    /// the mesh, the acquired and planned cameras as frusta, the flight
+    /// path. Written Y-up as glTF wants (ENU x, z, -y).
+    #[arg(long)]
+    glb: Option<PathBuf>,
     /// Overwrite existing output files.
     #[arg(long)]
     force: bool,
@@ -209,11 +216,19 @@ impl Common {
         if let Some(p) = &self.png {
             super::check_extension(p, "--png", &["png"])?;
         }
-        for p in [Some(out), self.ply.as_deref(), self.png.as_deref()]
-            .into_iter()
-            .flatten()
-        {
-            fsio::check_overwrite(p, self.force)?;
+        if let Some(p) = &self.glb {
+            super::check_extension(p, "--glb", &["glb"])?;
+        }
+        for (p, flag) in [
+            (Some(out), "--out"),
+            (self.ply.as_deref(), "--ply"),
+            (self.png.as_deref(), "--png"),
+            (self.glb.as_deref(), "--glb"),
+        ] {
+            if let Some(p) = p {
+                fsio::check_overwrite(p, self.force)?;
+                super::check_output_writable(p, flag)?;
+            }
         }
         Ok(out)
     }
@@ -225,29 +240,54 @@ impl Common {
         cfg: &PlannerConfig,
         f: &[(Point3<f64>, f64)],
         roi: &[[f64; 2]],
+        acquired: &[Camera],
     ) -> Result<()> {
         let out = required(self.out.as_ref(), "--out")?;
-        plan.save(out, self.force)?;
-        if let Some(p) = &self.ply {
-            write_frusta_ply(
-                p,
-                plan,
-                cfg.camera.intrinsics(),
-                FRUSTUM_DEPTH_M,
-                self.force,
-            )?;
+        // The views first and the plan last; on a failure the files this
+        // call wrote are removed, so that no partial set of outputs is left.
+        let mut written: Vec<&Path> = Vec::new();
+        let result = (|| -> Result<()> {
+            if let Some(p) = &self.ply {
+                write_frusta_ply(
+                    p,
+                    plan,
+                    cfg.camera.intrinsics(),
+                    FRUSTUM_DEPTH_M,
+                    self.force,
+                )?;
+                written.push(p);
+            }
+            if let Some(p) = &self.png {
+                let view = TopView {
+                    mesh,
+                    fulfillment: f,
+                    roi_outline: roi,
+                    plan,
+                    size: TOP_VIEW_SIZE,
+                };
+                write_top_view_png(p, &view, self.force)?;
+                written.push(p);
+            }
+            if let Some(p) = &self.glb {
+                let view = SceneView {
+                    mesh,
+                    acquired,
+                    plans: &[("plan", plan)],
+                    intrinsics: cfg.camera.intrinsics(),
+                    frustum_depth: FRUSTUM_DEPTH_M,
+                };
+                write_plan_glb(p, &view, self.force)?;
+                written.push(p);
+            }
+            plan.save(out, self.force)?;
+            Ok(())
+        })();
+        if result.is_err() {
+            for p in written {
+                let _ = std::fs::remove_file(p);
+            }
         }
-        if let Some(p) = &self.png {
-            let view = TopView {
-                mesh,
-                fulfillment: f,
-                roi_outline: roi,
-                plan,
-                size: TOP_VIEW_SIZE,
-            };
-            write_top_view_png(p, &view, self.force)?;
-        }
-        Ok(())
+        result
     }
 }
 
@@ -421,7 +461,8 @@ fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
     }
     let f: Vec<(Point3<f64>, f64)> = r.sampled.iter().map(|s| (s.centroid, s.f)).collect();
     let roi_outline = outline(&roi, r.sampled.iter().map(|s| s.centroid));
-    c.write(&plan, &mesh, &cfg, &f, &roi_outline)?;
+    let acquired_cams: Vec<Camera> = acquired.iter().map(|v| v.camera).collect();
+    c.write(&plan, &mesh, &cfg, &f, &roi_outline, &acquired_cams)?;
     let members = plan
         .waypoints
         .iter()
@@ -478,7 +519,7 @@ fn grid(g: &GridArgs, out: &mut dyn Write) -> Result<()> {
     };
     let plan = vp_planner::plan_grid(&mesh, &roi, &params, &cfg, c.origin()?)?;
     let roi_outline = outline(&roi, mesh.vertices.iter().copied());
-    c.write(&plan, &mesh, &cfg, &[], &roi_outline)?;
+    c.write(&plan, &mesh, &cfg, &[], &roi_outline, &[])?;
     writeln!(out, "plan: {}", out_path.display())?;
     writeln!(out, "waypoints: {}", plan.waypoints.len())?;
     Ok(())

@@ -1,4 +1,6 @@
-//! Mesh file formats: PLY (ascii, binary little and big endian) and OBJ.
+//! Mesh file formats: PLY (ascii, binary little and big endian) and OBJ;
+//! and [`gltf`], glTF 2.0 binary scenes (mesh, camera frusta, paths) for
+//! viewers, written only.
 //!
 //! Entry points: [`read_mesh`] (load and validate; the error names the file
 //! and the vertex, face or line at fault), [`load_mesh_raw`] (load without
@@ -17,6 +19,7 @@
 //! per-value allocation: binary PLY with `from_le_bytes`/`from_be_bytes`,
 //! text with a tokenizer over the line's bytes.
 
+pub mod gltf;
 mod obj;
 mod ply;
 pub(crate) mod text;

@@ -402,16 +402,23 @@ impl CampaignConfig {
         self.surface
             .validate()
             .map_err(|e| SimError::InvalidArgument(format!("surface: {e}")))?;
-        if self.sfm.min_views == 0 {
-            return bad("sfm.min_views must be at least 1".into());
+        self.sfm.validate()
+    }
+}
+
+impl SfmConfig {
+    /// Checks the ranges; the error names the key.
+    fn validate(&self) -> Result<()> {
+        let bad = |m: &str| Err(SimError::InvalidArgument(format!("sfm: {m}")));
+        let positive = |x: f64| x.is_finite() && x > 0.0;
+        if self.min_views == 0 {
+            return bad("min_views must be at least 1");
         }
-        if !(self.sfm.points_per_m2.is_finite() && self.sfm.points_per_m2 > 0.0)
-            || !(self.sfm.dense_spacing_m.is_finite() && self.sfm.dense_spacing_m > 0.0)
-        {
-            return bad("sfm: points_per_m2 and dense_spacing_m must be > 0".into());
+        if !positive(self.points_per_m2) || !positive(self.dense_spacing_m) {
+            return bad("points_per_m2 and dense_spacing_m must be > 0");
         }
-        if self.sfm.dense_min_points == 0 {
-            return bad("sfm.dense_min_points must be at least 1".into());
+        if self.dense_min_points == 0 {
+            return bad("dense_min_points must be at least 1");
         }
         Ok(())
     }

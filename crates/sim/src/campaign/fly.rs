@@ -14,10 +14,10 @@
 use nalgebra::Point2;
 use serde::{Deserialize, Serialize};
 use vp_mvs::{MvsParams, View};
-use vp_scene::surface::SurfaceSample;
 use vp_scene::colmap::DepthMap;
 use vp_scene::raster::RgbImage;
 use vp_scene::raycast::RayCaster;
+use vp_scene::surface::SurfaceSample;
 use vp_scene::{Aabb, Camera, Material, Mesh};
 
 use super::config::{CampaignConfig, MatchingGate};
@@ -300,7 +300,7 @@ impl<'a> Matcher<'a> {
         images: &[RgbImage; 3],
         level: u8,
         seed: u64,
-    ) -> Result<([DepthMap; 3], [Vec<PixelTruth>; 3], Vec<SurfaceSample>)> {
+    ) -> Result<PatchmatchTriplet> {
         let truth = triplet_truth(
             scene.mesh,
             scene.caster,
@@ -511,6 +511,9 @@ fn fused_samples(fused: &[vp_mvs::FusedPoint], cams: &[Camera]) -> Vec<SurfaceSa
         })
         .collect()
 }
+
+/// A triplet's depth maps, truth, and vp-mvs's fused points.
+type PatchmatchTriplet = ([DepthMap; 3], [Vec<PixelTruth>; 3], Vec<SurfaceSample>);
 
 /// A triplet's depth maps, truth, and the gate's view (virtual only).
 type Triplet = ([DepthMap; 3], [Vec<PixelTruth>; 3], Option<GateStats>);

@@ -15,7 +15,8 @@
 //! - [`curves`]: the forest's learned confidence against vp-mvs's measured
 //!   success per material and angle; [`label_quality`]: labelgen's labels
 //!   against the renderer's truth.
-//! - [`write_report`]: the report directory.
+//! - [`write_report`]: the report directory, with [`html`]'s `report.html`
+//!   and the site's `scene.glb` ([`scene`]).
 //!
 //! Nothing on the default path is planted: the virtual MVS (`mvs =
 //! "virtual"`) is a fast stand-in for unit tests only. Everything is
@@ -27,13 +28,16 @@ pub mod crash;
 pub mod curves;
 pub mod eval;
 pub mod fly;
+pub mod html;
 pub mod label_quality;
 pub mod plot;
 mod presets;
 pub mod report;
 mod run;
+pub mod scene;
 pub mod sfm;
 pub mod strategies;
+mod svg;
 pub mod training;
 pub mod world;
 

@@ -127,6 +127,12 @@ pub fn write_curve_plots(curves: &[ConfidenceCurve], dir: &Path) -> Result<()> {
     Ok(())
 }
 
+/// A strategy's name as it appears in file names (`G+F5x4` is
+/// `Gplus_F5x4`: a `+` in a URL or shell word is a trap).
+pub fn file_stem(strategy: &str) -> String {
+    strategy.replace('+', "plus_")
+}
+
 /// A caption on a white band along the top of a top view.
 fn caption(img: &mut RgbImage, s: &str) {
     for y in 0..GLYPH as u32 + 8 {
@@ -149,7 +155,7 @@ pub fn write_site_plots(a: &SiteArtifacts, dir: &Path) -> Result<()> {
     // Thin out the faces: a top view shows a few thousand dots at most.
     let step = (a.centroids.len() / 6000).max(1);
     for s in &a.strategies {
-        let file = s.name.replace('+', "plus_");
+        let file = file_stem(&s.name);
         let empty = Plan::new(None);
         let mut all = Plan::new(None);
         for p in &s.plans {

@@ -1,6 +1,7 @@
 //! The campaign's results: the Table-1 rows (mean and standard deviation
 //! over held-out sites), per-site scores, confidence curves, and the report
-//! directory (Markdown, CSV, JSON, plans, QGC missions, PNG plots).
+//! directory (Markdown, CSV, JSON, plans, QGC missions, PNG plots, a
+//! glTF scene and an HTML page).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -182,10 +183,12 @@ impl CampaignReport {
         self.rows.iter().find(|r| r.strategy == strategy)
     }
 
-    /// The table as Markdown (percent, mean ± std over held-out sites;
-    /// the mean alone when there is one site, whose std says nothing; the
-    /// clearance is the minimum and the violations the sum over sites).
-    pub fn table_markdown(&self) -> String {
+    /// The table's header and its rows as display text (percent, mean ±
+    /// std over held-out sites; the mean alone when there is one site,
+    /// whose std says nothing; "-" where there is no value; the clearance
+    /// is the minimum and the violations the sum over sites). The one
+    /// formatting of the table, for Markdown and HTML.
+    pub fn table_cells(&self) -> (Vec<&'static str>, Vec<Vec<String>>) {
         let one_site = self.config.held_out_seeds.len() == 1;
         let clearance = |m: f64| {
             if m.is_finite() {
@@ -203,27 +206,47 @@ impl CampaignReport {
                 format!("{m:.1} ± {s:.1}")
             }
         };
+        let header = vec![
+            "strategy",
+            "cov %",
+            "f_res %",
+            "f_unc %",
+            "f %",
+            "triplet success %",
+            "images",
+            "rock cov %",
+            "min clearance to the truth (m)",
+            "safety violations",
+        ];
+        let rows = self
+            .rows
+            .iter()
+            .map(|r| {
+                vec![
+                    r.strategy.clone(),
+                    pm(r.coverage_mean, r.coverage_std),
+                    pm(r.f_res_mean, r.f_res_std),
+                    pm(r.f_unc_mean, r.f_unc_std),
+                    pm(r.f_mean, r.f_std),
+                    pm(r.triplet_success_mean, r.triplet_success_std),
+                    pm(r.n_images_mean, r.n_images_std),
+                    pm(r.rock_coverage_mean, r.rock_coverage_std),
+                    clearance(r.min_clearance_m),
+                    r.safety_violations.to_string(),
+                ]
+            })
+            .collect();
+        (header, rows)
+    }
+
+    /// The table as Markdown ([`CampaignReport::table_cells`]).
+    pub fn table_markdown(&self) -> String {
+        let (header, rows) = self.table_cells();
         let mut t = String::new();
-        let _ = writeln!(
-            t,
-            "| strategy | cov % | f_res % | f_unc % | f % | triplet success % | images | rock cov % | min clearance to the truth (m) | safety violations |"
-        );
-        let _ = writeln!(t, "|---|---|---|---|---|---|---|---|---|---|");
-        for r in &self.rows {
-            let _ = writeln!(
-                t,
-                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
-                r.strategy,
-                pm(r.coverage_mean, r.coverage_std),
-                pm(r.f_res_mean, r.f_res_std),
-                pm(r.f_unc_mean, r.f_unc_std),
-                pm(r.f_mean, r.f_std),
-                pm(r.triplet_success_mean, r.triplet_success_std),
-                pm(r.n_images_mean, r.n_images_std),
-                pm(r.rock_coverage_mean, r.rock_coverage_std),
-                clearance(r.min_clearance_m),
-                r.safety_violations,
-            );
+        let _ = writeln!(t, "| {} |", header.join(" | "));
+        let _ = writeln!(t, "|{}", "---|".repeat(header.len()));
+        for r in rows {
+            let _ = writeln!(t, "| {} |", r.join(" | "));
         }
         t
     }
@@ -341,8 +364,9 @@ fn write(path: &Path, text: &str) -> Result<()> {
 
 /// Writes the report directory `dir`: `table.md`, `table.csv`,
 /// `report.json`, `curves.csv`, `config.toml`, `plans/<strategy>/iter<i>.json`
-/// and `.plan` (QGroundControl missions via vp-mission), and the PNG plots
-/// (see [`super::plot`]). Refuses an existing `dir` unless `force`; the
+/// and `.plan` (QGroundControl missions via vp-mission), the PNG plots
+/// (see [`super::plot`]), `scene.glb` (see [`super::scene`]) and
+/// `report.html` (see [`super::html`]). Refuses an existing `dir` unless `force`; the
 /// directory is built beside it and renamed into place, so a failure leaves
 /// no partial report.
 pub fn write_report(report: &CampaignReport, dir: &Path, force: bool) -> Result<()> {
@@ -386,6 +410,7 @@ fn fill(report: &CampaignReport, dir: &Path) -> Result<()> {
     }
     md.push_str("\nPlots: `confidence_<material>.png` (learned: blue, measured: red, x: angle 0-45 deg, y: 0-1), ");
     md.push_str("`plan_<strategy>.png` (top view of the plan), `fulfillment_<strategy>.png` (per-face f, red 0 to green 1).\n");
+    md.push_str("\n`report.html`: this report as one self-contained page with its plots. `scene.glb`: the site in 3D (mesh, initial flight and planned cameras as frusta, flight paths) for any glTF viewer.\n");
     write(&dir.join("table.md"), &md)?;
     write(&dir.join("table.csv"), &report.table_csv())?;
     let json = serde_json::to_string_pretty(report)
@@ -431,5 +456,7 @@ fn fill(report: &CampaignReport, dir: &Path) -> Result<()> {
         }
         super::plot::write_site_plots(a, dir)?;
     }
-    Ok(())
+    super::scene::write_scene_glb(report, dir)?;
+    // Last: the page embeds the PNG views written above.
+    super::html::write_html(report, dir)
 }

@@ -13,10 +13,10 @@ use rand_chacha::ChaCha8Rng;
 use vp_forest::{Forest, TrainingSet};
 use vp_labelgen::{generate_labels, MissingPartMeshes, TripletReconstruction, View};
 use vp_scene::colmap::DepthMap;
-use vp_scene::surface::{reconstruct_surface, SurfaceSample};
 use vp_scene::procedural::{generate_site, Site};
 use vp_scene::raster::{Label, RgbImage};
 use vp_scene::raycast::RayCaster;
+use vp_scene::surface::{reconstruct_surface, SurfaceSample};
 use vp_scene::{Camera, Intrinsics};
 
 use super::config::CampaignConfig;

@@ -1,0 +1,312 @@
+//! `report.html`: the campaign report as one self-contained page to open
+//! in a browser — Table 1, the planner's per-iteration curves and the
+//! learned-vs-measured confidence curves as inline SVG, and the plan and
+//! fulfillment views as PNG data URIs. Inline CSS, no script, no network:
+//! the page can be mailed or archived as one file. No timestamp: the same
+//! report gives the same bytes.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use base64::Engine as _;
+
+use super::report::CampaignReport;
+use super::svg::{escape, LinePlot, Series};
+use crate::error::Result;
+
+/// Colours of the strategies' lines, in table order.
+const PALETTE: [&str; 8] = [
+    "#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf",
+];
+
+const STYLE: &str = "body{font-family:system-ui,sans-serif;margin:24px;color:#222;max-width:1400px}\
+h1{font-size:1.5em}h2{font-size:1.2em;margin-top:1.6em}\
+table{border-collapse:collapse;font-size:14px}caption{text-align:left;padding:4px 0;color:#555}\
+th,td{border:1px solid #bbb;padding:4px 8px;text-align:right}th{background:#eef}\
+td:first-child,th:first-child{text-align:left;font-weight:600}tbody tr:nth-child(even){background:#f7f7f7}\
+.plots{display:flex;flex-wrap:wrap;gap:12px}svg{border:1px solid #ddd;background:#fff;font-size:11px}\
+svg .title{font-size:13px;font-weight:600}figure{margin:0}figcaption{font-size:13px;color:#555}\
+img{max-width:100%;border:1px solid #ddd}pre{background:#f5f5f5;padding:8px;overflow-x:auto}";
+
+/// A PNG written beside the report, embedded as a data URI, with its caption.
+pub struct Figure {
+    /// What it shows.
+    pub caption: String,
+    /// The PNG file's bytes.
+    pub png: Vec<u8>,
+}
+
+/// The report page. `figures`: plan views to embed (see [`write_html`]).
+pub fn report_html(report: &CampaignReport, figures: &[Figure]) -> String {
+    let mut h = String::new();
+    h.push_str("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">");
+    // An empty icon: the browser asks for no /favicon.ico.
+    h.push_str("<link rel=\"icon\" href=\"data:,\">");
+    let _ = write!(
+        h,
+        "<title>vpctl campaign report</title><style>{STYLE}</style></head><body>\n<h1>vpctl campaign report</h1>\n"
+    );
+    let _ = writeln!(
+        h,
+        "<p>Held-out sites (never trained on): {}. {}, percent.</p>",
+        escape(&format!("{:?}", report.config.held_out_seeds)),
+        escape(report.table_caption())
+    );
+    table(&mut h, report);
+    planning_curves(&mut h, report);
+    confidence_curves(&mut h, report);
+    if !figures.is_empty() {
+        let seed = report.artifacts.as_ref().map_or(0, |a| a.seed);
+        let _ = writeln!(
+            h,
+            "<h2>Plan views (site {seed})</h2>\n<div class=\"plots\">"
+        );
+        let b64 = base64::engine::general_purpose::STANDARD;
+        for f in figures {
+            let _ = writeln!(
+                h,
+                "<figure><img alt=\"{c}\" src=\"data:image/png;base64,{}\"><figcaption>{c}</figcaption></figure>",
+                b64.encode(&f.png),
+                c = escape(&f.caption)
+            );
+        }
+        h.push_str("</div>\n");
+    }
+    if let Some(t) = &report.training {
+        let _ = writeln!(
+            h,
+            "<h2>Label quality (labelgen against the renderer's truth)</h2>\n<pre>{}</pre>",
+            escape(&t.label_quality.markdown())
+        );
+    }
+    h.push_str(
+        "<h2>Files beside this page</h2>\n<p><code>table.csv</code>, <code>report.json</code>, \
+         <code>config.toml</code>, <code>curves.csv</code>, <code>plans/&lt;strategy&gt;/iter&lt;i&gt;.json</code> \
+         and <code>.plan</code> (QGroundControl), the PNG plots, and <code>scene.glb</code>: the site's \
+         mesh with every plan's cameras as frusta and its flight path, for any glTF viewer.</p>\n</body></html>\n",
+    );
+    h
+}
+
+fn table(h: &mut String, report: &CampaignReport) {
+    let (header, rows) = report.table_cells();
+    h.push_str("<table id=\"table1\"><caption>Table 1</caption><thead><tr>");
+    for c in header {
+        let _ = write!(h, "<th>{}</th>", escape(c));
+    }
+    h.push_str("</tr></thead><tbody>\n");
+    for r in rows {
+        h.push_str("<tr>");
+        for c in r {
+            let _ = write!(h, "<td>{}</td>", escape(&c));
+        }
+        h.push_str("</tr>\n");
+    }
+    h.push_str("</tbody></table>\n");
+}
+
+/// Per strategy, the planner's own estimate after each planned triplet
+/// (mean f(t) and coverage of its sampled triangles on the planning mesh),
+/// iterations one after the other: a jump between iterations is the new
+/// planning mesh and sample.
+fn planning_curves(h: &mut String, report: &CampaignReport) {
+    let Some(a) = &report.artifacts else {
+        return;
+    };
+    let mut f_series = Vec::new();
+    let mut cov_series = Vec::new();
+    let mut steps = 0usize;
+    for (i, s) in a.strategies.iter().enumerate() {
+        let (mut f, mut cov) = (Vec::new(), Vec::new());
+        let mut x = 0usize;
+        for plan in &s.plans {
+            let its = &plan.statistics.iterations;
+            if let Some(first) = its.first() {
+                f.push((x as f64, first.f_before));
+                cov.push((x as f64, f64::NAN));
+            }
+            for it in its {
+                x += 1;
+                f.push((x as f64, it.f_after));
+                cov.push((x as f64, it.coverage));
+            }
+        }
+        if f.is_empty() {
+            continue;
+        }
+        steps = steps.max(x);
+        let colour = PALETTE[i % PALETTE.len()];
+        f_series.push(Series {
+            label: s.name.clone(),
+            colour,
+            dashed: false,
+            points: f,
+        });
+        cov_series.push(Series {
+            label: s.name.clone(),
+            colour,
+            dashed: false,
+            points: cov,
+        });
+    }
+    if f_series.is_empty() {
+        return;
+    }
+    h.push_str(
+        "<h2>Planning iterations</h2>\n<p>The planner's own estimate on its sampled triangles of \
+         the planning mesh, after each planned triplet (site ",
+    );
+    let _ = write!(
+        h,
+        "{}; a jump between iterations is the new mesh and sample).</p>\n<div class=\"plots\">",
+        a.seed
+    );
+    let ticks: Vec<f64> = (0..=steps).map(|k| k as f64).collect();
+    for (title, y_label, series) in [
+        ("Planned mean f(t)", "mean f(t)", f_series),
+        ("Planned coverage", "share covered", cov_series),
+    ] {
+        let plot = LinePlot {
+            title,
+            x_label: "planned triplets",
+            y_label,
+            x_range: (0.0, steps.max(1) as f64),
+            y_range: (0.0, 1.0),
+            x_ticks: ticks.clone(),
+            y_ticks: vec![0.0, 0.25, 0.5, 0.75, 1.0],
+            series,
+        };
+        h.push_str(&plot.render());
+    }
+    h.push_str("</div>\n");
+}
+
+/// Per material, the forest's learned confidence (solid) against vp-mvs's
+/// measured success (dashed) over the triangulation angle.
+fn confidence_curves(h: &mut String, report: &CampaignReport) {
+    if report.curves.is_empty() {
+        return;
+    }
+    h.push_str(
+        "<h2>Learned confidence against the MVS's measured success</h2>\n<div class=\"plots\">",
+    );
+    for c in &report.curves {
+        let pts = |v: &[f64]| c.angle_deg.iter().copied().zip(v.iter().copied()).collect();
+        let title = format!("{} (spearman {:+.2})", c.material, c.spearman);
+        let plot = LinePlot {
+            title: &title,
+            x_label: "triangulation angle (deg)",
+            y_label: "success",
+            x_range: (0.0, 45.0),
+            y_range: (0.0, 1.0),
+            x_ticks: (0..=9).map(|k| f64::from(k) * 5.0).collect(),
+            y_ticks: vec![0.0, 0.5, 1.0],
+            series: vec![
+                Series {
+                    label: "learned".into(),
+                    colour: "#2846dc",
+                    dashed: false,
+                    points: pts(&c.learned),
+                },
+                Series {
+                    label: "measured".into(),
+                    colour: "#dc2828",
+                    dashed: true,
+                    points: pts(&c.measured),
+                },
+            ],
+        };
+        h.push_str(&plot.render());
+    }
+    let _ = writeln!(h, "</div>\n<pre>{}</pre>", escape(&report.curves_summary()));
+}
+
+/// Writes `report.html` into the report directory `dir`, embedding the plan
+/// and fulfillment PNGs already written there (by [`super::plot`]).
+pub fn write_html(report: &CampaignReport, dir: &Path) -> Result<()> {
+    let mut figures = Vec::new();
+    if let Some(a) = &report.artifacts {
+        for s in &a.strategies {
+            let stem = super::plot::file_stem(&s.name);
+            for (file, what) in [
+                (format!("plan_{stem}.png"), "plan (top view)"),
+                (format!("fulfillment_{stem}.png"), "fulfillment f per face"),
+            ] {
+                let p = dir.join(&file);
+                if p.is_file() {
+                    figures.push(Figure {
+                        caption: format!("{}: {what} ({file})", s.name),
+                        png: vp_scene::fsio::read_file(&p)?,
+                    });
+                }
+            }
+        }
+    }
+    let path = dir.join("report.html");
+    vp_scene::fsio::write_file_atomic(&path, report_html(report, &figures).as_bytes())?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::campaign::report::TableRow;
+    use crate::campaign::{CampaignConfig, ConfidenceCurve};
+
+    fn report() -> CampaignReport {
+        let row = |name: &str| TableRow {
+            strategy: name.into(),
+            coverage_mean: 51.0,
+            coverage_std: 0.0,
+            f_res_mean: 40.0,
+            f_res_std: 0.0,
+            f_unc_mean: 30.0,
+            f_unc_std: 0.0,
+            f_mean: 20.0,
+            f_std: 0.0,
+            triplet_success_mean: f64::NAN,
+            triplet_success_std: f64::NAN,
+            n_images_mean: 19.0,
+            n_images_std: 0.0,
+            rock_coverage_mean: 60.0,
+            rock_coverage_std: 0.0,
+            min_clearance_m: f64::INFINITY,
+            safety_violations: 0,
+        };
+        CampaignReport {
+            rows: vec![row("Init"), row("G+F<1>")],
+            sites: Vec::new(),
+            curves: vec![ConfidenceCurve {
+                material: "rock".into(),
+                angle_deg: vec![2.5, 7.5],
+                learned: vec![0.5, 0.7],
+                measured: vec![f64::NAN, 0.6],
+                measured_pixels: vec![0, 10],
+                samples: 3,
+                spearman: 1.0,
+            }],
+            material_ranking: Vec::new(),
+            training: None,
+            config: CampaignConfig::quick(),
+            artifacts: None,
+        }
+    }
+
+    #[test]
+    fn the_page_holds_the_table_and_plots_and_loads_nothing() {
+        let r = report();
+        let figure = Figure {
+            caption: "plan".into(),
+            png: vec![0x89, b'P', b'N', b'G'],
+        };
+        let html = report_html(&r, std::slice::from_ref(&figure));
+        assert!(html.contains("<td>Init</td><td>51.0</td>"), "{html}");
+        assert!(html.contains("<td>G+F&lt;1&gt;</td>"), "names are escaped");
+        assert!(html.contains("<svg") && html.contains("rock (spearman +1.00)"));
+        assert!(html.contains("src=\"data:image/png;base64,iVBORw==\""));
+        // Self-contained: nothing to fetch (the SVG namespace is a name, not a load).
+        let no_ns = html.replace("xmlns=\"http://www.w3.org/2000/svg\"", "");
+        assert!(!no_ns.contains("http") && !no_ns.contains("<script"));
+        assert_eq!(html, report_html(&r, &[figure]), "same report, same bytes");
+    }
+}
