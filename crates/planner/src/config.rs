@@ -87,6 +87,11 @@ pub struct PlannerConfig {
     pub min_overlap: f64,
     /// Minimum distance of every waypoint and path segment to the mesh, metres.
     pub safety_distance_m: f64,
+    /// Added to `safety_distance_m` in every check against the mesh and the
+    /// free space, metres: a mesh reconstructed from photos is off by
+    /// decimetres (`vpctl mesh build`'s cell is 0.5 m), and the safety
+    /// distance is owed to the real surface. 0 trusts the mesh exactly.
+    pub geometry_margin_m: f64,
     /// Lowest gimbal pitch (elevation of the optical axis), degrees; -90 is nadir.
     pub gimbal_pitch_min_deg: f64,
     /// Highest gimbal pitch, degrees.
@@ -136,6 +141,7 @@ impl Default for PlannerConfig {
             n_triplets: 4,
             min_overlap: 0.5,
             safety_distance_m: 5.0,
+            geometry_margin_m: 0.0,
             gimbal_pitch_min_deg: -90.0,
             gimbal_pitch_max_deg: 0.0,
             camera: CameraConfig::default(),
@@ -176,6 +182,7 @@ n_triplets = 4           # k: triplets per planning call
 # Flight path and safety (M4).
 min_overlap = 0.5        # o_min: overlap with an earlier image
 safety_distance_m = 5.0  # every waypoint and path segment keeps this to the mesh
+geometry_margin_m = 0.0  # plus this: how far the mesh may be off the real surface
 gimbal_pitch_min_deg = -90.0
 gimbal_pitch_max_deg = 0.0
 m3_early_stop = true     # the paper's early stop in M3 (a heuristic); false: search all
@@ -288,6 +295,12 @@ impl PlannerConfig {
         self.validate_limits()
     }
 
+    /// The distance every waypoint and path segment keeps to the mesh and
+    /// to unobserved space: the safety distance plus the geometry margin.
+    pub fn clearance_m(&self) -> f64 {
+        self.safety_distance_m + self.geometry_margin_m
+    }
+
     /// The safety, camera and flight-limit part of [`PlannerConfig::validate`].
     fn validate_limits(&self) -> Result<()> {
         let bad = |key: &str, v: String, want: &str| {
@@ -298,6 +311,13 @@ impl PlannerConfig {
             return bad(
                 "safety_distance_m",
                 self.safety_distance_m.to_string(),
+                "must be finite and >= 0",
+            );
+        }
+        if !(self.geometry_margin_m.is_finite() && self.geometry_margin_m >= 0.0) {
+            return bad(
+                "geometry_margin_m",
+                self.geometry_margin_m.to_string(),
                 "must be finite and >= 0",
             );
         }

@@ -114,7 +114,7 @@ pub fn safety_for(mesh: &Mesh, cfg: &PlannerConfig) -> Safety {
     });
     Safety::new(
         mesh,
-        cfg.safety_distance_m,
+        cfg.clearance_m(),
         volume,
         cfg.geofence.clone(),
         altitude,

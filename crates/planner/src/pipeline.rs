@@ -241,7 +241,7 @@ fn with_free_space(safety: Safety, inputs: &PlanInputs, caster: &RayCaster) -> R
     };
     let fs = free_space(
         &safety.volume,
-        cfg.safety_distance_m,
+        cfg.clearance_m(),
         cfg.free_space_voxel_m,
         cfg.free_above_observed,
         observations,
