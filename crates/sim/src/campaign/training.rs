@@ -203,15 +203,20 @@ fn train_site(
         stats.successful_triplets
     ));
     // Stage 3's mesh as a user has it: `vpctl mesh build`'s 3D mesher on
-    // the sparse points.
-    let mesh = reconstruct_surface(&points, &cfg.surface).map_err(|e| {
-        SimError::Campaign(format!(
-            "training site {seed}: stage-3 mesh from {} sparse points: {e}",
-            points.len()
-        ))
-    })?;
-    let meshes = MissingPartMeshes::new(&mesh, t.labels.mesh_iterations);
-    let labels = generate_labels(&recs, Some(&meshes), &t.labels)?;
+    // the sparse points. Too few or degenerate points (a tiny test site):
+    // no mesh, and missing parts stay unlabelled, as for a user without one.
+    let meshes = match reconstruct_surface(&points, &cfg.surface) {
+        Ok(mesh) => Some(MissingPartMeshes::new(&mesh, t.labels.mesh_iterations)),
+        Err(e) => {
+            progress(&format!(
+                "training site {seed}: no stage-3 mesh from {} sparse points ({e}); \
+                 missing parts stay unlabelled",
+                points.len()
+            ));
+            None
+        }
+    };
+    let labels = generate_labels(&recs, meshes.as_ref(), &t.labels)?;
     let k_sigma = t.labels.k_sigma as f32;
     for rl in &labels {
         let Some((images, truth, depth)) = runs.get(&rl.id) else {
