@@ -1,6 +1,6 @@
 """`vpctl.mvs`: see the stub `mvs.pyi` for signatures and the Rust crate vp-mvs for details."""
 
-import numbers
+import numbers as _numbers
 import os as _os
 
 from vpctl._native import mvs as _native_mvs
@@ -98,7 +98,7 @@ def patch_match(images, cameras, depth_ranges, *, sources=None, params=None, see
     """
     images = list(images)
     cameras = list(cameras)
-    if len(depth_ranges) == 2 and all(isinstance(v, numbers.Real) for v in depth_ranges):
+    if len(depth_ranges) == 2 and all(isinstance(v, _numbers.Real) for v in depth_ranges):
         depth_ranges = [depth_ranges]
     try:
         depth_ranges = [(float(lo), float(hi)) for lo, hi in depth_ranges]
