@@ -370,8 +370,8 @@ pub struct FrameCheck {
 pub fn check_frame(dir: &Path, rec: &Reconstruction) -> Result<FrameCheck> {
     let frame_path: PathBuf = dir.join(FRAME_FILE);
     let fix = "align it with `vpctl colmap align --colmap DIR --positions positions.csv --out \
-               ALIGNED` (or pass --frame-unchecked if the model is already in metric, \
-               gravity-aligned local ENU)";
+               ALIGNED` (or `--exif PHOTOS` for the photos' GPS tags; or pass \
+               --frame-unchecked if the model is already in metric, gravity-aligned local ENU)";
     if !frame_path.is_file() {
         return Err(SceneError::parse(
             &frame_path,
