@@ -2,7 +2,7 @@
 //! dense workspace.
 
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Result;
 use clap::Subcommand;
@@ -29,7 +29,8 @@ pub enum ColmapCommand {
     /// translation) from its camera centres to known image positions in the
     /// local ENU frame at the first position, robust to a few bad positions
     /// (RANSAC, then least squares on the inliers), as COLMAP's
-    /// `model_aligner` does. Writes the moved model and `frame.json` (the
+    /// `model_aligner` does. The positions come from a CSV (--positions) or
+    /// from the photos' EXIF GPS tags (--exif). Writes the moved model and `frame.json` (the
     /// geodetic origin, the transform, the residuals) to --out; prints the
     /// residuals. `vpctl plan` and `labelgen` need that frame.
     Align(AlignArgs),
@@ -43,8 +44,19 @@ pub struct AlignArgs {
     pub model: PathBuf,
     /// CSV of image positions: name,lat,lon,alt per line (WGS84 degrees,
     /// metres; an optional header line, `#` comments).
-    #[arg(long)]
-    pub positions: PathBuf,
+    #[arg(
+        long,
+        value_name = "CSV",
+        required_unless_present = "exif",
+        conflicts_with = "exif"
+    )]
+    pub positions: Option<PathBuf>,
+    /// Instead of --positions: the folder of the photos, whose EXIF GPS
+    /// latitude, longitude and altitude give the positions (JPEG, TIFF, PNG,
+    /// WebP, HEIF; names relative to the folder, as in the model). Photos
+    /// without a GPS position are listed and skipped.
+    #[arg(long, value_name = "IMAGES_DIR")]
+    pub exif: Option<PathBuf>,
     /// Output folder for the aligned model (same format as the input) and
     /// frame.json (must not exist, unless --force).
     #[arg(long)]
@@ -143,6 +155,35 @@ fn undistort(a: &UndistortArgs, out: &mut dyn Write) -> Result<()> {
     Ok(())
 }
 
+/// The positions of --positions or --exif, and the file or folder they came
+/// from. The photos without a GPS position are listed first, so that a
+/// refusal to align (too few positions) shows why.
+fn read_positions<'a>(
+    a: &'a AlignArgs,
+    out: &mut dyn Write,
+) -> Result<(Vec<(String, vp_scene::plan::GeodeticOrigin)>, &'a Path)> {
+    match (&a.positions, &a.exif) {
+        (Some(csv), _) => Ok((colmap::read_positions_csv(csv)?, csv)),
+        (None, Some(dir)) => {
+            let found = colmap::read_positions_exif(dir)?;
+            writeln!(
+                out,
+                "exif: {} photo(s) with a GPS position, {} skipped",
+                found.positions.len(),
+                found.skipped.len()
+            )?;
+            for (name, why) in &found.skipped {
+                writeln!(out, "  skipped {name}: {why}")?;
+            }
+            Ok((found.positions, dir))
+        }
+        (None, None) => Err(crate::cmd::UsageError(
+            "--positions CSV or --exif IMAGES_DIR is needed".into(),
+        )
+        .into()),
+    }
+}
+
 fn align(a: &AlignArgs, out: &mut dyn Write) -> Result<()> {
     if !(a.max_error.is_finite() && a.max_error > 0.0) {
         return Err(crate::cmd::UsageError(format!(
@@ -154,8 +195,12 @@ fn align(a: &AlignArgs, out: &mut dyn Write) -> Result<()> {
     vp_scene::fsio::check_overwrite(&a.out, a.force)?;
     let format = colmap::detect_format(&a.model)?;
     let rec = colmap::read_model_as(&a.model, format)?;
-    let geo = colmap::read_positions_csv(&a.positions)?;
-    let origin = geo[0].1;
+    let (geo, source) = read_positions(a, out)?;
+    // The readers refuse an empty list; the origin is the first position
+    // (in file order, or the first photo by name).
+    let Some(&(_, origin)) = geo.first() else {
+        return Err(crate::cmd::UsageError(format!("{}: no positions", source.display())).into());
+    };
     let frame = vp_mission::geodesy::LocalFrame::new(origin)?;
     let enu: Vec<(String, nalgebra::Point3<f64>)> = geo
         .iter()
@@ -165,7 +210,7 @@ fn align(a: &AlignArgs, out: &mut dyn Write) -> Result<()> {
         max_error_m: a.max_error,
         ..colmap::AlignParams::default()
     };
-    let al = colmap::align_to_positions(&rec, &enu, &params, &a.positions)?;
+    let al = colmap::align_to_positions(&rec, &enu, &params, source)?;
     let moved = colmap::transform_reconstruction(&rec, &al.sim3);
     let model_frame = colmap::ModelFrame {
         origin,

@@ -119,3 +119,122 @@ pub fn plan_fixture(dir: &Path) -> Site {
     .unwrap();
     site
 }
+
+/// A real JPEG (`width` x `height`, a grey ramp, encoded by the `image`
+/// crate) with an EXIF APP1 segment right after SOI holding `gps`
+/// (latitude, longitude in degrees, altitude in metres; negative = S, W,
+/// below sea level), or no EXIF at all for `None`.
+///
+/// The EXIF block is written here by hand from the EXIF 2.32 layout, so that
+/// the reader is checked against bytes it did not write itself: a big-endian
+/// TIFF header, IFD0 with only the GPS IFD pointer (tag 0x8825), and a GPS
+/// IFD with GPSVersionID, the N/S, E/W references, degrees/minutes/seconds
+/// as three RATIONALs (seconds to 1/10000"), GPSAltitudeRef and GPSAltitude
+/// (to the millimetre). `altitude: false` leaves both altitude tags out.
+pub fn jpeg_with_gps(width: u32, height: u32, gps: Option<[f64; 3]>, altitude: bool) -> Vec<u8> {
+    let pixels: Vec<u8> = (0..width * height)
+        .map(|i| ((i % width) * 255 / width.max(1)) as u8)
+        .collect();
+    let mut jpeg = Vec::new();
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, 90)
+        .encode(&pixels, width, height, image::ExtendedColorType::L8)
+        .unwrap();
+    assert_eq!(&jpeg[..2], &[0xFF, 0xD8], "SOI");
+    let Some([lat, lon, alt]) = gps else {
+        return jpeg;
+    };
+    let tiff = exif_gps_tiff(lat, lon, alt, altitude);
+    let mut app1 = b"Exif\0\0".to_vec();
+    app1.extend_from_slice(&tiff);
+    let mut out = vec![0xFF, 0xD8, 0xFF, 0xE1];
+    out.extend_from_slice(&u16::try_from(app1.len() + 2).unwrap().to_be_bytes());
+    out.extend_from_slice(&app1);
+    out.extend_from_slice(&jpeg[2..]);
+    out
+}
+
+/// The TIFF structure of an EXIF block with a GPS IFD (see [`jpeg_with_gps`]).
+fn exif_gps_tiff(lat: f64, lon: f64, alt: f64, altitude: bool) -> Vec<u8> {
+    // An entry's value: inline bytes, or rationals stored after the IFD.
+    enum V {
+        Inline([u8; 4]),
+        Rationals(Vec<(u32, u32)>),
+    }
+    const BYTE: u16 = 1;
+    const ASCII: u16 = 2;
+    const LONG: u16 = 4;
+    const RATIONAL: u16 = 5;
+    let dms = |v: f64| -> [(u32, u32); 3] {
+        let v = v.abs();
+        let d = v.floor();
+        let m = ((v - d) * 60.0).floor();
+        let s = ((v - d) * 60.0 - m) * 60.0;
+        [
+            (d as u32, 1),
+            (m as u32, 1),
+            ((s * 10_000.0).round() as u32, 10_000),
+        ]
+    };
+    let mut gps: Vec<(u16, u16, u32, V)> = vec![
+        (0x0000, BYTE, 4, V::Inline([2, 3, 0, 0])),
+        (
+            0x0001,
+            ASCII,
+            2,
+            V::Inline([if lat < 0.0 { b'S' } else { b'N' }, 0, 0, 0]),
+        ),
+        (0x0002, RATIONAL, 3, V::Rationals(dms(lat).to_vec())),
+        (
+            0x0003,
+            ASCII,
+            2,
+            V::Inline([if lon < 0.0 { b'W' } else { b'E' }, 0, 0, 0]),
+        ),
+        (0x0004, RATIONAL, 3, V::Rationals(dms(lon).to_vec())),
+    ];
+    if altitude {
+        gps.push((0x0005, BYTE, 1, V::Inline([u8::from(alt < 0.0), 0, 0, 0])));
+        gps.push((
+            0x0006,
+            RATIONAL,
+            1,
+            V::Rationals(vec![((alt.abs() * 1000.0).round() as u32, 1000)]),
+        ));
+    }
+    let ifd0_at = 8u32;
+    let gps_at = ifd0_at + 2 + 12 + 4;
+    let mut data_at = gps_at + 2 + 12 * gps.len() as u32 + 4;
+    let mut t = Vec::new();
+    t.extend_from_slice(b"MM");
+    t.extend_from_slice(&42u16.to_be_bytes());
+    t.extend_from_slice(&ifd0_at.to_be_bytes());
+    // IFD0: one entry, the GPS IFD pointer.
+    t.extend_from_slice(&1u16.to_be_bytes());
+    t.extend_from_slice(&0x8825u16.to_be_bytes());
+    t.extend_from_slice(&LONG.to_be_bytes());
+    t.extend_from_slice(&1u32.to_be_bytes());
+    t.extend_from_slice(&gps_at.to_be_bytes());
+    t.extend_from_slice(&0u32.to_be_bytes());
+    // GPS IFD, then the rationals it points to.
+    t.extend_from_slice(&(gps.len() as u16).to_be_bytes());
+    let mut tail = Vec::new();
+    for (tag, ty, count, v) in &gps {
+        t.extend_from_slice(&tag.to_be_bytes());
+        t.extend_from_slice(&ty.to_be_bytes());
+        t.extend_from_slice(&count.to_be_bytes());
+        match v {
+            V::Inline(b) => t.extend_from_slice(b),
+            V::Rationals(r) => {
+                t.extend_from_slice(&data_at.to_be_bytes());
+                for (n, d) in r {
+                    tail.extend_from_slice(&n.to_be_bytes());
+                    tail.extend_from_slice(&d.to_be_bytes());
+                }
+                data_at += 8 * r.len() as u32;
+            }
+        }
+    }
+    t.extend_from_slice(&0u32.to_be_bytes());
+    t.extend_from_slice(&tail);
+    t
+}

@@ -231,10 +231,10 @@ pub struct Alignment {
 
 /// Estimates the similarity that maps the model's camera centres onto
 /// `positions` (image name, ENU metres), RANSAC over triples then a
-/// least-squares fit on the inliers. `source` names the positions file in
-/// errors: fewer than 3 positions of model images, camera centres or
-/// positions on a line (rotation about it undetermined), or fewer than 3
-/// (and fewer than half the) positions consistent within
+/// least-squares fit on the inliers. `source` names the positions (CSV file
+/// or photo folder) in errors: fewer than 3 positions of model images,
+/// camera centres or positions on a line (rotation about it undetermined),
+/// or fewer than 3 (and fewer than half the) positions consistent within
 /// `params.max_error_m`.
 pub fn align_to_positions(
     rec: &Reconstruction,
@@ -242,7 +242,9 @@ pub fn align_to_positions(
     params: &AlignParams,
     source: &Path,
 ) -> Result<Alignment> {
-    let err = |m: String| SceneError::parse(source, Location::Header, m);
+    // The problem is the positions as a whole (a CSV file or a folder of
+    // photos), not a place in them: name the source, no line.
+    let err = |m: String| SceneError::InvalidArgument(format!("{}: {m}", source.display()));
     let by_name: std::collections::HashMap<&str, Point3<f64>> = rec
         .images
         .values()
@@ -370,8 +372,8 @@ pub struct FrameCheck {
 pub fn check_frame(dir: &Path, rec: &Reconstruction) -> Result<FrameCheck> {
     let frame_path: PathBuf = dir.join(FRAME_FILE);
     let fix = "align it with `vpctl colmap align --colmap DIR --positions positions.csv --out \
-               ALIGNED` (or pass --frame-unchecked if the model is already in metric, \
-               gravity-aligned local ENU)";
+               ALIGNED` (or `--exif PHOTOS` for the photos' GPS tags; or pass \
+               --frame-unchecked if the model is already in metric, gravity-aligned local ENU)";
     if !frame_path.is_file() {
         return Err(SceneError::parse(
             &frame_path,

@@ -9,6 +9,9 @@
 //!   project with the full model of every [`CameraModel`];
 //!   [`undistort_workspace`] writes the undistorted `PINHOLE` workspace
 //!   COLMAP's `image_undistorter` writes (`vpctl colmap undistort`).
+//! - [`align_to_positions`] ties a model to the world (`vpctl colmap
+//!   align`), with image positions from a CSV ([`read_positions_csv`]) or
+//!   from the photos' EXIF GPS tags ([`read_positions_exif`]).
 //! - [`read_depth_map`] / [`write_depth_map`] handle COLMAP's dense depth
 //!   maps ([`DepthMap`]).
 //!
@@ -20,6 +23,7 @@
 mod align;
 mod binary;
 mod depth;
+mod exif_positions;
 mod lens;
 mod model;
 mod reconstruction;
@@ -41,6 +45,7 @@ pub use depth::{
     parse_depth_map, parse_normal_map, read_depth_map, read_normal_map, write_depth_map,
     write_normal_map, DepthMap, DepthStats, NormalMap,
 };
+pub use exif_positions::{read_positions_exif, ExifPositions};
 pub use model::{CameraModel, ColmapCamera, ColmapImage, Point2D, Point3D};
 pub use reconstruction::Reconstruction;
 pub use text::{

@@ -1,0 +1,205 @@
+//! Image positions from the photos themselves: the GPS latitude, longitude
+//! and altitude a drone's camera writes into each photo's EXIF, read with
+//! `kamadak-exif` (JPEG, TIFF, PNG, WebP, HEIF). The alternative to a
+//! positions CSV for [`align_to_positions`](super::align_to_positions).
+
+use std::io::BufReader;
+use std::path::{Path, PathBuf};
+
+use exif::{In, Tag, Value};
+
+use crate::error::{Result, SceneError};
+use crate::plan::GeodeticOrigin;
+
+/// File extensions (lower case) of the containers whose EXIF is read.
+const PHOTO_EXTENSIONS: [&str; 9] = [
+    "jpg", "jpeg", "tif", "tiff", "png", "webp", "heic", "heif", "avif",
+];
+
+/// Folders deeper than this below the photo folder are not searched (a
+/// guard against a symlinked loop or a whole disk passed by mistake).
+const MAX_DEPTH: usize = 8;
+
+/// What [`read_positions_exif`] found in a folder of photos.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ExifPositions {
+    /// Image name (path relative to the folder, `/`-separated, as COLMAP
+    /// names images) and its GPS position, sorted by name.
+    pub positions: Vec<(String, GeodeticOrigin)>,
+    /// Photos without a usable GPS position, with the reason, sorted by name.
+    pub skipped: Vec<(String, String)>,
+}
+
+/// Reads the EXIF GPS position (WGS84 degrees, metres above sea level) of
+/// every photo under `dir` (by extension: JPEG, TIFF, PNG, WebP, HEIF).
+/// Photos without EXIF, without GPS tags or with unusable ones (no altitude,
+/// no hemisphere, out of range) are listed in [`ExifPositions::skipped`]
+/// with the reason. An error when `dir` cannot be read, when a photo cannot
+/// be read at the operating-system level, or when no photo has a position
+/// (the message lists what was wrong with each).
+pub fn read_positions_exif(dir: &Path) -> Result<ExifPositions> {
+    if !dir.is_dir() {
+        return Err(SceneError::io(
+            dir,
+            std::io::Error::new(std::io::ErrorKind::NotFound, "not a folder of photos"),
+        ));
+    }
+    let mut files = Vec::new();
+    collect_photos(dir, dir, 0, &mut files)?;
+    files.sort();
+    let mut out = ExifPositions::default();
+    for (name, path) in &files {
+        match read_one(path)? {
+            Ok(g) => out.positions.push((name.clone(), g)),
+            Err(why) => out.skipped.push((name.clone(), why)),
+        }
+    }
+    if out.positions.is_empty() {
+        let listed: Vec<String> = out
+            .skipped
+            .iter()
+            .take(5)
+            .map(|(n, why)| format!("{n}: {why}"))
+            .collect();
+        let more = out.skipped.len().saturating_sub(listed.len());
+        return Err(SceneError::InvalidArgument(format!(
+            "{}: no photo has an EXIF GPS position ({} photo(s) read{}{}{})",
+            dir.display(),
+            files.len(),
+            if listed.is_empty() { "" } else { "; " },
+            listed.join("; "),
+            if more > 0 {
+                format!("; and {more} more")
+            } else {
+                String::new()
+            }
+        )));
+    }
+    Ok(out)
+}
+
+fn collect_photos(
+    root: &Path,
+    dir: &Path,
+    depth: usize,
+    out: &mut Vec<(String, PathBuf)>,
+) -> Result<()> {
+    let entries = std::fs::read_dir(dir).map_err(|e| SceneError::io(dir, e))?;
+    for entry in entries {
+        let entry = entry.map_err(|e| SceneError::io(dir, e))?;
+        let path = entry.path();
+        let kind = entry.file_type().map_err(|e| SceneError::io(&path, e))?;
+        if kind.is_dir() {
+            if depth < MAX_DEPTH {
+                collect_photos(root, &path, depth + 1, out)?;
+            }
+            continue;
+        }
+        let is_photo = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| PHOTO_EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()));
+        if !is_photo || !path.is_file() {
+            continue;
+        }
+        let Ok(rel) = path.strip_prefix(root) else {
+            continue;
+        };
+        let name: Vec<String> = rel
+            .components()
+            .map(|c| c.as_os_str().to_string_lossy().into_owned())
+            .collect();
+        out.push((name.join("/"), path));
+    }
+    Ok(())
+}
+
+/// The position of one photo: `Err(SceneError)` when the file cannot be
+/// read, `Ok(Err(reason))` when it has no usable GPS position.
+fn read_one(path: &Path) -> Result<std::result::Result<GeodeticOrigin, String>> {
+    let file = std::fs::File::open(path).map_err(|e| SceneError::io(path, e))?;
+    let exif = match exif::Reader::new().read_from_container(&mut BufReader::new(file)) {
+        Ok(exif) => exif,
+        Err(exif::Error::Io(e)) => return Err(SceneError::io(path, e)),
+        Err(exif::Error::NotFound(_)) => return Ok(Err("no EXIF data".into())),
+        Err(e) => return Ok(Err(format!("EXIF unreadable ({e})"))),
+    };
+    Ok(gps_position(&exif))
+}
+
+/// Latitude, longitude and altitude from the GPS IFD, or why not.
+fn gps_position(exif: &exif::Exif) -> std::result::Result<GeodeticOrigin, String> {
+    let field = |tag: Tag| exif.get_field(tag, In::PRIMARY).map(|f| &f.value);
+    let lat_field = field(Tag::GPSLatitude);
+    let lon_field = field(Tag::GPSLongitude);
+    if lat_field.is_none() && lon_field.is_none() {
+        return Err("no GPS position in its EXIF".into());
+    }
+    let lat = degrees(lat_field, "latitude")?
+        * hemisphere(field(Tag::GPSLatitudeRef), "latitude", b'N', b'S')?;
+    let lon = degrees(lon_field, "longitude")?
+        * hemisphere(field(Tag::GPSLongitudeRef), "longitude", b'E', b'W')?;
+    let alt = match field(Tag::GPSAltitude) {
+        Some(Value::Rational(v)) if v.len() == 1 => v[0].to_f64(),
+        Some(_) => return Err("GPS altitude is not one rational number".into()),
+        None => return Err("no GPS altitude (a 3D alignment needs it)".into()),
+    };
+    // GPSAltitudeRef 1: below sea level; absent: above (the EXIF default).
+    let below = match field(Tag::GPSAltitudeRef) {
+        None => false,
+        Some(Value::Byte(b)) if b.len() == 1 && b[0] <= 1 => b[0] == 1,
+        Some(_) => return Err("GPS altitude reference is neither 0 nor 1".into()),
+    };
+    let alt = if below { -alt } else { alt };
+    if !alt.is_finite() {
+        return Err("GPS altitude is not a finite number".into());
+    }
+    GeodeticOrigin::new(lat, lon, alt).map_err(|e| format!("GPS position out of range: {e}"))
+}
+
+/// Degrees from the EXIF degrees, minutes, seconds rationals.
+fn degrees(value: Option<&Value>, what: &str) -> std::result::Result<f64, String> {
+    let Some(value) = value else {
+        return Err(format!("no GPS {what}"));
+    };
+    let Value::Rational(dms) = value else {
+        return Err(format!("GPS {what} is not degrees, minutes, seconds"));
+    };
+    if dms.is_empty() || dms.len() > 3 {
+        return Err(format!(
+            "GPS {what} has {} numbers, not degrees, minutes, seconds",
+            dms.len()
+        ));
+    }
+    let d = dms
+        .iter()
+        .zip([1.0, 60.0, 3600.0])
+        .map(|(r, div)| r.to_f64() / div)
+        .sum::<f64>();
+    if d.is_finite() {
+        Ok(d)
+    } else {
+        Err(format!("GPS {what} is not a finite number"))
+    }
+}
+
+/// +1 or -1 from a `N`/`S` or `E`/`W` reference tag.
+fn hemisphere(
+    value: Option<&Value>,
+    what: &str,
+    plus: u8,
+    minus: u8,
+) -> std::result::Result<f64, String> {
+    let first = match value {
+        Some(Value::Ascii(v)) => v.first().and_then(|s| s.first()).copied(),
+        _ => None,
+    };
+    match first.map(|c| c.to_ascii_uppercase()) {
+        Some(c) if c == plus => Ok(1.0),
+        Some(c) if c == minus => Ok(-1.0),
+        _ => Err(format!(
+            "no GPS {what} reference ({} or {})",
+            plus as char, minus as char
+        )),
+    }
+}
