@@ -398,25 +398,9 @@ pub fn write_report(report: &CampaignReport, dir: &Path, force: bool) -> Result<
     std::fs::rename(&stage, dir).map_err(|e| io_err(dir, e))
 }
 
-fn fill(report: &CampaignReport, dir: &Path) -> Result<()> {
-    let mut md = String::from("# vpctl campaign report\n\n");
-    let _ = writeln!(
-        md,
-        "Held-out sites (never trained on): {:?}. {}, percent.\n",
-        report.config.held_out_seeds,
-        report.table_caption()
-    );
-    md.push_str(&report.table_markdown());
-    md.push_str("\n## Learned confidence against the MVS's measured success\n\n```\n");
-    md.push_str(&report.curves_summary());
-    md.push_str("```\n");
-    if let Some(t) = &report.training {
-        md.push_str("\n## Label quality (labelgen against the renderer's truth)\n\n");
-        md.push_str(&t.label_quality.markdown());
-    }
-    md.push_str("\nPlots: `confidence_<material>.png` (learned: blue, measured: red, x: angle 0-45 deg, y: 0-1), ");
-    md.push_str("`plan_<strategy>.png` (top view of the plan), `fulfillment_<strategy>.png` (per-face f, red 0 to green 1).\n");
-    md.push_str("\n`report.html`: this report as one self-contained page with its plots. `scene.glb`: the site in 3D (mesh, initial flight and planned cameras as frusta, flight paths) for any glTF viewer.\n");
+/// The paragraph of `table.md` on the `iter<i>-acquired` folders, with a
+/// command that plans one again (None without triplet strategies).
+fn acquired_recipe(report: &CampaignReport) -> Option<String> {
     // The example: a strategy with prediction if there is one.
     let acquired_example = report.artifacts.as_ref().and_then(|a| {
         let with = |conf: bool| {
@@ -436,9 +420,8 @@ fn fill(report: &CampaignReport, dir: &Path) -> Result<()> {
             (s.name.clone(), flag)
         })
     });
-    if let Some((name, conf_flag)) = acquired_example {
-        let _ = write!(
-            md,
+    acquired_example.map(|(name, conf_flag)| {
+        format!(
             "\n`plans/<strategy>/iter<i>.json` and `.plan`: each iteration's plan (vpctl, \
              QGroundControl). `plans/<strategy>/iter<i>-acquired/`: what that iteration planned \
              from: `sparse/` (the COLMAP model of the images acquired so far, with \
@@ -449,7 +432,31 @@ fn fill(report: &CampaignReport, dir: &Path) -> Result<()> {
              A=plans/{name}/iter1-acquired\n\
              vpctl plan --mesh $A/mesh.ply --colmap $A/sparse{conf_flag} --roi $A/roi.json \
              --config config.toml --out again.json\n```\n"
-        );
+        )
+    })
+}
+
+fn fill(report: &CampaignReport, dir: &Path) -> Result<()> {
+    let mut md = String::from("# vpctl campaign report\n\n");
+    let _ = writeln!(
+        md,
+        "Held-out sites (never trained on): {:?}. {}, percent.\n",
+        report.config.held_out_seeds,
+        report.table_caption()
+    );
+    md.push_str(&report.table_markdown());
+    md.push_str("\n## Learned confidence against the MVS's measured success\n\n```\n");
+    md.push_str(&report.curves_summary());
+    md.push_str("```\n");
+    if let Some(t) = &report.training {
+        md.push_str("\n## Label quality (labelgen against the renderer's truth)\n\n");
+        md.push_str(&t.label_quality.markdown());
+    }
+    md.push_str("\nPlots: `confidence_<material>.png` (learned: blue, measured: red, x: angle 0-45 deg, y: 0-1), ");
+    md.push_str("`plan_<strategy>.png` (top view of the plan), `fulfillment_<strategy>.png` (per-face f, red 0 to green 1).\n");
+    md.push_str("\n`report.html`: this report as one self-contained page with its plots. `scene.glb`: the site in 3D (mesh, initial flight and planned cameras as frusta, flight paths) for any glTF viewer.\n");
+    if let Some(recipe) = acquired_recipe(report) {
+        md.push_str(&recipe);
     }
     write(&dir.join("table.md"), &md)?;
     write(&dir.join("table.csv"), &report.table_csv())?;

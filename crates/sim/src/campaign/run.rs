@@ -221,12 +221,15 @@ impl Known {
     }
 
     /// What is known as the report shows it: the COLMAP model of the
-    /// acquired images, their confidence, `mesh` (planned on) and the ROI.
+    /// acquired images, their confidence if the strategy plans with
+    /// `prediction` (the initial images have one for every strategy),
+    /// `mesh` (planned on) and the ROI.
     fn model(
         &self,
         world: &World,
         cfg: &CampaignConfig,
         mesh: &vp_scene::Mesh,
+        prediction: bool,
     ) -> Result<AcquiredModel> {
         let views: Vec<(String, Camera)> = self
             .names
@@ -241,6 +244,7 @@ impl Known {
                 .names
                 .iter()
                 .zip(&self.acquired)
+                .filter(|_| prediction)
                 .filter_map(|(n, a)| a.confidence.clone().map(|c| (n.clone(), c)))
                 .collect(),
             mesh: mesh.clone(),
@@ -340,18 +344,8 @@ fn run_strategy(
     for it in 0..strategy.iterations {
         let (result, mesh) = plan_iteration(world, cfg, strategy, &known, it, base)?;
         if keep_artifacts {
-            let model = known.model(world, cfg, &mesh)?;
-            let model = if strategy.prediction {
-                model
-            } else {
-                // The campaign predicts for every acquired image; a strategy
-                // without prediction planned without it.
-                AcquiredModel {
-                    confidence: Vec::new(),
-                    ..model
-                }
-            };
-            out.acquired.push(model);
+            out.acquired
+                .push(known.model(world, cfg, &mesh, strategy.prediction)?);
         }
         let q = known.sfm.mesh_quality(world, cfg, &mesh, MESH_TOLERANCE_M);
         progress(&format!(
@@ -459,6 +453,20 @@ fn refs(v: &[Flown]) -> Vec<&Flown> {
     v.iter().collect()
 }
 
+fn artifacts(
+    name: String,
+    face_f: Vec<f64>,
+    plans: Vec<Plan>,
+    acquired: Vec<AcquiredModel>,
+) -> StrategyArtifacts {
+    StrategyArtifacts {
+        name,
+        face_f,
+        plans,
+        acquired,
+    }
+}
+
 /// Flies and evaluates every strategy on one held-out site.
 fn run_site(
     cfg: &CampaignConfig,
@@ -511,19 +519,15 @@ fn run_site(
     )?;
 
     let mut scores: Vec<(String, Scores)> = Vec::new();
-    let mut maps: Vec<(String, Vec<f64>, Vec<Plan>, Vec<AcquiredModel>)> = Vec::new();
+    let mut maps: Vec<StrategyArtifacts> = Vec::new();
     for (name, flown, check, cams, role) in [
         ("Init", &init_flown, &init_check, &init_cams, Role::Initial),
         ("Grid", &grid_flown, &grid_check, &grid_cams, Role::Grid),
     ] {
         let (s, f) = evaluate(&em, &refs(flown), cfg)?;
         scores.push((name.into(), with_check(s, check)));
-        maps.push((
-            name.into(),
-            f,
-            vec![plan_of(&world, cams, role)],
-            Vec::new(),
-        ));
+        let plans = vec![plan_of(&world, cams, role)];
+        maps.push(artifacts(name.into(), f, plans, Vec::new()));
     }
     let mut combos = Vec::new();
     for (i, st) in strategies.iter().enumerate() {
@@ -548,26 +552,18 @@ fn run_site(
         let (cs, cf) = evaluate(&em, &union, cfg)?;
         let cs = with_check(cs, &grid_check.merged(&run.check));
         combos.push((format!("G+{}", st.name), cs, cf));
-        maps.push((st.name.clone(), f, run.plans, run.acquired));
+        maps.push(artifacts(st.name.clone(), f, run.plans, run.acquired));
     }
     for (name, s, f) in combos {
         scores.push((name.clone(), s));
-        maps.push((name, f, Vec::new(), Vec::new()));
+        maps.push(artifacts(name, f, Vec::new(), Vec::new()));
     }
     let artifacts = keep_artifacts.then(|| SiteArtifacts {
         seed,
         mesh: world.site.mesh.clone(),
         roi: world.roi,
         centroids: em.centroids.clone(),
-        strategies: maps
-            .into_iter()
-            .map(|(name, f, plans, acquired)| StrategyArtifacts {
-                name,
-                face_f: f,
-                plans,
-                acquired,
-            })
-            .collect(),
+        strategies: maps,
     });
     Ok((SiteResult { seed, scores }, artifacts))
 }
