@@ -129,6 +129,7 @@ pub fn fly(
         },
         rms_m: 0.0,
         residuals: Vec::new(),
+        strip: None,
     };
     Ok(Flight {
         images,
