@@ -311,7 +311,9 @@ fn plan(
 
 /// A lawnmower grid flight over the region of interest, as `vpctl plan grid`.
 #[pyfunction]
-#[pyo3(signature = (mesh, roi = None, height = 50.0, gsd = None, overlap = 0.8, side_overlap = None, pitch = -90.0, yaw = 0.0, initial = false, config = None, origin = None))]
+#[pyo3(signature = (mesh, roi = None, height = 50.0, gsd = None, overlap = 0.8, side_overlap = None, pitch = -90.0, yaw = 0.0, initial = false, config = None, origin = None),
+    // pyo3 writes a negative default as `...`: help() would show Ellipsis.
+    text_signature = "(mesh, roi=None, height=50.0, gsd=None, overlap=0.8, side_overlap=None, pitch=-90.0, yaw=0.0, initial=False, config=None, origin=None)")]
 fn plan_grid(
     py: Python<'_>,
     mesh: &Bound<'_, PyAny>,

@@ -55,3 +55,13 @@ def test_campaign_config_overlay_and_bad_values(tmp_path):
         vpctl.sim.campaign_config(tmp_path / "missing.toml")
     with pytest.raises(ZeroDivisionError):
         vpctl.sim.run_campaign(preset="quick", progress=lambda line: 1 / 0)
+
+
+def test_run_campaign_says_its_progress_on_stderr_without_a_callback(capfd):
+    """run_campaign was silent for minutes without a callback (issue 18)."""
+    rows = vpctl.sim.run_campaign({"mvs": "virtual"}, preset="quick")
+    err = capfd.readouterr().err
+    lines = [l for l in err.splitlines() if l.startswith("[vpctl] ")]
+    assert any("held-out site" in l for l in lines), err
+    assert "\r" not in err
+    assert rows

@@ -69,3 +69,22 @@ def test_stub_matches_module(name):
                 assert got == stub_params(m), f"{name}.{cname}.{mname}"
             if mname == "__init__" and got is not None:
                 assert got == stub_params(m), f"{name}.{cname}.__init__"
+
+
+@pytest.mark.parametrize("name", MODULES)
+def test_runtime_signatures_show_real_defaults(name):
+    """help() showed `x=Ellipsis` where a default was meant (issue 18)."""
+    mod = getattr(vpctl, name)
+    for fname in (n for n in dir(mod) if not n.startswith("_")):
+        obj = getattr(mod, fname)
+        targets = [(fname, obj)]
+        if inspect.isclass(obj):
+            targets += [(f"{fname}.{m}", getattr(obj, m)) for m in dir(obj)
+                        if not m.startswith("_") and callable(getattr(obj, m))]
+        for label, t in targets:
+            try:
+                sig = inspect.signature(t)
+            except (TypeError, ValueError):
+                continue
+            bad = [p.name for p in sig.parameters.values() if p.default is Ellipsis]
+            assert not bad, f"{name}.{label}: {bad} default to Ellipsis"

@@ -1,8 +1,12 @@
 //! `vpctl demo` and `vpctl sim run|config`: the table, the report files,
 //! model reuse and exit codes.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+
+use vp_scene::colmap::{read_model, ModelFrame, Reconstruction};
+use vp_scene::plan::Plan;
+use vp_scene::raster::ConfidenceImage;
 
 fn vpctl(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_vpctl"))
@@ -19,6 +23,43 @@ fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
+/// A folder whose `vpctl` is this build's binary, for `sh -c`.
+fn path_with_vpctl() -> String {
+    let bin = PathBuf::from(env!("CARGO_BIN_EXE_vpctl"));
+    let dir = bin.parent().unwrap().to_str().unwrap().to_owned();
+    format!("{dir}:{}", std::env::var("PATH").unwrap_or_default())
+}
+
+/// `dir` (an `iter<i>-acquired` folder) holds a valid COLMAP model of
+/// `n_images` images, sparse points seen at least twice, the site's frame,
+/// a planning mesh, the ROI and, when `predicted`, a confidence file per image.
+fn assert_acquired_model(dir: &Path, n_images: usize, predicted: bool) -> Reconstruction {
+    let sparse = dir.join("sparse");
+    let rec = read_model(&sparse).unwrap_or_else(|e| panic!("{}: {e}", sparse.display()));
+    rec.validate().unwrap();
+    assert_eq!(rec.images.len(), n_images, "{}", dir.display());
+    assert!(rec.points.len() > 50, "{} points", rec.points.len());
+    assert!(rec.points.values().all(|p| p.track.len() >= 2));
+    ModelFrame::load(&sparse).unwrap();
+    let mesh = vp_scene::io::read_mesh(&dir.join("mesh.ply")).unwrap();
+    assert!(mesh.n_faces() > 100);
+    vp_scene::roi::Roi::load(&dir.join("roi.json")).unwrap();
+    if predicted {
+        for img in rec.images.values() {
+            let c = ConfidenceImage::load(&dir.join(format!("confidence/{}.vpconf", img.name)))
+                .unwrap();
+            let cam = &rec.cameras[&img.camera_id];
+            assert_eq!(
+                (u64::from(c.width()), u64::from(c.height())),
+                (cam.width, cam.height)
+            );
+        }
+    }
+    rec
+}
+
+/// The demo wrote plans but not what they were planned from: nobody could
+/// run `vpctl plan` on an iteration by hand.
 #[test]
 fn quick_demo_prints_the_table_and_writes_the_report() {
     let dir = tempfile::tempdir().unwrap();
@@ -83,6 +124,38 @@ fn quick_demo_prints_the_table_and_writes_the_report() {
         .is_some_and(|a| !a.is_empty()));
     assert!(model.is_file());
 
+    // What iteration 1 planned from: the initial flight's COLMAP model, its
+    // confidence, the planning mesh and the ROI.
+    let init = Plan::load(&out.join("plans/Init/iter1.json")).unwrap();
+    let f = out.join("plans/F1x2/iter1-acquired");
+    let rec = assert_acquired_model(&f, init.waypoints.len(), true);
+    assert!(rec.images.values().all(|i| i.name.starts_with("init_")));
+    let np = out.join("plans/NP1x2/iter1-acquired");
+    assert_acquired_model(&np, init.waypoints.len(), false);
+    assert!(
+        !np.join("confidence").exists(),
+        "NP plans without prediction"
+    );
+    // ... and the report says how to plan it again by hand: run as written.
+    let md = std::fs::read_to_string(out.join("table.md")).unwrap();
+    let script = md
+        .split_once("```sh\nA=plans/F1x2/iter1-acquired\n")
+        .and_then(|(_, rest)| rest.split_once("```"))
+        .map(|(body, _)| format!("A=plans/F1x2/iter1-acquired\n{body}"))
+        .expect("a vpctl plan recipe in table.md");
+    assert!(script.contains("vpctl plan "), "{script}");
+    let o = Command::new("sh")
+        .arg("-c")
+        .arg(&script)
+        .current_dir(&out)
+        .env("PATH", path_with_vpctl())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "`{script}`: {}", text(&o.stderr));
+    let again = Plan::load(&out.join("again.json")).unwrap();
+    assert!(!again.waypoints.is_empty(), "{}", text(&o.stdout));
+    assert!(again.origin.is_some(), "the origin comes from frame.json");
+
     // The report exists: refused without --force (exit 2), nothing changed.
     let o = vpctl(&["demo", "--quick", "--out", s(&out)]);
     assert_eq!(o.status.code(), Some(2), "stderr: {}", text(&o.stderr));
@@ -131,6 +204,60 @@ fn a_saved_forest_is_reused_and_gives_the_same_table() {
         std::fs::read_to_string(first.join("table.csv")).unwrap(),
         "a saved and reloaded forest must give the same table"
     );
+}
+
+/// Each iteration's acquired model holds the images of the iterations
+/// before it: iteration 2's is iteration 1's plus the images its plan took.
+#[test]
+fn each_iterations_acquired_model_adds_the_images_flown_before_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = vpctl(&["sim", "config", "--preset", "quick"]);
+    assert!(o.status.success());
+    let toml = text(&o.stdout)
+        .replace("mvs = \"patchmatch\"", "mvs = \"virtual\"")
+        .replace(
+            "strategies = [\"F1x2\", \"NP1x2\"]",
+            "strategies = [\"F2x1\"]",
+        );
+    assert!(
+        toml.contains("\"F2x1\"") && toml.contains("\"virtual\""),
+        "{toml}"
+    );
+    let cfg = dir.path().join("q.toml");
+    std::fs::write(&cfg, toml).unwrap();
+    let out = dir.path().join("r");
+    let o = vpctl(&["sim", "run", "--config", s(&cfg), "--out", s(&out)]);
+    assert!(o.status.success(), "stderr: {}", text(&o.stderr));
+    let plans = out.join("plans/F2x1");
+    let init = Plan::load(&out.join("plans/Init/iter1.json")).unwrap();
+    let iter1 = Plan::load(&plans.join("iter1.json")).unwrap();
+    assert!(!iter1.waypoints.is_empty(), "iteration 1 planned nothing");
+    let first = assert_acquired_model(&plans.join("iter1-acquired"), init.waypoints.len(), true);
+    let second = assert_acquired_model(
+        &plans.join("iter2-acquired"),
+        init.waypoints.len() + iter1.waypoints.len(),
+        true,
+    );
+    // The same initial images, with the same poses, then iteration 1's.
+    for (id, img) in &first.images {
+        assert_eq!(second.images[id].name, img.name);
+        assert_eq!(second.images[id].cam_from_world, img.cam_from_world);
+    }
+    let added: Vec<&str> = second
+        .images
+        .values()
+        .filter(|i| !first.images.contains_key(&i.id))
+        .map(|i| i.name.as_str())
+        .collect();
+    assert_eq!(added.len(), iter1.waypoints.len());
+    assert!(added.iter().all(|n| n.starts_with("iter1_")), "{added:?}");
+    // The images iteration 1 added sit where its plan put them (to SfM's noise).
+    for (name, w) in added.iter().zip(&iter1.waypoints) {
+        let img = second.images.values().find(|i| i.name == *name).unwrap();
+        let c = img.center();
+        let d = (c - nalgebra::Point3::from(w.position)).norm();
+        assert!(d < 2.0, "{name}: {d} m from its waypoint");
+    }
 }
 
 #[test]

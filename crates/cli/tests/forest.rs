@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use vp_forest::synthetic::{label_image, texture_image};
-use vp_scene::raster::{save_rgb, ConfidenceImage, Label};
+use vp_scene::raster::{load_rgb, save_rgb, ConfidenceImage, Label, PreviewLayout};
 
 fn vpctl(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_vpctl"))
@@ -158,8 +158,65 @@ fn train_predict_and_eval_learn_texture_and_angle() {
         held_images.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", text(&o));
-    assert!(conf_dir.join("i3.png.bin0.png").exists() && conf_dir.join("i3.png.bin8.png").exists());
     assert_confidence_learned(&conf_dir.join("i3.png.vpconf"), 3);
+    let preview = conf_dir.join("i3.png.preview.png");
+    assert!(
+        text(&o).contains(&format!("preview: {}", preview.display())),
+        "{}",
+        text(&o)
+    );
+    assert_preview_readable(&preview, &conf_dir.join("i3.png.vpconf"), 3);
+}
+
+/// Prediction previews were 12x8 px per bin (the grid): a user saw nothing.
+/// Now one image per photo: the photo and every bin at 240 px wide, the
+/// planted rule visible (noisy blocks bright at 0-5 deg, dark at 40-45 deg).
+fn assert_preview_readable(preview: &Path, conf: &Path, seed: u64) {
+    let img = load_rgb(preview).unwrap();
+    let c = ConfidenceImage::load(conf).unwrap();
+    let layout = PreviewLayout::of(&c, 0);
+    assert_eq!(img.dimensions(), layout.size);
+    assert!(
+        img.width() >= 1200 && img.height() >= 300,
+        "{:?}",
+        img.dimensions()
+    );
+    assert_eq!(layout.panel, (240, 160));
+    assert_eq!(layout.origins.len(), 1 + 9, "the photo and nine bins");
+    // The photo panel is the (textured) photo, not a flat fill.
+    let (x0, y0) = layout.origins[0];
+    let photo: Vec<[u8; 3]> = (0..160)
+        .map(|y| img.get_pixel(x0 + 120, y0 + y).0)
+        .collect();
+    assert!(
+        photo.iter().any(|p| *p != photo[0]),
+        "the photo panel is flat"
+    );
+    let luma =
+        |p: [u8; 3]| 0.299 * f32::from(p[0]) + 0.587 * f32::from(p[1]) + 0.114 * f32::from(p[2]);
+    let tex = texture_image(96, 64, 16, seed);
+    let (mut low, mut high) = (vec![], vec![]);
+    for y in 0..64 {
+        for x in 0..96 {
+            if tex.border_distance(x, y) < 4 || !tex.is_noisy(x, y) {
+                continue;
+            }
+            let (px, py) = (x * 240 / 96, y * 160 / 64);
+            let at = |panel: usize| {
+                let (ox, oy) = layout.origins[panel];
+                luma(img.get_pixel(ox + px, oy + py).0)
+            };
+            low.push(at(1));
+            high.push(at(9));
+        }
+    }
+    let mean = |v: &[f32]| v.iter().sum::<f32>() / v.len() as f32;
+    assert!(
+        mean(&low) > mean(&high) + 60.0,
+        "noisy blocks: {} at 0-5 deg, {} at 40-45 deg",
+        mean(&low),
+        mean(&high)
+    );
 }
 
 /// Noisy blocks are confident at 2.5 deg, not at 42.5 deg; smooth blocks

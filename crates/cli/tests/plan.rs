@@ -79,6 +79,20 @@ fn plan_writes_plan_ply_and_png_and_refuses_to_overwrite() {
     for colour in [[255, 150, 0], [255, 0, 40], [0, 255, 40], [235, 235, 235]] {
         assert!(panel.contains(&colour), "{colour:?} in the legend panel");
     }
+    // The acquired cameras (blue squares) are on the map, not only in
+    // the legend: the top view showed only the plan.
+    let acquired = [90, 160, 255];
+    assert!(panel.contains(&acquired), "acquired in the legend");
+    let on_map = (0..img.height() - 80)
+        .flat_map(|y| (0..img.width()).map(move |x| (x, y)))
+        .filter(|&(x, y)| img.get_pixel(x, y).0 == acquired)
+        .count();
+    let model = vp_scene::colmap::read_model(&dir.path().join("model")).unwrap();
+    assert!(
+        on_map >= model.images.len() * 4,
+        "{on_map} blue pixels for {} acquired cameras",
+        model.images.len()
+    );
     let cams = vp_scene::io::read_mesh(&dir.path().join("cams.ply")).unwrap();
     assert_eq!(cams.n_faces(), 6 * plan.waypoints.len());
     // Same inputs, same bytes.

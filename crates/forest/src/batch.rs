@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use vp_scene::fsio;
 use vp_scene::image_files::{confidence_file, sidecar};
-use vp_scene::raster::{load_rgb, ConfidenceImage};
+use vp_scene::raster::{confidence_preview, encode_png, load_rgb, ConfidenceImage};
 use vp_scene::SceneError;
 
 use crate::error::{ForestError, Result};
@@ -20,7 +20,9 @@ use crate::Forest;
 pub struct BatchOptions {
     /// Grid step in pixels (the paper: 8).
     pub step: u32,
-    /// Also write a greyscale PNG per angle bin (`<image name>.bin<i>.png`).
+    /// Also write a preview per image (`<image name>.preview.png`: the photo
+    /// beside the colour-mapped confidence of every angle bin, with a colour
+    /// key; see [`vp_scene::raster::confidence_preview`]).
     pub previews: bool,
     /// Overwrite output files that exist.
     pub force: bool,
@@ -37,14 +39,19 @@ pub struct Predicted {
     pub confidence_file: PathBuf,
     /// The confidence image.
     pub confidence: ConfidenceImage,
+    /// The preview written, if previews were asked for.
+    pub preview_file: Option<PathBuf>,
 }
 
 impl Predicted {
     /// Mean confidence over grid nodes and bins.
     pub fn mean_confidence(&self) -> f64 {
-        let v = self.confidence.values();
-        v.iter().map(|&x| f64::from(x)).sum::<f64>() / v.len().max(1) as f64
+        mean_of(self.confidence.values())
     }
+}
+
+fn mean_of(v: &[f32]) -> f64 {
+    v.iter().map(|&x| f64::from(x)).sum::<f64>() / v.len().max(1) as f64
 }
 
 /// Predicts every `(path, image name)` of `images` (see
@@ -64,7 +71,6 @@ pub fn predict_files(
                 .to_string(),
         ));
     }
-    let b = forest.bins().len();
     let mut seen = HashSet::new();
     let mut jobs = Vec::with_capacity(images.len());
     for (path, name) in images {
@@ -76,41 +82,51 @@ pub fn predict_files(
                 conf.display()
             )));
         }
-        let previews = if options.previews {
-            (0..b)
-                .map(|i| sidecar(out_dir, name, &format!("bin{i}.png")))
-                .collect::<vp_scene::Result<Vec<_>>>()?
+        let preview = if options.previews {
+            Some(sidecar(out_dir, name, "preview.png")?)
         } else {
-            Vec::new()
+            None
         };
-        for p in std::iter::once(&conf).chain(&previews) {
+        for p in std::iter::once(&conf).chain(&preview) {
             fsio::check_overwrite(p, options.force)?;
         }
-        jobs.push((path, name, conf, previews));
+        jobs.push((path, name, conf, preview));
     }
     let mut predicted = Vec::with_capacity(jobs.len());
-    for (path, name, conf, previews) in jobs {
+    for (path, name, conf, preview) in jobs {
         let image = load_rgb(path)?;
         let confidence = forest.predict_image(&image, options.step)?;
+        // Encoded now, so that only the PNG bytes wait for the writing,
+        // not the photos.
+        let preview = match preview {
+            Some(file) => {
+                let mean = mean_of(confidence.values());
+                let title = format!("{name}: mean confidence {mean:.2}");
+                let png = encode_png(&confidence_preview(&confidence, &image, &title), &file)?;
+                Some((file, png))
+            }
+            None => None,
+        };
         predicted.push((
             Predicted {
                 image: path.clone(),
                 name: name.clone(),
                 confidence_file: conf,
                 confidence,
+                preview_file: preview.as_ref().map(|(f, _)| f.clone()),
             },
-            previews,
+            preview,
         ));
     }
-    for (p, previews) in &predicted {
-        for file in std::iter::once(&p.confidence_file).chain(previews) {
+    for (p, preview) in &predicted {
+        for file in std::iter::once(&p.confidence_file).chain(preview.iter().map(|(f, _)| f)) {
             if let Some(parent) = file.parent() {
                 std::fs::create_dir_all(parent).map_err(|e| SceneError::io(parent, e))?;
             }
         }
         p.confidence.save(&p.confidence_file)?;
-        for (i, file) in previews.iter().enumerate() {
-            p.confidence.save_bin_png(i, file)?;
+        if let Some((file, png)) = preview {
+            fsio::write_file_atomic(file, png)?;
         }
     }
     Ok(predicted.into_iter().map(|(p, _)| p).collect())

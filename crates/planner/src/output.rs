@@ -3,6 +3,7 @@
 //! planned cameras as frusta, flight paths) for any glTF viewer, and a PNG
 //! top view.
 
+use std::fmt::Write as _;
 use std::io::Write;
 use std::path::Path;
 
@@ -99,7 +100,7 @@ fn role_colour(role: Role) -> Rgb<u8> {
     }
 }
 
-/// Frusta of the acquired cameras.
+/// The acquired cameras: frusta in 3D, squares in the top view.
 const ACQUIRED_COLOUR: Rgb<u8> = Rgb([90, 160, 255]);
 /// The flight path in 3D (white would vanish on a viewer's light background).
 const PATH_3D_COLOUR: Rgb<u8> = Rgb([255, 230, 0]);
@@ -164,6 +165,9 @@ pub struct TopView<'a> {
     pub roi_outline: &'a [[f64; 2]],
     /// The plan.
     pub plan: &'a Plan,
+    /// The acquired cameras (the COLMAP model planned from), drawn as
+    /// blue squares under the plan.
+    pub acquired: &'a [Camera],
     /// Longest image side, pixels.
     pub size: u32,
 }
@@ -306,21 +310,29 @@ fn ramp(f: f64) -> Rgb<u8> {
 /// Renders the top view: mesh faces from below to above, each coloured by
 /// the f(t) of the nearest sampled triangle (red 0 to green 1, brighter
 /// higher up) or, where nothing was sampled, grey by height; the ROI outline in
-/// blue, the path in white, cameras as dots (triplet members orange,
-/// bridges cyan, grid and initial views magenta) with heading ticks; below
+/// blue, the acquired cameras as blue squares (as their frusta in 3D), the path in white, the
+/// planned cameras as dots (triplet members orange, bridges cyan, grid and
+/// initial views magenta) with heading ticks; below
 /// the map a panel with a title, the legend, the colour keys and the scale.
 pub fn render_top_view(view: &TopView) -> RgbImage {
     let b = view.mesh.bounds();
     let mut ext = b.extent();
-    for p in &view.plan.waypoints {
+    let acquired: Vec<[f64; 3]> = view.acquired.iter().map(|c| c.center().into()).collect();
+    for p in view
+        .plan
+        .waypoints
+        .iter()
+        .map(|w| &w.position)
+        .chain(&acquired)
+    {
         ext.x = ext
             .x
-            .max((p.position[0] - b.min.x).abs())
-            .max((p.position[0] - b.max.x).abs());
+            .max((p[0] - b.min.x).abs())
+            .max((p[0] - b.max.x).abs());
         ext.y = ext
             .y
-            .max((p.position[1] - b.min.y).abs())
-            .max((p.position[1] - b.max.y).abs());
+            .max((p[1] - b.min.y).abs())
+            .max((p[1] - b.max.y).abs());
     }
     let side = ext.x.max(ext.y).max(1e-6);
     let scale = f64::from(view.size.max(16)) / side;
@@ -362,6 +374,16 @@ pub fn render_top_view(view: &TopView) -> RgbImage {
         let (pa, pc) = (cv.px(a[0], a[1]), cv.px(c[0], c[1]));
         cv.line(pa, pc, ROI_COLOUR);
     }
+    // Squares, no heading: acquired images are mostly nadir, where a
+    // heading says nothing.
+    for p in &acquired {
+        let p = cv.px(p[0], p[1]);
+        for dy in -r..=r {
+            for dx in -r..=r {
+                cv.put(p.0 as i64 + dx, p.1 as i64 + dy, ACQUIRED_COLOUR);
+            }
+        }
+    }
     let wps = &view.plan.waypoints;
     for pair in wps.windows(2) {
         let (a, c) = (
@@ -402,6 +424,9 @@ fn with_legend(map: &RgbImage, view: &TopView, width_m: f64) -> RgbImage {
         "vpctl plan: {} waypoints ({members} triplet, {bridges} bridge, {grid} grid)",
         wps.len()
     );
+    if !view.acquired.is_empty() {
+        let _ = write!(title, " from {} acquired", view.acquired.len());
+    }
     if view.plan.cut_short {
         title.push_str(", cut short");
     }
@@ -427,6 +452,7 @@ fn with_legend(map: &RgbImage, view: &TopView, width_m: f64) -> RgbImage {
         (TRIPLET_COLOUR, "triplet"),
         (BRIDGE_COLOUR, "bridge"),
         (GRID_COLOUR, "grid"),
+        (ACQUIRED_COLOUR, "acquired"),
         (Rgb([255, 255, 255]), "path"),
         (ROI_COLOUR, "ROI"),
     ] {

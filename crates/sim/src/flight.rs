@@ -13,7 +13,7 @@
 
 use nalgebra::Point3;
 use vp_labelgen::synthetic::sparse_model;
-use vp_scene::colmap::{ModelFrame, Reconstruction, Sim3};
+use vp_scene::colmap::{ModelFrame, Reconstruction};
 use vp_scene::plan::Plan;
 use vp_scene::raster::RgbImage;
 use vp_scene::Camera;
@@ -120,17 +120,7 @@ pub fn fly(
             }
         }
     }
-    let frame = ModelFrame {
-        origin: world.site.origin,
-        sim3: Sim3 {
-            scale: 1.0,
-            rotation_wxyz: [1.0, 0.0, 0.0, 0.0],
-            translation: [0.0; 3],
-        },
-        rms_m: 0.0,
-        residuals: Vec::new(),
-        strip: None,
-    };
+    let frame = ModelFrame::identity(world.site.origin);
     Ok(Flight {
         images,
         model,

@@ -25,15 +25,17 @@ impl PyRayCaster {
 
     /// Closest hits of rays (origins (N, 3), directions (N, 3), normalised
     /// here) up to `t_max`: dict of `t` (N,) (inf on a miss), `face` (N,)
-    /// int64 (-1 on a miss) and `points` (N, 3) (NaN on a miss).
-    #[pyo3(signature = (origins, directions, t_max = f64::INFINITY))]
+    /// int64 (-1 on a miss) and `points` (N, 3) (NaN on a miss). `t_max`
+    /// None: no limit (a default of infinity showed as `Ellipsis` in help()).
+    #[pyo3(signature = (origins, directions, t_max = None))]
     fn closest_hits<'py>(
         &self,
         py: Python<'py>,
         origins: PyReadonlyArray2<'_, f64>,
         directions: PyReadonlyArray2<'_, f64>,
-        t_max: f64,
+        t_max: Option<f64>,
     ) -> PyResult<Bound<'py, PyDict>> {
+        let t_max = t_max.unwrap_or(f64::INFINITY);
         let o = points(&origins, "origins")?;
         let d = points(&directions, "directions")?;
         if o.len() != d.len() {

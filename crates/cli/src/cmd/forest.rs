@@ -57,7 +57,9 @@ pub struct PredictArgs {
     model: PathBuf,
     /// Output folder: `<image name>.vpconf` per image (the name `vpctl plan
     /// --confidence-dir` looks for; an image found in a sub-folder of a given
-    /// folder keeps that sub-folder) and `<image name>.bin<i>.png` previews.
+    /// folder keeps that sub-folder) and `<image name>.preview.png`: the photo
+    /// beside the confidence of each angle bin, colour-mapped (viridis, dark
+    /// 0 to yellow 1) with a key.
     #[arg(long)]
     out: PathBuf,
     /// Grid step in pixels (the paper: 8).
@@ -187,6 +189,9 @@ pub fn predict(a: &PredictArgs, out: &mut dyn Write) -> Result<()> {
             p.mean_confidence(),
             p.confidence_file.display()
         )?;
+        if let Some(f) = &p.preview_file {
+            writeln!(out, "  preview: {}", f.display())?;
+        }
     }
     Ok(())
 }

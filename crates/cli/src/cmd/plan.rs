@@ -84,7 +84,8 @@ struct Common {
     /// Also write the planned cameras as pyramids (PLY) for MeshLab/CloudCompare.
     #[arg(long)]
     ply: Option<PathBuf>,
-    /// Also write a top view (PNG): mesh shaded by f(t), ROI, cameras, path.
+    /// Also write a top view (PNG): mesh shaded by f(t), ROI, acquired and
+    /// planned cameras, path; title, legend and colour keys below.
     #[arg(long)]
     png: Option<PathBuf>,
     /// Also write a 3D scene (glTF 2.0 binary, .glb) for any glTF viewer:
@@ -263,6 +264,7 @@ impl Common {
                     fulfillment: f,
                     roi_outline: roi,
                     plan,
+                    acquired,
                     size: TOP_VIEW_SIZE,
                 };
                 write_top_view_png(p, &view, self.force)?;

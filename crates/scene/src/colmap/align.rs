@@ -75,6 +75,22 @@ pub struct ModelFrame {
 }
 
 impl ModelFrame {
+    /// The frame of a model built in the local ENU frame of `origin` (the
+    /// simulator's): identity transform, no residuals.
+    pub fn identity(origin: GeodeticOrigin) -> ModelFrame {
+        ModelFrame {
+            origin,
+            sim3: Sim3 {
+                scale: 1.0,
+                rotation_wxyz: [1.0, 0.0, 0.0, 0.0],
+                translation: [0.0; 3],
+            },
+            rms_m: 0.0,
+            residuals: Vec::new(),
+            strip: None,
+        }
+    }
+
     /// Reads `dir/frame.json`.
     pub fn load(dir: &Path) -> Result<ModelFrame> {
         let path = dir.join(FRAME_FILE);

@@ -3,7 +3,9 @@
 
 use std::collections::BTreeMap;
 
-use super::model::{ColmapCamera, ColmapImage, Point3D};
+use nalgebra::{Point2, Point3};
+
+use super::model::{CameraModel, ColmapCamera, ColmapImage, Point2D, Point3D};
 use crate::camera::Camera;
 use crate::error::{Location, Result, SceneError};
 
@@ -61,6 +63,78 @@ pub(crate) struct Inconsistency {
 }
 
 impl Reconstruction {
+    /// Adds an image named `name` taken by `cam`, with a PINHOLE camera of
+    /// its own; both get the id one above the largest so far (1 in an empty
+    /// model). Returns the image id.
+    pub fn add_pinhole_image(&mut self, name: &str, cam: &Camera) -> u32 {
+        let next = |last: Option<u32>| last.map_or(1, |id| id + 1);
+        let camera_id = next(self.cameras.keys().next_back().copied());
+        let id = next(self.images.keys().next_back().copied());
+        let k = cam.intrinsics;
+        self.cameras.insert(
+            camera_id,
+            ColmapCamera {
+                id: camera_id,
+                model: CameraModel::Pinhole,
+                width: u64::from(k.width),
+                height: u64::from(k.height),
+                params: vec![k.fx, k.fy, k.cx, k.cy],
+            },
+        );
+        self.images.insert(
+            id,
+            ColmapImage {
+                id,
+                camera_id,
+                name: name.to_owned(),
+                cam_from_world: cam.cam_from_world(),
+                points2d: Vec::new(),
+            },
+        );
+        id
+    }
+
+    /// Adds a 3D point at `xyz` (grey, reprojection error 0) observed at
+    /// `observations` (image id, pixel): each becomes a 2D point of its
+    /// image and an element of the track. The id is one above the largest
+    /// so far. Refuses an unknown image id, changing nothing.
+    pub fn add_point(
+        &mut self,
+        xyz: Point3<f64>,
+        observations: &[(u32, Point2<f64>)],
+    ) -> Result<u64> {
+        if let Some((id, _)) = observations
+            .iter()
+            .find(|(id, _)| !self.images.contains_key(id))
+        {
+            return Err(SceneError::InvalidArgument(format!(
+                "a 3D point observed in image {id}, which the model does not have"
+            )));
+        }
+        let id = self.points.keys().next_back().map_or(1, |id| id + 1);
+        let mut track = Vec::with_capacity(observations.len());
+        for &(image_id, xy) in observations {
+            if let Some(img) = self.images.get_mut(&image_id) {
+                track.push((image_id, img.points2d.len() as u32));
+                img.points2d.push(Point2D {
+                    xy,
+                    point3d_id: Some(id),
+                });
+            }
+        }
+        self.points.insert(
+            id,
+            Point3D {
+                id,
+                xyz,
+                rgb: [128, 128, 128],
+                error: 0.0,
+                track,
+            },
+        );
+        Ok(id)
+    }
+
     /// The posed pinhole camera of image `image_id` (`world_from_cam` the
     /// inverse of its pose). Refuses a camera with lens distortion
     /// ([`ColmapCamera::is_distorted`]): vpctl projects with pinholes, so a
@@ -268,4 +342,44 @@ pub(crate) fn insert_unique<K: Ord + Copy + std::fmt::Display, V>(
     located.0.insert(id, value);
     located.1.insert(id, place);
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::{Point2, Point3};
+
+    use super::*;
+    use crate::camera::Intrinsics;
+
+    #[test]
+    fn built_models_are_consistent_and_round_trip_through_text() {
+        let k = Intrinsics::from_hfov(64, 48, 60.0).unwrap();
+        let down = -std::f64::consts::FRAC_PI_2;
+        let mut rec = Reconstruction::default();
+        let a = rec.add_pinhole_image(
+            "a.png",
+            &Camera::from_yaw_pitch(k, Point3::new(0.0, 0.0, 10.0), 0.0, down),
+        );
+        let b = rec.add_pinhole_image(
+            "b.png",
+            &Camera::from_yaw_pitch(k, Point3::new(1.0, 0.0, 10.0), 0.0, down),
+        );
+        assert_eq!((a, b), (1, 2));
+        let p = Point3::new(0.5, 0.0, 0.0);
+        let xy = |id: u32| rec.camera_of(id).unwrap().project(&p).unwrap();
+        let obs = [(a, xy(a)), (b, xy(b))];
+        assert_eq!(rec.add_point(p, &obs).unwrap(), 1);
+        assert_eq!(rec.points[&1].track, vec![(1, 0), (2, 0)]);
+        assert_eq!(rec.images[&2].points2d[0].point3d_id, Some(1));
+        rec.validate().unwrap();
+        // An unknown image is refused and changes nothing.
+        let before = rec.clone();
+        assert!(rec.add_point(p, &[(7, Point2::new(1.0, 1.0))]).is_err());
+        assert_eq!(rec, before);
+        let dir = tempfile::tempdir().unwrap();
+        super::super::write_text(dir.path(), &rec).unwrap();
+        let back = super::super::read_model(dir.path()).unwrap();
+        assert_eq!(back.images[&2].name, "b.png");
+        assert_eq!(back.points[&1].track, rec.points[&1].track);
+    }
 }

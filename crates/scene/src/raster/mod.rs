@@ -39,6 +39,7 @@
 mod bins;
 mod confidence;
 mod label;
+mod preview;
 mod text;
 
 use std::io::{Cursor, Write};
@@ -51,6 +52,7 @@ pub use bins::AngleBins;
 pub use confidence::ConfidenceImage;
 pub use image::RgbImage;
 pub use label::{Label, LabelImage};
+pub use preview::{confidence_preview, viridis, PreviewLayout, PANEL_WIDTH};
 pub use text::{draw_text, text_width, GLYPH_PX};
 
 /// Format version of both binary raster formats.
@@ -80,6 +82,18 @@ pub fn save_rgb(image: &RgbImage, path: &Path) -> Result<()> {
     let mut buf = Cursor::new(Vec::new());
     image.write_to(&mut buf, format).map_err(image_error)?;
     write_atomic(path, |w| w.write_all(buf.get_ref()))
+}
+
+/// Encodes an RGB image as PNG bytes; `path` only names the file in errors.
+pub fn encode_png(image: &RgbImage, path: &Path) -> Result<Vec<u8>> {
+    let mut buf = Cursor::new(Vec::new());
+    image
+        .write_to(&mut buf, image::ImageFormat::Png)
+        .map_err(|source| SceneError::Image {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    Ok(buf.into_inner())
 }
 
 /// Encodes an 8-bit grey image as PNG and writes it atomically.

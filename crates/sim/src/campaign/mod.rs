@@ -23,6 +23,7 @@
 //! seeded: the same configuration gives the same table.
 //! `docs/campaign-findings.md` keeps what the experiment found.
 
+pub mod acquired;
 pub mod config;
 pub mod crash;
 pub mod curves;

@@ -167,6 +167,7 @@ pub fn write_site_plots(a: &SiteArtifacts, dir: &Path) -> Result<()> {
                 fulfillment: &[],
                 roi_outline: &roi,
                 plan: &all,
+                acquired: &[],
                 size: 640,
             };
             let mut img = render_top_view(&view);
@@ -191,6 +192,7 @@ pub fn write_site_plots(a: &SiteArtifacts, dir: &Path) -> Result<()> {
             fulfillment: &pts,
             roi_outline: &roi,
             plan: &empty,
+            acquired: &[],
             size: 640,
         };
         let mut img = render_top_view(&view);

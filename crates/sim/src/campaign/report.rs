@@ -11,6 +11,7 @@ use vp_mission::{export_qgc, Autopilot, MissionOptions, QgcOptions};
 use vp_scene::plan::Plan;
 use vp_scene::{Aabb, Mesh};
 
+use super::acquired::AcquiredModel;
 use super::config::CampaignConfig;
 use super::curves::ConfidenceCurve;
 use super::eval::Scores;
@@ -75,6 +76,9 @@ pub struct StrategyArtifacts {
     pub face_f: Vec<f64>,
     /// Plans, one per iteration (empty for combinations).
     pub plans: Vec<Plan>,
+    /// What each iteration planned from, beside `plans` (triplet strategies
+    /// only; empty for Init, Grid and combinations).
+    pub acquired: Vec<AcquiredModel>,
 }
 
 /// The first held-out site's data for plots and missions.
@@ -364,7 +368,9 @@ fn write(path: &Path, text: &str) -> Result<()> {
 
 /// Writes the report directory `dir`: `table.md`, `table.csv`,
 /// `report.json`, `curves.csv`, `config.toml`, `plans/<strategy>/iter<i>.json`
-/// and `.plan` (QGroundControl missions via vp-mission), the PNG plots
+/// and `.plan` (QGroundControl missions via vp-mission),
+/// `plans/<strategy>/iter<i>-acquired/` (what the iteration planned from,
+/// see [`super::acquired`]), the PNG plots
 /// (see [`super::plot`]), `scene.glb` (see [`super::scene`]) and
 /// `report.html` (see [`super::html`]). Refuses an existing `dir` unless `force`; the
 /// directory is built beside it and renamed into place, so a failure leaves
@@ -392,6 +398,44 @@ pub fn write_report(report: &CampaignReport, dir: &Path, force: bool) -> Result<
     std::fs::rename(&stage, dir).map_err(|e| io_err(dir, e))
 }
 
+/// The paragraph of `table.md` on the `iter<i>-acquired` folders, with a
+/// command that plans one again (None without triplet strategies).
+fn acquired_recipe(report: &CampaignReport) -> Option<String> {
+    // The example: a strategy with prediction if there is one.
+    let acquired_example = report.artifacts.as_ref().and_then(|a| {
+        let with = |conf: bool| {
+            a.strategies.iter().find(|s| {
+                s.acquired
+                    .first()
+                    .is_some_and(|m| m.confidence.is_empty() != conf)
+            })
+        };
+        with(true).or_else(|| with(false)).map(|s| {
+            let predicted = !s.acquired[0].confidence.is_empty();
+            let flag = if predicted {
+                " --confidence-dir $A/confidence"
+            } else {
+                ""
+            };
+            (s.name.clone(), flag)
+        })
+    });
+    acquired_example.map(|(name, conf_flag)| {
+        format!(
+            "\n`plans/<strategy>/iter<i>.json` and `.plan`: each iteration's plan (vpctl, \
+             QGroundControl). `plans/<strategy>/iter<i>-acquired/`: what that iteration planned \
+             from: `sparse/` (the COLMAP model of the images acquired so far, with \
+             `frame.json`), `confidence/` (their predicted `.vpconf`, strategies with \
+             prediction), `mesh.ply` (the planning mesh), `roi.json`. To plan an iteration \
+             again by hand (comparable, not identical: the campaign's planner also had the \
+             fused dense points as free-space observations):\n\n```sh\n\
+             A=plans/{name}/iter1-acquired\n\
+             vpctl plan --mesh $A/mesh.ply --colmap $A/sparse{conf_flag} --roi $A/roi.json \
+             --config config.toml --out again.json\n```\n"
+        )
+    })
+}
+
 fn fill(report: &CampaignReport, dir: &Path) -> Result<()> {
     let mut md = String::from("# vpctl campaign report\n\n");
     let _ = writeln!(
@@ -411,6 +455,9 @@ fn fill(report: &CampaignReport, dir: &Path) -> Result<()> {
     md.push_str("\nPlots: `confidence_<material>.png` (learned: blue, measured: red, x: angle 0-45 deg, y: 0-1), ");
     md.push_str("`plan_<strategy>.png` (top view of the plan), `fulfillment_<strategy>.png` (per-face f, red 0 to green 1).\n");
     md.push_str("\n`report.html`: this report as one self-contained page with its plots. `scene.glb`: the site in 3D (mesh, initial flight and planned cameras as frusta, flight paths) for any glTF viewer.\n");
+    if let Some(recipe) = acquired_recipe(report) {
+        md.push_str(&recipe);
+    }
     write(&dir.join("table.md"), &md)?;
     write(&dir.join("table.csv"), &report.table_csv())?;
     let json = serde_json::to_string_pretty(report)
@@ -452,6 +499,9 @@ fn fill(report: &CampaignReport, dir: &Path) -> Result<()> {
                     &QgcOptions::default(),
                 )?;
                 write(&base.with_extension("plan"), &qgc)?;
+            }
+            for (i, a) in s.acquired.iter().enumerate() {
+                a.write(&sd.join(format!("iter{}-acquired", i + 1)))?;
             }
         }
         super::plot::write_site_plots(a, dir)?;

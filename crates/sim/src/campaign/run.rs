@@ -7,10 +7,12 @@ use nalgebra::Point3;
 use vp_forest::Forest;
 use vp_planner::grid::{grid_views, GridParams};
 use vp_planner::{plan, AcquiredView, PlanInputs, RoiSpec};
+use vp_scene::colmap::ModelFrame;
 use vp_scene::plan::{Plan, Role};
 use vp_scene::roi::Roi;
 use vp_scene::{Aabb, Camera};
 
+use super::acquired::AcquiredModel;
 use super::config::CampaignConfig;
 use super::crash::PathCheck;
 use super::curves::CurveAccumulator;
@@ -130,6 +132,8 @@ fn plan_of(world: &World, cams: &[Camera], role: Role) -> Plan {
 struct StrategyRun {
     flown: Vec<Flown>,
     plans: Vec<Plan>,
+    /// What each iteration planned from (when artifacts are kept).
+    acquired: Vec<AcquiredModel>,
     /// The flown paths against the true mesh.
     check: PathCheck,
 }
@@ -189,6 +193,8 @@ fn plan_cameras(world: &World, plan: &Plan) -> (Vec<Camera>, BTreeMap<u32, Vec<C
 #[derive(Clone)]
 struct Known {
     acquired: Vec<Acquired>,
+    /// The image name of each of `acquired` (in the acquired models).
+    names: Vec<String>,
     sfm: SfmState,
 }
 
@@ -204,7 +210,46 @@ impl Known {
         let mut sfm = SfmState::new(world, cfg, seed);
         sfm.add_images(world, &acquired);
         sfm.add_fused(flown, cfg.sfm.dense_spacing_m);
-        Known { acquired, sfm }
+        let names = (0..acquired.len())
+            .map(|i| format!("init_{i:04}.png"))
+            .collect();
+        Known {
+            acquired,
+            names,
+            sfm,
+        }
+    }
+
+    /// What is known as the report shows it: the COLMAP model of the
+    /// acquired images, their confidence if the strategy plans with
+    /// `prediction` (the initial images have one for every strategy),
+    /// `mesh` (planned on) and the ROI.
+    fn model(
+        &self,
+        world: &World,
+        cfg: &CampaignConfig,
+        mesh: &vp_scene::Mesh,
+        prediction: bool,
+    ) -> Result<AcquiredModel> {
+        let views: Vec<(String, Camera)> = self
+            .names
+            .iter()
+            .cloned()
+            .zip(self.acquired.iter().map(|a| a.sfm))
+            .collect();
+        Ok(AcquiredModel {
+            model: self.sfm.colmap_model(cfg, &views)?,
+            frame: ModelFrame::identity(world.site.origin),
+            confidence: self
+                .names
+                .iter()
+                .zip(&self.acquired)
+                .filter(|_| prediction)
+                .filter_map(|(n, a)| a.confidence.clone().map(|c| (n.clone(), c)))
+                .collect(),
+            mesh: mesh.clone(),
+            roi: world.roi,
+        })
     }
 }
 
@@ -280,6 +325,7 @@ fn run_strategy(
     strategy: &Strategy,
     source: u64,
     init: &Known,
+    keep_artifacts: bool,
     curves: &mut CurveAccumulator,
     progress: &mut dyn FnMut(&str),
 ) -> Result<StrategyRun> {
@@ -289,6 +335,7 @@ fn run_strategy(
     let mut out = StrategyRun {
         flown: Vec::new(),
         plans: Vec::new(),
+        acquired: Vec::new(),
         check: PathCheck::default(),
     };
     // Where the vehicle is: the end of the initial flight, then of each plan.
@@ -296,6 +343,10 @@ fn run_strategy(
     let mut next_index = 0usize;
     for it in 0..strategy.iterations {
         let (result, mesh) = plan_iteration(world, cfg, strategy, &known, it, base)?;
+        if keep_artifacts {
+            out.acquired
+                .push(known.model(world, cfg, &mesh, strategy.prediction)?);
+        }
         let q = known.sfm.mesh_quality(world, cfg, &mesh, MESH_TOLERANCE_M);
         progress(&format!(
             "  site {site_seed} {} iteration {}: planning mesh of {} faces, {:.2} m mean ({:.2} m 95th pct) from the truth, {:.0} % of the surface within {MESH_TOLERANCE_M} m, {} under canopies; {} dense points, {:.1} % farther than {MESH_TOLERANCE_M} m",
@@ -365,6 +416,9 @@ fn run_strategy(
             let new = acquire(world, &new_cams, pred, cfg, base, first, curves)?;
             known.sfm.add_images(world, &new);
             known
+                .names
+                .extend((0..new.len()).map(|j| format!("iter{}_{j:04}.png", it + 1)));
+            known
                 .sfm
                 .add_fused(&out.flown[first_flown..], cfg.sfm.dense_spacing_m);
             known.acquired.extend(new);
@@ -397,6 +451,20 @@ fn with_check(mut scores: Scores, check: &PathCheck) -> Scores {
 
 fn refs(v: &[Flown]) -> Vec<&Flown> {
     v.iter().collect()
+}
+
+fn artifacts(
+    name: String,
+    face_f: Vec<f64>,
+    plans: Vec<Plan>,
+    acquired: Vec<AcquiredModel>,
+) -> StrategyArtifacts {
+    StrategyArtifacts {
+        name,
+        face_f,
+        plans,
+        acquired,
+    }
 }
 
 /// Flies and evaluates every strategy on one held-out site.
@@ -451,14 +519,15 @@ fn run_site(
     )?;
 
     let mut scores: Vec<(String, Scores)> = Vec::new();
-    let mut maps: Vec<(String, Vec<f64>, Vec<Plan>)> = Vec::new();
+    let mut maps: Vec<StrategyArtifacts> = Vec::new();
     for (name, flown, check, cams, role) in [
         ("Init", &init_flown, &init_check, &init_cams, Role::Initial),
         ("Grid", &grid_flown, &grid_check, &grid_cams, Role::Grid),
     ] {
         let (s, f) = evaluate(&em, &refs(flown), cfg)?;
         scores.push((name.into(), with_check(s, check)));
-        maps.push((name.into(), f, vec![plan_of(&world, cams, role)]));
+        let plans = vec![plan_of(&world, cams, role)];
+        maps.push(artifacts(name.into(), f, plans, Vec::new()));
     }
     let mut combos = Vec::new();
     for (i, st) in strategies.iter().enumerate() {
@@ -470,6 +539,7 @@ fn run_site(
             st,
             2 + i as u64,
             &known,
+            keep_artifacts,
             curves,
             progress,
         )?;
@@ -482,25 +552,18 @@ fn run_site(
         let (cs, cf) = evaluate(&em, &union, cfg)?;
         let cs = with_check(cs, &grid_check.merged(&run.check));
         combos.push((format!("G+{}", st.name), cs, cf));
-        maps.push((st.name.clone(), f, run.plans));
+        maps.push(artifacts(st.name.clone(), f, run.plans, run.acquired));
     }
     for (name, s, f) in combos {
         scores.push((name.clone(), s));
-        maps.push((name, f, Vec::new()));
+        maps.push(artifacts(name, f, Vec::new(), Vec::new()));
     }
     let artifacts = keep_artifacts.then(|| SiteArtifacts {
         seed,
         mesh: world.site.mesh.clone(),
         roi: world.roi,
         centroids: em.centroids.clone(),
-        strategies: maps
-            .into_iter()
-            .map(|(name, f, plans)| StrategyArtifacts {
-                name,
-                face_f: f,
-                plans,
-            })
-            .collect(),
+        strategies: maps,
     });
     Ok((SiteResult { seed, scores }, artifacts))
 }

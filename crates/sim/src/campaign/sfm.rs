@@ -25,9 +25,10 @@ use std::collections::HashMap;
 
 use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
+use vp_scene::colmap::Reconstruction;
 use vp_scene::raycast::FACE_VISIBILITY_EPSILON;
 use vp_scene::surface::{reconstruct_surface, SurfaceSample};
-use vp_scene::Mesh;
+use vp_scene::{Camera, Mesh};
 
 use super::config::CampaignConfig;
 use super::fly::Flown;
@@ -146,17 +147,65 @@ impl SfmState {
     /// Sparse points SfM has (seen by at least `min_views` images), with
     /// their noisy positions and observing centres.
     pub fn sparse(&self, cfg: &CampaignConfig) -> Vec<(Point3<f64>, Vec<Point3<f64>>)> {
+        self.tracks(cfg)
+            .map(|(p, seen)| {
+                let from = seen.iter().map(|&j| self.centres[j as usize]).collect();
+                (p, from)
+            })
+            .collect()
+    }
+
+    /// The sparse points with their noisy positions and the indices of the
+    /// acquired images seeing them.
+    fn tracks<'a>(
+        &'a self,
+        cfg: &'a CampaignConfig,
+    ) -> impl Iterator<Item = (Point3<f64>, &'a [u32])> + 'a {
         let sigma = cfg.sfm.point_noise_m;
         let s = mix64(self.seed ^ 0x0070_6e6f_6973);
         self.points
             .iter()
             .zip(&self.seen_by)
             .filter(|(_, seen)| seen.len() >= cfg.sfm.min_views)
-            .map(|((p, _), seen)| {
-                let from = seen.iter().map(|&j| self.centres[j as usize]).collect();
-                (p + point_noise(s, p, sigma), from)
-            })
-            .collect()
+            .map(move |((p, _), seen)| (p + point_noise(s, p, sigma), seen.as_slice()))
+    }
+
+    /// The COLMAP model SfM would give of the acquired images, as `vpctl
+    /// sim fly` writes one: `images[j]` is the name and SfM camera of the
+    /// j-th image added (one PINHOLE camera each), the points are
+    /// [`SfmState::sparse`]'s, each observed where it projects in the SfM
+    /// cameras of its track (a point left with fewer than two observations
+    /// is left out, as SfM cannot triangulate it).
+    pub fn colmap_model(
+        &self,
+        cfg: &CampaignConfig,
+        images: &[(String, Camera)],
+    ) -> Result<Reconstruction> {
+        if images.len() != self.centres.len() {
+            return Err(SimError::Campaign(format!(
+                "{} image names for {} acquired images",
+                images.len(),
+                self.centres.len()
+            )));
+        }
+        let mut rec = Reconstruction::default();
+        let ids: Vec<u32> = images
+            .iter()
+            .map(|(name, cam)| rec.add_pinhole_image(name, cam))
+            .collect();
+        for (p, seen) in self.tracks(cfg) {
+            let obs: Vec<_> = seen
+                .iter()
+                .filter_map(|&j| {
+                    let j = j as usize;
+                    images[j].1.project_in_frame(&p).map(|xy| (ids[j], xy))
+                })
+                .collect();
+            if obs.len() >= 2 {
+                rec.add_point(p, &obs)?;
+            }
+        }
+        Ok(rec)
     }
 
     /// The mesher's samples: sparse points with their tracks' centres
