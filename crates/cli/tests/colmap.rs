@@ -185,6 +185,28 @@ fn colmap_align_recovers_metric_scale_and_flags_a_bad_position() {
     // No overwrite.
     let o = align("pos.csv", &out);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    // Cameras not on a line: --gravity-from-views changes nothing, says so.
+    let strip_out = dir.path().join("aligned_flag");
+    let o = vpctl(&[
+        "colmap",
+        "align",
+        "--colmap",
+        model.to_str().unwrap(),
+        "--positions",
+        dir.path().join("pos.csv").to_str().unwrap(),
+        "--out",
+        strip_out.to_str().unwrap(),
+        "--gravity-from-views",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("--gravity-from-views not used"),
+        "{}",
+        stdout(&o)
+    );
+    let flagged = vp_scene::colmap::ModelFrame::load(&strip_out).unwrap();
+    assert_eq!(flagged.sim3, frame.sim3);
+    assert!(flagged.strip.is_none());
 }
 
 #[test]
@@ -254,8 +276,73 @@ fn colmap_align_refuses_bad_positions_with_exit_2_and_writes_nothing() {
     }
     let o = run(&cube, "cube.csv", &csv);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("lie on a line"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("lie on a line") && stderr(&o).contains("--gravity-from-views"),
+        "{}",
+        stderr(&o)
+    );
     assert!(!out.exists(), "nothing written");
+}
+
+#[test]
+fn colmap_align_gravity_from_views_refuses_a_strip_looking_along_itself() {
+    let dir = tempfile::tempdir().unwrap();
+    // Five cameras on the model's z axis, each looking along +z: the
+    // viewing direction cannot fix the rotation about the line.
+    let model = dir.path().join("model");
+    std::fs::create_dir_all(&model).unwrap();
+    std::fs::write(
+        model.join("cameras.txt"),
+        "1 PINHOLE 640 480 500 500 320 240\n",
+    )
+    .unwrap();
+    let mut images = String::new();
+    let mut csv = String::new();
+    for k in 0..5 {
+        writeln!(images, "{} 1 0 0 0 0 0 {} 1 s_{k}.jpg\n", k + 1, -2 * k).unwrap();
+        writeln!(csv, "s_{k}.jpg,47.0,{},300", 15.0 + 1e-4 * f64::from(k)).unwrap();
+    }
+    std::fs::write(model.join("images.txt"), images).unwrap();
+    std::fs::write(model.join("points3D.txt"), "").unwrap();
+    std::fs::write(dir.path().join("pos.csv"), csv).unwrap();
+    let out = dir.path().join("aligned");
+    let align = |extra: &[&str]| {
+        let mut args = vec![
+            "colmap",
+            "align",
+            "--colmap",
+            model.to_str().unwrap(),
+            "--positions",
+            dir.path().join("pos.csv").to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]
+        .into_iter()
+        .map(String::from)
+        .collect::<Vec<_>>();
+        args.extend(extra.iter().map(|s| (*s).to_owned()));
+        vpctl(&args.iter().map(String::as_str).collect::<Vec<_>>())
+    };
+    let o = align(&[]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("--gravity-from-views"),
+        "{}",
+        stderr(&o)
+    );
+    let o = align(&["--gravity-from-views"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("pos.csv") && stderr(&o).contains("look along it"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.exists(), "nothing written");
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        2,
+        "no temporary folder left"
+    );
 }
 
 /// The `sfm` model (text) with its images renamed from `.png` to `.jpg`, in

@@ -293,6 +293,7 @@ fn plan_refuses_a_model_without_frame_unless_told() {
         },
         rms_m: 0.0,
         residuals: Vec::new(),
+        strip: None,
     }
     .save(&dir.path().join("model"))
     .unwrap();

@@ -12,16 +12,14 @@
 //! positions given to `colmap align` are the model's camera centres moved by
 //! that similarity, then converted to WGS84.
 //!
-//! One step cannot succeed on these photos: the camera moved along a
-//! straight line, so camera centres (and any positions of them) leave the
-//! rotation about that line undetermined, and `colmap align` rightly refuses
-//! (exit 2, nothing written). The test checks that refusal, then writes the
-//! model `colmap align` would have written, from the same similarity, with
-//! the library (`transform_reconstruction`, `ModelFrame::save`). Every other
-//! step reads what the step before it wrote, and `plan` and `labelgen run`
-//! check the frame (no `--frame-unchecked`). `colmap align` succeeding is
-//! checked on COLMAP's model of rendered views (`colmap_align_*` in
-//! `colmap.rs`), not on real photos.
+//! The camera moved along a straight line, so camera centres (and any
+//! positions of them) leave the rotation about that line undetermined:
+//! `colmap align` refuses (exit 2, nothing written, the message names
+//! `--gravity-from-views`), then with `--gravity-from-views` takes that
+//! rotation from the cameras' mean viewing direction (turned as far down as
+//! it goes) and writes the aligned model, within a few degrees of the known
+//! similarity. Every other step reads what the step before it wrote, and
+//! `plan` and `labelgen run` check the frame (no `--frame-unchecked`).
 //!
 //! MAVSDK: as in vp-mission's peer tests, `VP_MAVSDK_PYTHON` names a Python
 //! with `mavsdk`; without one the import step prints why it did not run,
@@ -112,9 +110,9 @@ fn readme_real_photo_recipe_runs_end_to_end_on_the_visp_cube_photos() {
     let d = data.to_str().unwrap();
 
     // 1. colmap align with the positions of the known similarity: refused,
-    // the cameras lie on a line.
+    // the cameras lie on a line; aligned with --gravity-from-views.
     let rec = colmap::read_model(&data.join("sparse")).unwrap();
-    align_is_refused_then_written(tmp.path(), &data, &rec);
+    align_with_gravity_from_views(tmp.path(), &data, &rec);
 
     // 2. colmap undistort: a PINHOLE camera stays as it is; frame.json kept.
     let text = run(&format!(
@@ -194,7 +192,10 @@ fn readme_real_photo_recipe_runs_end_to_end_on_the_visp_cube_photos() {
         "plan --mesh {t}/site.ply --colmap {t}/dense/sparse --confidence-dir {t}/conf --config {t}/plan.toml --out {t}/plan.json"
     ));
     eprintln!("{text}");
-    let n_waypoints = check_plan(&tmp.path().join("plan.json"), &volume);
+    let origin = ModelFrame::load(&tmp.path().join("dense/sparse"))
+        .unwrap()
+        .origin;
+    let n_waypoints = check_plan(&tmp.path().join("plan.json"), &volume, &origin);
     run(&format!(
         "mission export {t}/plan.json --out {t}/mission.plan"
     ));
@@ -212,14 +213,17 @@ fn readme_real_photo_recipe_runs_end_to_end_on_the_visp_cube_photos() {
     eprintln!("whole recipe: {:.1} s", start.elapsed().as_secs_f64());
 }
 
-/// Step 1: `colmap align` with positions from the known similarity; the
-/// cameras lie on a line, so it refuses. Then `tmp/aligned` is written as
-/// align would have written it.
-fn align_is_refused_then_written(tmp: &Path, data: &Path, rec: &colmap::Reconstruction) {
+/// Step 1: `colmap align` with positions from the known similarity. The
+/// cameras lie on a line, so it refuses; with `--gravity-from-views` it takes
+/// the rotation about the line from the cameras' mean viewing direction and
+/// writes `tmp/aligned`, which matches the known similarity.
+fn align_with_gravity_from_views(tmp: &Path, data: &Path, rec: &colmap::Reconstruction) {
     let (t, d) = (tmp.to_str().unwrap(), data.to_str().unwrap());
     let sim = known_sim3();
     let frame = vp_mission::geodesy::LocalFrame::new(ORIGIN).unwrap();
     let mut csv = String::from("name,lat,lon,alt\n");
+    // In model order: the first line, the first camera, is the origin of
+    // the frame `colmap align` writes.
     for im in rec.images.values() {
         let g = frame.to_geodetic(sim.apply(&im.center()).coords.into());
         writeln!(
@@ -230,35 +234,61 @@ fn align_is_refused_then_written(tmp: &Path, data: &Path, rec: &colmap::Reconstr
         .unwrap();
     }
     std::fs::write(tmp.join("positions.csv"), csv).unwrap();
-    let o = vpctl(&[
+    let model = format!("{d}/sparse");
+    let (positions, out) = (format!("{t}/positions.csv"), format!("{t}/aligned"));
+    let args = [
         "colmap",
         "align",
         "--colmap",
-        &format!("{d}/sparse"),
+        &model,
         "--positions",
-        &format!("{t}/positions.csv"),
+        &positions,
         "--out",
-        &format!("{t}/aligned"),
-    ]);
+        &out,
+    ];
+    let o = vpctl(&args);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(
-        stderr(&o).contains("positions.csv") && stderr(&o).contains("lie on a line"),
+        stderr(&o).contains("positions.csv")
+            && stderr(&o).contains("lie on a line")
+            && stderr(&o).contains("--gravity-from-views"),
         "{}",
         stderr(&o)
     );
     assert!(!tmp.join("aligned").exists(), "nothing written");
-    // What align would have written: the model moved by the similarity, and
-    // its frame.
-    let aligned = tmp.join("aligned");
-    colmap::write_text(&aligned, &colmap::transform_reconstruction(rec, &sim)).unwrap();
-    ModelFrame {
-        origin: ORIGIN,
-        sim3: sim,
-        rms_m: 0.0,
-        residuals: Vec::new(),
-    }
-    .save(&aligned)
-    .unwrap();
+    let text = run(&format!("{} --gravity-from-views", args.join(" ")));
+    assert!(
+        text.contains("strip: cameras on a line") && text.contains("positions: 9 of 9 used"),
+        "{text}"
+    );
+    let aligned = ModelFrame::load(&tmp.join("aligned")).unwrap();
+    // The origin is the first position: the first camera moved by the known
+    // similarity.
+    let first = rec.images.values().next().unwrap();
+    let g = frame.to_geodetic(sim.apply(&first.center()).coords.into());
+    assert!(
+        (aligned.origin.lat_deg - g.lat_deg).abs() < 1e-9
+            && (aligned.origin.lon_deg - g.lon_deg).abs() < 1e-9,
+        "{aligned:?}"
+    );
+    let frame = aligned;
+    // The known similarity is recovered: metric scale, and the mean view,
+    // which the known rotation turns to within a few degrees of straight
+    // down, turned straight down.
+    assert!((frame.sim3.scale / 3.0 - 1.0).abs() < 0.01, "{frame:?}");
+    assert!(frame.rms_m < 0.01, "{frame:?}");
+    let strip = frame.strip.expect("strip recorded in frame.json");
+    assert!(strip.view_tilt_deg > 45.0, "{strip:?}");
+    let q = |s: &Sim3| {
+        let [w, x, y, z] = s.rotation_wxyz;
+        UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z))
+    };
+    let angle = q(&frame.sim3).angle_to(&q(&sim)).to_degrees();
+    eprintln!(
+        "colmap align --gravity-from-views: scale {:.5}, rms {:.5} m, {strip:?}, {angle:.2} degrees from the known rotation",
+        frame.sim3.scale, frame.rms_m
+    );
+    assert!(angle < 5.0, "{angle} degrees from the known rotation");
 }
 
 /// A geometric depth map per image, in metres.
@@ -339,9 +369,9 @@ fn mavsdk_imports(py: &str, plan: &Path, n_items: usize) {
     println!("MAVSDK imported {} items from the .plan", got.len());
 }
 
-/// The plan has waypoints, inside the flight volume, and the model's origin;
-/// returns how many.
-fn check_plan(path: &Path, volume: &[[f64; 3]; 2]) -> usize {
+/// The plan has waypoints, inside the flight volume, and the model's origin
+/// (`origin`); returns how many.
+fn check_plan(path: &Path, volume: &[[f64; 3]; 2], origin: &GeodeticOrigin) -> usize {
     let plan: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
     let waypoints = plan["waypoints"].as_array().expect("waypoints");
@@ -354,7 +384,8 @@ fn check_plan(path: &Path, volume: &[[f64; 3]; 2]) -> usize {
         );
     }
     assert!(
-        (plan["origin"]["lat_deg"].as_f64().unwrap() - ORIGIN.lat_deg).abs() < 1e-9,
+        (plan["origin"]["lat_deg"].as_f64().unwrap() - origin.lat_deg).abs() < 1e-9
+            && (plan["origin"]["lon_deg"].as_f64().unwrap() - origin.lon_deg).abs() < 1e-9,
         "{plan}"
     );
     waypoints.len()

@@ -32,7 +32,8 @@ pub enum ColmapCommand {
     /// `model_aligner` does. The positions come from a CSV (--positions) or
     /// from the photos' EXIF GPS tags (--exif). Writes the moved model and `frame.json` (the
     /// geodetic origin, the transform, the residuals) to --out; prints the
-    /// residuals. `vpctl plan` and `labelgen` need that frame.
+    /// residuals. `vpctl plan` and `labelgen` need that frame. Cameras on a
+    /// line (a single strip) need --gravity-from-views.
     Align(AlignArgs),
 }
 
@@ -67,6 +68,15 @@ pub struct AlignArgs {
     /// Replace an existing output folder.
     #[arg(long)]
     pub force: bool,
+    /// For a single strip (corridor) flight, whose cameras lie on a line:
+    /// take the rotation about the line, which positions cannot fix, from
+    /// the cameras' mean viewing direction, assuming they look down (nadir
+    /// or oblique, below the horizon); the rotation chosen makes the mean
+    /// viewing direction point as far down as possible. Still refused if the
+    /// cameras look along the line or the positions run vertically.
+    /// Ignored when the cameras do not lie on a line.
+    #[arg(long)]
+    pub gravity_from_views: bool,
 }
 
 /// Arguments of `vpctl colmap undistort`.
@@ -208,6 +218,7 @@ fn align(a: &AlignArgs, out: &mut dyn Write) -> Result<()> {
         .collect();
     let params = colmap::AlignParams {
         max_error_m: a.max_error,
+        gravity_from_views: a.gravity_from_views,
         ..colmap::AlignParams::default()
     };
     let al = colmap::align_to_positions(&rec, &enu, &params, source)?;
@@ -217,6 +228,7 @@ fn align(a: &AlignArgs, out: &mut dyn Write) -> Result<()> {
         sim3: al.sim3,
         rms_m: al.rms_m,
         residuals: al.residuals.clone(),
+        strip: al.strip,
     };
     // Build beside --out, rename when complete: nothing partial.
     let parent = match a.out.parent() {
@@ -261,6 +273,19 @@ fn align(a: &AlignArgs, out: &mut dyn Write) -> Result<()> {
         al.unmatched.len()
     )?;
     writeln!(out, "rms residual: {:.4} m (inliers)", al.rms_m)?;
+    match (&al.strip, a.gravity_from_views) {
+        (Some(s), _) => writeln!(
+            out,
+            "strip: cameras on a line; rotation about it from the mean viewing direction \
+             ({:.1} degrees from the line), now {:.1} degrees below the horizon",
+            s.view_to_line_deg, s.view_tilt_deg
+        )?,
+        (None, true) => writeln!(
+            out,
+            "--gravity-from-views not used: the cameras do not lie on a line"
+        )?,
+        (None, false) => {}
+    }
     for r in &al.residuals {
         writeln!(
             out,

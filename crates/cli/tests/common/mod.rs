@@ -105,6 +105,7 @@ pub fn plan_fixture(dir: &Path) -> Site {
         },
         rms_m: 0.0,
         residuals: Vec::new(),
+        strip: None,
     }
     .save(&dir.join("model"))
     .unwrap();

@@ -67,6 +67,11 @@ pub struct ModelFrame {
     pub rms_m: f64,
     /// Per-image residuals.
     pub residuals: Vec<PositionResidual>,
+    /// Present when the cameras lay on a line and the rotation about it was
+    /// taken from their viewing directions (`colmap align
+    /// --gravity-from-views`): an assumption, not a measurement.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub strip: Option<StripFit>,
 }
 
 impl ModelFrame {
@@ -82,6 +87,7 @@ impl ModelFrame {
             },
             rms_m: 0.0,
             residuals: Vec::new(),
+            strip: None,
         }
     }
 
@@ -110,6 +116,12 @@ pub struct AlignParams {
     pub iterations: usize,
     /// Seed of the sampling.
     pub seed: u64,
+    /// When the camera centres (or positions) lie on a line, as on a single
+    /// strip (corridor) flight: take the rotation about that line from the
+    /// cameras' mean viewing direction, assuming they look down (nadir or
+    /// oblique, below the horizon), instead of refusing. The rotation chosen
+    /// makes the mean viewing direction point as far down as possible.
+    pub gravity_from_views: bool,
 }
 
 impl Default for AlignParams {
@@ -118,6 +130,7 @@ impl Default for AlignParams {
             max_error_m: 3.0,
             iterations: 2000,
             seed: 0,
+            gravity_from_views: false,
         }
     }
 }
@@ -191,10 +204,19 @@ fn planarity(points: &[Point3<f64>]) -> f64 {
 /// Below this [`planarity`] a point set is taken as a line.
 const MIN_PLANARITY: f64 = 0.02;
 
-/// RANSAC over triples: the largest set of indices whose positions a
-/// similarity fitted to three of them explains within `max_error_m` (ties:
-/// the smaller squared error).
-fn ransac_inliers(src: &[Point3<f64>], dst: &[Point3<f64>], params: &AlignParams) -> Vec<usize> {
+/// A similarity fitted to a minimal sample (`None`: degenerate sample).
+type SampleFit<'a> = dyn Fn(&[Point3<f64>], &[Point3<f64>]) -> Option<Sim3> + 'a;
+
+/// RANSAC over minimal samples of `k` points: the largest set of indices
+/// whose positions a similarity fitted (`fit`) to `k` of them explains within
+/// `max_error_m` (ties: the smaller squared error).
+fn ransac_inliers(
+    src: &[Point3<f64>],
+    dst: &[Point3<f64>],
+    params: &AlignParams,
+    k: usize,
+    fit: &SampleFit<'_>,
+) -> Vec<usize> {
     let n = src.len();
     let inliers_of = |s: &Sim3| -> Vec<usize> {
         (0..n)
@@ -204,18 +226,18 @@ fn ransac_inliers(src: &[Point3<f64>], dst: &[Point3<f64>], params: &AlignParams
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(params.seed);
     let mut best: Vec<usize> = Vec::new();
     let mut best_err = f64::INFINITY;
+    let mut idx = Vec::with_capacity(k);
     for _ in 0..params.iterations {
-        let a = rng.random_range(0..n);
-        let b = rng.random_range(0..n);
-        let c = rng.random_range(0..n);
-        if a == b || b == c || a == c {
+        idx.clear();
+        for _ in 0..k {
+            idx.push(rng.random_range(0..n));
+        }
+        if (1..k).any(|i| idx[..i].contains(&idx[i])) {
             continue;
         }
-        let (s3, d3) = ([src[a], src[b], src[c]], [dst[a], dst[b], dst[c]]);
-        if planarity(&s3) < MIN_PLANARITY || planarity(&d3) < MIN_PLANARITY {
-            continue;
-        }
-        let Some(s) = umeyama(&s3, &d3) else {
+        let s_k: Vec<_> = idx.iter().map(|&i| src[i]).collect();
+        let d_k: Vec<_> = idx.iter().map(|&i| dst[i]).collect();
+        let Some(s) = fit(&s_k, &d_k) else {
             continue;
         };
         let inl = inliers_of(&s);
@@ -231,6 +253,98 @@ fn ransac_inliers(src: &[Point3<f64>], dst: &[Point3<f64>], params: &AlignParams
     best
 }
 
+/// Umeyama on a sample that fixes all seven parameters (not on a line).
+fn fit_general(src: &[Point3<f64>], dst: &[Point3<f64>]) -> Option<Sim3> {
+    if planarity(src) < MIN_PLANARITY || planarity(dst) < MIN_PLANARITY {
+        return None;
+    }
+    umeyama(src, dst)
+}
+
+/// Centroid and unit principal direction of a point set.
+fn principal_axis(points: &[Point3<f64>]) -> (Vector3<f64>, Vector3<f64>) {
+    let n = points.len() as f64;
+    let m = points.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / n;
+    let mut cov = Matrix3::zeros();
+    for p in points {
+        let a = p.coords - m;
+        cov += a * a.transpose();
+    }
+    let eig = cov.symmetric_eigen();
+    let i = eig.eigenvalues.imax();
+    (m, eig.eigenvectors.column(i).normalize())
+}
+
+/// The angle of the rotation about the unit axis `u` that turns `v` as far
+/// towards ENU down (-z) as possible; `None` if `v` or down is (nearly)
+/// parallel to `u`, so that no rotation about `u` moves them.
+fn roll_down(v: &Vector3<f64>, u: &Vector3<f64>) -> Option<f64> {
+    let p = v - u * v.dot(u);
+    let down = -Vector3::z();
+    let g = down - u * down.dot(u);
+    if p.norm() < 1e-9 || g.norm() < 1e-9 {
+        return None;
+    }
+    Some(u.dot(&p.cross(&g)).atan2(p.dot(&g)))
+}
+
+/// A similarity from points on a line to points on a line: the line onto
+/// the line (scale and offset along it by least squares), then the rotation
+/// about it that makes `view` (a model direction) point as far down as
+/// possible. `None` for coincident points.
+fn fit_strip(src: &[Point3<f64>], dst: &[Point3<f64>], view: &Vector3<f64>) -> Option<Sim3> {
+    let (ms, us) = principal_axis(src);
+    let (md, mut ud) = principal_axis(dst);
+    let a_s: Vec<f64> = src.iter().map(|p| (p.coords - ms).dot(&us)).collect();
+    let mut a_d: Vec<f64> = dst.iter().map(|p| (p.coords - md).dot(&ud)).collect();
+    let mut cross: f64 = a_s.iter().zip(&a_d).map(|(s, d)| s * d).sum();
+    if cross < 0.0 {
+        ud = -ud;
+        for d in &mut a_d {
+            *d = -*d;
+        }
+        cross = -cross;
+    }
+    let var: f64 = a_s.iter().map(|s| s * s).sum();
+    if var <= f64::EPSILON {
+        return None;
+    }
+    let scale = cross / var;
+    if !(scale.is_finite() && scale > 0.0) {
+        return None;
+    }
+    let r0 = UnitQuaternion::rotation_between(&us, &ud).unwrap_or_else(|| {
+        // Opposite directions: half a turn about any perpendicular axis.
+        let axis = us.cross(&Vector3::x()).try_normalize(1e-6);
+        let axis = axis.unwrap_or_else(|| us.cross(&Vector3::y()).normalize());
+        UnitQuaternion::from_axis_angle(&nalgebra::Unit::new_unchecked(axis), std::f64::consts::PI)
+    });
+    let theta = roll_down(&(r0 * view), &ud)?;
+    let r = UnitQuaternion::from_axis_angle(&nalgebra::Unit::new_unchecked(ud), theta) * r0;
+    let t = md - scale * (r * ms);
+    Some(Sim3 {
+        scale,
+        rotation_wxyz: [r.w, r.i, r.j, r.k],
+        translation: [t.x, t.y, t.z],
+    })
+}
+
+/// The cameras lie on a line and their direction is taken from the mean
+/// viewing direction ([`AlignParams::gravity_from_views`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct StripFit {
+    /// Angle of the aligned mean viewing direction below the horizon
+    /// (degrees; 90 is straight down).
+    pub view_tilt_deg: f64,
+    /// Angle between the mean viewing direction and the line (degrees).
+    pub view_to_line_deg: f64,
+}
+
+/// Below this angle (degrees) between the mean viewing direction and the
+/// cameras' line, or between the positions' line and the vertical, the
+/// viewing direction does not fix the rotation about the line.
+const MIN_STRIP_ANGLE_DEG: f64 = 10.0;
+
 /// The result of [`align_to_positions`].
 #[derive(Debug, Clone)]
 pub struct Alignment {
@@ -242,14 +356,19 @@ pub struct Alignment {
     pub rms_m: f64,
     /// Positions whose name is not an image of the model.
     pub unmatched: Vec<String>,
+    /// `Some` when the cameras lie on a line and the rotation about it came
+    /// from their viewing directions ([`AlignParams::gravity_from_views`]).
+    pub strip: Option<StripFit>,
 }
 
 /// Estimates the similarity that maps the model's camera centres onto
 /// `positions` (image name, ENU metres), RANSAC over triples then a
 /// least-squares fit on the inliers. `source` names the positions (CSV file
 /// or photo folder) in errors: fewer than 3 positions of model images,
-/// camera centres or positions on a line (rotation about it undetermined),
-/// or fewer than 3 (and fewer than half the) positions consistent within
+/// camera centres or positions on a line (rotation about it undetermined;
+/// unless `params.gravity_from_views`, which then takes it from the mean
+/// viewing direction, fitting pairs instead of triples), or fewer than 3
+/// (and fewer than half the) positions consistent within
 /// `params.max_error_m`.
 pub fn align_to_positions(
     rec: &Reconstruction,
@@ -260,21 +379,27 @@ pub fn align_to_positions(
     // The problem is the positions as a whole (a CSV file or a folder of
     // photos), not a place in them: name the source, no line.
     let err = |m: String| SceneError::InvalidArgument(format!("{}: {m}", source.display()));
-    let by_name: std::collections::HashMap<&str, Point3<f64>> = rec
+    // Centre and viewing direction (optical axis, model frame) by name.
+    let by_name: std::collections::HashMap<&str, (Point3<f64>, Vector3<f64>)> = rec
         .images
         .values()
-        .map(|im| (im.name.as_str(), im.center()))
+        .map(|im| {
+            let view = im.cam_from_world.rotation.inverse() * Vector3::z();
+            (im.name.as_str(), (im.center(), view))
+        })
         .collect();
     let mut names = Vec::new();
     let mut src = Vec::new();
     let mut dst = Vec::new();
+    let mut views = Vec::new();
     let mut unmatched = Vec::new();
     for (name, p) in positions {
         match by_name.get(name.as_str()) {
-            Some(c) => {
+            Some((c, v)) => {
                 names.push(name.clone());
                 src.push(*c);
                 dst.push(*p);
+                views.push(*v);
             }
             None => unmatched.push(name.clone()),
         }
@@ -288,29 +413,26 @@ pub fn align_to_positions(
             unmatched.len()
         )));
     }
-    if planarity(&src) < MIN_PLANARITY {
-        return Err(err(format!(
-            "the model cannot be aligned: its {} camera centres lie on a line (spread across it \
-             {:.3} % of the spread along it), so the rotation about that line is undetermined",
-            src.len(),
-            100.0 * planarity(&src)
-        )));
-    }
-    if planarity(&dst) < MIN_PLANARITY {
-        return Err(err(format!(
-            "the positions cannot align the model: the {} positions lie on a line, so the \
-             rotation about it is undetermined",
-            dst.len()
-        )));
-    }
+    let strip = line_check(&src, &dst, &views, params.gravity_from_views).map_err(err)?;
+    let on_line = strip.is_some();
+    let view = strip.map_or_else(Vector3::zeros, |(v, _)| v);
+    let strip = strip.map(|(_, s)| s);
+    let fit = |s: &[Point3<f64>], d: &[Point3<f64>]| -> Option<Sim3> {
+        if on_line {
+            fit_strip(s, d, &view)
+        } else {
+            fit_general(s, d)
+        }
+    };
     let n = src.len();
     let inliers_of = |s: &Sim3| -> Vec<usize> {
         (0..n)
             .filter(|&i| (s.apply(&src[i]) - dst[i]).norm() <= params.max_error_m)
             .collect()
     };
-    let mut best = ransac_inliers(&src, &dst, params);
-    if best.len() < 3 || 2 * best.len() < n {
+    let k = if on_line { 2 } else { 3 };
+    let mut best = ransac_inliers(&src, &dst, params, k, &fit);
+    if best.len() < k || 2 * best.len() < n {
         return Err(err(format!(
             "the positions are inconsistent with the model: the best similarity explains only {} \
              of {n} positions within {} m (--max-error)",
@@ -323,10 +445,15 @@ pub fn align_to_positions(
     for _ in 0..5 {
         let s: Vec<_> = best.iter().map(|&i| src[i]).collect();
         let d: Vec<_> = best.iter().map(|&i| dst[i]).collect();
-        let fit = umeyama(&s, &d).ok_or_else(|| err("degenerate inlier set".into()))?;
-        let inl = inliers_of(&fit);
-        sim = Some(fit);
-        if inl == best || inl.len() < 3 {
+        let f = if on_line {
+            fit_strip(&s, &d, &view)
+        } else {
+            umeyama(&s, &d)
+        };
+        let f = f.ok_or_else(|| err("degenerate inlier set".into()))?;
+        let inl = inliers_of(&f);
+        sim = Some(f);
+        if inl == best || inl.len() < k {
             break;
         }
         best = inl;
@@ -339,18 +466,114 @@ pub fn align_to_positions(
             inlier: best.contains(&i),
         })
         .collect();
-    let inl: Vec<f64> = residuals
-        .iter()
-        .filter(|r| r.inlier)
-        .map(|r| r.residual_m * r.residual_m)
-        .collect();
-    let rms_m = (inl.iter().sum::<f64>() / inl.len() as f64).sqrt();
+    let rms_m = inlier_rms(&residuals);
     Ok(Alignment {
         sim3: sim,
         residuals,
         rms_m,
         unmatched,
+        strip: strip.map(|st| StripFit {
+            view_tilt_deg: (-(sim.rotation() * view).z).asin().to_degrees(),
+            ..st
+        }),
     })
+}
+
+/// Root mean square residual of the inliers.
+fn inlier_rms(residuals: &[PositionResidual]) -> f64 {
+    let inl: Vec<f64> = residuals
+        .iter()
+        .filter(|r| r.inlier)
+        .map(|r| r.residual_m * r.residual_m)
+        .collect();
+    (inl.iter().sum::<f64>() / inl.len() as f64).sqrt()
+}
+
+/// `None` when neither the camera centres nor the positions lie on a line;
+/// if either does, the error (without `gravity_from_views`) or what
+/// [`strip_view`] returns.
+fn line_check(
+    src: &[Point3<f64>],
+    dst: &[Point3<f64>],
+    views: &[Vector3<f64>],
+    gravity_from_views: bool,
+) -> std::result::Result<Option<(Vector3<f64>, StripFit)>, String> {
+    let hint = "; if the cameras look down (nadir or oblique, below the horizon), pass \
+                --gravity-from-views to take the rotation about the line from their mean \
+                viewing direction";
+    if planarity(src) < MIN_PLANARITY && !gravity_from_views {
+        return Err(format!(
+            "the model cannot be aligned: its {} camera centres lie on a line (spread across it \
+             {:.3} % of the spread along it), so the rotation about that line is undetermined{hint}",
+            src.len(),
+            100.0 * planarity(src)
+        ));
+    }
+    if planarity(dst) < MIN_PLANARITY && !gravity_from_views {
+        return Err(format!(
+            "the positions cannot align the model: the {} positions lie on a line, so the \
+             rotation about it is undetermined{hint}",
+            dst.len()
+        ));
+    }
+    if planarity(src) < MIN_PLANARITY || planarity(dst) < MIN_PLANARITY {
+        strip_view(src, dst, views).map(Some)
+    } else {
+        Ok(None)
+    }
+}
+
+/// The unit mean viewing direction (model frame) of cameras on a line, and
+/// its angle to the line; an error message when it cannot fix the rotation
+/// about the line: the views disagree, look along the line, the positions
+/// run vertically, or the cameras could not be turned to look down.
+fn strip_view(
+    src: &[Point3<f64>],
+    dst: &[Point3<f64>],
+    views: &[Vector3<f64>],
+) -> std::result::Result<(Vector3<f64>, StripFit), String> {
+    let n = views.len() as f64;
+    let mean = views.iter().fold(Vector3::zeros(), |a, v| a + v) / n;
+    if mean.norm() < 0.5 {
+        return Err(format!(
+            "the cameras lie on a line and their viewing directions disagree (mean of the unit \
+             directions {:.2} long), so --gravity-from-views cannot tell down",
+            mean.norm()
+        ));
+    }
+    let view = mean.normalize();
+    let (_, us) = principal_axis(src);
+    let (_, ud) = principal_axis(dst);
+    let to_line = view.dot(&us).abs().min(1.0).acos().to_degrees();
+    if to_line < MIN_STRIP_ANGLE_DEG {
+        return Err(format!(
+            "the cameras lie on a line and look along it ({to_line:.1} degrees from it), so \
+             --gravity-from-views cannot fix the rotation about the line"
+        ));
+    }
+    let from_vertical = ud.z.abs().min(1.0).acos().to_degrees();
+    if from_vertical < MIN_STRIP_ANGLE_DEG {
+        return Err(format!(
+            "the positions lie on a nearly vertical line ({from_vertical:.1} degrees from it), \
+             so --gravity-from-views cannot fix the rotation about it"
+        ));
+    }
+    if let Some(s) = fit_strip(src, dst, &view) {
+        let tilt = (-(s.rotation() * view).z).asin().to_degrees();
+        if tilt <= 0.0 {
+            return Err(format!(
+                "the cameras lie on a line and cannot be turned to look below the horizon \
+                 (best {tilt:.1} degrees), so --gravity-from-views does not apply"
+            ));
+        }
+    }
+    Ok((
+        view,
+        StripFit {
+            view_tilt_deg: f64::NAN,
+            view_to_line_deg: to_line,
+        },
+    ))
 }
 
 /// The model moved by `sim`: points transformed, camera poses composed with
@@ -528,5 +751,116 @@ mod tests {
         for p in &src {
             assert!((est.apply(p) - truth.apply(p)).norm() < 1e-9);
         }
+    }
+
+    /// A single strip: cameras on a line (a slight climb), looking down and
+    /// a little forward, with per-camera jitter of the view (about 2
+    /// degrees), positions with 5 cm noise and one bad position; the model
+    /// is the truth moved by the inverse of a known similarity.
+    fn strip_model(view_along_line: bool) -> (Reconstruction, Vec<(String, Point3<f64>)>, Sim3) {
+        let truth = Sim3 {
+            scale: 4.0,
+            rotation_wxyz: {
+                let q = UnitQuaternion::from_euler_angles(0.7, -0.4, 2.1);
+                [q.w, q.i, q.j, q.k]
+            },
+            translation: [30.0, -12.0, 95.0],
+        };
+        let q = truth.rotation();
+        let line = Vector3::new(0.8, 0.6, 0.05).normalize();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let mut noise = |a: f64| {
+            Vector3::new(
+                rng.random_range(-a..a),
+                rng.random_range(-a..a),
+                rng.random_range(-a..a),
+            )
+        };
+        let mut rec = Reconstruction::default();
+        let mut positions = Vec::new();
+        for k in 0..20 {
+            let c_w = Point3::from(Vector3::new(10.0, 5.0, 60.0) + line * (8.0 * f64::from(k)));
+            let v_w = if view_along_line {
+                line + noise(0.03)
+            } else {
+                -Vector3::z() + 0.3 * line + noise(0.03)
+            };
+            let c_m = Point3::from(
+                q.inverse() * (c_w.coords - Vector3::from(truth.translation)) / truth.scale,
+            );
+            let v_m = q.inverse() * v_w.normalize();
+            let r_wc = UnitQuaternion::rotation_between(&Vector3::z(), &v_m).unwrap();
+            let r_cw = r_wc.inverse();
+            let name = format!("strip_{k:02}.jpg");
+            rec.images.insert(
+                k,
+                super::super::ColmapImage {
+                    id: k,
+                    camera_id: 1,
+                    name: name.clone(),
+                    cam_from_world: Isometry3::from_parts(
+                        Translation3::from(-(r_cw * c_m.coords)),
+                        r_cw,
+                    ),
+                    points2d: Vec::new(),
+                },
+            );
+            let bad = if k == 13 {
+                Vector3::new(0.0, 25.0, 0.0)
+            } else {
+                Vector3::zeros()
+            };
+            positions.push((name, c_w + noise(0.05) + bad));
+        }
+        (rec, positions, truth)
+    }
+
+    #[test]
+    fn align_a_strip_takes_the_rotation_about_it_from_the_views() {
+        let (rec, positions, truth) = strip_model(false);
+        let src = Path::new("strip.csv");
+        // Without the flag: refused, and the message names the flag.
+        let e = align_to_positions(&rec, &positions, &AlignParams::default(), src)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("lie on a line") && e.contains("--gravity-from-views"),
+            "{e}"
+        );
+        let params = AlignParams {
+            gravity_from_views: true,
+            ..AlignParams::default()
+        };
+        let al = align_to_positions(&rec, &positions, &params, src).unwrap();
+        assert!(
+            (al.sim3.scale / truth.scale - 1.0).abs() < 0.01,
+            "{:?}",
+            al.sim3
+        );
+        let angle = al.sim3.rotation().angle_to(&truth.rotation()).to_degrees();
+        assert!(angle < 1.0, "rotation off by {angle} degrees");
+        for r in &al.residuals {
+            assert_eq!(r.inlier, r.name != "strip_13.jpg", "{r:?}");
+        }
+        assert!(al.rms_m < 0.2, "{}", al.rms_m);
+        // The views were 0.3 along the line per 1 down: 73 degrees down.
+        let strip = al.strip.unwrap();
+        assert!((strip.view_tilt_deg - 73.3).abs() < 1.5, "{strip:?}");
+    }
+
+    #[test]
+    fn align_a_strip_refuses_views_along_the_line() {
+        let (rec, positions, _) = strip_model(true);
+        let params = AlignParams {
+            gravity_from_views: true,
+            ..AlignParams::default()
+        };
+        let e = align_to_positions(&rec, &positions, &params, Path::new("strip.csv"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("strip.csv") && e.contains("look along it"),
+            "{e}"
+        );
     }
 }

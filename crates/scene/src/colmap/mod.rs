@@ -34,7 +34,7 @@ use std::path::{Path, PathBuf};
 
 pub use align::{
     align_to_positions, check_frame, read_positions_csv, transform_reconstruction, umeyama,
-    AlignParams, Alignment, FrameCheck, ModelFrame, PositionResidual, Sim3, FRAME_FILE,
+    AlignParams, Alignment, FrameCheck, ModelFrame, PositionResidual, Sim3, StripFit, FRAME_FILE,
 };
 pub use binary::{
     cameras_to_bytes, images_to_bytes, parse_cameras_binary, parse_images_binary,
