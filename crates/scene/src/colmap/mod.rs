@@ -27,6 +27,7 @@ mod exif_positions;
 mod lens;
 mod model;
 mod reconstruction;
+mod strip;
 mod text;
 mod undistort;
 
