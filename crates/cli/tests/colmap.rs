@@ -159,21 +159,7 @@ fn colmap_align_recovers_metric_scale_and_flags_a_bad_position() {
     let frame = vp_scene::colmap::ModelFrame::load(&out).unwrap();
     assert!(frame.rms_m < 0.1, "rms {}", frame.rms_m);
     // Scale: aligned distances equal the true ones within 1 %.
-    let rec = vp_scene::colmap::read_model(&out).unwrap();
-    let c = |n: &str| {
-        rec.images
-            .values()
-            .find(|im| im.name == n)
-            .unwrap()
-            .center()
-    };
-    let truth = |az: f64| {
-        let a = az.to_radians();
-        nalgebra::Point3::new(8.0 * a.cos() - 2.0, 8.0 * a.sin(), 5.0)
-    };
-    let true_d = (truth(-24.0) - truth(24.0)).norm();
-    let d = (c("view_00.png") - c("view_03.png")).norm();
-    let scale_error = (d / true_d - 1.0).abs();
+    let scale_error = scale_error(&out, "png");
     eprintln!(
         "scale error {:.4} %, rms {:.4} m",
         100.0 * scale_error,
@@ -181,6 +167,7 @@ fn colmap_align_recovers_metric_scale_and_flags_a_bad_position() {
     );
     assert!(scale_error < 0.01, "scale error {scale_error}");
     // The aligned model plans: its frame passes the check.
+    let rec = vp_scene::colmap::read_model(&out).unwrap();
     vp_scene::colmap::check_frame(&out, &rec).unwrap();
     // No overwrite.
     let o = align("pos.csv", &out);
@@ -430,27 +417,14 @@ fn colmap_align_exif_reads_gps_tags_and_matches_the_csv_alignment() {
     assert!((frame.origin.lon_deg - first.lon_deg).abs() < 1e-7);
     assert!((frame.origin.alt_m - first.alt_m).abs() < 1e-3);
     // Metric scale: aligned distances equal the true ones within 1 %.
-    let rec = vp_scene::colmap::read_model(&out).unwrap();
-    let c = |n: &str| {
-        rec.images
-            .values()
-            .find(|im| im.name == n)
-            .unwrap()
-            .center()
-    };
-    let truth = |az: f64| {
-        let a = az.to_radians();
-        nalgebra::Point3::new(8.0 * a.cos() - 2.0, 8.0 * a.sin(), 5.0)
-    };
-    let scale_error =
-        ((c("view_00.jpg") - c("view_03.jpg")).norm() / (truth(-24.0) - truth(24.0)).norm() - 1.0)
-            .abs();
+    let scale_error = scale_error(&out, "jpg");
     eprintln!(
         "exif: scale error {:.4} %, rms {:.4} m",
         100.0 * scale_error,
         frame.rms_m
     );
     assert!(scale_error < 0.01, "scale error {scale_error}");
+    let rec = vp_scene::colmap::read_model(&out).unwrap();
     vp_scene::colmap::check_frame(&out, &rec).unwrap();
     // The same positions as a CSV give the same transform: one code path.
     let csv = sfm_positions(&noise).replace(".png", ".jpg");
@@ -554,4 +528,24 @@ fn colmap_align_exif_refuses_photos_without_enough_gps_with_exit_2_and_writes_no
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("cannot be used with"), "{}", stderr(&o));
     assert!(!out.exists(), "nothing written");
+}
+
+/// Relative error of the distance between the first and last view of the
+/// sfm model (`view_00` and `view_03`, photos ending in `ext`) in the aligned
+/// model at `out`, against the rendered cameras' true distance.
+fn scale_error(out: &Path, ext: &str) -> f64 {
+    let rec = vp_scene::colmap::read_model(out).unwrap();
+    let c = |n: String| {
+        rec.images
+            .values()
+            .find(|im| im.name == n)
+            .unwrap()
+            .center()
+    };
+    let truth = |az: f64| {
+        let a = az.to_radians();
+        nalgebra::Point3::new(8.0 * a.cos() - 2.0, 8.0 * a.sin(), 5.0)
+    };
+    let d = (c(format!("view_00.{ext}")) - c(format!("view_03.{ext}"))).norm();
+    (d / (truth(-24.0) - truth(24.0)).norm() - 1.0).abs()
 }

@@ -284,19 +284,9 @@ fn plan_refuses_a_model_without_frame_unless_told() {
     let plan = Plan::load(&dir.path().join("x.json")).unwrap();
     assert_eq!(plan.unbridged, vec![0]);
     // A frame whose scale is implausible (cameras 1000x too far apart).
-    colmap::ModelFrame {
-        origin: vp_scene::plan::GeodeticOrigin::default(),
-        sim3: colmap::Sim3 {
-            scale: 1.0,
-            rotation_wxyz: [1.0, 0.0, 0.0, 0.0],
-            translation: [0.0; 3],
-        },
-        rms_m: 0.0,
-        residuals: Vec::new(),
-        strip: None,
-    }
-    .save(&dir.path().join("model"))
-    .unwrap();
+    colmap::ModelFrame::identity(vp_scene::plan::GeodeticOrigin::default())
+        .save(&dir.path().join("model"))
+        .unwrap();
     let model = colmap::read_model(&dir.path().join("model")).unwrap();
     let far = colmap::transform_reconstruction(
         &model,

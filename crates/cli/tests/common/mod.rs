@@ -96,19 +96,9 @@ pub fn plan_fixture(dir: &Path) -> Site {
     std::fs::create_dir_all(dir.join("model")).unwrap();
     colmap::write_text(&dir.join("model"), &rec).unwrap();
     // The model is already metric ENU: its frame is the identity.
-    colmap::ModelFrame {
-        origin: vp_scene::plan::GeodeticOrigin::default(),
-        sim3: colmap::Sim3 {
-            scale: 1.0,
-            rotation_wxyz: [1.0, 0.0, 0.0, 0.0],
-            translation: [0.0; 3],
-        },
-        rms_m: 0.0,
-        residuals: Vec::new(),
-        strip: None,
-    }
-    .save(&dir.join("model"))
-    .unwrap();
+    colmap::ModelFrame::identity(vp_scene::plan::GeodeticOrigin::default())
+        .save(&dir.join("model"))
+        .unwrap();
     let v = site.flight_volume;
     std::fs::write(
         dir.join("plan.toml"),
