@@ -218,18 +218,39 @@ impl OccupancyMap {
         }
     }
 
-    /// Marks free every unknown voxel lying wholly at or above `z`: the
+    /// Marks free every unknown voxel lying wholly at or above `z` and
+    /// above the highest voxel of its column that a ray crossed: the
     /// operator's statement that nothing floats above that height (no
     /// wires, no overhanging structure), so the airspace over the observed
     /// tops may be crossed.
+    ///
+    /// Why per column: an object standing in a column and reaching above a
+    /// voxel a ray crossed would have to fill that voxel, which the ray
+    /// proved free; so only an overhang from a neighbouring column can hide
+    /// above it. A column no ray crossed proves nothing and stays unknown:
+    /// a tree taller than everything the cameras saw, standing where no ray
+    /// passed over it, is not airspace (the whole-map rule before this one
+    /// flew a segment 3.9 m from such a tree). Voxels a ray only ended in
+    /// (observed points) do not count: a ground point seen under a crown
+    /// says nothing about the crown.
     pub fn mark_free_above(&mut self, z: f64) {
-        let (nx, ny) = (self.dims[0], self.dims[1]);
-        for k in 0..self.dims[2] {
-            if self.origin.z + k as f64 * self.voxel >= z {
-                for c in &mut self.cells[k * nx * ny..(k + 1) * nx * ny] {
-                    if *c == Voxel::Unknown {
-                        *c = Voxel::Free;
-                    }
+        let [nx, ny, nz] = self.dims;
+        let layer = nx * ny;
+        // Lowest layer lying wholly at or above `z`.
+        let first = (0..nz)
+            .find(|&k| self.origin.z + k as f64 * self.voxel >= z)
+            .unwrap_or(nz);
+        for col in 0..layer {
+            let Some(top) = (0..nz)
+                .rev()
+                .find(|&k| self.cells[col + k * layer] == Voxel::Free)
+            else {
+                continue;
+            };
+            for k in first.max(top + 1)..nz {
+                let c = &mut self.cells[col + k * layer];
+                if *c == Voxel::Unknown {
+                    *c = Voxel::Free;
                 }
             }
         }
