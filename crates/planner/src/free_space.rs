@@ -81,8 +81,9 @@ pub fn observations_from_mesh(cameras: &[Camera], caster: &RayCaster) -> Vec<Obs
 /// (queries near the volume's faces must see past them), with voxels of
 /// `voxel_m`, or coarser when the map would exceed [`MAX_VOXELS`] (the
 /// queries stay conservative at any voxel size). With
-/// `free_above_observed`, space above the highest observed point is free:
-/// nothing floats over the observed tops (no wires, no overhangs).
+/// `free_above_observed`, space above the highest observed point is free
+/// where a ray crossed its column, above that ray: nothing floats over the
+/// observed tops (no wires, no overhangs).
 pub fn free_space(
     volume: &Aabb,
     margin: f64,
