@@ -154,6 +154,12 @@ impl PyPlanResult {
         self.0.dropped_triplets.clone()
     }
 
+    /// Why each of `dropped_triplets` was left out, in the same order.
+    #[getter]
+    fn dropped_reasons(&self) -> Vec<String> {
+        self.0.dropped_reasons.clone()
+    }
+
     /// The sampled triangles: dict of centroid (N, 3), normal (N, 3), f (N,),
     /// selected (N,) bool, parent (N,) int64 (face of the input mesh).
     #[getter]

@@ -66,6 +66,7 @@ def test_plan_result_numbers(planning, site):
     flown = len(r.triplet_gains) - len(r.dropped_triplets)
     assert len(members) == 3 * flown and len(r.triplet_gains) <= 2
     assert all(0 <= t < len(r.triplet_gains) for t in r.dropped_triplets)
+    assert len(r.dropped_reasons) == len(r.dropped_triplets)
     assert all(g > 0 for g in r.triplet_gains)
     pos = plan.positions
     assert pos.shape == (len(plan), 3) and plan.angles.shape == (len(plan), 2)

@@ -113,7 +113,7 @@ pub struct PlannerConfig {
     pub free_space_voxel_m: f64,
     /// Treat space above the highest observed point as free (nothing floats
     /// over the observed tops: no wires, no overhanging structures), in the
-    /// columns of the map a ray crossed and above that ray
+    /// columns of the map an observation ray crossed
     /// ([`vp_scene::occupancy::OccupancyMap::mark_free_above`]).
     pub free_above_observed: bool,
     /// Wall-clock budget of one planning call, seconds; default unbounded.

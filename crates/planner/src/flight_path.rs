@@ -88,6 +88,9 @@ pub struct Path {
     /// Triplets left out because one of their images is unsafe or no safe
     /// route reaches it.
     pub dropped_triplets: Vec<u32>,
+    /// Why each of `dropped_triplets` was left out (the rule the blocked
+    /// waypoint or segment broke), in the same order.
+    pub dropped_reasons: Vec<String>,
 }
 
 /// An unsafe waypoint, or a segment no climb-traverse-descend route makes safe.
@@ -199,12 +202,14 @@ impl PathContext<'_> {
             ordered.push(view);
             unbridged.push(std::mem::take(&mut unbridged_next));
         }
-        let (waypoints, unbridged, dropped_triplets) =
+        let (waypoints, unbridged, dropped) =
             self.route_dropping(&start.center(), ordered, unbridged);
+        let (dropped_triplets, dropped_reasons) = dropped.into_iter().unzip();
         Path {
             waypoints,
             unbridged,
             dropped_triplets,
+            dropped_reasons,
         }
     }
 
@@ -212,14 +217,15 @@ impl PathContext<'_> {
     /// out what a blocked segment leads to:
     /// its whole triplet (two images of it are of no use), or the one
     /// bridging view. Returns the routed waypoints, the routed indices of the
-    /// views flagged in `unbridged`, and the dropped triplets. Terminates:
+    /// views flagged in `unbridged`, and the dropped triplets with the
+    /// reason each was dropped. Terminates:
     /// every round removes a view.
     fn route_dropping(
         &self,
         start: &Point3<f64>,
         mut views: Vec<PlannedView>,
         mut unbridged: Vec<bool>,
-    ) -> (Vec<PlannedView>, Vec<usize>, Vec<u32>) {
+    ) -> (Vec<PlannedView>, Vec<usize>, Vec<(u32, String)>) {
         let mut dropped = Vec::new();
         loop {
             match self.route(Some(start), &views) {
@@ -234,7 +240,7 @@ impl PathContext<'_> {
                 Err(blocked) => {
                     let gone: Vec<bool> = match views[blocked.to].triplet_id {
                         Some(t) => {
-                            dropped.push(t);
+                            dropped.push((t, blocked.message));
                             views.iter().map(|v| v.triplet_id == Some(t)).collect()
                         }
                         None => (0..views.len()).map(|i| i == blocked.to).collect(),

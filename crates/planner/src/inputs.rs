@@ -93,6 +93,8 @@ pub struct PlanResult {
     /// Triplets planned but left out of the path: one of their images is
     /// unsafe or no climb-traverse-descend route reaches it.
     pub dropped_triplets: Vec<u32>,
+    /// Why each of `dropped_triplets` was left out, in the same order.
+    pub dropped_reasons: Vec<String>,
     /// True when planning stopped before k triplets.
     pub cut_short: bool,
     /// Why.

@@ -362,6 +362,7 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
         visited,
         unbridged: path.unbridged,
         dropped_triplets: path.dropped_triplets,
+        dropped_reasons: path.dropped_reasons,
         cut_short: cut.is_some(),
         cut_short_reason: cut,
     })

@@ -278,6 +278,16 @@ fn a_triplet_behind_an_unclimbable_wall_is_dropped_not_the_plan() {
     with_path(&mesh, &cfg, 0.0, |ctx, mut plan| {
         let path = ctx.build(&start, &[], views);
         assert_eq!(path.dropped_triplets, vec![1]);
+        // The reason names the blocked segment and the limit that stopped
+        // the climb, so an operator knows what to change.
+        let why = &path.dropped_reasons[0];
+        assert!(
+            path.dropped_reasons.len() == 1
+                && why.contains("segment 2 -> 3")
+                && why.contains("altitude limit 22 m"),
+            "{:?}",
+            path.dropped_reasons
+        );
         let xs: Vec<f64> = path.waypoints.iter().map(|w| w.position[0]).collect();
         assert_eq!(xs, vec![-30.0, -25.0, -20.0]);
         plan.waypoints = path.waypoints;

@@ -218,21 +218,20 @@ impl OccupancyMap {
         }
     }
 
-    /// Marks free every unknown voxel lying wholly at or above `z` and
-    /// above the highest voxel of its column that a ray crossed: the
-    /// operator's statement that nothing floats above that height (no
-    /// wires, no overhanging structure), so the airspace over the observed
-    /// tops may be crossed.
+    /// Marks free every unknown voxel lying wholly at or above `z` in the
+    /// columns of the map that a ray crossed: the operator's statement that
+    /// nothing floats above that height (no wires, no overhanging
+    /// structure), so the airspace over the observed tops may be crossed,
+    /// claimed only where the cameras looked.
     ///
-    /// Why per column: an object standing in a column and reaching above a
-    /// voxel a ray crossed would have to fill that voxel, which the ray
-    /// proved free; so only an overhang from a neighbouring column can hide
-    /// above it. A column no ray crossed proves nothing and stays unknown:
-    /// a tree taller than everything the cameras saw, standing where no ray
-    /// passed over it, is not airspace (the whole-map rule before this one
-    /// flew a segment 3.9 m from such a tree). Voxels a ray only ended in
-    /// (observed points) do not count: a ground point seen under a crown
-    /// says nothing about the crown.
+    /// A column no ray crossed stays unknown all the way up: a tree outside
+    /// what the cameras saw may be taller than anything they saw (the
+    /// whole-map rule this replaces flew a segment 3.9 m from such a tree).
+    /// Voxels a ray only ended in (observed points) do not make a column
+    /// crossed. Freeing only above each column's highest crossed voxel
+    /// would be stricter, but with sparse rays it leaves the airspace
+    /// between the tree tops and the cameras full of unknown pockets, and
+    /// plans stop (docs/campaign-findings.md).
     pub fn mark_free_above(&mut self, z: f64) {
         let [nx, ny, nz] = self.dims;
         let layer = nx * ny;
@@ -241,13 +240,10 @@ impl OccupancyMap {
             .find(|&k| self.origin.z + k as f64 * self.voxel >= z)
             .unwrap_or(nz);
         for col in 0..layer {
-            let Some(top) = (0..nz)
-                .rev()
-                .find(|&k| self.cells[col + k * layer] == Voxel::Free)
-            else {
+            if !(0..nz).any(|k| self.cells[col + k * layer] == Voxel::Free) {
                 continue;
-            };
-            for k in first.max(top + 1)..nz {
+            }
+            for k in first..nz {
                 let c = &mut self.cells[col + k * layer];
                 if *c == Voxel::Unknown {
                     *c = Voxel::Free;

@@ -100,7 +100,7 @@ fn occupied_wins_whatever_the_order_of_the_rays() {
 }
 
 #[test]
-fn free_above_marks_unknown_voxels_above_z_and_above_the_columns_highest_ray() {
+fn free_above_marks_unknown_voxels_above_z_only_in_columns_a_ray_crossed() {
     let mut map = OccupancyMap::new(&cube(10.0), 1.0).unwrap();
     let outside = |x: f64, y: f64, z: f64| Point3::new(x, y, z);
     map.carve(&[
@@ -111,17 +111,20 @@ fn free_above_marks_unknown_voxels_above_z_and_above_the_columns_highest_ray() {
         // A vertical ray ending on an observed point at z = 8.5.
         (Point3::new(0.5, 0.5, 2.5), Point3::new(0.5, 0.5, 8.5)),
     ]);
+    // An observed point alone does not make its column crossed (a ray from
+    // below the map whose first voxel is its point's).
+    map.carve(&[(outside(7.5, 2.5, -5.0), Point3::new(7.5, 2.5, 0.5))]);
     map.mark_free_above(4.5);
     let at = |x, y, z| map.state(&Point3::new(x, y, z));
-    // Above the ray at 6.5: free; between z and the ray: still unknown.
-    assert_eq!(at(5.5, 3.5, 7.5), Voxel::Free);
+    // Crossed columns: free from z up, whatever height the ray crossed.
+    assert_eq!(at(5.5, 3.5, 5.5), Voxel::Free);
     assert_eq!(at(5.5, 3.5, 9.5), Voxel::Free);
-    assert_eq!(at(5.5, 3.5, 5.5), Voxel::Unknown);
-    // A ray below z frees from z up, not below it.
     assert_eq!(at(4.5, 8.5, 5.5), Voxel::Free);
+    // Below z nothing changes.
     assert_eq!(at(4.5, 8.5, 3.5), Voxel::Unknown);
     // A column no ray crossed stays unknown all the way up.
     assert_eq!(at(3.5, 3.5, 9.5), Voxel::Unknown);
+    assert_eq!(at(7.5, 2.5, 9.5), Voxel::Unknown);
     // The observed point stays occupied; above it is free.
     assert_eq!(at(0.5, 0.5, 8.5), Voxel::Occupied);
     assert_eq!(at(0.5, 0.5, 9.5), Voxel::Free);

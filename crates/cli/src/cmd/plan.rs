@@ -486,6 +486,9 @@ fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
             "dropped triplets (unsafe or unreachable): {:?}",
             r.dropped_triplets
         )?;
+        for (t, why) in r.dropped_triplets.iter().zip(&r.dropped_reasons) {
+            writeln!(out, "  triplet {t}: {why}")?;
+        }
     }
     if plan.unbridged.is_empty() {
         writeln!(out, "unbridged views: none")?;

@@ -408,6 +408,9 @@ fn run_strategy(
             out.flown.iter().filter(|f| f.success).count(),
             out.flown.len()
         ));
+        for (t, why) in result.dropped_triplets.iter().zip(&result.dropped_reasons) {
+            progress(&format!("    dropped triplet {t}: {why}"));
+        }
         out.plans.push(result.plan);
         let last = it + 1 == strategy.iterations;
         if !last {
