@@ -72,8 +72,9 @@ pub fn best_triplet_plain(
 /// `(alpha f_res + (1 - alpha) f_unc_bound) * max f_conf` cannot beat the best
 /// value found; f_unc_bound uses Weyl's inequality (the smallest eigenvalue of
 /// a sum of three rank-2 informations is at most the sum of the largest
-/// eigenvalues of two of them). Once even the f_res bound fails, no later
-/// triplet can win and the search ends.
+/// eigenvalues of two of them), and where that does not prune, with the
+/// Rayleigh quotient bound of [`Requirements::f_unc_bound_triplet`]. Once
+/// even the f_res bound fails, no later triplet can win and the search ends.
 ///
 /// # Performance
 /// Plain enumeration is cubic in the number of observing cameras; with
@@ -107,9 +108,13 @@ pub fn best_triplet(
             for &i in &order[..jj] {
                 let (li, lj, lk) = (terms[i].info_max, terms[j].info_max, terms[k].info_max);
                 let lmin = (li + lj).min(li + lk).min(lj + lk);
-                let bound =
-                    (req.alpha * f_res + (1.0 - req.alpha) * req.f_unc_bound(lmin)) * conf_max;
-                if !beats(bound, &best) {
+                let bound = |f_unc: f64| (req.alpha * f_res + (1.0 - req.alpha) * f_unc) * conf_max;
+                if !beats(bound(req.f_unc_bound(lmin)), &best)
+                    || !beats(
+                        bound(req.f_unc_bound_triplet(&terms[i], &terms[j], &terms[k])),
+                        &best,
+                    )
+                {
                     continue;
                 }
                 let mut t = [i, j, k];
@@ -164,8 +169,13 @@ pub fn best_triplet_including_last(
         for &i in &order[..jj] {
             let (li, lj) = (terms[i].info_max, terms[j].info_max);
             let lmin = (li + lj).min(li + ln).min(lj + ln);
-            let bound = (req.alpha * f_res + (1.0 - req.alpha) * req.f_unc_bound(lmin)) * conf_max;
-            if !beats(bound, &best) {
+            let bound = |f_unc: f64| (req.alpha * f_res + (1.0 - req.alpha) * f_unc) * conf_max;
+            if !beats(bound(req.f_unc_bound(lmin)), &best)
+                || !beats(
+                    bound(req.f_unc_bound_triplet(&terms[i], &terms[j], &terms[new])),
+                    &best,
+                )
+            {
                 continue;
             }
             let b = eval(terms, [i.min(j), i.max(j), new], conf, req);
@@ -506,7 +516,7 @@ mod tests {
     }
 
     #[test]
-    fn adding_cameras_one_by_one_gives_the_full_search_value() {
+    fn pruned_and_incremental_searches_give_the_plain_maximum() {
         let req = Requirements {
             r_desired: 1.0 / (0.008 * 0.008),
             accuracy: 0.008,
@@ -526,6 +536,10 @@ mod tests {
                     full.value.to_bits(),
                     "trial {trial}, n {n}"
                 );
+                if n <= 16 {
+                    let plain = best_triplet_plain(&terms[..n], conf, &req).unwrap();
+                    assert_eq!(full.value.to_bits(), plain.value.to_bits(), "n {n}");
+                }
                 let again = eval(&terms[..n], inc.triplet, conf, &req);
                 assert_eq!(again.value.to_bits(), inc.value.to_bits());
             }
