@@ -1,7 +1,7 @@
 //! Planning at the paper's parameters (N_t 2000, N_p 5000, N_v 200, b 9,
 //! phi 120 deg, k 4) on a ~200k-face procedural site with 18 initial
 //! cameras (a 50 m nadir grid, as the paper's 19). Prints the time per
-//! module and per triplet of one call, then lets criterion time whole calls.
+//! module and per triplet of three calls, then lets criterion time whole calls.
 //!
 //! `cargo bench -p vp-planner -- --quick`
 
@@ -64,7 +64,6 @@ fn bench(c: &mut Criterion) {
         observations: None,
     };
     let r = plan(&inputs).expect("plan");
-    let total: f64 = r.module_time_s.values().sum();
     eprintln!(
         "paper parameters: {} faces, {} initial cameras, {} triplets, visited {:?}",
         site.mesh.n_faces(),
@@ -73,13 +72,26 @@ fn bench(c: &mut Criterion) {
         r.visited
     );
     eprintln!("  gains: {:?}", r.triplet_gains);
-    for (m, s) in &r.module_time_s {
-        eprintln!("  {m}: {s:.4} s");
+    // Three calls: the machine is shared, the smallest figures are the
+    // least disturbed. "per triplet" is M1-M4 over k (the issue's figure);
+    // the call also builds the BVH and the free-space map.
+    for _ in 0..3 {
+        let r = plan(&inputs).expect("plan");
+        let k = r.triplet_gains.len().max(1) as f64;
+        let t = |m: &str| r.module_time_s.get(m).copied().unwrap_or(0.0);
+        let modules = t("m1") + t("m2") + t("m3") + t("m4");
+        eprintln!(
+            "  {:.4} s per triplet (M1-M4 / k; target 0.05): m1 {:.4} m2 {:.4} m3 {:.4} m4 {:.4}, \
+             free space {:.4}, whole call {:.4} s",
+            modules / k,
+            t("m1"),
+            t("m2"),
+            t("m3"),
+            t("m4"),
+            t("free_space"),
+            r.plan.statistics.total_time_s.unwrap_or(0.0)
+        );
     }
-    eprintln!(
-        "  total {total:.4} s = {:.4} s per triplet (paper: 5.98 s; target 0.05 s)",
-        total / r.triplet_gains.len().max(1) as f64
-    );
     let mut g = c.benchmark_group("paper");
     g.sample_size(10).measurement_time(Duration::from_secs(20));
     g.bench_function("plan_k4_200k_faces", |bch| {

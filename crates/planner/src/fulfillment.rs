@@ -72,8 +72,9 @@ pub fn best_triplet_plain(
 /// `(alpha f_res + (1 - alpha) f_unc_bound) * max f_conf` cannot beat the best
 /// value found; f_unc_bound uses Weyl's inequality (the smallest eigenvalue of
 /// a sum of three rank-2 informations is at most the sum of the largest
-/// eigenvalues of two of them). Once even the f_res bound fails, no later
-/// triplet can win and the search ends.
+/// eigenvalues of two of them), and where that does not prune, with the
+/// Rayleigh quotient bound of [`Requirements::f_unc_bound_triplet`]. Once
+/// even the f_res bound fails, no later triplet can win and the search ends.
 ///
 /// # Performance
 /// Plain enumeration is cubic in the number of observing cameras; with
@@ -107,9 +108,13 @@ pub fn best_triplet(
             for &i in &order[..jj] {
                 let (li, lj, lk) = (terms[i].info_max, terms[j].info_max, terms[k].info_max);
                 let lmin = (li + lj).min(li + lk).min(lj + lk);
-                let bound =
-                    (req.alpha * f_res + (1.0 - req.alpha) * req.f_unc_bound(lmin)) * conf_max;
-                if !beats(bound, &best) {
+                let bound = |f_unc: f64| (req.alpha * f_res + (1.0 - req.alpha) * f_unc) * conf_max;
+                if !beats(bound(req.f_unc_bound(lmin)), &best)
+                    || !beats(
+                        bound(req.f_unc_bound_triplet(&terms[i], &terms[j], &terms[k])),
+                        &best,
+                    )
+                {
                     continue;
                 }
                 let mut t = [i, j, k];
@@ -118,6 +123,64 @@ pub fn best_triplet(
                 if best.is_none_or(|x| b.value > x.value) {
                     best = Some(b);
                 }
+            }
+        }
+    }
+    best
+}
+
+/// The best triplet of `terms` given `current`, the best triplet of all
+/// of them but the last: `current`, or the best triplet that contains the
+/// last camera when that one is strictly better.
+///
+/// The value equals [`best_triplet`] on all the terms, bit for bit (the same
+/// triplets are evaluated in the same index order, the same bounds prune
+/// them). Among triplets of equal value it may report another one than
+/// [`best_triplet`] would; only the value is used once planning has started.
+///
+/// # Performance
+/// A new camera of a triangle with n observers adds C(n - 1, 2) triplets,
+/// where recomputing would enumerate all C(n, 3) again: M3 adds three
+/// cameras per triplet to triangles that tens of cameras already see.
+pub fn best_triplet_including_last(
+    terms: &[CamTerm],
+    conf: Option<&ConfCurve>,
+    req: &Requirements,
+    current: Best,
+) -> Best {
+    let Some(new) = terms.len().checked_sub(1) else {
+        return current;
+    };
+    let mut order: Vec<usize> = (0..new).collect();
+    order.sort_by(|&a, &b| terms[b].r.total_cmp(&terms[a].r).then(a.cmp(&b)));
+    let conf_max = conf.map_or(1.0, ConfCurve::max);
+    let slack = 1.0 + 1e-9;
+    let mut best = current;
+    let beats = |bound: f64, best: &Best| bound * slack > best.value;
+    let ln = terms[new].info_max;
+    for jj in 1..order.len() {
+        // The triplet's coarsest camera is j or the new one: i comes before
+        // j in decreasing r.
+        let j = order[jj];
+        let f_res = req.f_res(terms[j].r.min(terms[new].r));
+        if !beats((req.alpha * f_res + (1.0 - req.alpha)) * conf_max, &best) {
+            break;
+        }
+        for &i in &order[..jj] {
+            let (li, lj) = (terms[i].info_max, terms[j].info_max);
+            let lmin = (li + lj).min(li + ln).min(lj + ln);
+            let bound = |f_unc: f64| (req.alpha * f_res + (1.0 - req.alpha) * f_unc) * conf_max;
+            if !beats(bound(req.f_unc_bound(lmin)), &best)
+                || !beats(
+                    bound(req.f_unc_bound_triplet(&terms[i], &terms[j], &terms[new])),
+                    &best,
+                )
+            {
+                continue;
+            }
+            let b = eval(terms, [i.min(j), i.max(j), new], conf, req);
+            if b.value > best.value {
+                best = b;
             }
         }
     }
@@ -382,7 +445,19 @@ impl Fulfillment {
         let c = self.min_cameras;
         let updated: Vec<(usize, Option<Best>)> = seen
             .par_iter()
-            .map(|&t| (t, best_of(&self.observers[t], &self.curve[t], req, c)))
+            .map(|&t| {
+                let (obs, curve) = (&self.observers[t], &self.curve[t]);
+                let b = match self.best[t] {
+                    // The old triplets were searched already: only those
+                    // with the new camera can raise f(t).
+                    Some(cur) => {
+                        let terms: Vec<CamTerm> = obs.iter().map(|o| o.1).collect();
+                        Some(best_triplet_including_last(&terms, Some(curve), req, cur))
+                    }
+                    None => best_of(obs, curve, req, c),
+                };
+                (t, b)
+            })
             .collect();
         for (t, b) in updated {
             self.best[t] = b;
@@ -401,4 +476,73 @@ fn best_of(
     }
     let terms: Vec<CamTerm> = obs.iter().map(|o| o.1).collect();
     best_triplet(&terms, Some(curve), req)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use vp_scene::raster::AngleBins;
+    use vp_scene::Intrinsics;
+
+    /// Terms of `n` random cameras looking at the origin (normal +z) from
+    /// 20-80 m at 30-85 deg elevation, and a random confidence curve.
+    fn random_terms(n: usize, rng: &mut ChaCha8Rng) -> (Vec<CamTerm>, ConfCurve) {
+        let k = Intrinsics {
+            width: 1200,
+            height: 800,
+            fx: 1800.0,
+            fy: 1800.0,
+            cx: 600.0,
+            cy: 400.0,
+        };
+        let p = Point3::origin();
+        let terms = (0..n)
+            .map(|_| {
+                let d: f64 = rng.random_range(20.0..80.0);
+                let el = rng.random_range(30f64..85.0).to_radians();
+                let az = rng.random_range(0f64..360.0).to_radians();
+                let c = Point3::new(
+                    d * el.cos() * az.cos(),
+                    d * el.cos() * az.sin(),
+                    d * el.sin(),
+                );
+                let cam = Camera::look_at(k, c, p).unwrap();
+                CamTerm::new(&cam, &p, &Vector3::z(), 1.0)
+            })
+            .collect();
+        let curve = ConfCurve((0..9).map(|_| rng.random_range(0.2f32..1.0)).collect());
+        (terms, curve)
+    }
+
+    #[test]
+    fn pruned_and_incremental_searches_give_the_plain_maximum() {
+        let req = Requirements {
+            r_desired: 1.0 / (0.008 * 0.008),
+            accuracy: 0.008,
+            alpha: 0.5,
+            bins: AngleBins::paper(),
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        for trial in 0..40 {
+            let (terms, curve) = random_terms(30, &mut rng);
+            let conf = (trial % 2 == 0).then_some(&curve);
+            let mut inc = best_triplet(&terms[..3], conf, &req).unwrap();
+            for n in 4..=terms.len() {
+                inc = best_triplet_including_last(&terms[..n], conf, &req, inc);
+                let full = best_triplet(&terms[..n], conf, &req).unwrap();
+                assert_eq!(
+                    inc.value.to_bits(),
+                    full.value.to_bits(),
+                    "trial {trial}, n {n}"
+                );
+                if n <= 16 {
+                    let plain = best_triplet_plain(&terms[..n], conf, &req).unwrap();
+                    assert_eq!(full.value.to_bits(), plain.value.to_bits(), "n {n}");
+                }
+                let again = eval(&terms[..n], inc.triplet, conf, &req);
+                assert_eq!(again.value.to_bits(), inc.value.to_bits());
+            }
+        }
+    }
 }

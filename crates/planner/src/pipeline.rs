@@ -269,11 +269,14 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
     let deadline = cfg.time_budget_s.map(|s| t0 + Duration::from_secs_f64(s));
     let over = || deadline.is_some_and(|d| Instant::now() >= d);
     let mut times: BTreeMap<String, f64> = BTreeMap::new();
-    let caster = RayCaster::new(mesh);
+    // The two trees over the mesh (the ray caster's BVH, the clearance
+    // BVH of the safety rules) are independent, single-threaded builds.
+    let (caster, (safety, t_clear)) =
+        rayon::join(|| RayCaster::new(mesh), || timed(|| safety_for(mesh, cfg)));
     let roi = inputs.roi.faces(mesh, &caster)?;
-    let (safety, t_free) = timed(|| with_free_space(safety_for(mesh, cfg), inputs, &caster));
+    let (safety, t_free) = timed(|| with_free_space(safety, inputs, &caster));
     let safety = safety?;
-    times.insert("free_space".into(), t_free);
+    times.insert("free_space".into(), t_clear + t_free);
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
     let k = cfg.camera.intrinsics();
 

@@ -72,6 +72,23 @@ impl Requirements {
         (self.accuracy * lmin_bound.max(0.0).sqrt()).min(1.0)
     }
 
+    /// Upper bound of `f_unc` of the triplet (a, b, c), tighter than the
+    /// Weyl bound of [`Requirements::f_unc_bound`] where it matters.
+    ///
+    /// The smallest eigenvalue of the summed information is at most its
+    /// Rayleigh quotient at any unit v; at the mean viewing direction that
+    /// quotient is small exactly when the rays are close to parallel (small
+    /// baselines, weak depth), where the Weyl bound is far too loose to
+    /// prune. A margin of 1e-9 of the trace covers the round-off of the
+    /// closed-form eigenvalue, so the bound never prunes the true maximum.
+    pub fn f_unc_bound_triplet(&self, a: &CamTerm, b: &CamTerm, c: &CamTerm) -> f64 {
+        let Some(v) = (a.dir + b.dir + c.dir).try_normalize(1e-12) else {
+            return 1.0;
+        };
+        let m = a.info + b.info + c.info;
+        self.f_unc_bound(v.dot(&(m * v)) + 1e-9 * m.trace().abs())
+    }
+
     /// `alpha f_res + (1 - alpha) f_unc` of a triplet, and its triangulation
     /// angle (deg): the largest pairwise angle between the camera rays.
     pub fn score(&self, a: &CamTerm, b: &CamTerm, c: &CamTerm) -> (f64, f64) {

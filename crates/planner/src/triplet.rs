@@ -131,6 +131,9 @@ pub struct Potential<'a> {
     one: ConfCurve,
     /// Centres of the acquired cameras (the closest-image rule reads them per link).
     centres: Vec<Point3<f64>>,
+    /// Per sampled triangle: true when all its acquired curves are equal
+    /// (always without prediction), so the closest image need not be found.
+    uniform: Vec<bool>,
 }
 
 impl<'a> Potential<'a> {
@@ -160,6 +163,11 @@ impl<'a> Potential<'a> {
             azimuths: AZIMUTHS_DEG.map(|a| a.to_radians().sin_cos()),
             one: ConfCurve::one(&req.bins),
             centres: ful.cameras.iter().map(Camera::center).collect(),
+            uniform: ful
+                .acquired_curves
+                .iter()
+                .map(|c| c.windows(2).all(|w| w[0].1 == w[1].1))
+                .collect(),
         }
     }
 
@@ -174,11 +182,16 @@ impl<'a> Potential<'a> {
         }
         let w = to / d;
         let (e1, e2) = frame(&-w);
-        let curve = ful.acquired_curves[t]
-            .iter()
-            .map(|x| ((self.centres[x.0 as usize] - s).norm_squared(), x.0, &x.1))
-            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
-            .map_or(&self.one, |x| x.2);
+        let curves = &ful.acquired_curves[t];
+        let curve = if self.uniform[t] {
+            curves.first().map_or(&self.one, |x| &x.1)
+        } else {
+            curves
+                .iter()
+                .map(|x| ((self.centres[x.0 as usize] - s).norm_squared(), x.0, &x.1))
+                .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+                .map_or(&self.one, |x| x.2)
+        };
         // n . u for u = w cos b + (e1 cos a + e2 sin a) sin b.
         let (nw, n1, n2) = (tri.normal.dot(&w), tri.normal.dot(&e1), tri.normal.dot(&e2));
         let ring_min = self
