@@ -139,6 +139,13 @@ struct StrategyRun {
 }
 
 /// One progress line per flown triplet: its planned angle bin and what came out.
+/// One progress line per triplet the planner left out, with its reason.
+fn report_dropped(result: &vp_planner::PlanResult, progress: &mut dyn FnMut(&str)) {
+    for (t, why) in result.dropped_triplets.iter().zip(&result.dropped_reasons) {
+        progress(&format!("    dropped triplet {t}: {why}"));
+    }
+}
+
 fn triplet_line(plan: &Plan, t: u32, fl: &Flown, tolerance_m: f64) -> String {
     let bin = plan
         .waypoints
@@ -408,9 +415,7 @@ fn run_strategy(
             out.flown.iter().filter(|f| f.success).count(),
             out.flown.len()
         ));
-        for (t, why) in result.dropped_triplets.iter().zip(&result.dropped_reasons) {
-            progress(&format!("    dropped triplet {t}: {why}"));
-        }
+        report_dropped(&result, progress);
         out.plans.push(result.plan);
         let last = it + 1 == strategy.iterations;
         if !last {
