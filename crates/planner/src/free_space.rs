@@ -81,9 +81,8 @@ pub fn observations_from_mesh(cameras: &[Camera], caster: &RayCaster) -> Vec<Obs
 /// (queries near the volume's faces must see past them), with voxels of
 /// `voxel_m`, or coarser when the map would exceed [`MAX_VOXELS`] (the
 /// queries stay conservative at any voxel size). With
-/// `free_above_observed`, space above the highest observed point is free
-/// in the columns a ray crossed: nothing floats over the observed tops (no
-/// wires, no overhangs), and where no camera looked nothing is assumed.
+/// `free_above_observed`, space above the highest observed point is free:
+/// nothing floats over the observed tops (no wires, no overhangs).
 pub fn free_space(
     volume: &Aabb,
     margin: f64,

@@ -218,35 +218,24 @@ impl OccupancyMap {
         }
     }
 
-    /// Marks free every unknown voxel lying wholly at or above `z` in the
-    /// columns of the map that a ray crossed: the operator's statement that
-    /// nothing floats above that height (no wires, no overhanging
-    /// structure), so the airspace over the observed tops may be crossed,
-    /// claimed only where the cameras looked.
+    /// Marks free every unknown voxel lying wholly at or above `z`: the
+    /// operator's statement that nothing floats above that height (no
+    /// wires, no overhanging structure), so the airspace over the observed
+    /// tops may be crossed.
     ///
-    /// A column no ray crossed stays unknown all the way up: a tree outside
-    /// what the cameras saw may be taller than anything they saw (the
-    /// whole-map rule this replaces flew a segment 3.9 m from such a tree).
-    /// Voxels a ray only ended in (observed points) do not make a column
-    /// crossed. Freeing only above each column's highest crossed voxel
-    /// would be stricter, but with sparse rays it leaves the airspace
-    /// between the tree tops and the cameras full of unknown pockets, and
-    /// plans stop (docs/campaign-findings.md).
+    /// Over the whole map, also where no ray passed: restricting it to the
+    /// columns rays crossed (so a tree taller than anything observed,
+    /// standing where no camera looked, stays unknown) left vehicles at the
+    /// edge of the first flight with no safe leg out, and the README's loop
+    /// with an empty plan (docs/campaign-findings.md).
     pub fn mark_free_above(&mut self, z: f64) {
-        let [nx, ny, nz] = self.dims;
-        let layer = nx * ny;
-        // Lowest layer lying wholly at or above `z`.
-        let first = (0..nz)
-            .find(|&k| self.origin.z + k as f64 * self.voxel >= z)
-            .unwrap_or(nz);
-        for col in 0..layer {
-            if !(0..nz).any(|k| self.cells[col + k * layer] == Voxel::Free) {
-                continue;
-            }
-            for k in first..nz {
-                let c = &mut self.cells[col + k * layer];
-                if *c == Voxel::Unknown {
-                    *c = Voxel::Free;
+        let (nx, ny) = (self.dims[0], self.dims[1]);
+        for k in 0..self.dims[2] {
+            if self.origin.z + k as f64 * self.voxel >= z {
+                for c in &mut self.cells[k * nx * ny..(k + 1) * nx * ny] {
+                    if *c == Voxel::Unknown {
+                        *c = Voxel::Free;
+                    }
                 }
             }
         }
