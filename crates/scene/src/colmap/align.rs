@@ -180,9 +180,9 @@ pub fn umeyama(src: &[Point3<f64>], dst: &[Point3<f64>]) -> Option<Sim3> {
     })
 }
 
-/// How far a point set is from a line: the second singular value of the
-/// centred points over the first (0 for collinear points).
-fn planarity(points: &[Point3<f64>]) -> f64 {
+/// Centroid and scatter matrix (sum of outer products of the centred
+/// points) of a non-empty point set.
+pub(super) fn mean_and_scatter(points: &[Point3<f64>]) -> (Vector3<f64>, Matrix3<f64>) {
     let n = points.len() as f64;
     let m = points.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / n;
     let mut cov = Matrix3::zeros();
@@ -190,6 +190,13 @@ fn planarity(points: &[Point3<f64>]) -> f64 {
         let a = p.coords - m;
         cov += a * a.transpose();
     }
+    (m, cov)
+}
+
+/// How far a point set is from a line: the second singular value of the
+/// centred points over the first (0 for collinear points).
+fn planarity(points: &[Point3<f64>]) -> f64 {
+    let (_, cov) = mean_and_scatter(points);
     let mut s: Vec<f64> = cov
         .symmetric_eigenvalues()
         .iter()

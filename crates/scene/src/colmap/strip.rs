@@ -4,20 +4,14 @@
 //! (nadir or oblique) fix it: the rotation that turns their mean viewing
 //! direction as far down as possible.
 
-use nalgebra::{Matrix3, Point3, UnitQuaternion, Vector3};
+use nalgebra::{Point3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
-use super::align::Sim3;
+use super::align::{mean_and_scatter, Sim3};
 
 /// Centroid and unit principal direction of a point set.
 fn principal_axis(points: &[Point3<f64>]) -> (Vector3<f64>, Vector3<f64>) {
-    let n = points.len() as f64;
-    let m = points.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / n;
-    let mut cov = Matrix3::zeros();
-    for p in points {
-        let a = p.coords - m;
-        cov += a * a.transpose();
-    }
+    let (m, cov) = mean_and_scatter(points);
     let eig = cov.symmetric_eigen();
     let i = eig.eigenvalues.imax();
     (m, eig.eigenvectors.column(i).normalize())

@@ -86,6 +86,20 @@ pub fn save_rgb(image: &RgbImage, path: &Path) -> Result<()> {
 
 /// Encodes an RGB image as PNG bytes; `path` only names the file in errors.
 pub fn encode_png(image: &RgbImage, path: &Path) -> Result<Vec<u8>> {
+    png_bytes(image, path)
+}
+
+/// Encodes an 8-bit grey image as PNG and writes it atomically.
+pub(crate) fn save_gray_png(image: &image::GrayImage, path: &Path) -> Result<()> {
+    let bytes = png_bytes(image, path)?;
+    write_atomic(path, |w| w.write_all(&bytes))
+}
+
+/// PNG bytes of an 8-bit image of any pixel type the encoder takes.
+fn png_bytes<P>(image: &image::ImageBuffer<P, Vec<u8>>, path: &Path) -> Result<Vec<u8>>
+where
+    P: image::PixelWithColorType<Subpixel = u8>,
+{
     let mut buf = Cursor::new(Vec::new());
     image
         .write_to(&mut buf, image::ImageFormat::Png)
@@ -94,18 +108,6 @@ pub fn encode_png(image: &RgbImage, path: &Path) -> Result<Vec<u8>> {
             source,
         })?;
     Ok(buf.into_inner())
-}
-
-/// Encodes an 8-bit grey image as PNG and writes it atomically.
-pub(crate) fn save_gray_png(image: &image::GrayImage, path: &Path) -> Result<()> {
-    let mut buf = Cursor::new(Vec::new());
-    image
-        .write_to(&mut buf, image::ImageFormat::Png)
-        .map_err(|source| SceneError::Image {
-            path: path.to_path_buf(),
-            source,
-        })?;
-    write_atomic(path, |w| w.write_all(buf.get_ref()))
 }
 
 #[cfg(test)]
