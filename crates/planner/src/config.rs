@@ -112,9 +112,9 @@ pub struct PlannerConfig {
     /// Voxel edge of the free-space map, metres.
     pub free_space_voxel_m: f64,
     /// Treat space above the highest observed point as free (nothing floats
-    /// over the observed tops: no wires, no overhanging structures). Over
-    /// the whole map: an object outside what the cameras saw and taller
-    /// than anything they saw is not known (docs/campaign-findings.md).
+    /// over the observed tops: no wires, no overhanging structures), in the
+    /// columns two acquired images picture just above that point (anything
+    /// taller standing there would have been seen; `free_space`).
     pub free_above_observed: bool,
     /// Wall-clock budget of one planning call, seconds; default unbounded.
     pub time_budget_s: Option<f64>,
@@ -190,7 +190,7 @@ gimbal_pitch_max_deg = 0.0
 m3_early_stop = true     # the paper's early stop in M3 (a heuristic); false: search all
 unknown_space = "occupied" # unobserved space is an obstacle; "free": the paper's behaviour
 free_space_voxel_m = 1.0   # voxel of the observed-free-space map
-free_above_observed = true # nothing floats above the highest observed point
+free_above_observed = true # nothing floats above the highest observed point where the cameras looked
 seed = 0
 # time_budget_s = 10.0                          # default: unbounded
 # flight_volume = [[-30, -30, 0], [30, 30, 60]] # default: from the mesh

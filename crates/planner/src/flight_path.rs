@@ -312,7 +312,7 @@ impl PathContext<'_> {
                             "segment {from} -> {i} from ({:.2}, {:.2}, {:.2}) to ({:.2}, {:.2}, {:.2}) \
                              comes closer than {} m to the mesh (or to unobserved space, with \
                              unknown_space = \"occupied\") or leaves the geofence, and no \
-                             climb-traverse-descend route below the altitude limit {} m is clear",
+                             climb-traverse-descend route below the altitude limit {:.1} m is clear",
                             a.x,
                             a.y,
                             a.z,

@@ -38,6 +38,10 @@ pub enum UnknownSpace {
 /// Most voxels of the planner's free-space map (50 MB of distances).
 pub const MAX_VOXELS: usize = 12_500_000;
 
+/// Images that must picture a column above the observed top before
+/// `free_above_observed` frees it: SfM triangulates a point from two.
+pub const LOOKED_AT_MIN_VIEWS: usize = 2;
+
 /// Pixel-ray grid of [`observations_from_mesh`] per camera.
 const MESH_RAY_GRID: (u32, u32) = (96, 64);
 
@@ -81,14 +85,18 @@ pub fn observations_from_mesh(cameras: &[Camera], caster: &RayCaster) -> Vec<Obs
 /// (queries near the volume's faces must see past them), with voxels of
 /// `voxel_m`, or coarser when the map would exceed [`MAX_VOXELS`] (the
 /// queries stay conservative at any voxel size). With
-/// `free_above_observed`, space above the highest observed point is free:
-/// nothing floats over the observed tops (no wires, no overhangs).
+/// `free_above_observed`, space above the highest observed point is free
+/// in the columns that [`LOOKED_AT_MIN_VIEWS`] of `cameras` picture just
+/// above it: nothing floats over the observed tops (no wires, no
+/// overhangs), and nothing taller stands where the cameras looked
+/// ([`OccupancyMap::mark_free_above`]).
 pub fn free_space(
     volume: &Aabb,
     margin: f64,
     voxel_m: f64,
     free_above_observed: bool,
     observations: &[Observation],
+    cameras: &[Camera],
 ) -> Result<FreeSpace> {
     let grown = |v: f64| Aabb {
         min: volume.min - nalgebra::Vector3::repeat(margin + v),
@@ -106,7 +114,7 @@ pub fn free_space(
             .filter(|z| z.is_finite())
             .fold(f64::NEG_INFINITY, f64::max);
         if top.is_finite() {
-            map.mark_free_above(top);
+            map.mark_free_above(top, cameras, LOOKED_AT_MIN_VIEWS);
         }
     }
     Ok(map.free_space())

@@ -231,11 +231,11 @@ fn with_free_space(safety: Safety, inputs: &PlanInputs, caster: &RayCaster) -> R
     if cfg.unknown_space == UnknownSpace::Free {
         return Ok(safety);
     }
+    let cams: Vec<Camera> = inputs.acquired.iter().map(|a| a.camera).collect();
     let from_mesh;
     let observations = if let Some(o) = inputs.observations {
         o
     } else {
-        let cams: Vec<Camera> = inputs.acquired.iter().map(|a| a.camera).collect();
         from_mesh = observations_from_mesh(&cams, caster);
         &from_mesh
     };
@@ -245,6 +245,7 @@ fn with_free_space(safety: Safety, inputs: &PlanInputs, caster: &RayCaster) -> R
         cfg.free_space_voxel_m,
         cfg.free_above_observed,
         observations,
+        &cams,
     )?;
     Ok(safety.with_free_space(fs))
 }

@@ -167,7 +167,10 @@ impl Safety {
     /// The leg from the vehicle's position `a` (wherever it is: it may be
     /// outside the limits, e.g. before entering the geofence) to `b`: `b`
     /// within the limits and the segment [`Safety::segment_ok`] apart from
-    /// the limits at `a`.
+    /// the limits at `a`, and apart from unknown space near `a`: the leg
+    /// may leave the vehicle's position closer to unknown space than the
+    /// safety distance as long as it gets no closer (the end of a flight
+    /// lies at the edge of what its cameras pictured; [`FreeSpace::leg_is_clear`]).
     pub fn leg_ok(&self, a: &Point3<f64>, b: &Point3<f64>) -> bool {
         self.within_limits(b)
             && self
@@ -176,7 +179,7 @@ impl Safety {
             && self
                 .free_space
                 .as_ref()
-                .is_none_or(|f| f.segment_is_clear(a, b, self.distance))
+                .is_none_or(|f| f.leg_is_clear(a, b, self.distance))
     }
 
     /// The box positions are drawn from: the flight volume cut to the altitude band.

@@ -338,6 +338,7 @@ fn occupied_unknown_space_keeps_plans_in_observed_free_space() {
             1.0,
             true,
             &observations_from_mesh(&cams, &caster),
+            &cams,
         )
         .unwrap();
         for unknown in [UnknownSpace::Occupied, UnknownSpace::Free] {

@@ -22,6 +22,7 @@
 use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
 
+use crate::camera::Camera;
 use crate::error::{Result, SceneError};
 use crate::mesh::Aabb;
 
@@ -218,24 +219,70 @@ impl OccupancyMap {
         }
     }
 
-    /// Marks free every unknown voxel lying wholly at or above `z`: the
-    /// operator's statement that nothing floats above that height (no
-    /// wires, no overhanging structure), so the airspace over the observed
-    /// tops may be crossed.
+    /// Marks free the unknown voxels lying wholly at or above `z` in every
+    /// column that at least `min_views` of `cameras` look at just above `z`:
+    /// the operator's statement that nothing floats above the highest
+    /// observed point (no wires, no overhangs), so the airspace over the
+    /// observed tops may be crossed.
     ///
-    /// Over the whole map, also where no ray passed: restricting it to the
-    /// columns rays crossed (so a tree taller than anything observed,
-    /// standing where no camera looked, stays unknown) left vehicles at the
-    /// edge of the first flight with no safe leg out, and the README's loop
-    /// with an empty plan (docs/campaign-findings.md).
-    pub fn mark_free_above(&mut self, z: f64) {
-        let (nx, ny) = (self.dims[0], self.dims[1]);
-        for k in 0..self.dims[2] {
-            if self.origin.z + k as f64 * self.voxel >= z {
-                for c in &mut self.cells[k * nx * ny..(k + 1) * nx * ny] {
-                    if *c == Voxel::Unknown {
-                        *c = Voxel::Free;
+    /// Why only looked-at columns: an object standing in a column and
+    /// taller than `z` fills the column's lowest voxel wholly above `z`. If
+    /// that voxel lies inside the frustum of a camera whose centre is not
+    /// below `z`, the line of sight between them stays above `z`, where
+    /// nothing was observed, so the object would have been pictured (and
+    /// with `min_views` images, triangulated) and raised the observed top.
+    /// Freeing the whole map instead let a tree taller than anything
+    /// observed, in ground no camera pictured, count as free airspace
+    /// (site 1170, docs/campaign-findings.md). Columns are taken from the
+    /// frusta rather than from the observation rays, which are too sparse
+    /// at the edge of the first flight. A voxel counts as pictured when its
+    /// whole bounding sphere is inside the frustum.
+    pub fn mark_free_above(&mut self, z: f64, cameras: &[Camera], min_views: usize) {
+        let [nx, ny, nz] = self.dims;
+        let k0 = ((z - self.origin.z) / self.voxel).ceil().max(0.0) as usize;
+        if k0 >= nz || !z.is_finite() {
+            return;
+        }
+        let zc = self.origin.z + (k0 as f64 + 0.5) * self.voxel;
+        let r = self.voxel * 3f64.sqrt() / 2.0;
+        let frusta: Vec<(Point3<f64>, [Vector3<f64>; 4])> = cameras
+            .iter()
+            .filter(|c| c.center().z >= z)
+            .filter_map(|c| Some((c.center(), frustum_planes(c)?)))
+            .collect();
+        let (ox, oy, v) = (self.origin.x, self.origin.y, self.voxel);
+        let mut views = vec![0u16; nx * ny];
+        views.par_chunks_mut(nx).enumerate().for_each(|(j, row)| {
+            let y = oy + (j as f64 + 0.5) * v;
+            for (c, planes) in &frusta {
+                // Each side plane n.(p - c) >= r bounds x on this row.
+                let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
+                for n in planes {
+                    let s = n.y * (y - c.y) + n.z * (zc - c.z) - r;
+                    if n.x.abs() < 1e-12 {
+                        if s < 0.0 {
+                            hi = f64::NEG_INFINITY;
+                        }
+                    } else if n.x > 0.0 {
+                        lo = lo.max(c.x - s / n.x);
+                    } else {
+                        hi = hi.min(c.x - s / n.x);
                     }
+                }
+                let first = ((lo - ox) / v - 0.5).ceil().max(0.0);
+                let last = ((hi - ox) / v - 0.5).floor().min(nx as f64 - 1.0);
+                if first <= last {
+                    for w in &mut row[first as usize..=last as usize] {
+                        *w = w.saturating_add(1);
+                    }
+                }
+            }
+        });
+        let looked: Vec<bool> = views.iter().map(|&w| usize::from(w) >= min_views).collect();
+        for layer in self.cells[k0 * nx * ny..].chunks_mut(nx * ny) {
+            for (c, &seen) in layer.iter_mut().zip(&looked) {
+                if seen && *c == Voxel::Unknown {
+                    *c = Voxel::Free;
                 }
             }
         }
@@ -255,6 +302,24 @@ impl OccupancyMap {
         let dist = distance_to_unknown(&self.cells, self.dims, self.voxel);
         FreeSpace { map: self, dist }
     }
+}
+
+/// Unit normals of the four side planes of `cam`'s frustum, pointing
+/// inwards: a point `p` is pictured when `n.(p - centre) >= 0` for all four.
+/// `None` for a camera whose corner rays are degenerate.
+fn frustum_planes(cam: &Camera) -> Option<[Vector3<f64>; 4]> {
+    let k = &cam.intrinsics;
+    let (w, h) = (f64::from(k.width), f64::from(k.height));
+    let d = [(0.0, 0.0), (w, 0.0), (w, h), (0.0, h)]
+        .map(|(x, y)| cam.ray(&nalgebra::Point2::new(x, y)).1);
+    let axis = cam.axis();
+    let mut out = [Vector3::zeros(); 4];
+    for i in 0..4 {
+        let n = d[i].cross(&d[(i + 1) % 4]);
+        let n = n.try_normalize(1e-12)?;
+        out[i] = if n.dot(&axis) >= 0.0 { n } else { -n };
+    }
+    Some(out)
 }
 
 /// Distance queries to unknown space (see the module docs).
@@ -303,13 +368,64 @@ impl FreeSpace {
     /// segment `a`-`b`: samples every half voxel, each asked for half a
     /// step more.
     pub fn segment_is_clear(&self, a: &Point3<f64>, b: &Point3<f64>, radius: f64) -> bool {
+        let (step, samples) = self.samples(a, b);
+        samples
+            .into_iter()
+            .all(|p| self.point_is_clear(&p, radius + 0.5 * step))
+    }
+
+    /// The leg of a vehicle standing at `a` to `b`: as
+    /// [`FreeSpace::segment_is_clear`], except that while the leg is not
+    /// yet `radius` clear it may stay as close to unknown space as the
+    /// vehicle already is (never closer), provided `a` is in known space.
+    /// Once clear, the leg stays clear.
+    ///
+    /// Why: a camera pictures the ground around it, so the last position of
+    /// a first flight lies at the edge of what it pictured, closer to
+    /// unknown space than the safety distance; refusing every leg out of
+    /// there refuses every plan (README's manual loop), while leaving by a
+    /// leg that gets no closer to unknown space adds no risk the flight did
+    /// not already take. "As close" compares the distances of voxel
+    /// centres to unknown voxel centres, so the leg may come up to one and
+    /// a half voxel diagonals closer than the vehicle.
+    pub fn leg_is_clear(&self, a: &Point3<f64>, b: &Point3<f64>, radius: f64) -> bool {
+        let (step, samples) = self.samples(a, b);
+        let Some(start) = self.centre_distance(a) else {
+            return false;
+        };
+        let mut clear = false;
+        samples.into_iter().all(|p| {
+            if self.point_is_clear(&p, radius + 0.5 * step) {
+                clear = true;
+                true
+            } else {
+                !clear && self.centre_distance(&p).is_some_and(|d| d >= start)
+            }
+        })
+    }
+
+    /// Points every half voxel along `a`-`b`, ends included, and the step.
+    fn samples(&self, a: &Point3<f64>, b: &Point3<f64>) -> (f64, Vec<Point3<f64>>) {
         let d: Vector3<f64> = b - a;
         let step = 0.5 * self.map.voxel;
         let n = (d.norm() / step).ceil().max(1.0) as usize;
-        (0..=n).all(|i| {
-            let p = a + d * (i as f64 / n as f64);
-            self.point_is_clear(&p, radius + 0.5 * step)
-        })
+        let points = (0..=n).map(|i| a + d * (i as f64 / n as f64)).collect();
+        (step, points)
+    }
+
+    /// Distance from the centre of `p`'s voxel to the nearest unknown voxel
+    /// centre or the map's edge; `None` when `p` is in unknown space.
+    fn centre_distance(&self, p: &Point3<f64>) -> Option<f64> {
+        let m = &self.map;
+        let v = m.voxel_of(p)?;
+        let i = m.index(v);
+        if m.cells[i] == Voxel::Unknown {
+            return None;
+        }
+        let to_edge = (0..3)
+            .map(|k| (v[k] as f64 + 0.5).min(m.dims[k] as f64 - v[k] as f64 - 0.5) * m.voxel)
+            .fold(f64::INFINITY, f64::min);
+        Some(f64::from(self.dist[i]).min(to_edge))
     }
 }
 

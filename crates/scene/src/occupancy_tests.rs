@@ -99,14 +99,96 @@ fn occupied_wins_whatever_the_order_of_the_rays() {
     assert_eq!(m1.state(&a.1), Voxel::Occupied);
 }
 
+/// A nadir camera at `c`, image width along x, 90 degree horizontal field of view.
+fn nadir(c: Point3<f64>) -> Camera {
+    use std::f64::consts::FRAC_PI_2;
+    let k = crate::camera::Intrinsics::from_hfov(400, 300, 90.0).unwrap();
+    Camera::from_yaw_pitch(k, c, FRAC_PI_2, -FRAC_PI_2)
+}
+
 #[test]
-fn free_above_marks_only_unknown_voxels_wholly_above() {
-    let mut map = OccupancyMap::new(&cube(10.0), 1.0).unwrap();
-    map.carve(&[(Point3::new(0.5, 0.5, 2.5), Point3::new(0.5, 0.5, 8.5))]);
-    map.mark_free_above(7.5);
-    assert_eq!(map.state(&Point3::new(3.5, 3.5, 7.9)), Voxel::Unknown);
-    assert_eq!(map.state(&Point3::new(3.5, 3.5, 8.1)), Voxel::Free);
-    assert_eq!(map.state(&Point3::new(0.5, 0.5, 8.5)), Voxel::Occupied);
+fn free_above_frees_only_unknown_voxels_wholly_above_in_pictured_columns() {
+    let bounds = Aabb {
+        min: Point3::new(0.0, 0.0, 0.0),
+        max: Point3::new(60.0, 40.0, 30.0),
+    };
+    let mut map = OccupancyMap::new(&bounds, 1.0).unwrap();
+    map.carve(&[(Point3::new(10.5, 20.5, 25.5), Point3::new(10.5, 20.5, 8.5))]);
+    let cams = [
+        nadir(Point3::new(10.0, 20.0, 20.0)),
+        nadir(Point3::new(14.0, 20.0, 20.0)),
+        // Below the observed top: its line of sight may pass under it.
+        nadir(Point3::new(45.0, 20.0, 7.0)),
+        nadir(Point3::new(45.0, 20.0, 7.0)),
+    ];
+    map.mark_free_above(7.5, &cams, 2);
+    let at = |x, z| map.state(&Point3::new(x, 20.5, z));
+    assert_eq!(at(12.5, 7.9), Voxel::Unknown, "not wholly above the top");
+    assert_eq!(at(12.5, 8.1), Voxel::Free);
+    assert_eq!(
+        at(12.5, 29.5),
+        Voxel::Free,
+        "the column is free up to the sky"
+    );
+    assert_eq!(at(10.5, 8.5), Voxel::Occupied, "observed points stay");
+    assert_eq!(at(45.5, 12.5), Voxel::Unknown, "no camera above the top");
+    // At z = 8.5 the frusta reach x = 21.5 (camera at x = 10) and
+    // x = 25.5 (at x = 14), less the voxel's half-diagonal.
+    assert_eq!(at(25.5, 12.5), Voxel::Unknown, "pictured by no camera");
+    assert_eq!(at(22.5, 12.5), Voxel::Unknown, "pictured once");
+    assert_eq!(at(19.5, 12.5), Voxel::Free, "pictured twice");
+}
+
+proptest! {
+    /// Whatever the cameras, a freed column's lowest freed voxel lies
+    /// wholly (all 8 corners) inside at least `min_views` frusta of
+    /// cameras not below the top: the rule never frees what no camera
+    /// pictured.
+    #[test]
+    fn free_above_frees_only_pictured_columns(seed in 0u64..1_000_000) {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut map = OccupancyMap::new(&cube(20.0), 1.0).unwrap();
+        let k = crate::camera::Intrinsics::from_hfov(320, 240, rng.random_range(30.0..100.0)).unwrap();
+        let cams: Vec<Camera> = (0..rng.random_range(1..5))
+            .map(|_| {
+                let c = Point3::new(
+                    rng.random_range(-5.0..25.0),
+                    rng.random_range(-5.0..25.0),
+                    rng.random_range(5.0..30.0),
+                );
+                Camera::from_yaw_pitch(
+                    k,
+                    c,
+                    rng.random_range(-3.2..3.2),
+                    rng.random_range(-1.57..0.3),
+                )
+            })
+            .collect();
+        let top: f64 = rng.random_range(2.0..15.0);
+        let min_views = rng.random_range(1..3);
+        map.mark_free_above(top, &cams, min_views);
+        let k0 = top.ceil() as usize;
+        let [nx, ny, _] = map.dims();
+        for j in 0..ny {
+            for i in 0..nx {
+                if map.cells[map.index([i, j, k0])] != Voxel::Free {
+                    continue;
+                }
+                let corners_in = |c: &Camera| {
+                    (0..8).all(|b| {
+                        let p = Point3::new(
+                            (i + (b & 1)) as f64,
+                            (j + ((b >> 1) & 1)) as f64,
+                            (k0 + ((b >> 2) & 1)) as f64,
+                        );
+                        c.in_frustum(&p)
+                    })
+                };
+                let n = cams.iter().filter(|c| c.center().z >= top && corners_in(c)).count();
+                prop_assert!(n >= min_views, "column {i},{j}: pictured by {n} < {min_views}");
+            }
+        }
+    }
 }
 
 #[test]
@@ -142,9 +224,48 @@ fn the_distance_transform_is_exact_at_voxel_centres() {
 #[test]
 fn nothing_unknown_means_infinite_room_inside_the_map() {
     let mut map = OccupancyMap::new(&cube(4.0), 1.0).unwrap();
-    map.mark_free_above(0.0);
+    let high = nadir(Point3::new(2.0, 2.0, 100.0));
+    map.mark_free_above(0.0, &[high, high], 2);
     let fs = map.free_space();
     assert!((fs.clearance(&Point3::new(2.0, 2.0, 2.0)) - 2.0).abs() < 1e-9);
+}
+
+/// Known space for x < 10 of a 20 m cube (unit voxels), unknown beyond.
+fn half_known() -> FreeSpace {
+    let mut map = OccupancyMap::new(&cube(20.0), 1.0).unwrap();
+    let rays: Vec<_> = (0..10)
+        .flat_map(|x| (0..20).map(move |z| (x, z)))
+        .map(|(x, z)| {
+            let (x, z) = (f64::from(x) + 0.5, f64::from(z) + 0.5);
+            (Point3::new(x, -1.0, z), Point3::new(x, 19.5, z))
+        })
+        .collect();
+    map.carve(&rays);
+    map.free_space()
+}
+
+#[test]
+fn a_leg_may_leave_the_edge_of_known_space_but_not_go_deeper() {
+    let fs = half_known();
+    // 2 m from unknown space, closer than the radius of 4 m.
+    let vehicle = Point3::new(8.5, 10.5, 10.5);
+    assert!(!fs.point_is_clear(&vehicle, 4.0));
+    let away = Point3::new(4.6, 10.5, 10.5);
+    assert!(fs.point_is_clear(&away, 4.0));
+    assert!(
+        !fs.segment_is_clear(&vehicle, &away, 4.0),
+        "a plain segment"
+    );
+    assert!(
+        fs.leg_is_clear(&vehicle, &away, 4.0),
+        "away from unknown space"
+    );
+    let along = Point3::new(8.5, 14.5, 10.5);
+    assert!(fs.leg_is_clear(&vehicle, &along, 4.0), "no closer");
+    let deeper = Point3::new(9.5, 10.5, 10.5);
+    assert!(!fs.leg_is_clear(&vehicle, &deeper, 4.0), "closer");
+    let inside = Point3::new(12.5, 10.5, 10.5);
+    assert!(!fs.leg_is_clear(&inside, &away, 4.0), "from unknown space");
 }
 
 #[test]
@@ -171,6 +292,27 @@ proptest! {
         let truth = true_clearance(&map, &p);
         let fs = map.free_space();
         prop_assert!(fs.clearance(&p) <= truth + 1e-9, "{} > {truth}", fs.clearance(&p));
+    }
+
+    /// From a vehicle that keeps the radius, a leg is judged as any
+    /// segment; from one that does not, an accepted leg comes at most one
+    /// and a half voxel diagonals (and half a sampling step) closer to
+    /// unknown space than the vehicle, until it keeps the radius.
+    #[test]
+    fn a_leg_gets_no_closer_to_unknown_space_than_the_vehicle(seed in 0u64..1_000_000, a in prop::array::uniform3(2.0f64..10.0), b in prop::array::uniform3(2.0f64..10.0), r in 0.0f64..2.0) {
+        let map = random_map(seed, 12, 1500);
+        let (a, b) = (Point3::from(a), Point3::from(b));
+        let fs = map.clone().free_space();
+        if fs.point_is_clear(&a, r + 0.25) {
+            prop_assert_eq!(fs.leg_is_clear(&a, &b, r), fs.segment_is_clear(&a, &b, r));
+        } else if fs.leg_is_clear(&a, &b, r) {
+            let floor = r.min(true_clearance(&map, &a) - 1.5 * 3f64.sqrt() - 0.25);
+            for i in 0..=100 {
+                let p = a + (b - a) * (f64::from(i) / 100.0);
+                let d = true_clearance(&map, &p);
+                prop_assert!(d >= floor - 1e-9, "at {i}%: {d} < {floor}");
+            }
+        }
     }
 
     /// A segment reported clear keeps the radius at every point of it.
