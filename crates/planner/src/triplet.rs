@@ -287,8 +287,10 @@ impl Search<'_> {
             }
             let tri = &ful.tris[t];
             let terms = cams.map(|c| CamTerm::new(&c, &tri.centroid, &tri.normal, ful.sigma_px));
-            let (q, angle) = ful.req.score(&terms[0], &terms[1], &terms[2]);
-            let gain = q * ful.curve[t].at(&ful.req.bins, angle) - ful.f(t);
+            let (f, _, _) = ful
+                .req
+                .fulfillment(&terms[0], &terms[1], &terms[2], &ful.curve[t]);
+            let gain = f - ful.f(t);
             if !(gain > 0.0) {
                 continue;
             }
