@@ -33,12 +33,17 @@ pub struct Best {
 }
 
 fn eval(terms: &[CamTerm], t: [usize; 3], conf: Option<&ConfCurve>, req: &Requirements) -> Best {
-    let (q, angle) = req.score(&terms[t[0]], &terms[t[1]], &terms[t[2]]);
-    let c = conf.map_or(1.0, |c| c.at(&req.bins, angle));
+    let (a, b, c) = (&terms[t[0]], &terms[t[1]], &terms[t[2]]);
+    let (value, q, conf) = if let Some(curve) = conf {
+        req.fulfillment(a, b, c, curve)
+    } else {
+        let q = req.quality(a, b, c);
+        (q * 1.0, q, 1.0)
+    };
     Best {
-        value: q * c,
+        value,
         q,
-        conf: c,
+        conf,
         triplet: t,
     }
 }
@@ -544,5 +549,36 @@ mod tests {
                 assert_eq!(again.value.to_bits(), inc.value.to_bits());
             }
         }
+    }
+
+    #[test]
+    fn constant_curves_give_the_value_of_the_interpolated_curve() {
+        let req = Requirements {
+            r_desired: 1.0 / (0.008 * 0.008),
+            accuracy: 0.008,
+            alpha: 0.5,
+            bins: AngleBins::paper(),
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(12);
+        let (terms, _) = random_terms(12, &mut rng);
+        for curve in [
+            ConfCurve::one(&req.bins),
+            ConfCurve(vec![0.37; 9]),
+            ConfCurve(vec![0.0; 9]),
+        ] {
+            assert!(curve.constant().is_some());
+            for i in 0..terms.len() {
+                for j in i + 1..terms.len() {
+                    for k in j + 1..terms.len() {
+                        let (q, angle) = req.score(&terms[i], &terms[j], &terms[k]);
+                        let want = q * curve.at(&req.bins, angle);
+                        let got = eval(&terms, [i, j, k], Some(&curve), &req).value;
+                        assert_eq!(got.to_bits(), want.to_bits());
+                    }
+                }
+            }
+        }
+        assert_eq!(ConfCurve(vec![-0.0; 9]).constant(), None);
+        assert_eq!(ConfCurve(vec![0.5, 0.5, 0.6]).constant(), None);
     }
 }

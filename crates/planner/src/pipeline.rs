@@ -20,7 +20,7 @@ use crate::fulfillment::{sample_triangles, Fulfillment};
 use crate::inputs::{safety_for, AcquiredView, PlanInputs, PlanResult, SampledFulfillment};
 use crate::quality::Requirements;
 use crate::safety::Safety;
-use crate::surrogate::{link_valued, sample_positions};
+use crate::surrogate::{sample_positions, LazyLinks};
 use crate::triplet::{Potential, Search};
 
 fn secs(d: Duration) -> f64 {
@@ -93,8 +93,6 @@ struct Setup<'a> {
     selected: &'a [usize],
     selected_mesh: &'a Mesh,
     surrogates: &'a [Point3<f64>],
-    links: &'a [Vec<u32>],
-    potential: &'a [Vec<f64>],
     safety: &'a Safety,
     caster: &'a RayCaster,
     intrinsics: vp_scene::Intrinsics,
@@ -110,8 +108,9 @@ impl Setup<'_> {
             selected: self.selected,
             selected_mesh: self.selected_mesh,
             surrogates: self.surrogates,
-            links: self.links,
-            potential: self.potential,
+            // run_lazy reads the links from LazyLinks.
+            links: &[],
+            potential: &[],
             safety: self.safety,
             caster: self.caster,
             intrinsics: self.intrinsics,
@@ -134,6 +133,7 @@ struct M3Loop {
 /// k best-triplet searches with f(t) updates; returns why it stopped early, if it did.
 fn m3_loop(
     setup: &Setup,
+    links: &mut LazyLinks,
     ful: &mut Fulfillment,
     cfg: &PlannerConfig,
     times: &mut BTreeMap<String, f64>,
@@ -149,7 +149,7 @@ fn m3_loop(
         }
         let tm = Instant::now();
         let f_before = ful.mean_f();
-        let outcome = setup.search(ful).run();
+        let outcome = setup.search(ful).run_lazy(links);
         out.visited.push(outcome.visited);
         let Some(best) = outcome.best else {
             return Some(if outcome.timed_out {
@@ -192,11 +192,14 @@ fn m3_loop(
     None
 }
 
-/// Surrogate positions, their links to T and the hypothetical fulfillment per link.
-type M2Out = (Vec<Point3<f64>>, Vec<Vec<u32>>, Vec<Vec<f64>>);
+/// Surrogate positions, their links to T (segments tested on demand) and
+/// the hypothetical fulfillment per link.
+type M2Out = (Vec<Point3<f64>>, LazyLinks);
 
 /// M2: free-space surrogates linked by inverse visibility, and the part of
-/// M3's potential gains that does not change between iterations.
+/// M3's potential gains that does not change between iterations. The
+/// segment tests of the links wait until M3 needs them (see
+/// [`crate::triplet::Search::run_lazy`]).
 fn m2(
     inputs: &PlanInputs,
     ful: &Fulfillment,
@@ -215,13 +218,12 @@ fn m2(
     // best hypothetical fulfillment does not exceed f(t) now never carries a
     // potential gain: it is dropped before its segment test.
     let pot = Potential::new(ful, cfg.camera.focal_px);
-    let (links, potential) =
-        link_valued(&surrogates, &t_geo, cfg.inverse_fov_deg, caster, |s, i| {
-            let t = selected[i];
-            let v = pot.value(&surrogates[s], t);
-            (v > ful.f(t)).then_some(v)
-        });
-    Ok((surrogates, links, potential))
+    let links = LazyLinks::new(&surrogates, &t_geo, cfg.inverse_fov_deg, |s, i| {
+        let t = selected[i];
+        let v = pot.value(&surrogates[s], t);
+        (v > ful.f(t)).then_some(v)
+    });
+    Ok((surrogates, links))
 }
 
 /// Adds the observed-free space to `safety` when unknown space counts as
@@ -293,9 +295,12 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
     // M2.
     let tm = Instant::now();
     let mut cut: Option<String> = None;
-    let (surrogates, links, potential) = if over() {
+    let (surrogates, mut links) = if over() {
         cut = Some("time budget spent before M2".into());
-        Default::default()
+        (
+            Vec::new(),
+            LazyLinks::new(&[], &[], cfg.inverse_fov_deg, |_, _| None),
+        )
     } else {
         m2(inputs, &ful, &selected, &safety, &caster, &mut rng)?
     };
@@ -306,8 +311,6 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
         selected: &selected,
         selected_mesh: &selected_mesh,
         surrogates: &surrogates,
-        links: &links,
-        potential: &potential,
         safety: &safety,
         caster: &caster,
         intrinsics: k,
@@ -320,7 +323,7 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
     };
     let mut m3 = M3Loop::default();
     if cut.is_none() {
-        cut = m3_loop(&setup, &mut ful, cfg, &mut times, &mut m3);
+        cut = m3_loop(&setup, &mut links, &mut ful, cfg, &mut times, &mut m3);
     }
     let M3Loop {
         mut iterations,

@@ -92,10 +92,44 @@ impl Requirements {
     /// `alpha f_res + (1 - alpha) f_unc` of a triplet, and its triangulation
     /// angle (deg): the largest pairwise angle between the camera rays.
     pub fn score(&self, a: &CamTerm, b: &CamTerm, c: &CamTerm) -> (f64, f64) {
+        (
+            self.quality(a, b, c),
+            largest_pairwise_angle_deg(&[a.dir, b.dir, c.dir]),
+        )
+    }
+
+    /// `alpha f_res + (1 - alpha) f_unc` of a triplet: the first value of
+    /// [`Requirements::score`], without the angle.
+    pub fn quality(&self, a: &CamTerm, b: &CamTerm, c: &CamTerm) -> f64 {
         let r_min = a.r.min(b.r).min(c.r);
-        let q = self.alpha * self.f_res(r_min)
-            + (1.0 - self.alpha) * self.f_unc(&(a.info + b.info + c.info));
-        (q, largest_pairwise_angle_deg(&[a.dir, b.dir, c.dir]))
+        self.alpha * self.f_res(r_min)
+            + (1.0 - self.alpha) * self.f_unc(&(a.info + b.info + c.info))
+    }
+
+    /// `(q * f_conf(angle), q, f_conf(angle))` of a triplet with the
+    /// confidence `curve`: the fulfillment f(t, c3) without f_cov, and its
+    /// two factors.
+    ///
+    /// # Performance
+    /// Without prediction every curve is constant, and the angle (an
+    /// arccosine per triplet) is not computed: [`ConfCurve::at`] would
+    /// return the constant bit for bit at any angle of cameras that see the
+    /// point (a NaN angle needs a camera at the point itself).
+    pub fn fulfillment(
+        &self,
+        a: &CamTerm,
+        b: &CamTerm,
+        c: &CamTerm,
+        curve: &ConfCurve,
+    ) -> (f64, f64, f64) {
+        if let Some(conf) = curve.constant() {
+            let q = self.quality(a, b, c);
+            (q * conf, q, conf)
+        } else {
+            let (q, angle) = self.score(a, b, c);
+            let conf = curve.at(&self.bins, angle);
+            (q * conf, q, conf)
+        }
     }
 }
 
@@ -128,6 +162,15 @@ impl ConfCurve {
     /// Confidence at `angle_deg`.
     pub fn at(&self, bins: &AngleBins, angle_deg: f64) -> f64 {
         f64::from(bins.interpolate(&self.0, angle_deg))
+    }
+
+    /// The value at every angle when the curve is constant (no prediction,
+    /// or a flat one), as [`ConfCurve::at`] returns it: `a + t (a - a)` is
+    /// `a` bit for bit, except for `a = -0`, which is left out.
+    pub fn constant(&self) -> Option<f64> {
+        let first = *self.0.first()?;
+        let flat = self.0.iter().all(|v| v.to_bits() == first.to_bits());
+        (flat && first.to_bits() != (-0.0f32).to_bits()).then_some(f64::from(first))
     }
 
     /// Largest value: an upper bound of the confidence at any angle.

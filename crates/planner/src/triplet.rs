@@ -5,6 +5,8 @@
 //! is the paper's shortcut, a heuristic: it can miss the best triplet.
 //! [`Search::early_stop`] = false searches every surrogate instead.
 
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
 use std::time::Instant;
 
 use nalgebra::{Point3, Vector3};
@@ -15,7 +17,7 @@ use vp_scene::{Camera, Intrinsics, Mesh};
 use crate::fulfillment::Fulfillment;
 use crate::quality::{CamTerm, ConfCurve};
 use crate::safety::Safety;
-use crate::surrogate::basis;
+use crate::surrogate::{basis, LazyLinks};
 
 /// Azimuths of the three cameras around the viewing direction, degrees
 /// (DESIGN.md [vpctl]): one above, two below, measured from image right.
@@ -24,6 +26,43 @@ const AZIMUTHS_DEG: [f64; 3] = [90.0, 210.0, 330.0];
 /// Surrogates evaluated together between two early-stop checks; results
 /// are merged in visit order, so they equal a sequential visit.
 const CHUNK: usize = 4;
+
+/// Segment tests [`Search::run_lazy`] gathers into one parallel batch
+/// (from as many surrogates as it takes) before testing them.
+const RESOLVE_BATCH_RAYS: usize = 2048;
+
+/// A surrogate in the visit order of [`Search::run_lazy`]: by decreasing
+/// sum, then increasing index (the order of [`Search::run`]).
+#[derive(Debug, Clone, Copy)]
+struct Ranked {
+    /// Summed potential gain, or a bound of it when not `exact`.
+    sum: f64,
+    /// Surrogate index.
+    s: usize,
+    /// Whether `sum` is the summed potential gain over links.
+    exact: bool,
+}
+
+impl PartialEq for Ranked {
+    fn eq(&self, other: &Self) -> bool {
+        self.cmp(other) == Ordering::Equal
+    }
+}
+
+impl Eq for Ranked {}
+
+impl PartialOrd for Ranked {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for Ranked {
+    /// Greater = visited first.
+    fn cmp(&self, other: &Self) -> Ordering {
+        self.sum.total_cmp(&other.sum).then(other.s.cmp(&self.s))
+    }
+}
 
 /// A candidate triplet.
 #[derive(Debug, Clone, PartialEq)]
@@ -248,8 +287,10 @@ impl Search<'_> {
             }
             let tri = &ful.tris[t];
             let terms = cams.map(|c| CamTerm::new(&c, &tri.centroid, &tri.normal, ful.sigma_px));
-            let (q, angle) = ful.req.score(&terms[0], &terms[1], &terms[2]);
-            let gain = q * ful.curve[t].at(&ful.req.bins, angle) - ful.f(t);
+            let (f, _, _) = ful
+                .req
+                .fulfillment(&terms[0], &terms[1], &terms[2], &ful.curve[t]);
+            let gain = f - ful.f(t);
             if !(gain > 0.0) {
                 continue;
             }
@@ -298,10 +339,13 @@ impl Search<'_> {
             .map(|m| m.0)
     }
 
-    /// Orients surrogate `s`, builds its b triplets and returns the best safe one.
-    fn visit(&self, s: usize, gpot: &[f64]) -> Option<Candidate> {
+    /// Orients surrogate `s` with its `links` and their potential gains
+    /// `gpot`, builds its b triplets and returns the best safe one.
+    ///
+    /// Only the links with a positive gain count: a link of gain 0 adds a
+    /// zero to every sum here, so it can be left out.
+    fn visit(&self, s: usize, links: &[u32], gpot: &[f64]) -> Option<Candidate> {
         let pos = self.surrogates[s];
-        let links = &self.links[s];
         let rays: Vec<(Vector3<f64>, f64)> = links
             .iter()
             .zip(gpot)
@@ -390,6 +434,9 @@ impl Search<'_> {
 
     /// Visits surrogates by decreasing summed potential gain; with
     /// `early_stop`, stops when that sum is below the best gain found.
+    ///
+    /// The reference for [`Search::run_lazy`]: `links` and `potential`
+    /// hold every link, tested.
     pub fn run(&self) -> Outcome {
         let gpot = self.potential_gains();
         let sums: Vec<f64> = gpot.iter().map(|g| g.iter().sum()).collect();
@@ -401,8 +448,10 @@ impl Search<'_> {
                 out.timed_out = true;
                 break;
             }
-            let results: Vec<Option<Candidate>> =
-                chunk.par_iter().map(|&s| self.visit(s, &gpot[s])).collect();
+            let results: Vec<Option<Candidate>> = chunk
+                .par_iter()
+                .map(|&s| self.visit(s, &self.links[s], &gpot[s]))
+                .collect();
             for (&s, cand) in chunk.iter().zip(results) {
                 let best_gain = out.best.as_ref().map_or(0.0, |b| b.gain);
                 if self.early_stop && out.best.is_some() && sums[s] < best_gain {
@@ -417,6 +466,175 @@ impl Search<'_> {
             }
         }
         out
+    }
+
+    /// [`Search::run`] on links whose segment tests are done on demand
+    /// (`links` and `potential` of `self` are not used): the same surrogates
+    /// visited in the same order, the same outcome, bit for bit (tested).
+    ///
+    /// A surrogate's summed gain over its untested candidates bounds its
+    /// summed gain over its links from above (the sum of a superset of
+    /// non-negative terms, in the same order, rounds no lower). Surrogates
+    /// come off a max-heap of these bounds; one whose bound is not exact
+    /// yet has the segments of its candidates with a positive gain tested
+    /// and goes back with its exact sum. A surrogate comes out for a visit
+    /// only with its exact sum on top, so the visit order is
+    /// [`Search::run`]'s; the early stop ends the search once the top
+    /// bound is below the best gain, without testing what is left.
+    ///
+    /// # Performance
+    /// A link whose potential gain is 0 (f(t) only grows) never needs its
+    /// segment, nor does a surrogate whose bound stays below the best gain.
+    pub fn run_lazy(&self, lazy: &mut LazyLinks) -> Outcome {
+        let gpot: Vec<Vec<f64>> = (0..lazy.len())
+            .into_par_iter()
+            .map(|s| {
+                let (tris, best) = lazy.candidates(s);
+                tris.iter()
+                    .zip(best)
+                    .map(|(&ti, &b)| self.potential_gain(b, self.selected[ti as usize]))
+                    .collect()
+            })
+            .collect();
+        let mut order = VisitOrder::new(gpot, lazy);
+        let mut out = Outcome::default();
+        loop {
+            // Every sum left below the best gain: Search::run stops at the
+            // next surrogate.
+            let stop_below = out
+                .best
+                .as_ref()
+                .filter(|_| self.early_stop)
+                .map(|b| b.gain);
+            // The next CHUNK surrogates of the visit order.
+            let mut chunk: Vec<Ranked> = Vec::with_capacity(CHUNK);
+            let mut last = false;
+            while chunk.len() < CHUNK {
+                let Some(r) = order.next(lazy, self.caster, stop_below) else {
+                    last = true;
+                    break;
+                };
+                chunk.push(r);
+            }
+            if chunk.is_empty() {
+                break;
+            }
+            if self.deadline.is_some_and(|d| Instant::now() >= d) {
+                out.timed_out = true;
+                break;
+            }
+            let (lazy, gpot) = (&*lazy, &order.gpot);
+            let results: Vec<Option<Candidate>> = chunk
+                .par_iter()
+                .map(|r| {
+                    let (tris, _) = lazy.candidates(r.s);
+                    let (links, g): (Vec<u32>, Vec<f64>) = gpot[r.s]
+                        .iter()
+                        .enumerate()
+                        .filter(|&(k, &g)| g > 0.0 && lazy.visible(r.s, k) == Some(true))
+                        .map(|(k, &g)| (tris[k], g))
+                        .unzip();
+                    self.visit(r.s, &links, &g)
+                })
+                .collect();
+            for (r, cand) in chunk.iter().zip(results) {
+                let best_gain = out.best.as_ref().map_or(0.0, |b| b.gain);
+                if self.early_stop && out.best.is_some() && r.sum < best_gain {
+                    return out;
+                }
+                out.visited += 1;
+                if let Some(c) = cand {
+                    if c.gain > best_gain {
+                        out.best = Some(c);
+                    }
+                }
+            }
+            if last {
+                break;
+            }
+        }
+        out
+    }
+}
+
+/// The visit order of [`Search::run_lazy`], found lazily: a max-heap of
+/// surrogates by summed potential gain, exact or a bound from above.
+struct VisitOrder {
+    /// Per surrogate and candidate link, the potential gain.
+    gpot: Vec<Vec<f64>>,
+    heap: BinaryHeap<Ranked>,
+}
+
+impl VisitOrder {
+    fn new(gpot: Vec<Vec<f64>>, lazy: &LazyLinks) -> Self {
+        let heap: Vec<Ranked> = (0..lazy.len())
+            .into_par_iter()
+            .filter_map(|s| {
+                let r = Self::rank(&gpot, lazy, s);
+                (r.sum > 0.0).then_some(r)
+            })
+            .collect();
+        VisitOrder {
+            gpot,
+            heap: heap.into(),
+        }
+    }
+
+    /// The sum over positive gains of the candidates of `s` not known to be
+    /// occluded; exact when none of them is untested.
+    fn rank(gpot: &[Vec<f64>], lazy: &LazyLinks, s: usize) -> Ranked {
+        let mut exact = true;
+        let sum = gpot[s]
+            .iter()
+            .enumerate()
+            .filter(|&(k, &g)| {
+                let v = lazy.visible(s, k);
+                exact &= !(g > 0.0 && v.is_none());
+                g > 0.0 && v != Some(false)
+            })
+            .map(|(_, &g)| g)
+            .sum();
+        Ranked { sum, s, exact }
+    }
+
+    /// The next surrogate of the visit order with its exact sum, testing
+    /// segments as needed; `None` at the end or when every sum left is
+    /// below `stop_below`.
+    fn next(
+        &mut self,
+        lazy: &mut LazyLinks,
+        caster: &RayCaster,
+        stop_below: Option<f64>,
+    ) -> Option<Ranked> {
+        loop {
+            let top = self.heap.pop()?;
+            if stop_below.is_some_and(|b| top.sum < b) {
+                return None;
+            }
+            if top.exact {
+                return Some(top);
+            }
+            // Test the segments of this surrogate and of the next ones
+            // that are not exact either, together: one parallel batch
+            // instead of one per surrogate. Testing more than needed
+            // costs rays, never a different order.
+            let gpot = &self.gpot;
+            let mut batch = vec![top.s];
+            let mut rays = lazy.unresolved(top.s, |k| gpot[top.s][k] > 0.0);
+            while rays < RESOLVE_BATCH_RAYS && self.heap.peek().is_some_and(|r| !r.exact) {
+                let Some(next) = self.heap.pop() else { break };
+                rays += lazy.unresolved(next.s, |k| gpot[next.s][k] > 0.0);
+                batch.push(next.s);
+            }
+            lazy.resolve(&batch, caster, |s, k| gpot[s][k] > 0.0);
+            for &s in &batch {
+                let r = Self::rank(gpot, lazy, s);
+                debug_assert!(r.exact);
+                if r.sum > 0.0 {
+                    self.heap.push(r);
+                }
+            }
+        }
     }
 }
 

@@ -115,23 +115,40 @@ pub fn sigma_max(cov: &Matrix3<f64>) -> f64 {
 ///
 /// # Performance
 /// About ten times faster than an iterative decomposition; the planner's
-/// f_unc calls it for every triplet M1 and M3 score.
+/// f_unc calls it for every triplet M1 and M3 score. It takes only the
+/// cosine of its own root (the same operations as [`largest_eigenvalue`]
+/// takes for its root, so each is the value of the joint solution).
 pub fn smallest_eigenvalue(a: &Matrix3<f64>) -> f64 {
-    eigenvalue_extremes(a).0
+    match characteristic(a) {
+        Roots::Diagonal(d) => d[0].min(d[1]).min(d[2]),
+        Roots::Trigonometric { q, p, phi } => {
+            q + 2.0 * p * (phi + 2.0 * std::f64::consts::FRAC_PI_3).cos()
+        }
+    }
 }
 
 /// Largest eigenvalue of a symmetric 3x3 matrix, in closed form.
 pub fn largest_eigenvalue(a: &Matrix3<f64>) -> f64 {
-    eigenvalue_extremes(a).1
+    match characteristic(a) {
+        Roots::Diagonal(d) => d[0].max(d[1]).max(d[2]),
+        Roots::Trigonometric { q, p, phi } => q + 2.0 * p * phi.cos(),
+    }
 }
 
-/// (smallest, largest) eigenvalue of a symmetric 3x3 matrix: the
-/// trigonometric solution of the characteristic cubic (O. K. Smith 1961).
-fn eigenvalue_extremes(a: &Matrix3<f64>) -> (f64, f64) {
+/// The eigenvalues of a symmetric 3x3 matrix before the last cosine.
+enum Roots {
+    /// A diagonal matrix: its diagonal.
+    Diagonal([f64; 3]),
+    /// Root k is `q + 2 p cos(phi + 2 k pi / 3)`.
+    Trigonometric { q: f64, p: f64, phi: f64 },
+}
+
+/// The trigonometric solution of the characteristic cubic (O. K. Smith 1961).
+#[inline]
+fn characteristic(a: &Matrix3<f64>) -> Roots {
     let p1 = a[(0, 1)].powi(2) + a[(0, 2)].powi(2) + a[(1, 2)].powi(2);
     if p1 == 0.0 {
-        let d = [a[(0, 0)], a[(1, 1)], a[(2, 2)]];
-        return (d[0].min(d[1]).min(d[2]), d[0].max(d[1]).max(d[2]));
+        return Roots::Diagonal([a[(0, 0)], a[(1, 1)], a[(2, 2)]]);
     }
     let q = a.trace() / 3.0;
     let p2 = (a[(0, 0)] - q).powi(2) + (a[(1, 1)] - q).powi(2) + (a[(2, 2)] - q).powi(2) + 2.0 * p1;
@@ -139,9 +156,7 @@ fn eigenvalue_extremes(a: &Matrix3<f64>) -> (f64, f64) {
     let b = (a - Matrix3::identity() * q) / p;
     let r = (0.5 * b.determinant()).clamp(-1.0, 1.0);
     let phi = r.acos() / 3.0;
-    let largest = q + 2.0 * p * phi.cos();
-    let smallest = q + 2.0 * p * (phi + 2.0 * std::f64::consts::FRAC_PI_3).cos();
-    (smallest, largest)
+    Roots::Trigonometric { q, p, phi }
 }
 
 /// Triangulation angle and uncertainty of one surface point for one camera
