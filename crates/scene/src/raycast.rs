@@ -127,17 +127,7 @@ impl RayCaster {
     /// `dir` must be unit length so that `t` is a distance.
     pub fn closest_hit(&self, origin: &Point3<f64>, dir: &Vector3<f64>, t_max: f64) -> Option<Hit> {
         let ray = self.local_ray(origin, dir, t_max);
-        let hit = self.bvh.closest_hit(&ray)?;
-        let t = f64::from(hit.t);
-        // Barycentrics from the leaf packet, which the traversal just read
-        // (in cache); the world-frame triangle would cost a miss.
-        let (u, v) = (f64::from(hit.u), f64::from(hit.v));
-        Some(Hit {
-            t,
-            face: hit.face,
-            bary: [1.0 - u - v, u, v],
-            point: origin + dir * t,
-        })
+        Some(world_hit(origin, dir, &self.bvh.closest_hit(&ray)?))
     }
 
     /// Whether any surface lies on the open segment from `from` to `to`.
@@ -153,14 +143,17 @@ impl RayCaster {
     }
 
     /// [`RayCaster::closest_hit`] for many rays, in parallel. Each ray is
-    /// `(origin, unit direction)`.
+    /// `(origin, unit direction)`. The answers are those of
+    /// [`RayCaster::closest_hit`], bit for bit.
     ///
     /// # Performance
-    /// Large batches over a BVH larger than the last-level cache are traced
-    /// in a coherent order (rays sorted by direction bin, then by the Morton
+    /// Each thread walks several rays at once, a node of each in turn, so
+    /// that their cache misses overlap (see `Bvh8::closest_hits`). Large
+    /// batches over a BVH larger than the last-level cache are traced in a
+    /// coherent order (rays sorted by direction bin, then by the Morton
     /// code of their origin) so that consecutive rays visit the same BVH
-    /// nodes and triangles while they are in cache; the results come back in
-    /// input order.
+    /// nodes and triangles while they are in cache; the results come back
+    /// in input order.
     pub fn closest_hits(
         &self,
         rays: &[(Point3<f64>, Vector3<f64>)],
@@ -169,24 +162,55 @@ impl RayCaster {
         self.trace_coherent(
             rays,
             |(o, d)| (*o, *d),
-            |(o, d)| self.closest_hit(o, d, t_max),
+            |rays| {
+                let mut out = vec![None; rays.len()];
+                out.par_chunks_mut(TRACE_CHUNK)
+                    .zip(rays.par_chunks(TRACE_CHUNK))
+                    .for_each(|(out, chunk)| {
+                        let local: Vec<Bvh8Ray> = chunk
+                            .iter()
+                            .map(|(o, d)| self.local_ray(o, d, t_max))
+                            .collect();
+                        self.bvh.closest_hits(&local, |i, hit| {
+                            let (o, d) = &chunk[i];
+                            out[i] = hit.map(|h| world_hit(o, d, &h));
+                        });
+                    });
+                out
+            },
         )
     }
 
     /// [`RayCaster::occluded`] for many segments, in parallel (coherent order
     /// as in [`RayCaster::closest_hits`]).
+    ///
+    /// # Performance
+    /// Segments are walked one at a time: walking several at once, as
+    /// [`RayCaster::closest_hits`] does, did not make these short,
+    /// early-exiting walks measurably faster (docs/performance.md).
     pub fn occluded_batch(&self, segments: &[(Point3<f64>, Point3<f64>)]) -> Vec<bool> {
-        self.trace_coherent(segments, |(a, b)| (*a, b - a), |(a, b)| self.occluded(a, b))
+        self.trace_coherent(
+            segments,
+            |(a, b)| (*a, b - a),
+            |segments| {
+                segments
+                    .par_iter()
+                    .with_min_len(256)
+                    .map(|(a, b)| self.occluded(a, b))
+                    .collect()
+            },
+        )
     }
 
-    /// Runs `query` on every item in parallel, in the coherent order of the
-    /// rays `ray_of` gives where that pays (see [`COHERENT_BVH_BYTES`]), and
-    /// returns the answers in input order.
+    /// Answers `items` with `query` (which answers a slice of items in
+    /// order, in parallel), in the coherent order of the rays `ray_of` gives
+    /// where that pays (see [`COHERENT_BVH_BYTES`]); the answers come back
+    /// in input order.
     fn trace_coherent<I: Sync + Send + Copy, R: Send + Copy + Default>(
         &self,
         items: &[I],
         ray_of: impl Fn(&I) -> (Point3<f64>, Vector3<f64>) + Sync,
-        query: impl Fn(&I) -> R + Sync,
+        query: impl Fn(&[I]) -> Vec<R> + Sync,
     ) -> Vec<R> {
         let sort = items.len() >= COHERENT_BATCH && self.bvh.bytes() >= COHERENT_BVH_BYTES;
         self.trace(items, ray_of, query, sort)
@@ -197,11 +221,11 @@ impl RayCaster {
         &self,
         items: &[I],
         ray_of: impl Fn(&I) -> (Point3<f64>, Vector3<f64>) + Sync,
-        query: impl Fn(&I) -> R + Sync,
+        query: impl Fn(&[I]) -> Vec<R> + Sync,
         sort: bool,
     ) -> Vec<R> {
         if !sort {
-            return items.par_iter().with_min_len(256).map(&query).collect();
+            return query(items);
         }
         let mut order: Vec<(u64, u32)> = items
             .par_iter()
@@ -216,7 +240,7 @@ impl RayCaster {
         // cache misses in flight, where a miss at the start of each query
         // would stall it.
         let sorted: Vec<I> = order.par_iter().map(|&(_, i)| items[i as usize]).collect();
-        let answers: Vec<R> = sorted.par_iter().with_min_len(1024).map(&query).collect();
+        let answers = query(&sorted);
         let mut out = vec![R::default(); items.len()];
         for (&(_, i), a) in order.iter().zip(answers) {
             out[i as usize] = a;
@@ -300,6 +324,10 @@ impl RayCaster {
     }
 }
 
+/// Rays per parallel task of the batch queries: enough that the walks
+/// interleaved on a thread rarely run short of rays.
+const TRACE_CHUNK: usize = 512;
+
 /// Batches at least this large are traced in coherent order...
 const COHERENT_BATCH: usize = 16_384;
 
@@ -309,6 +337,21 @@ const COHERENT_BATCH: usize = 16_384;
 /// took 35 % of the occlusion time, and tracing 1M aerial rays in input
 /// order was 1.3-1.8x faster for occlusion, the same for closest hits.
 const COHERENT_BVH_BYTES: usize = 32 << 20;
+
+/// The world-frame hit of the ray from `origin` in direction `dir` that
+/// the traversal found.
+fn world_hit(origin: &Point3<f64>, dir: &Vector3<f64>, hit: &bvh8::Bvh8Hit) -> Hit {
+    let t = f64::from(hit.t);
+    // Barycentrics from the leaf packet, which the traversal just read
+    // (in cache); the world-frame triangle would cost a miss.
+    let (u, v) = (f64::from(hit.u), f64::from(hit.v));
+    Hit {
+        t,
+        face: hit.face,
+        bary: [1.0 - u - v, u, v],
+        point: origin + dir * t,
+    }
+}
 
 /// Spreads the low 10 bits of `x` to every third bit (Morton interleave).
 fn spread_bits(x: u64) -> u64 {

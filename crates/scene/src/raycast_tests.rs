@@ -245,7 +245,11 @@ fn batch_results_equal_single_queries() {
     let sorted = caster.trace(
         &rays,
         |(o, d)| (*o, *d),
-        |(o, d)| caster.closest_hit(o, d, f64::INFINITY),
+        |rays| {
+            rays.iter()
+                .map(|(o, d)| caster.closest_hit(o, d, f64::INFINITY))
+                .collect()
+        },
         true,
     );
     assert_eq!(sorted, batch);
@@ -258,10 +262,90 @@ fn batch_results_equal_single_queries() {
     let sorted = caster.trace(
         &segments,
         |(a, b)| (*a, b - a),
-        |(a, b)| caster.occluded(a, b),
+        |segments| {
+            segments
+                .iter()
+                .map(|(a, b)| caster.occluded(a, b))
+                .collect()
+        },
         true,
     );
     assert_eq!(sorted, occ);
+}
+
+/// `closest_hits` walks several rays at once, a node of each in turn; each
+/// walk must still find exactly what a lone walk finds: the same face at the
+/// same `t`, bit for bit. `occluded_batch` answers as `occluded`.
+#[test]
+fn interleaved_batch_walks_equal_single_ray_walks() {
+    let site = crate::procedural::generate_site(&crate::procedural::SiteParams {
+        seed: 5,
+        target_faces: 30_000,
+        ..crate::procedural::SiteParams::default()
+    })
+    .unwrap();
+    let mesh = &site.mesh;
+    let caster = RayCaster::new(mesh);
+    let b = mesh.bounds();
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    // Aerial rays as the planner casts them, and rays from inside the site
+    // in all directions (deeper, longer walks).
+    let rays: Vec<(Point3<f64>, Vector3<f64>)> = (0..40_000)
+        .map(|i| {
+            let at = |rng: &mut ChaCha8Rng, z: f64| {
+                Point3::new(
+                    rng.random_range(b.min.x..b.max.x),
+                    rng.random_range(b.min.y..b.max.y),
+                    z,
+                )
+            };
+            let z = if i % 2 == 0 {
+                b.max.z + rng.random_range(10.0..50.0)
+            } else {
+                rng.random_range(b.min.z..b.max.z)
+            };
+            let o = at(&mut rng, z);
+            let d = if i % 2 == 0 {
+                at(&mut rng, b.min.z) - o
+            } else {
+                Vector3::new(
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                )
+            };
+            (o, d.try_normalize(1e-9).unwrap_or_else(Vector3::z))
+        })
+        .collect();
+    for t_max in [f64::INFINITY, 30.0] {
+        let batch = caster.closest_hits(&rays, t_max);
+        let mut n_hits = 0;
+        for ((o, d), got) in rays.iter().zip(&batch) {
+            let want = caster.closest_hit(o, d, t_max);
+            assert_eq!(
+                got.map(|h| (h.face, h.t.to_bits(), h.bary.map(f64::to_bits))),
+                want.map(|h| (h.face, h.t.to_bits(), h.bary.map(f64::to_bits))),
+                "ray {o} {d}"
+            );
+            n_hits += usize::from(got.is_some());
+        }
+        assert!(n_hits > rays.len() / 5, "{n_hits} hits");
+    }
+    let segments: Vec<_> = rays
+        .iter()
+        .enumerate()
+        // Every 100th segment is empty: never occluded.
+        .map(|(i, (o, d))| (*o, if i % 100 == 0 { *o } else { o + d * 25.0 }))
+        .collect();
+    let occ = caster.occluded_batch(&segments);
+    for ((a, b), got) in segments.iter().zip(&occ) {
+        assert_eq!(*got, caster.occluded(a, b), "segment {a} {b}");
+    }
+    let n_occ = occ.iter().filter(|&&o| o).count();
+    assert!(
+        n_occ > segments.len() / 5 && n_occ < segments.len(),
+        "{n_occ}"
+    );
 }
 
 fn ground_with_wall() -> Mesh {
