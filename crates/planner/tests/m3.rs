@@ -13,6 +13,7 @@ use vp_planner::surrogate::{link_valued, sample_positions, LazyLinks};
 use vp_planner::triplet::{Potential, Search};
 use vp_scene::mesh_ops::submesh;
 use vp_scene::plan::AltitudeLimits;
+use vp_scene::procedural::Site;
 use vp_scene::raster::AngleBins;
 use vp_scene::raycast::RayCaster;
 use vp_scene::{Camera, Intrinsics};
@@ -38,11 +39,13 @@ fn gain_by_definition(search: &Search, cams: &[Camera; 3]) -> f64 {
     g
 }
 
-#[test]
-fn gain_equals_the_definition_on_a_site_with_trees() {
+/// Site 3 (30k faces) with its ray caster, f(t) of 400 sampled triangles
+/// seen by its initial views (requirements for `accuracy` metres), the
+/// safety rules of its flight volume, and the rng that sampled them.
+fn fixture(seed: u64, accuracy: f64) -> (Site, RayCaster, Fulfillment, Safety, ChaCha8Rng) {
     let site = common::site(3, 30_000);
     let caster = RayCaster::new(&site.mesh);
-    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let roi: Vec<u32> = (0..site.mesh.n_faces() as u32).collect();
     let sampled = sample_triangles(&site.mesh, &roi, 400, &mut rng).unwrap();
     let acquired: Vec<Camera> = common::initial_views(&site)
@@ -50,8 +53,8 @@ fn gain_equals_the_definition_on_a_site_with_trees() {
         .map(|a| a.camera)
         .collect();
     let req = Requirements {
-        r_desired: 1.0 / (0.02 * 0.02),
-        accuracy: 0.02,
+        r_desired: 1.0 / (accuracy * accuracy),
+        accuracy,
         alpha: 0.5,
         bins: AngleBins::paper(),
     };
@@ -64,11 +67,6 @@ fn gain_equals_the_definition_on_a_site_with_trees() {
         &acquired,
         &vec![None; acquired.len()],
     );
-    let selected: Vec<usize> = (0..ful.tris.len()).collect();
-    let selected_mesh = submesh(
-        &ful.tri_mesh,
-        &selected.iter().map(|&t| t as u32).collect::<Vec<_>>(),
-    );
     let v = site.flight_volume;
     let safety = Safety::new(
         &site.mesh,
@@ -79,6 +77,17 @@ fn gain_equals_the_definition_on_a_site_with_trees() {
             min_m: v.min.z,
             max_m: v.max.z,
         },
+    );
+    (site, caster, ful, safety, rng)
+}
+
+#[test]
+fn gain_equals_the_definition_on_a_site_with_trees() {
+    let (site, caster, ful, safety, mut rng) = fixture(5, 0.02);
+    let selected: Vec<usize> = (0..ful.tris.len()).collect();
+    let selected_mesh = submesh(
+        &ful.tri_mesh,
+        &selected.iter().map(|&t| t as u32).collect::<Vec<_>>(),
     );
     let k = Intrinsics::from_hfov(640, 480, 70.0).unwrap();
     let search = Search {
@@ -128,45 +137,11 @@ fn gain_equals_the_definition_on_a_site_with_trees() {
 /// tested up front, over iterations in which f(t) grows.
 #[test]
 fn lazy_search_equals_the_search_over_tested_links() {
-    let site = common::site(3, 30_000);
-    let caster = RayCaster::new(&site.mesh);
-    let mut rng = ChaCha8Rng::seed_from_u64(9);
-    let roi: Vec<u32> = (0..site.mesh.n_faces() as u32).collect();
-    let sampled = sample_triangles(&site.mesh, &roi, 400, &mut rng).unwrap();
-    let acquired: Vec<Camera> = common::initial_views(&site)
-        .iter()
-        .map(|a| a.camera)
-        .collect();
-    let req = Requirements {
-        r_desired: 1.0 / (0.008 * 0.008),
-        accuracy: 0.008,
-        alpha: 0.5,
-        bins: AngleBins::paper(),
-    };
-    let mut ful = Fulfillment::new(
-        req,
-        1.0,
-        3,
-        sampled,
-        &caster,
-        &acquired,
-        &vec![None; acquired.len()],
-    );
+    let (site, caster, mut ful, safety, mut rng) = fixture(9, 0.008);
     let selected: Vec<usize> = (0..ful.tris.len()).step_by(3).collect();
     let selected_mesh = submesh(
         &ful.tri_mesh,
         &selected.iter().map(|&t| t as u32).collect::<Vec<_>>(),
-    );
-    let v = site.flight_volume;
-    let safety = Safety::new(
-        &site.mesh,
-        5.0,
-        v,
-        None,
-        AltitudeLimits {
-            min_m: v.min.z,
-            max_m: v.max.z,
-        },
     );
     let surrogates = sample_positions(&safety, &caster, &site.mesh, 800, &mut rng).unwrap();
     let t_geo: Vec<_> = selected
