@@ -252,7 +252,7 @@ fn blocked_segment_under_a_low_ceiling_refuses_the_plan_naming_it() {
         let msg = e.to_string();
         assert!(matches!(e, PlannerError::Refused(_)), "{msg}");
         assert!(
-            msg.contains("segment 1 -> 2") && msg.contains("altitude limit 22 m"),
+            msg.contains("segment 1 -> 2") && msg.contains("altitude limit 22.0 m"),
             "{msg}"
         );
     });
@@ -284,7 +284,7 @@ fn a_triplet_behind_an_unclimbable_wall_is_dropped_not_the_plan() {
         assert!(
             path.dropped_reasons.len() == 1
                 && why.contains("segment 2 -> 3")
-                && why.contains("altitude limit 22 m"),
+                && why.contains("altitude limit 22.0 m"),
             "{:?}",
             path.dropped_reasons
         );
