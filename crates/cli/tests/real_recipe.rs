@@ -336,11 +336,16 @@ fn write_plan_config(tmp: &Path) -> [[f64; 3]; 2] {
         [lo.x - 40.0, lo.y - 40.0, lo.z - 30.0],
         [hi.x + 40.0, hi.y + 40.0, hi.z + 20.0],
     ];
+    // `unknown_space = "free"`: these photos look at the cube from one side
+    // and never picture the space around their own positions, so with
+    // "occupied" no leg out of the last camera's position is known free and
+    // both triplets are dropped with that reason (the safe answer, but the
+    // recipe's later steps need waypoints; docs/campaign-findings.md).
     std::fs::write(
         tmp.join("plan.toml"),
         format!(
             "n_triangles = 300\nn_surrogates = 600\nn_selected = 60\nn_triplets = 2\n\
-             gsd_m = 0.05\naccuracy_m = 0.05\n\
+             gsd_m = 0.05\naccuracy_m = 0.05\nunknown_space = \"free\"\n\
              flight_volume = [[{}, {}, {}], [{}, {}, {}]]\n\
              [camera]\nwidth = 387\nheight = 288\nfocal_px = 592.37\n",
             volume[0][0], volume[0][1], volume[0][2], volume[1][0], volume[1][1], volume[1][2]
