@@ -166,17 +166,6 @@ fn per_surrogate<V>(n: usize, per_tri: Vec<Vec<(u32, V)>>) -> (Vec<Vec<u32>>, Ve
     (links, values)
 }
 
-/// What is known of a candidate link's segment test.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Seen {
-    /// Not tested yet.
-    Unknown,
-    /// Tested: not occluded, a link.
-    Visible,
-    /// Tested: occluded, no link.
-    Occluded,
-}
-
 /// The links of [`link_valued`] with their segment tests deferred: the
 /// candidates (inside the frustum, with a value) are found up front, and a
 /// candidate's segment is tested only when [`LazyLinks::resolve`] asks for
@@ -192,8 +181,9 @@ pub struct LazyLinks {
     triangles: Vec<Vec<u32>>,
     /// Per surrogate: the value of each candidate.
     values: Vec<Vec<f64>>,
-    /// Per surrogate: the segment test of each candidate, if done.
-    seen: Vec<Vec<Seen>>,
+    /// Per surrogate: whether each candidate's segment is clear (a link),
+    /// `None` until tested.
+    seen: Vec<Vec<Option<bool>>>,
     /// Per triangle: where its segments start.
     origins: Vec<Point3<f64>>,
     /// The surrogate positions.
@@ -211,7 +201,7 @@ impl LazyLinks {
         let per_tri = in_frustum(surrogates, triangles, fov_deg, value);
         let (tris, values) = per_surrogate(surrogates.len(), per_tri);
         LazyLinks {
-            seen: tris.iter().map(|t| vec![Seen::Unknown; t.len()]).collect(),
+            seen: tris.iter().map(|t| vec![None; t.len()]).collect(),
             triangles: tris,
             values,
             origins: triangles.iter().map(segment_origin).collect(),
@@ -236,11 +226,7 @@ impl LazyLinks {
 
     /// Whether candidate `k` of surrogate `s` is a link: `None` until resolved.
     pub fn visible(&self, s: usize, k: usize) -> Option<bool> {
-        match self.seen[s][k] {
-            Seen::Unknown => None,
-            Seen::Visible => Some(true),
-            Seen::Occluded => Some(false),
-        }
+        self.seen[s][k]
     }
 
     /// Tests the segments of the unresolved candidates `k` of the
@@ -253,27 +239,22 @@ impl LazyLinks {
         need: impl Fn(usize, usize) -> bool + Sync,
     ) {
         let me = &*self;
-        let answers: Vec<Vec<(usize, Seen)>> = batch
+        let answers: Vec<Vec<(usize, bool)>> = batch
             .par_iter()
             .map(|&s| {
                 let p = me.surrogates[s];
                 (0..me.seen[s].len())
-                    .filter(|&k| me.seen[s][k] == Seen::Unknown && need(s, k))
+                    .filter(|&k| me.seen[s][k].is_none() && need(s, k))
                     .map(|k| {
                         let origin = &me.origins[me.triangles[s][k] as usize];
-                        let seen = if caster.occluded(origin, &p) {
-                            Seen::Occluded
-                        } else {
-                            Seen::Visible
-                        };
-                        (k, seen)
+                        (k, !caster.occluded(origin, &p))
                     })
                     .collect()
             })
             .collect();
         for (&s, answers) in batch.iter().zip(answers) {
-            for (k, seen) in answers {
-                self.seen[s][k] = seen;
+            for (k, clear) in answers {
+                self.seen[s][k] = Some(clear);
             }
         }
     }
@@ -281,7 +262,7 @@ impl LazyLinks {
     /// Number of candidates of surrogate `s` not tested yet for which `need(k)` holds.
     pub fn unresolved(&self, s: usize, need: impl Fn(usize) -> bool) -> usize {
         (0..self.seen[s].len())
-            .filter(|&k| self.seen[s][k] == Seen::Unknown && need(k))
+            .filter(|&k| self.seen[s][k].is_none() && need(k))
             .count()
     }
 
@@ -292,7 +273,7 @@ impl LazyLinks {
         self.resolve(&all, caster, |_, _| true);
         (0..self.len())
             .map(|s| {
-                let keep = |k: &usize| self.seen[s][*k] == Seen::Visible;
+                let keep = |k: &usize| self.seen[s][*k] == Some(true);
                 let n = self.triangles[s].len();
                 (
                     (0..n).filter(keep).map(|k| self.triangles[s][k]).collect(),
