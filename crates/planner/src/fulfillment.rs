@@ -493,14 +493,7 @@ mod tests {
     /// Terms of `n` random cameras looking at the origin (normal +z) from
     /// 20-80 m at 30-85 deg elevation, and a random confidence curve.
     fn random_terms(n: usize, rng: &mut ChaCha8Rng) -> (Vec<CamTerm>, ConfCurve) {
-        let k = Intrinsics {
-            width: 1200,
-            height: 800,
-            fx: 1800.0,
-            fy: 1800.0,
-            cx: 600.0,
-            cy: 400.0,
-        };
+        let k = Intrinsics::new(1200, 800, 1800.0, 1800.0, 600.0, 400.0).unwrap();
         let p = Point3::origin();
         let terms = (0..n)
             .map(|_| {
