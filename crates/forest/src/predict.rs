@@ -173,16 +173,9 @@ fn accumulate(
         }
         for level in 0..c.depth {
             let (cur, base, nodes) = (&mut cur[..m], &mut base[..m], &mut nodes[..m]);
-            for (n, k) in nodes.iter_mut().zip(&*cur) {
-                *n = cn[*k as usize];
-            }
+            gather(cn, cur, nodes);
             if !compacts(level, c.depth) {
-                for ((k, &base), n) in cur.iter_mut().zip(&*base).zip(&*nodes) {
-                    *k = n.next(
-                        data[base.wrapping_add_signed(n.off1 as isize)],
-                        data[base.wrapping_add_signed(n.off2 as isize)],
-                    );
-                }
+                step(data, base, nodes, cur);
                 continue;
             }
             // Step, record each point's node, and keep (in place, in
@@ -216,6 +209,29 @@ fn accumulate(
     let scale = 1.0 / forest.trees().len() as f32;
     for v in acc.iter_mut() {
         *v *= scale;
+    }
+}
+
+/// The gather pass: each walk's current node.
+///
+/// Not inlined, like [`step`]: alone, each loop keeps its pointers in
+/// registers (inlined into [`accumulate`], both reloaded some from the stack
+/// on every visit).
+#[inline(never)]
+fn gather(cn: &[CNode], cur: &[u32], nodes: &mut [CNode]) {
+    for (n, k) in nodes.iter_mut().zip(cur) {
+        *n = cn[*k as usize];
+    }
+}
+
+/// The step pass: each walk's next node.
+#[inline(never)]
+fn step(data: &[u8], base: &[usize], nodes: &[CNode], cur: &mut [u32]) {
+    for ((k, &base), n) in cur.iter_mut().zip(base).zip(nodes) {
+        *k = n.next(
+            data[base.wrapping_add_signed(n.off1 as isize)],
+            data[base.wrapping_add_signed(n.off2 as isize)],
+        );
     }
 }
 
