@@ -6,10 +6,10 @@
 //! [`Search::early_stop`] = false searches every surrogate instead.
 
 use std::cmp::Ordering;
-use std::collections::BinaryHeap;
+use std::collections::{BinaryHeap, HashMap};
 use std::time::Instant;
 
-use nalgebra::{Point3, Vector3};
+use nalgebra::{Matrix3, Point3, Vector3};
 use rayon::prelude::*;
 use vp_scene::raycast::{RayCaster, FACE_VISIBILITY_EPSILON};
 use vp_scene::{Camera, Intrinsics, Mesh};
@@ -271,10 +271,26 @@ impl Search<'_> {
     /// triangles that would add a positive gain: most triangles fail the
     /// frustum test of some camera or are already as fulfilled as this
     /// triplet can make them. The sum is the same as testing every triangle.
+    /// A triangle whose f(t, c3) provably cannot exceed f(t) is left out
+    /// before its terms are computed ([`Search::cannot_gain`]).
     pub fn gain(&self, cams: &[Camera; 3]) -> f64 {
+        self.gain_above(cams, f64::NEG_INFINITY).unwrap_or(0.0)
+    }
+
+    /// [`Search::gain`] when it may exceed `floor`: `None` only when
+    /// g(c3) <= `floor`, found without casting the occlusion rays.
+    ///
+    /// The positive gains before the occlusion test, summed in the same
+    /// order, bound g(c3) from above (a sum of a superset of non-negative
+    /// terms rounds no lower), so a triplet whose bound is at most `floor`
+    /// needs no ray. M3 passes the best gain found so far: on the first
+    /// iteration most triplets of the later visits are below it.
+    pub fn gain_above(&self, cams: &[Camera; 3], floor: f64) -> Option<f64> {
         let ful = self.ful;
         let centres = cams.map(|c| c.center());
-        let mut g = 0.0;
+        let bound_cams = BoundCams::new(cams, ful);
+        let mut positive: Vec<(usize, f64)> = Vec::new();
+        let mut upper = 0.0;
         for (i, &t) in self.selected.iter().enumerate() {
             if ful.observers[t].len() + 3 < ful.min_cameras {
                 continue;
@@ -286,25 +302,180 @@ impl Search<'_> {
                 continue;
             }
             let tri = &ful.tris[t];
+            let f_t = ful.f(t);
+            if self.cannot_gain(&bound_cams, t, f_t) {
+                continue;
+            }
             let terms = cams.map(|c| CamTerm::new(&c, &tri.centroid, &tri.normal, ful.sigma_px));
             let (f, _, _) = ful
                 .req
                 .fulfillment(&terms[0], &terms[1], &terms[2], &ful.curve[t]);
-            let gain = f - ful.f(t);
+            let gain = f - f_t;
             if !(gain > 0.0) {
                 continue;
             }
+            upper += gain;
+            positive.push((i, gain));
+        }
+        if upper <= floor {
+            return None;
+        }
+        let mut g = 0.0;
+        for (i, gain) in positive {
+            let p = self.selected_mesh.face_centroid(i);
+            let n = self.selected_mesh.face_normal(i);
             let target = p + n * FACE_VISIBILITY_EPSILON;
             if centres.iter().all(|c| !self.caster.occluded(c, &target)) {
                 g += gain;
             }
         }
-        g
+        Some(g)
+    }
+
+    /// True when f(t, c3) <= `f_t` for sampled triangle `t` seen by the
+    /// triplet `cams`, from an upper bound that needs neither the
+    /// information matrices nor their eigenvalue: f_res (all three
+    /// resolutions, as [`CamTerm::new`] takes them), and f_unc bounded by
+    /// the Rayleigh quotient of the summed information at the direction
+    /// from t to the cameras' mean centre, `sum_i |J_i v|^2 / sigma^2`,
+    /// plus a margin of 1e-9 of its trace (as
+    /// [`Requirements::f_unc_bound_triplet`]). The relative slack of 1e-6
+    /// covers the round-off of these terms against the exact ones and the
+    /// f32 rounding of an interpolated confidence.
+    ///
+    /// # Performance
+    /// After the first iterations most triangles a triplet sees are already
+    /// better fulfilled than it can make them: this skips their three
+    /// Jacobians and the closed-form eigenvalue (an arccosine and a cosine).
+    ///
+    /// [`Requirements::f_unc_bound_triplet`]: crate::quality::Requirements::f_unc_bound_triplet
+    fn cannot_gain(&self, cams: &BoundCams, t: usize, f_t: f64) -> bool {
+        const SLACK: f64 = 1.0 + 1e-6;
+        let ful = self.ful;
+        let req = &ful.req;
+        if !(f_t > 0.0) || !cams.usable {
+            return false;
+        }
+        let tri = &ful.tris[t];
+        let (p, n) = (tri.centroid, tri.normal);
+        let to_cam = cams.centres.map(|c| c - p);
+        let mut r_min = f64::INFINITY;
+        for (k, d) in to_cam.iter().enumerate() {
+            let (d2, nd) = (d.norm_squared(), n.dot(d));
+            let r = if nd > 0.0 && d2 > 0.0 {
+                cams.f2[k] * nd / (d2 * d2.sqrt())
+            } else {
+                0.0
+            };
+            r_min = r_min.min(r);
+        }
+        let conf_max = ful.curve[t].max();
+        let f_res = req.f_res(r_min);
+        let bound = |f_unc: f64| (req.alpha * f_res + (1.0 - req.alpha) * f_unc) * conf_max;
+        if bound(1.0) * SLACK <= f_t {
+            return true;
+        }
+        let Some(v) = (cams.mean_centre - p).try_normalize(1e-12) else {
+            return false;
+        };
+        let (mut quotient, mut trace) = (0.0, 0.0);
+        for (k, d) in to_cam.iter().enumerate() {
+            let pc = -(cams.cam_from_world[k] * d);
+            if !(pc.z > 0.0) {
+                return false;
+            }
+            let w = cams.cam_from_world[k] * v;
+            let (fx, fy) = cams.fxy[k];
+            let iz = 1.0 / pc.z;
+            // J = D R with D the 2x3 derivative of the pinhole projection
+            // in the camera frame; R is a rotation, so |J|_F = |D|_F.
+            let (dxx, dxz) = (fx * iz, -fx * pc.x * iz * iz);
+            let (dyy, dyz) = (fy * iz, -fy * pc.y * iz * iz);
+            let (jx, jy) = (dxx * w.x + dxz * w.z, dyy * w.y + dyz * w.z);
+            quotient += jx * jx + jy * jy;
+            trace += dxx * dxx + dxz * dxz + dyy * dyy + dyz * dyz;
+        }
+        let (quotient, trace) = (quotient * cams.inv_s2, trace * cams.inv_s2);
+        bound(req.f_unc_bound(quotient + 1e-9 * trace)) * SLACK <= f_t
     }
 
     /// Weighted mean shift with a flat kernel of angular `radius` over unit
     /// rays; returns the mode whose converged rays carry the largest weight.
+    ///
+    /// # Performance
+    /// A step's result depends only on the set of rays in the window, so
+    /// the trajectories of many starts meet after a step or two, bit for
+    /// bit, and follow the same path from there. Each point a trajectory
+    /// reached is remembered with where the trajectory ended and after how
+    /// many more steps; a later trajectory reaching it stops there when the
+    /// 100-step cap would not have cut it short. The modes are those of
+    /// [`Search::orient_plain`], bit for bit (tested).
     pub fn orient(rays: &[(Vector3<f64>, f64)], radius: f64) -> Option<Vector3<f64>> {
+        const MAX_STEPS: usize = 100;
+        let key = |v: &Vector3<f64>| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+        let cos_r = radius.cos();
+        let merge = (radius / 8.0).cos();
+        // Point at the top of a step -> (where its trajectory ended, steps
+        // from that point to the end, the last one included).
+        let mut ends: HashMap<[u64; 3], (Vector3<f64>, usize)> = HashMap::new();
+        let mut path: Vec<[u64; 3]> = Vec::new();
+        let mut modes: Vec<(Vector3<f64>, f64)> = Vec::new();
+        for &(start, weight) in rays.iter().filter(|r| r.1 > 0.0) {
+            let mut m = start;
+            path.clear();
+            let mut ended = false;
+            for step in 0..MAX_STEPS {
+                if let Some(&(end, more)) = ends.get(&key(&m)) {
+                    if step + more <= MAX_STEPS {
+                        m = end;
+                        // The points of this path end there too, after
+                        // `more` more steps than from m.
+                        let n = path.len();
+                        for (j, k) in path.drain(..).enumerate() {
+                            ends.insert(k, (end, n - j + more));
+                        }
+                        break;
+                    }
+                }
+                path.push(key(&m));
+                let sum: Vector3<f64> = rays
+                    .iter()
+                    .filter(|(r, _)| r.dot(&m) >= cos_r)
+                    .map(|(r, w)| r * *w)
+                    .sum();
+                let Some(next) = sum.try_normalize(1e-12) else {
+                    ended = true;
+                    break;
+                };
+                let moved = (next - m).norm();
+                m = next;
+                if moved < 1e-9 {
+                    ended = true;
+                    break;
+                }
+            }
+            if ended {
+                let n = path.len();
+                for (j, k) in path.drain(..).enumerate() {
+                    ends.insert(k, (m, n - j));
+                }
+            }
+            match modes.iter_mut().find(|(c, _)| c.dot(&m) >= merge) {
+                Some(mode) => mode.1 += weight,
+                None => modes.push((m, weight)),
+            }
+        }
+        modes
+            .into_iter()
+            .fold(None, |best: Option<(Vector3<f64>, f64)>, m| match best {
+                Some(b) if b.1 >= m.1 => Some(b),
+                _ => Some(m),
+            })
+            .map(|m| m.0)
+    }
+
+    /// [`Search::orient`] without its memo: the reference it is tested against.
+    pub fn orient_plain(rays: &[(Vector3<f64>, f64)], radius: f64) -> Option<Vector3<f64>> {
         let cos_r = radius.cos();
         let merge = (radius / 8.0).cos();
         let mut modes: Vec<(Vector3<f64>, f64)> = Vec::new();
@@ -344,7 +515,13 @@ impl Search<'_> {
     ///
     /// Only the links with a positive gain count: a link of gain 0 adds a
     /// zero to every sum here, so it can be left out.
-    fn visit(&self, s: usize, links: &[u32], gpot: &[f64]) -> Option<Candidate> {
+    ///
+    /// `floor` is the best gain of the search before this visit: a triplet
+    /// whose gain is at most `floor` can be reported or not (the caller
+    /// keeps a candidate only when it beats `floor`), so its gain need not
+    /// be found exactly ([`Search::gain_above`]). Above `floor`, the
+    /// candidate is the one a visit without it returns.
+    fn visit(&self, s: usize, links: &[u32], gpot: &[f64], floor: f64) -> Option<Candidate> {
         let pos = self.surrogates[s];
         let rays: Vec<(Vector3<f64>, f64)> = links
             .iter()
@@ -403,7 +580,10 @@ impl Search<'_> {
             let Ok(cams) = <[Camera; 3]>::try_from(cams) else {
                 continue;
             };
-            let gain = self.gain(&cams);
+            let bin_floor = best.as_ref().map_or(floor, |b| b.gain.max(floor));
+            let Some(gain) = self.gain_above(&cams, bin_floor) else {
+                continue;
+            };
             if gain > 0.0 && best.as_ref().is_none_or(|b| gain > b.gain) {
                 best = Some(Candidate {
                     cameras: cams,
@@ -448,9 +628,10 @@ impl Search<'_> {
                 out.timed_out = true;
                 break;
             }
+            let floor = out.best.as_ref().map_or(0.0, |b| b.gain);
             let results: Vec<Option<Candidate>> = chunk
                 .par_iter()
-                .map(|&s| self.visit(s, &self.links[s], &gpot[s]))
+                .map(|&s| self.visit(s, &self.links[s], &gpot[s], floor))
                 .collect();
             for (&s, cand) in chunk.iter().zip(results) {
                 let best_gain = out.best.as_ref().map_or(0.0, |b| b.gain);
@@ -524,6 +705,7 @@ impl Search<'_> {
                 break;
             }
             let (lazy, gpot) = (&*lazy, &order.gpot);
+            let floor = out.best.as_ref().map_or(0.0, |b| b.gain);
             let results: Vec<Option<Candidate>> = chunk
                 .par_iter()
                 .map(|r| {
@@ -534,7 +716,7 @@ impl Search<'_> {
                         .filter(|&(k, &g)| g > 0.0 && lazy.visible(r.s, k) == Some(true))
                         .map(|(k, &g)| (tris[k], g))
                         .unzip();
-                    self.visit(r.s, &links, &g)
+                    self.visit(r.s, &links, &g, floor)
                 })
                 .collect();
             for (r, cand) in chunk.iter().zip(results) {
@@ -554,6 +736,48 @@ impl Search<'_> {
             }
         }
         out
+    }
+}
+
+/// What [`Search::cannot_gain`] reads of a triplet, computed once per
+/// [`Search::gain_above`].
+struct BoundCams {
+    centres: [Point3<f64>; 3],
+    mean_centre: Point3<f64>,
+    /// Rotation of each camera, world to camera frame, as a matrix.
+    cam_from_world: [Matrix3<f64>; 3],
+    /// `(fx, fy)` of each camera.
+    fxy: [(f64, f64); 3],
+    /// Square of each camera's focal length, as `Camera::resolution_at` takes it.
+    f2: [f64; 3],
+    /// `1 / sigma^2`.
+    inv_s2: f64,
+    /// False when the requirements are outside the ranges the bound
+    /// assumes (alpha in [0, 1], a non-negative accuracy).
+    usable: bool,
+}
+
+impl BoundCams {
+    fn new(cams: &[Camera; 3], ful: &Fulfillment) -> Self {
+        let centres = cams.map(|c| c.center());
+        let req = &ful.req;
+        BoundCams {
+            centres,
+            mean_centre: Point3::from(
+                (centres[0].coords + centres[1].coords + centres[2].coords) / 3.0,
+            ),
+            cam_from_world: cams.map(|c| {
+                *c.world_from_cam
+                    .rotation
+                    .inverse()
+                    .to_rotation_matrix()
+                    .matrix()
+            }),
+            fxy: cams.map(|c| (c.intrinsics.fx, c.intrinsics.fy)),
+            f2: cams.map(|c| c.intrinsics.focal() * c.intrinsics.focal()),
+            inv_s2: 1.0 / (ful.sigma_px * ful.sigma_px),
+            usable: (0.0..=1.0).contains(&req.alpha) && req.accuracy >= 0.0,
+        }
     }
 }
 
@@ -657,6 +881,50 @@ mod tests {
                 .collect();
             let got = vp_scene::triangulation::largest_pairwise_angle_deg(&u);
             assert!((got - gamma).abs() < 1e-9, "{got} vs {gamma}");
+        }
+    }
+
+    /// The memo of `orient` changes no mode: random clusters of weighted
+    /// rays (some of weight 0), several radii, bit for bit.
+    #[test]
+    fn memoised_mean_shift_equals_the_plain_one() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(31);
+        for trial in 0..200 {
+            let n = rng.random_range(1..120);
+            let centres: Vec<Vector3<f64>> = (0..rng.random_range(1..5))
+                .map(|_| {
+                    Vector3::new(
+                        rng.random_range(-1.0..1.0),
+                        rng.random_range(-1.0..1.0),
+                        -1.0,
+                    )
+                })
+                .collect();
+            let rays: Vec<(Vector3<f64>, f64)> = (0..n)
+                .map(|_| {
+                    let c = centres[rng.random_range(0..centres.len())];
+                    let jitter = Vector3::new(
+                        rng.random_range(-0.2..0.2),
+                        rng.random_range(-0.2..0.2),
+                        rng.random_range(-0.2..0.2),
+                    );
+                    let w = if rng.random_bool(0.1) {
+                        0.0
+                    } else {
+                        rng.random_range(0.0..2.0)
+                    };
+                    ((c + jitter).normalize(), w)
+                })
+                .collect();
+            let radius = [0.05, 0.2, 0.5][trial % 3];
+            let want = Search::orient_plain(&rays, radius);
+            let got = Search::orient(&rays, radius);
+            assert_eq!(
+                got.map(|v| v.map(f64::to_bits)),
+                want.map(|v| v.map(f64::to_bits)),
+                "trial {trial}"
+            );
         }
     }
 

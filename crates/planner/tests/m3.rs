@@ -196,3 +196,74 @@ fn lazy_search_equals_the_search_over_tested_links() {
     }
     assert!(visits > 20, "only {visits} visits: the test checks little");
 }
+
+/// The bounds that skip triangles (f(t, c3) cannot beat f(t)) and
+/// triplets (g(c3) cannot beat the best so far) change no gain: after
+/// planned cameras raised f(t), `gain` still equals the definition bit for
+/// bit, and `gain_above` says `None` only for gains at most its floor.
+#[test]
+fn pruned_gain_equals_the_definition_once_f_has_grown() {
+    let (site, caster, mut ful, safety, mut rng) = fixture(7, 0.02);
+    let k = Intrinsics::from_hfov(640, 480, 70.0).unwrap();
+    let c = nalgebra::center(&site.rock_bounds.min, &site.rock_bounds.max);
+    let triplet = |rng: &mut ChaCha8Rng| -> [Camera; 3] {
+        let (az, el, dist) = (
+            rng.random_range(0.0..360f64).to_radians(),
+            rng.random_range(15.0..80f64).to_radians(),
+            rng.random_range(12.0..40.0),
+        );
+        let centre = c + Vector3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin()) * dist;
+        [0.0, 2.1, 4.2].map(|a: f64| {
+            let p = centre + Vector3::new(a.cos(), a.sin(), 0.0) * rng.random_range(1.0..8.0);
+            Camera::look_at(k, p, Point3::from(c.coords)).unwrap()
+        })
+    };
+    for _ in 0..6 {
+        for cam in &triplet(&mut rng) {
+            ful.add_planned(cam, &caster);
+        }
+    }
+    let selected: Vec<usize> = (0..ful.tris.len()).collect();
+    let selected_mesh = submesh(
+        &ful.tri_mesh,
+        &selected.iter().map(|&t| t as u32).collect::<Vec<_>>(),
+    );
+    let search = Search {
+        ful: &ful,
+        selected: &selected,
+        selected_mesh: &selected_mesh,
+        surrogates: &[],
+        links: &[],
+        potential: &[],
+        safety: &safety,
+        caster: &caster,
+        intrinsics: k,
+        pitch_limits: (-90f64.to_radians(), 0.0),
+        early_stop: true,
+        deadline: None,
+    };
+    let (mut positive, mut none) = (0, 0);
+    for _ in 0..40 {
+        let cams = triplet(&mut rng);
+        let want = gain_by_definition(&search, &cams);
+        assert_eq!(
+            search.gain(&cams).to_bits(),
+            want.to_bits(),
+            "gain differs: {want}"
+        );
+        // 400 triangles gain at most 1 each: the last floor prunes always.
+        for floor in [0.0, 0.5 * want, want, 1.2 * want + 0.01, 400.0] {
+            if let Some(g) = search.gain_above(&cams, floor) {
+                assert_eq!(g.to_bits(), want.to_bits(), "floor {floor}");
+            } else {
+                assert!(want <= floor, "{want} > floor {floor}");
+                none += 1;
+            }
+        }
+        positive += usize::from(want > 0.0);
+    }
+    assert!(
+        positive >= 10 && none >= 40,
+        "{positive} positive gains, {none} pruned: the test checks little"
+    );
+}
