@@ -18,6 +18,10 @@ const MIN_VARIANCE: f32 = 1e-6;
 /// test and the interior samples cannot step outside.
 const EDGE_MARGIN: f32 = 1e-3;
 
+/// Source images this wide or high are scored by the reference loop: the
+/// fast one's [`floor_small`] needs coordinates below 2^22.
+const FLOOR_SMALL_LIMIT: u32 = 1 << 22;
+
 /// Samples of a window row whose coordinates are computed together.
 const CHUNK: usize = 8;
 
@@ -272,14 +276,15 @@ pub(crate) fn source_cost(
 
 /// Weighted sums (w s, w s^2, w r s) over the full window grid.
 ///
-/// Bit for bit the sums of the straightforward loop (`sums_full_reference`
-/// in the tests): every sample goes through the same operations in the
-/// same order, and each lane adds up the same samples. What changed is the
+/// Bit for bit the sums of the straightforward loop
+/// ([`sums_full_reference`]): every sample goes through the same operations
+/// in the same order, and each lane adds up the same samples. What changed is the
 /// machine code around them: the lanes' offsets come from the window
 /// instead of being recomputed, the window rows are walked with fixed-size
 /// arrays (no run-time chunking, whose iterator set-up with two integer
 /// divisions ran once per row), and the float-to-integer casts are done
-/// for the whole chunk at once, in i32, so that they vectorise.
+/// for the whole chunk at once, with float and integer arithmetic, so that
+/// they vectorise.
 #[inline]
 fn sums_full(
     patch: &RefPatch,
@@ -310,6 +315,9 @@ fn sums_full(
             return None;
         }
     }
+    if src.width >= FLOOR_SMALL_LIMIT || src.height >= FLOOR_SMALL_LIMIT {
+        return sums_full_reference(patch, win, u, v, h, src);
+    }
     let sw = src.width as usize;
     let data = &src.data[..];
     // One partial sum per lane: the adds of neighbouring samples do not
@@ -329,7 +337,7 @@ fn sums_full(
             ) else {
                 unreachable!("slices of CHUNK elements")
             };
-            // Coordinates, cell indices and fractions of the whole chunk
+            // Coordinates, cells and fractions of the whole chunk
             // (branch-free, so that they vectorise); lanes past the row's
             // end are computed but unused.
             let (mut x0, mut y0) = ([0i32; CHUNK], [0i32; CHUNK]);
@@ -339,15 +347,16 @@ fn sums_full(
                 let iz = 1.0 / (rc + h[6] * fi[i]);
                 let fx = (ra + h[0] * fi[i]) * iz - 0.5;
                 let fy = (rb + h[3] * fi[i]) * iz - 0.5;
-                // In range by the corner test (used lanes): truncation is
-                // the floor, and the casts do not saturate.
-                (x0[i], y0[i]) = (fx as i32, fy as i32);
-                ax[i] = fx - x0[i] as f32;
-                ay[i] = fy - y0[i] as f32;
+                let (xf, xi) = floor_small(fx);
+                let (yf, yi) = floor_small(fy);
+                (x0[i], y0[i]) = (xi, yi);
+                ax[i] = fx - xf;
+                ay[i] = fy - yf;
             }
             // Padding lanes keep s = 0 (and have weight 0).
             let mut sv = [0.0f32; CHUNK];
             for i in 0..CHUNK.min(n - first) {
+                // In range by the corner test: the casts are exact.
                 let i0 = y0[i] as usize * sw + x0[i] as usize;
                 let cell = &data[i0..i0 + sw + 2];
                 let t = cell[0] + ax[i] * (cell[1] - cell[0]);
@@ -363,6 +372,21 @@ fn sums_full(
         }
     }
     Some((lane_total(s1), lane_total(s2), lane_total(sr)))
+}
+
+/// Floor of `x`, as a float and as an integer, for `0 <= x < 2^22`
+/// (anything for other `x`): adding 1.5 * 2^23 rounds `x` to an integer,
+/// read from the sum's mantissa bits; one less when it rounded up. Unlike
+/// a float-to-int cast, which Rust saturates, this is plain float and
+/// integer arithmetic that vectorises.
+#[inline]
+fn floor_small(x: f32) -> (f32, i32) {
+    const MAGIC: f32 = 12_582_912.0;
+    let t = x + MAGIC;
+    let r = t - MAGIC;
+    let up = r > x;
+    let i = (t.to_bits() as i32).wrapping_sub(MAGIC.to_bits() as i32) - i32::from(up);
+    (if up { r - 1.0 } else { r }, i)
 }
 
 /// Sum of the lanes, in the order every full-window sum uses.
@@ -405,9 +429,10 @@ fn sums_partial(
     Some((s1, s2, sr))
 }
 
-/// The straightforward [`sums_full`] it replaced, kept as the reference
-/// that the fast one must equal bit for bit.
-#[cfg(test)]
+/// The straightforward loop [`sums_full`] replaced: the reference that the
+/// fast one must equal bit for bit, and the path for images too wide for
+/// [`floor_small`].
+#[cold]
 fn sums_full_reference(
     patch: &RefPatch,
     win: &Window,
@@ -629,6 +654,35 @@ mod tests {
             }
             assert!(source_cost(&patch, &win, 30.5, 20.5, &hs[2], &img) >= MAX_COST);
             assert!(source_cost(&patch, &win, 30.5, 20.5, &hs[0], &img) < 1.0);
+        }
+    }
+
+    #[test]
+    fn floor_small_is_the_truncating_cast_below_its_limit() {
+        // Every 61st float of [0, 2^22), and the integers with their
+        // neighbours and halves, where rounding to nearest goes up.
+        let limit = (FLOOR_SMALL_LIMIT as f32).to_bits();
+        let spread = (0..limit).step_by(61).map(f32::from_bits);
+        let near = (0..FLOOR_SMALL_LIMIT).step_by(997).flat_map(|i| {
+            let f = i as f32;
+            [
+                f,
+                f + 0.5,
+                f - 0.5,
+                f * (1.0 + f32::EPSILON),
+                f * (1.0 - f32::EPSILON),
+            ]
+        });
+        for x in spread
+            .chain(near)
+            .filter(|x| (0.0..FLOOR_SMALL_LIMIT as f32).contains(x))
+        {
+            let (f, i) = floor_small(x);
+            assert_eq!(
+                (f.to_bits(), i),
+                (((x as usize) as f32).to_bits(), x as i32),
+                "{x}"
+            );
         }
     }
 
