@@ -19,7 +19,7 @@ use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::{Point3, Vector3};
-use vpctl_suite::mvs::{reconstruct, MvsParams, View};
+use vpctl_suite::mvs::{reconstruct, MvsParams, Output, View};
 use vpctl_suite::scene::procedural::{generate_site, Site, SiteParams};
 use vpctl_suite::scene::raycast::RayCaster;
 use vpctl_suite::scene::{Camera, Intrinsics};
@@ -66,6 +66,31 @@ fn cpu_seconds() -> Option<f64> {
     Some((utime + stime) / 100.0)
 }
 
+/// FNV-1a over the bits of every map (depth, normal, cost) and fused
+/// point: equal checksums before and after a speed-up show that it kept
+/// the results bit for bit.
+fn checksum(out: &Output) -> u64 {
+    let mut hash = 0xcbf2_9ce4_8422_2325u64;
+    let mut eat = |bits: u64| {
+        hash ^= bits;
+        hash = hash.wrapping_mul(0x0100_0000_01b3);
+    };
+    for map in out.photometric.iter().chain(&out.geometric).flatten() {
+        for ((d, n), c) in map.depth.iter().zip(&map.normal).zip(&map.cost) {
+            for v in [*d, n[0], n[1], n[2], *c] {
+                eat(u64::from(v.to_bits()));
+            }
+        }
+    }
+    for p in &out.fused {
+        for v in p.position.iter().chain(p.normal.iter()) {
+            eat(v.to_bits());
+        }
+        eat(p.n_pixels as u64);
+    }
+    hash
+}
+
 fn sources() -> Vec<Vec<usize>> {
     vec![vec![1, 2], vec![0, 2], vec![0, 1]]
 }
@@ -107,13 +132,14 @@ fn tier(
     eprintln!(
         "mvs/{name}: {size}x{size} triplet: {secs:.2} s per triplet ({:.2} s per Mpx triplet; \
          CPU {}), {:.2} Mpx-hypotheses/s, {:.0} M window samples/s (x2 sources), {} fused points, \
-         {} threads",
+         {} threads, output checksum {:016x}",
         secs * 1e6 / (f64::from(size) * f64::from(size)),
         cpu.map_or("unknown".to_string(), |c| format!("{c:.2} s")),
         hyps / secs / 1e6,
         hyps * samples / secs / 1e6,
         out.fused.len(),
-        rayon::current_num_threads()
+        rayon::current_num_threads(),
+        checksum(&out)
     );
     let mut group = c.benchmark_group("mvs");
     group.sample_size(10);

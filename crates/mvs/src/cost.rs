@@ -18,6 +18,10 @@ const MIN_VARIANCE: f32 = 1e-6;
 /// test and the interior samples cannot step outside.
 const EDGE_MARGIN: f32 = 1e-3;
 
+/// Source images this wide or high are scored by the reference loop: the
+/// fast one's [`floor_small`] needs coordinates below 2^22.
+const FLOOR_SMALL_LIMIT: u32 = 1 << 22;
+
 /// Samples of a window row whose coordinates are computed together.
 const CHUNK: usize = 8;
 
@@ -32,6 +36,9 @@ pub(crate) struct Window {
     spatial: Vec<f32>,
     /// `1 / (2 sigma_c^2)`.
     inv_color: f32,
+    /// Offset of each lane of a padded window row from the row's first
+    /// sample, `i * step` for `i` in `0..stride`.
+    lanes: Vec<f32>,
 }
 
 impl Window {
@@ -46,10 +53,13 @@ impl Window {
                     .map(move |&ox| (-((ox * ox + oy * oy) as f32) * inv_s).exp())
             })
             .collect();
+        let step = offsets.get(1).map_or(1, |&o| o - offsets[0]) as f32;
+        let stride = offsets.len().div_ceil(CHUNK) * CHUNK;
         Window {
             offsets,
             spatial,
             inv_color: 1.0 / (2.0 * params.sigma_color * params.sigma_color),
+            lanes: (0..stride).map(|i| i as f32 * step).collect(),
         }
     }
 
@@ -265,8 +275,165 @@ pub(crate) fn source_cost(
 }
 
 /// Weighted sums (w s, w s^2, w r s) over the full window grid.
+///
+/// Bit for bit the sums of the straightforward loop
+/// ([`sums_full_reference`]): every sample goes through the same operations
+/// in the same order, and each lane adds up the same samples. What changed is the
+/// machine code around them: the lanes' offsets come from the window
+/// instead of being recomputed, the window rows are walked with fixed-size
+/// arrays (no run-time chunking, whose iterator set-up with two integer
+/// divisions ran once per row), and the float-to-integer casts are done
+/// for the whole chunk at once, with float and integer arithmetic, so that
+/// they vectorise.
 #[inline]
 fn sums_full(
+    patch: &RefPatch,
+    win: &Window,
+    u: f32,
+    v: f32,
+    h: &[f32; 9],
+    src: &GreyImage,
+) -> Option<(f32, f32, f32)> {
+    let n = win.n();
+    let step = win.step();
+    let o0 = win.first() as f32;
+    let (u0, v0) = (u + o0, v + o0);
+    let a0 = h[0] * u0 + h[1] * v0 + h[2];
+    let b0 = h[3] * u0 + h[4] * v0 + h[5];
+    let c0 = h[6] * u0 + h[7] * v0 + h[8];
+    let span = (win.last() - win.first()) as f32;
+    let x_max = src.width as f32 - 0.5 - EDGE_MARGIN;
+    let y_max = src.height as f32 - 0.5 - EDGE_MARGIN;
+    for (cx, cy) in [(0.0, 0.0), (span, 0.0), (0.0, span), (span, span)] {
+        let z = c0 + h[6] * cx + h[7] * cy;
+        if !(z > 0.0) {
+            return None;
+        }
+        let x = (a0 + h[0] * cx + h[1] * cy) / z;
+        let y = (b0 + h[3] * cx + h[4] * cy) / z;
+        if !(x >= 0.5 + EDGE_MARGIN && y >= 0.5 + EDGE_MARGIN && x < x_max && y < y_max) {
+            return None;
+        }
+    }
+    if src.width >= FLOOR_SMALL_LIMIT || src.height >= FLOOR_SMALL_LIMIT {
+        return sums_full_reference(patch, win, u, v, h, src);
+    }
+    let sw = src.width as usize;
+    let data = &src.data[..];
+    // One partial sum per lane: the adds of neighbouring samples do not
+    // wait on each other, and the lane loops vectorise.
+    let (mut s1, mut s2, mut sr) = ([0.0f32; CHUNK], [0.0f32; CHUNK], [0.0f32; CHUNK]);
+    let chunks = win.stride() / CHUNK;
+    for j in 0..n {
+        let fj = j as f32 * step;
+        let (ra, rb, rc) = (a0 + h[1] * fj, b0 + h[4] * fj, c0 + h[7] * fj);
+        for c in 0..chunks {
+            let first = c * CHUNK;
+            let at = j * win.stride() + first;
+            let (Ok(w), Ok(wr), Ok(fi)) = (
+                <&[f32; CHUNK]>::try_from(&patch.w[at..at + CHUNK]),
+                <&[f32; CHUNK]>::try_from(&patch.wr[at..at + CHUNK]),
+                <&[f32; CHUNK]>::try_from(&win.lanes[first..first + CHUNK]),
+            ) else {
+                unreachable!("slices of CHUNK elements")
+            };
+            // Coordinates, cells and fractions of the whole chunk
+            // (branch-free, so that they vectorise); lanes past the row's
+            // end are computed but unused.
+            let (mut x0, mut y0) = ([0i32; CHUNK], [0i32; CHUNK]);
+            let mut ax = [0.0f32; CHUNK];
+            let mut ay = [0.0f32; CHUNK];
+            for i in 0..CHUNK {
+                let iz = 1.0 / (rc + h[6] * fi[i]);
+                let fx = (ra + h[0] * fi[i]) * iz - 0.5;
+                let fy = (rb + h[3] * fi[i]) * iz - 0.5;
+                let (xf, xi) = floor_small(fx);
+                let (yf, yi) = floor_small(fy);
+                (x0[i], y0[i]) = (xi, yi);
+                ax[i] = fx - xf;
+                ay[i] = fy - yf;
+            }
+            // Padding lanes keep s = 0 (and have weight 0).
+            let mut sv = [0.0f32; CHUNK];
+            for i in 0..CHUNK.min(n - first) {
+                // In range by the corner test: the casts are exact.
+                let i0 = y0[i] as usize * sw + x0[i] as usize;
+                let cell = &data[i0..i0 + sw + 2];
+                let t = cell[0] + ax[i] * (cell[1] - cell[0]);
+                let b = cell[sw] + ax[i] * (cell[sw + 1] - cell[sw]);
+                sv[i] = t + ay[i] * (b - t);
+            }
+            for i in 0..CHUNK {
+                let ws = w[i] * sv[i];
+                s1[i] += ws;
+                s2[i] += ws * sv[i];
+                sr[i] += wr[i] * sv[i];
+            }
+        }
+    }
+    Some((lane_total(s1), lane_total(s2), lane_total(sr)))
+}
+
+/// Floor of `x`, as a float and as an integer, for `0 <= x < 2^22`
+/// (anything for other `x`): adding 1.5 * 2^23 rounds `x` to an integer,
+/// read from the sum's mantissa bits; one less when it rounded up. Unlike
+/// a float-to-int cast, which Rust saturates, this is plain float and
+/// integer arithmetic that vectorises.
+#[inline]
+fn floor_small(x: f32) -> (f32, i32) {
+    const MAGIC: f32 = 12_582_912.0;
+    let t = x + MAGIC;
+    let r = t - MAGIC;
+    let up = r > x;
+    let i = (t.to_bits() as i32).wrapping_sub(MAGIC.to_bits() as i32) - i32::from(up);
+    (if up { r - 1.0 } else { r }, i)
+}
+
+/// Sum of the lanes, in the order every full-window sum uses.
+#[inline]
+fn lane_total(a: [f32; CHUNK]) -> f32 {
+    let q = [a[0] + a[4], a[1] + a[5], a[2] + a[6], a[3] + a[7]];
+    (q[0] + q[2]) + (q[1] + q[3])
+}
+
+/// Weighted sums over the samples of a window cut by the reference image's
+/// border, each tested against the source image.
+fn sums_partial(
+    patch: &RefPatch,
+    u: f32,
+    v: f32,
+    h: &[f32; 9],
+    src: &GreyImage,
+) -> Option<(f32, f32, f32)> {
+    let hp = [
+        h[0] * u + h[1] * v + h[2],
+        h[3] * u + h[4] * v + h[5],
+        h[6] * u + h[7] * v + h[8],
+    ];
+    let (mut s1, mut s2, mut sr) = (0.0f32, 0.0f32, 0.0f32);
+    for i in 0..patch.w.len() {
+        let (dx, dy) = (patch.dx[i], patch.dy[i]);
+        let z = hp[2] + h[6] * dx + h[7] * dy;
+        if !(z > 0.0) {
+            return None;
+        }
+        let iz = 1.0 / z;
+        let x = (hp[0] + h[0] * dx + h[1] * dy) * iz;
+        let y = (hp[1] + h[3] * dx + h[4] * dy) * iz;
+        let s = src.sample(x, y)?;
+        let ws = patch.w[i] * s;
+        s1 += ws;
+        s2 += ws * s;
+        sr += patch.wr[i] * s;
+    }
+    Some((s1, s2, sr))
+}
+
+/// The straightforward loop [`sums_full`] replaced: the reference that the
+/// fast one must equal bit for bit, and the path for images too wide for
+/// [`floor_small`].
+#[cold]
+fn sums_full_reference(
     patch: &RefPatch,
     win: &Window,
     u: f32,
@@ -347,39 +514,6 @@ fn sums_full(
         (q[0] + q[2]) + (q[1] + q[3])
     };
     Some((total(s1), total(s2), total(sr)))
-}
-
-/// Weighted sums over the samples of a window cut by the reference image's
-/// border, each tested against the source image.
-fn sums_partial(
-    patch: &RefPatch,
-    u: f32,
-    v: f32,
-    h: &[f32; 9],
-    src: &GreyImage,
-) -> Option<(f32, f32, f32)> {
-    let hp = [
-        h[0] * u + h[1] * v + h[2],
-        h[3] * u + h[4] * v + h[5],
-        h[6] * u + h[7] * v + h[8],
-    ];
-    let (mut s1, mut s2, mut sr) = (0.0f32, 0.0f32, 0.0f32);
-    for i in 0..patch.w.len() {
-        let (dx, dy) = (patch.dx[i], patch.dy[i]);
-        let z = hp[2] + h[6] * dx + h[7] * dy;
-        if !(z > 0.0) {
-            return None;
-        }
-        let iz = 1.0 / z;
-        let x = (hp[0] + h[0] * dx + h[1] * dy) * iz;
-        let y = (hp[1] + h[3] * dx + h[4] * dy) * iz;
-        let s = src.sample(x, y)?;
-        let ws = patch.w[i] * s;
-        s1 += ws;
-        s2 += ws * s;
-        sr += patch.wr[i] * s;
-    }
-    Some((s1, s2, sr))
 }
 
 /// View selection: the means of the `k` smallest costs (all of them when
@@ -521,6 +655,113 @@ mod tests {
             assert!(source_cost(&patch, &win, 30.5, 20.5, &hs[2], &img) >= MAX_COST);
             assert!(source_cost(&patch, &win, 30.5, 20.5, &hs[0], &img) < 1.0);
         }
+    }
+
+    #[test]
+    fn floor_small_is_the_truncating_cast_below_its_limit() {
+        // Every 61st float of [0, 2^22), and the integers with their
+        // neighbours and halves, where rounding to nearest goes up.
+        let limit = (FLOOR_SMALL_LIMIT as f32).to_bits();
+        let spread = (0..limit).step_by(61).map(f32::from_bits);
+        let near = (0..FLOOR_SMALL_LIMIT).step_by(997).flat_map(|i| {
+            let f = i as f32;
+            [
+                f,
+                f + 0.5,
+                f - 0.5,
+                f * (1.0 + f32::EPSILON),
+                f * (1.0 - f32::EPSILON),
+            ]
+        });
+        for x in spread
+            .chain(near)
+            .filter(|x| (0.0..FLOOR_SMALL_LIMIT as f32).contains(x))
+        {
+            let (f, i) = floor_small(x);
+            assert_eq!(
+                (f.to_bits(), i),
+                (((x as usize) as f32).to_bits(), x as i32),
+                "{x}"
+            );
+        }
+    }
+
+    #[test]
+    fn fast_full_window_sums_equal_the_reference_bit_for_bit() {
+        // Plane hypotheses of a real camera pair (random depths and
+        // normals, as PatchMatch draws them) at every 3rd pixel: the fast
+        // sums must be the reference loop's bits, or PatchMatch would pick
+        // other winners. Windows of one chunk a row (the default) and of
+        // several.
+        let (w, h) = (96u32, 80u32);
+        let img = texture(w, h);
+        let src = GreyImage {
+            data: img.data.iter().map(|v| 0.9 * v + 0.05).collect(),
+            ..img.clone()
+        };
+        let k = Intrinsics {
+            width: w,
+            height: h,
+            fx: 80.0,
+            fy: 80.0,
+            cx: 48.0,
+            cy: 40.0,
+        };
+        let reference = Camera::new(k, Isometry3::identity());
+        let source = Camera::new(
+            k,
+            Isometry3::from_parts(
+                Translation3::new(0.8, -0.2, 0.1),
+                UnitQuaternion::from_euler_angles(0.02, -0.06, 0.01),
+            ),
+        );
+        let rel = Relative::new(&reference, &source);
+        let kr = crate::view::k_of(&reference);
+        let mut rng = crate::rng::PixelRng::new(7, 0, 0, 0);
+        let (mut scored, mut refused) = (0, 0);
+        for (radius, step) in [(5, 2), (9, 1), (4, 1)] {
+            let win = Window::new(&MvsParams {
+                window_radius: radius,
+                window_step: step,
+                ..MvsParams::default()
+            });
+            let mut patch = RefPatch::default();
+            for y in (0..h as usize).step_by(3) {
+                for x in (0..w as usize).step_by(3) {
+                    patch.build(&img, x, y, &win);
+                    if !patch.full {
+                        continue;
+                    }
+                    let ray = crate::view::pixel_ray(&kr, x, y);
+                    let d = 4.0 + 20.0 * rng.next_f32();
+                    let n = [0.4 * rng.symmetric(), 0.4 * rng.symmetric(), -1.0];
+                    let Some(hm) = homography(&rel, &kr, d, &n, &ray) else {
+                        continue;
+                    };
+                    let (u, v) = (x as f32 + 0.5, y as f32 + 0.5);
+                    let fast = sums_full(&patch, &win, u, v, &hm, &src);
+                    let slow = sums_full_reference(&patch, &win, u, v, &hm, &src);
+                    let bits = |s: Option<(f32, f32, f32)>| {
+                        s.map(|(a, b, c)| [a.to_bits(), b.to_bits(), c.to_bits()])
+                    };
+                    assert_eq!(
+                        bits(fast),
+                        bits(slow),
+                        "pixel ({x}, {y}), window {radius}/{step}"
+                    );
+                    if fast.is_some() {
+                        scored += 1;
+                    } else {
+                        refused += 1;
+                    }
+                }
+            }
+        }
+        // Both outcomes were exercised.
+        assert!(
+            scored > 500 && refused > 20,
+            "{scored} scored, {refused} refused"
+        );
     }
 
     fn patch_clone_partial(full: &RefPatch, win: &Window, out: &mut RefPatch) {
