@@ -274,6 +274,34 @@ pub(crate) fn source_cost(
     (1.0 - ncc).clamp(0.0, MAX_COST)
 }
 
+/// The homogeneous source coordinates of the window's first sample, if
+/// all four warped corners of the window land inside `src` (then, the
+/// homography being projective and the window convex, every sample does);
+/// `None` if a corner falls outside or behind the source camera.
+#[inline]
+fn warped_origin(win: &Window, u: f32, v: f32, h: &[f32; 9], src: &GreyImage) -> Option<[f32; 3]> {
+    let o0 = win.first() as f32;
+    let (u0, v0) = (u + o0, v + o0);
+    let a0 = h[0] * u0 + h[1] * v0 + h[2];
+    let b0 = h[3] * u0 + h[4] * v0 + h[5];
+    let c0 = h[6] * u0 + h[7] * v0 + h[8];
+    let span = (win.last() - win.first()) as f32;
+    let x_max = src.width as f32 - 0.5 - EDGE_MARGIN;
+    let y_max = src.height as f32 - 0.5 - EDGE_MARGIN;
+    for (cx, cy) in [(0.0, 0.0), (span, 0.0), (0.0, span), (span, span)] {
+        let z = c0 + h[6] * cx + h[7] * cy;
+        if !(z > 0.0) {
+            return None;
+        }
+        let x = (a0 + h[0] * cx + h[1] * cy) / z;
+        let y = (b0 + h[3] * cx + h[4] * cy) / z;
+        if !(x >= 0.5 + EDGE_MARGIN && y >= 0.5 + EDGE_MARGIN && x < x_max && y < y_max) {
+            return None;
+        }
+    }
+    Some([a0, b0, c0])
+}
+
 /// Weighted sums (w s, w s^2, w r s) over the full window grid.
 ///
 /// Bit for bit the sums of the straightforward loop
@@ -294,27 +322,8 @@ fn sums_full(
     h: &[f32; 9],
     src: &GreyImage,
 ) -> Option<(f32, f32, f32)> {
-    let n = win.n();
-    let step = win.step();
-    let o0 = win.first() as f32;
-    let (u0, v0) = (u + o0, v + o0);
-    let a0 = h[0] * u0 + h[1] * v0 + h[2];
-    let b0 = h[3] * u0 + h[4] * v0 + h[5];
-    let c0 = h[6] * u0 + h[7] * v0 + h[8];
-    let span = (win.last() - win.first()) as f32;
-    let x_max = src.width as f32 - 0.5 - EDGE_MARGIN;
-    let y_max = src.height as f32 - 0.5 - EDGE_MARGIN;
-    for (cx, cy) in [(0.0, 0.0), (span, 0.0), (0.0, span), (span, span)] {
-        let z = c0 + h[6] * cx + h[7] * cy;
-        if !(z > 0.0) {
-            return None;
-        }
-        let x = (a0 + h[0] * cx + h[1] * cy) / z;
-        let y = (b0 + h[3] * cx + h[4] * cy) / z;
-        if !(x >= 0.5 + EDGE_MARGIN && y >= 0.5 + EDGE_MARGIN && x < x_max && y < y_max) {
-            return None;
-        }
-    }
+    let (n, step) = (win.n(), win.step());
+    let [a0, b0, c0] = warped_origin(win, u, v, h, src)?;
     if src.width >= FLOOR_SMALL_LIMIT || src.height >= FLOOR_SMALL_LIMIT {
         return sums_full_reference(patch, win, u, v, h, src);
     }
@@ -441,27 +450,8 @@ fn sums_full_reference(
     h: &[f32; 9],
     src: &GreyImage,
 ) -> Option<(f32, f32, f32)> {
-    let n = win.n();
-    let step = win.step();
-    let o0 = win.first() as f32;
-    let (u0, v0) = (u + o0, v + o0);
-    let a0 = h[0] * u0 + h[1] * v0 + h[2];
-    let b0 = h[3] * u0 + h[4] * v0 + h[5];
-    let c0 = h[6] * u0 + h[7] * v0 + h[8];
-    let span = (win.last() - win.first()) as f32;
-    let x_max = src.width as f32 - 0.5 - EDGE_MARGIN;
-    let y_max = src.height as f32 - 0.5 - EDGE_MARGIN;
-    for (cx, cy) in [(0.0, 0.0), (span, 0.0), (0.0, span), (span, span)] {
-        let z = c0 + h[6] * cx + h[7] * cy;
-        if !(z > 0.0) {
-            return None;
-        }
-        let x = (a0 + h[0] * cx + h[1] * cy) / z;
-        let y = (b0 + h[3] * cx + h[4] * cy) / z;
-        if !(x >= 0.5 + EDGE_MARGIN && y >= 0.5 + EDGE_MARGIN && x < x_max && y < y_max) {
-            return None;
-        }
-    }
+    let (n, step) = (win.n(), win.step());
+    let [a0, b0, c0] = warped_origin(win, u, v, h, src)?;
     let sw = src.width as usize;
     let data = &src.data[..];
     // One partial sum per lane: the adds of neighbouring samples do not
@@ -509,11 +499,7 @@ fn sums_full_reference(
             }
         }
     }
-    let total = |a: [f32; CHUNK]| {
-        let q = [a[0] + a[4], a[1] + a[5], a[2] + a[6], a[3] + a[7]];
-        (q[0] + q[2]) + (q[1] + q[3])
-    };
-    Some((total(s1), total(s2), total(sr)))
+    Some((lane_total(s1), lane_total(s2), lane_total(sr)))
 }
 
 /// View selection: the means of the `k` smallest costs (all of them when

@@ -465,16 +465,11 @@ impl Search<'_> {
                 None => modes.push((m, weight)),
             }
         }
-        modes
-            .into_iter()
-            .fold(None, |best: Option<(Vector3<f64>, f64)>, m| match best {
-                Some(b) if b.1 >= m.1 => Some(b),
-                _ => Some(m),
-            })
-            .map(|m| m.0)
+        strongest_mode(modes)
     }
 
     /// [`Search::orient`] without its memo: the reference it is tested against.
+    #[cfg(test)]
     pub fn orient_plain(rays: &[(Vector3<f64>, f64)], radius: f64) -> Option<Vector3<f64>> {
         let cos_r = radius.cos();
         let merge = (radius / 8.0).cos();
@@ -501,13 +496,7 @@ impl Search<'_> {
                 None => modes.push((m, weight)),
             }
         }
-        modes
-            .into_iter()
-            .fold(None, |best: Option<(Vector3<f64>, f64)>, m| match best {
-                Some(b) if b.1 >= m.1 => Some(b),
-                _ => Some(m),
-            })
-            .map(|m| m.0)
+        strongest_mode(modes)
     }
 
     /// Orients surrogate `s` with its `links` and their potential gains
@@ -860,6 +849,17 @@ impl VisitOrder {
             }
         }
     }
+}
+
+/// The mode carrying the largest weight (the first of equals).
+fn strongest_mode(modes: Vec<(Vector3<f64>, f64)>) -> Option<Vector3<f64>> {
+    modes
+        .into_iter()
+        .fold(None, |best: Option<(Vector3<f64>, f64)>, m| match best {
+            Some(b) if b.1 >= m.1 => Some(b),
+            _ => Some(m),
+        })
+        .map(|m| m.0)
 }
 
 #[cfg(test)]
