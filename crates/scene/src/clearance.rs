@@ -78,9 +78,11 @@ impl Clearance {
 
     /// Smallest distance between the surface and any point of the segment `a`-`b`.
     ///
-    /// Within parry's f32 GJK tolerances: up to about a millimetre more than
-    /// the truth, and near contact up to [`CONTACT_TOLERANCE_M`] less (seen:
-    /// 0 read at a 7 mm gap on a 35 m terrain).
+    /// Within parry's f32 GJK tolerances: up to [`GJK_RELATIVE_TOLERANCE`]
+    /// of the distance more than the truth (seen: 4.1 mm over at 5.61 m),
+    /// and near contact up to [`CONTACT_TOLERANCE_M`] less (seen: 0 read at
+    /// a 7 mm gap on a 35 m terrain). A check that must not miss a contact
+    /// uses [`Clearance::segment_is_clear`], which errs the other way.
     ///
     /// # Performance
     /// Slow (thousands of queries/s); use
@@ -122,6 +124,12 @@ impl Clearance {
 /// How much closer than the truth the segment queries may report a
 /// surface near contact, metres.
 pub const CONTACT_TOLERANCE_M: f64 = 0.01;
+
+/// How much farther than the truth, relative to the distance,
+/// [`Clearance::segment_distance`] may read: parry's f32 GJK stops once its
+/// upper and lower bounds are within sqrt(10 f32::EPSILON) (1.09e-3) of the
+/// upper one, which it returns.
+pub const GJK_RELATIVE_TOLERANCE: f64 = 1.1e-3;
 
 fn to_local(p: &Point3<f64>, offset: &Vector3<f64>) -> Vector {
     let q = p.coords - offset;

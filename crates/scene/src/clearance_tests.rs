@@ -195,8 +195,10 @@ proptest! {
             let b = Point3::new(rng.random_range(695.0..730.0), rng.random_range(-5.0..30.0), rng.random_range(2.0..10.0));
             let exact = brute_segment_distance(&mesh, &a, &b);
             let d = clearance.segment_distance(&a, &b);
-            // GJK's tolerance (seen 0.9 mm over) and early contact (seen 7 mm under).
-            prop_assert!(d < exact + 2e-3 && d > exact - CONTACT_TOLERANCE_M, "{d} vs {exact}");
+            // GJK's relative tolerance (seen 4.1 mm over at 5.61 m) and
+            // early contact (seen 7 mm under).
+            let over = exact * GJK_RELATIVE_TOLERANCE + 1e-4;
+            prop_assert!(d < exact + over && d > exact - CONTACT_TOLERANCE_M, "{d} vs {exact}");
             // Never clear when closer than r (a crash); may report contact
             // up to CONTACT_TOLERANCE_M before it happens (conservative).
             for r in [0.5, 1.0, 2.5, 5.0] {
