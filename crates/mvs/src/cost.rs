@@ -537,6 +537,16 @@ mod tests {
     use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion};
     use vp_scene::{Camera, Intrinsics};
 
+    /// A reference camera at the origin and a source camera moved by `t`
+    /// and turned by the Euler angles `r`.
+    fn pair(k: Intrinsics, t: [f64; 3], r: [f64; 3]) -> (Camera, Camera) {
+        let pose = Isometry3::from_parts(
+            Translation3::new(t[0], t[1], t[2]),
+            UnitQuaternion::from_euler_angles(r[0], r[1], r[2]),
+        );
+        (Camera::new(k, Isometry3::identity()), Camera::new(k, pose))
+    }
+
     #[test]
     fn homography_maps_plane_points_like_projection() {
         let k = Intrinsics {
@@ -547,14 +557,7 @@ mod tests {
             cx: 50.0,
             cy: 40.0,
         };
-        let reference = Camera::new(k, Isometry3::identity());
-        let source = Camera::new(
-            k,
-            Isometry3::from_parts(
-                Translation3::new(1.0, -0.3, 0.2),
-                UnitQuaternion::from_euler_angles(0.05, -0.1, 0.02),
-            ),
-        );
+        let (reference, source) = pair(k, [1.0, -0.3, 0.2], [0.05, -0.1, 0.02]);
         let rel = Relative::new(&reference, &source);
         let kr = crate::view::k_of(&reference);
         // Plane through depth 10 at pixel (30, 20), tilted.
@@ -693,14 +696,7 @@ mod tests {
             cx: 48.0,
             cy: 40.0,
         };
-        let reference = Camera::new(k, Isometry3::identity());
-        let source = Camera::new(
-            k,
-            Isometry3::from_parts(
-                Translation3::new(0.8, -0.2, 0.1),
-                UnitQuaternion::from_euler_angles(0.02, -0.06, 0.01),
-            ),
-        );
+        let (reference, source) = pair(k, [0.8, -0.2, 0.1], [0.02, -0.06, 0.01]);
         let rel = Relative::new(&reference, &source);
         let kr = crate::view::k_of(&reference);
         let mut rng = crate::rng::PixelRng::new(7, 0, 0, 0);

@@ -438,12 +438,7 @@ impl Search<'_> {
                     }
                 }
                 path.push(key(&m));
-                let sum: Vector3<f64> = rays
-                    .iter()
-                    .filter(|(r, _)| r.dot(&m) >= cos_r)
-                    .map(|(r, w)| r * *w)
-                    .sum();
-                let Some(next) = sum.try_normalize(1e-12) else {
+                let Some(next) = shift(rays, &m, cos_r) else {
                     ended = true;
                     break;
                 };
@@ -477,12 +472,7 @@ impl Search<'_> {
         for &(start, weight) in rays.iter().filter(|r| r.1 > 0.0) {
             let mut m = start;
             for _ in 0..100 {
-                let sum: Vector3<f64> = rays
-                    .iter()
-                    .filter(|(r, _)| r.dot(&m) >= cos_r)
-                    .map(|(r, w)| r * *w)
-                    .sum();
-                let Some(next) = sum.try_normalize(1e-12) else {
+                let Some(next) = shift(rays, &m, cos_r) else {
                     break;
                 };
                 let moved = (next - m).norm();
@@ -849,6 +839,17 @@ impl VisitOrder {
             }
         }
     }
+}
+
+/// One mean-shift step from `m`: the normalised weighted sum of the rays
+/// within the window, `None` when it vanishes.
+fn shift(rays: &[(Vector3<f64>, f64)], m: &Vector3<f64>, cos_r: f64) -> Option<Vector3<f64>> {
+    let sum: Vector3<f64> = rays
+        .iter()
+        .filter(|(r, _)| r.dot(m) >= cos_r)
+        .map(|(r, w)| r * *w)
+        .sum();
+    sum.try_normalize(1e-12)
 }
 
 /// The mode carrying the largest weight (the first of equals).
