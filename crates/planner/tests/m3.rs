@@ -16,7 +16,7 @@ use vp_scene::plan::AltitudeLimits;
 use vp_scene::procedural::Site;
 use vp_scene::raster::AngleBins;
 use vp_scene::raycast::RayCaster;
-use vp_scene::{Camera, Intrinsics};
+use vp_scene::{Camera, Intrinsics, Mesh};
 
 /// g(c3) straight from the definition: full visibility of every selected
 /// triangle in each camera first, then the sum of positive gains.
@@ -37,6 +37,41 @@ fn gain_by_definition(search: &Search, cams: &[Camera; 3]) -> f64 {
         g += (q * ful.curve[t].at(&ful.req.bins, angle) - ful.f(t)).max(0.0);
     }
     g
+}
+
+/// Every sampled triangle as T, with its mesh (the input of a gain test).
+fn all_triangles(ful: &Fulfillment) -> (Vec<usize>, Mesh) {
+    let selected: Vec<usize> = (0..ful.tris.len()).collect();
+    let mesh = submesh(
+        &ful.tri_mesh,
+        &selected.iter().map(|&t| t as u32).collect::<Vec<_>>(),
+    );
+    (selected, mesh)
+}
+
+/// A search without surrogates, for testing the gain of given triplets.
+fn gain_search<'a>(
+    ful: &'a Fulfillment,
+    selected: &'a [usize],
+    selected_mesh: &'a Mesh,
+    safety: &'a Safety,
+    caster: &'a RayCaster,
+    k: Intrinsics,
+) -> Search<'a> {
+    Search {
+        ful,
+        selected,
+        selected_mesh,
+        surrogates: &[],
+        links: &[],
+        potential: &[],
+        safety,
+        caster,
+        intrinsics: k,
+        pitch_limits: (-90f64.to_radians(), 0.0),
+        early_stop: true,
+        deadline: None,
+    }
 }
 
 /// Site 3 (30k faces) with its ray caster, f(t) of 400 sampled triangles
@@ -84,26 +119,9 @@ fn fixture(seed: u64, accuracy: f64) -> (Site, RayCaster, Fulfillment, Safety, C
 #[test]
 fn gain_equals_the_definition_on_a_site_with_trees() {
     let (site, caster, ful, safety, mut rng) = fixture(5, 0.02);
-    let selected: Vec<usize> = (0..ful.tris.len()).collect();
-    let selected_mesh = submesh(
-        &ful.tri_mesh,
-        &selected.iter().map(|&t| t as u32).collect::<Vec<_>>(),
-    );
+    let (selected, selected_mesh) = all_triangles(&ful);
     let k = Intrinsics::from_hfov(640, 480, 70.0).unwrap();
-    let search = Search {
-        ful: &ful,
-        selected: &selected,
-        selected_mesh: &selected_mesh,
-        surrogates: &[],
-        links: &[],
-        potential: &[],
-        safety: &safety,
-        caster: &caster,
-        intrinsics: k,
-        pitch_limits: (-90f64.to_radians(), 0.0),
-        early_stop: true,
-        deadline: None,
-    };
+    let search = gain_search(&ful, &selected, &selected_mesh, &safety, &caster, k);
     // Low oblique triplets around the rock: trees and the rock itself occlude.
     let c = nalgebra::center(&site.rock_bounds.min, &site.rock_bounds.max);
     let mut positive = 0;
@@ -223,25 +241,8 @@ fn pruned_gain_equals_the_definition_once_f_has_grown() {
             ful.add_planned(cam, &caster);
         }
     }
-    let selected: Vec<usize> = (0..ful.tris.len()).collect();
-    let selected_mesh = submesh(
-        &ful.tri_mesh,
-        &selected.iter().map(|&t| t as u32).collect::<Vec<_>>(),
-    );
-    let search = Search {
-        ful: &ful,
-        selected: &selected,
-        selected_mesh: &selected_mesh,
-        surrogates: &[],
-        links: &[],
-        potential: &[],
-        safety: &safety,
-        caster: &caster,
-        intrinsics: k,
-        pitch_limits: (-90f64.to_radians(), 0.0),
-        early_stop: true,
-        deadline: None,
-    };
+    let (selected, selected_mesh) = all_triangles(&ful);
+    let search = gain_search(&ful, &selected, &selected_mesh, &safety, &caster, k);
     let (mut positive, mut none) = (0, 0);
     for _ in 0..40 {
         let cams = triplet(&mut rng);
