@@ -12,20 +12,18 @@
 //! instead of waiting on each.
 //!
 //! # What limits it
-//! A 16 Mpx image at step 8 is 250k points x 20 trees x 20 levels = 100M
-//! visits of about 33 instructions each (7 in the gather pass, 26 in the
-//! step pass, 4 of them bounds checks): about 0.45 s of one core, which is
-//! what it measures, so the walk is bound by instructions, not memory.
-//! Measured without gains (issue 19): 2D tiles or bands of rows walked tree
-//! by tree (keeping a tree in L2 evicts the pixels and the reverse), walks
-//! of 16 points fused into one pass, a step pass that also fetches the next
-//! node (both lose the memory parallelism of the separate gather pass),
-//! and huge pages. Unchecked indexing saved about 12%. A large step needs
-//! SIMD gathers (AVX2/AVX-512): runtime dispatch is available safely
-//! (`pulp`, used by the Lab conversion), but every gather intrinsic takes
-//! a raw pointer, so gathers stay `unsafe` (denied in this workspace).
-//! Compiling these scalar loops for AVX2 through `pulp` saved nothing
-//! (cachegrind: +0.1% instructions). Dropping finished walks at three
+//! A 16 Mpx image at step 8 is 250k points x 20 trees x up to 20 levels:
+//! 78.6M visits on the bench fixture, about 6.5 cycles each. It is not
+//! bound by instructions nor by the trees' size; its loads (about 7 and 3
+//! stores per visit over the two passes) account for about 2.5 cycles, and
+//! their latency most likely for the rest. Measured without
+//! gains (issue 19, docs/performance.md): AVX2 gathers (slower than scalar
+//! loads on this Zen 4), the arithmetic on AVX2 with 4x fewer instructions,
+//! a forest of one repeated tree that stays in L2, leaf sums point-major,
+//! 2D tiles or bands of rows walked tree by tree, walks of 16 points fused
+//! into one pass, a step pass that also fetches the next node (both lose
+//! the memory parallelism of the separate gather pass), and huge pages.
+//! Unchecked indexing saved about 12%. Dropping finished walks at three
 //! levels (`compacts`) cut the visits by 21% on the bench image, and the
 //! instructions by 9% (a compacting step costs twice a plain one).
 
