@@ -65,6 +65,15 @@ impl CNode {
         let right = (sum - i32::from(self.lo)) as u32 > u32::from(self.span);
         (self.child & !COMPLEMENT) + u32::from(right)
     }
+
+    /// The child this node sends the sample at `base` in `data` to.
+    #[inline]
+    fn next_at(&self, data: &[u8], base: usize) -> u32 {
+        self.next(
+            data[base.wrapping_add_signed(self.off1 as isize)],
+            data[base.wrapping_add_signed(self.off2 as isize)],
+        )
+    }
 }
 
 /// The window of sums v1 + v2' (each 0..=255, so 0..=510) that go left.
@@ -186,10 +195,7 @@ fn accumulate(
             let mut w = 0;
             for i in 0..m {
                 let (node, p, s, old) = (&nodes[i], base[i], slot[i], cur[i]);
-                let k = node.next(
-                    data[p.wrapping_add_signed(node.off1 as isize)],
-                    data[p.wrapping_add_signed(node.off2 as isize)],
-                );
+                let k = node.next_at(data, p);
                 done[s as usize] = k;
                 cur[w] = k;
                 base[w] = p;
@@ -231,10 +237,7 @@ fn gather(cn: &[CNode], cur: &[u32], nodes: &mut [CNode]) {
 #[inline(never)]
 fn step(data: &[u8], base: &[usize], nodes: &[CNode], cur: &mut [u32]) {
     for ((k, &base), n) in cur.iter_mut().zip(base).zip(nodes) {
-        *k = n.next(
-            data[base.wrapping_add_signed(n.off1 as isize)],
-            data[base.wrapping_add_signed(n.off2 as isize)],
-        );
+        *k = n.next_at(data, base);
     }
 }
 
@@ -466,10 +469,7 @@ mod tests {
             };
             let c = compile_node(0, &node, &planes);
             let base = planes.base(rng.random_range(0..30), rng.random_range(0..30));
-            let left = c.next(
-                d[base.wrapping_add_signed(c.off1 as isize)],
-                d[base.wrapping_add_signed(c.off2 as isize)],
-            ) == 1;
+            let left = c.next_at(d, base) == 1;
             let want = test.response(&planes, base) <= i32::from(threshold);
             assert_eq!(left, want, "{test:?} threshold {threshold}");
         }
