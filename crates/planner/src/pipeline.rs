@@ -108,9 +108,6 @@ impl Setup<'_> {
             selected: self.selected,
             selected_mesh: self.selected_mesh,
             surrogates: self.surrogates,
-            // run_lazy reads the links from LazyLinks.
-            links: &[],
-            potential: &[],
             safety: self.safety,
             caster: self.caster,
             intrinsics: self.intrinsics,

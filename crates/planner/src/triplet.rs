@@ -102,11 +102,6 @@ pub struct Search<'a> {
     pub selected_mesh: &'a Mesh,
     /// Surrogate positions (M2).
     pub surrogates: &'a [Point3<f64>],
-    /// Per surrogate, linked triangles (indices into `selected`).
-    pub links: &'a [Vec<u32>],
-    /// Per surrogate and link, the best hypothetical fulfillment over the
-    /// bins ([`Potential::value`]); g_pot = max(0, that - f(t)).
-    pub potential: &'a [Vec<f64>],
     /// Safety rules for the cameras.
     pub safety: &'a Safety,
     /// Ray caster of the scene mesh.
@@ -488,11 +483,12 @@ impl Search<'_> {
         best
     }
 
-    /// Potential gains per surrogate (aligned with `links`).
-    pub fn potential_gains(&self) -> Vec<Vec<f64>> {
-        self.potential
+    /// Potential gains per surrogate (aligned with `links`), from the best
+    /// hypothetical fulfillment of each link ([`Search::run`]'s arguments).
+    fn potential_gains(&self, links: &[Vec<u32>], potential: &[Vec<f64>]) -> Vec<Vec<f64>> {
+        potential
             .par_iter()
-            .zip(self.links)
+            .zip(links)
             .map(|(best, links)| {
                 links
                     .iter()
@@ -506,10 +502,13 @@ impl Search<'_> {
     /// Visits surrogates by decreasing summed potential gain; with
     /// `early_stop`, stops when that sum is below the best gain found.
     ///
-    /// The reference for [`Search::run_lazy`]: `links` and `potential`
-    /// hold every link, tested.
-    pub fn run(&self) -> Outcome {
-        let gpot = self.potential_gains();
+    /// The reference for [`Search::run_lazy`], on every link tested:
+    /// `links` holds, per surrogate, the linked triangles (indices into
+    /// `selected`), and `potential`, per surrogate and link, the best
+    /// hypothetical fulfillment over the bins ([`Potential::value`]);
+    /// g_pot = max(0, that - f(t)).
+    pub fn run(&self, links: &[Vec<u32>], potential: &[Vec<f64>]) -> Outcome {
+        let gpot = self.potential_gains(links, potential);
         let sums: Vec<f64> = gpot.iter().map(|g| g.iter().sum()).collect();
         let mut order: Vec<usize> = (0..sums.len()).filter(|&s| sums[s] > 0.0).collect();
         order.sort_by(|&a, &b| sums[b].total_cmp(&sums[a]).then(a.cmp(&b)));
@@ -522,7 +521,7 @@ impl Search<'_> {
             let floor = out.best.as_ref().map_or(0.0, |b| b.gain);
             let results: Vec<Option<Candidate>> = chunk
                 .par_iter()
-                .map(|&s| self.visit(s, &self.links[s], &gpot[s], floor))
+                .map(|&s| self.visit(s, &links[s], &gpot[s], floor))
                 .collect();
             for (&s, cand) in chunk.iter().zip(results) {
                 let best_gain = out.best.as_ref().map_or(0.0, |b| b.gain);
@@ -540,9 +539,9 @@ impl Search<'_> {
         out
     }
 
-    /// [`Search::run`] on links whose segment tests are done on demand
-    /// (`links` and `potential` of `self` are not used): the same surrogates
-    /// visited in the same order, the same outcome, bit for bit (tested).
+    /// [`Search::run`] on links whose segment tests are done on demand: the
+    /// same surrogates visited in the same order, the same outcome, bit for
+    /// bit (tested).
     ///
     /// A surrogate's summed gain over its untested candidates bounds its
     /// summed gain over its links from above (the sum of a superset of

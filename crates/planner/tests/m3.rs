@@ -63,8 +63,6 @@ fn gain_search<'a>(
         selected,
         selected_mesh,
         surrogates: &[],
-        links: &[],
-        potential: &[],
         safety,
         caster,
         intrinsics: k,
@@ -187,8 +185,6 @@ fn lazy_search_equals_the_search_over_tested_links() {
                 selected: &selected,
                 selected_mesh: &selected_mesh,
                 surrogates: &surrogates,
-                links: &links,
-                potential: &potential,
                 safety: &safety,
                 caster: &caster,
                 intrinsics: k,
@@ -196,7 +192,7 @@ fn lazy_search_equals_the_search_over_tested_links() {
                 early_stop,
                 deadline: None,
             };
-            let want = search.run();
+            let want = search.run(&links, &potential);
             let got = search.run_lazy(&mut lazy);
             assert_eq!(got.visited, want.visited, "iteration {it}");
             assert_eq!(got.best, want.best, "iteration {it}");
