@@ -433,7 +433,7 @@ impl Bvh8 {
     }
 
     /// Second half of [`Bvh8::closest_step`], after [`Bvh8::closest_enter`].
-    #[inline]
+    #[inline(always)]
     fn closest_finish(
         &self,
         ray: &Bvh8Ray,
