@@ -3,6 +3,7 @@
 //! the sources with a best-k view selection.
 
 use crate::params::MvsParams;
+use crate::simd::{Avx2, FullWindow};
 use crate::view::{GreyImage, Relative};
 
 /// Cost of a hypothesis that cannot be scored (out of the source image,
@@ -23,7 +24,7 @@ const EDGE_MARGIN: f32 = 1e-3;
 const FLOOR_SMALL_LIMIT: u32 = 1 << 22;
 
 /// Samples of a window row whose coordinates are computed together.
-const CHUNK: usize = 8;
+pub(crate) const CHUNK: usize = 8;
 
 /// The sparse matching window, fixed for a run: the sample offsets along
 /// one axis and the spatial half of the bilateral weights, computed once
@@ -39,6 +40,8 @@ pub(crate) struct Window {
     /// Offset of each lane of a padded window row from the row's first
     /// sample, `i * step` for `i` in `0..stride`.
     lanes: Vec<f32>,
+    /// The AVX2 sums, when the CPU has AVX2 (detected once per run).
+    avx2: Option<Avx2>,
 }
 
 impl Window {
@@ -60,6 +63,7 @@ impl Window {
             spatial,
             inv_color: 1.0 / (2.0 * params.sigma_color * params.sigma_color),
             lanes: (0..stride).map(|i| i as f32 * step).collect(),
+            avx2: Avx2::detect(),
         }
     }
 
@@ -326,6 +330,23 @@ fn sums_full(
     let [a0, b0, c0] = warped_origin(win, u, v, h, src)?;
     if src.width >= FLOOR_SMALL_LIMIT || src.height >= FLOOR_SMALL_LIMIT {
         return sums_full_reference(patch, win, u, v, h, src);
+    }
+    if let Some(avx2) = win.avx2 {
+        let lanes = avx2.sums_full(&FullWindow {
+            w: &patch.w,
+            wr: &patch.wr,
+            lanes: &win.lanes,
+            n,
+            stride: win.stride(),
+            step,
+            origin: [a0, b0, c0],
+            h,
+            data: &src.data,
+            width: src.width as usize,
+        });
+        if let Some([s1, s2, sr]) = lanes {
+            return Some((lane_total(s1), lane_total(s2), lane_total(sr)));
+        }
     }
     let sw = src.width as usize;
     let data = &src.data[..];
@@ -677,7 +698,8 @@ mod tests {
 
     #[test]
     fn fast_full_window_sums_equal_the_reference_bit_for_bit() {
-        // Plane hypotheses of a real camera pair (random depths and
+        // The AVX2 sums (where the CPU has AVX2) and the scalar fast sums
+        // against the reference loop. Plane hypotheses of a real camera pair (random depths and
         // normals, as PatchMatch draws them) at every 3rd pixel: the fast
         // sums must be the reference loop's bits, or PatchMatch would pick
         // other winners. Windows of one chunk a row (the default) and of
@@ -707,6 +729,11 @@ mod tests {
                 window_step: step,
                 ..MvsParams::default()
             });
+            // The same window without the AVX2 sums (the fallback path).
+            let scalar_win = Window {
+                avx2: None,
+                ..win.clone()
+            };
             let mut patch = RefPatch::default();
             for y in (0..h as usize).step_by(3) {
                 for x in (0..w as usize).step_by(3) {
@@ -722,6 +749,7 @@ mod tests {
                     };
                     let (u, v) = (x as f32 + 0.5, y as f32 + 0.5);
                     let fast = sums_full(&patch, &win, u, v, &hm, &src);
+                    let scalar = sums_full(&patch, &scalar_win, u, v, &hm, &src);
                     let slow = sums_full_reference(&patch, &win, u, v, &hm, &src);
                     let bits = |s: Option<(f32, f32, f32)>| {
                         s.map(|(a, b, c)| [a.to_bits(), b.to_bits(), c.to_bits()])
@@ -731,6 +759,11 @@ mod tests {
                         bits(slow),
                         "pixel ({x}, {y}), window {radius}/{step}"
                     );
+                    assert_eq!(
+                        bits(scalar),
+                        bits(slow),
+                        "scalar path: pixel ({x}, {y}), window {radius}/{step}"
+                    );
                     if fast.is_some() {
                         scored += 1;
                     } else {
@@ -739,10 +772,16 @@ mod tests {
                 }
             }
         }
-        // Both outcomes were exercised.
+        // Both outcomes were exercised, and the AVX2 sums where the CPU
+        // has AVX2.
         assert!(
             scored > 500 && refused > 20,
             "{scored} scored, {refused} refused"
+        );
+        #[cfg(target_arch = "x86_64")]
+        assert_eq!(
+            Avx2::detect().is_some(),
+            std::arch::is_x86_feature_detected!("avx2")
         );
     }
 

@@ -28,6 +28,7 @@ pub mod params;
 pub mod patchmatch;
 mod pyramid;
 mod rng;
+mod simd;
 pub mod view;
 pub mod workspace;
 
