@@ -113,8 +113,8 @@ fn tier(
     // Hypotheses considered per pixel and pass: 1 initial + (4 propagated +
     // 3 refined) per iteration (an upper bound: repeated planes and
     // hypotheses that provably lose are not scored); a half-resolution
-    // level counts a quarter; the geometric pass runs `iterations` at full
-    // resolution from the photometric result.
+    // level counts a quarter; the geometric pass runs `geom_iterations` at
+    // full resolution from the photometric result.
     let per_pass = |it: u32| 1.0 + 7.0 * f64::from(it);
     let c2f = params.coarse_levels > 0 && size / 2 >= params.coarse_min_size;
     let photometric = if c2f {
@@ -123,7 +123,7 @@ fn tier(
         per_pass(params.iterations)
     };
     let geometric = if params.geom_consistency {
-        per_pass(params.iterations)
+        per_pass(params.geom_iterations)
     } else {
         0.0
     };

@@ -287,6 +287,34 @@ fn same_bytes_with_one_and_two_threads() {
     assert_ne!(bits(&a), bits(&c));
 }
 
+/// Completeness and outlier share (see [`Tally`]) on rock and ground at
+/// 5-25 degrees, summed over the given triplets.
+fn rock_and_ground_score(
+    site: &Site,
+    triplets: &[(Vec<View>, Vec<Rendered>)],
+    params: &MvsParams,
+) -> (f64, f64) {
+    let mut tally = [[Tally::default(); 4]; 5];
+    for (views, renders) in triplets {
+        let out = reconstruct(views, &triplet_sources(3), params, &mut |_| {}).unwrap();
+        evaluate(site, views, renders, &out, &mut tally);
+    }
+    let c = [Material::Rock, Material::Ground]
+        .iter()
+        .flat_map(|&m| tally[m as usize][1..3].iter())
+        .fold(Tally::default(), |a, c| Tally {
+            visible: a.visible + c.visible,
+            complete: a.complete + c.complete,
+            output: a.output + c.output,
+            outliers: a.outliers + c.outliers,
+            gross: a.gross + c.gross,
+        });
+    (
+        c.complete as f64 / c.visible.max(1) as f64,
+        c.outliers as f64 / c.output.max(1) as f64,
+    )
+}
+
 /// Coarse-to-fine (a half-resolution level, then `fine_iterations` at full
 /// resolution) keeps the quality of a single-scale run on rock and ground:
 /// completeness within 3 points, outliers within 1 point. Guards the speed-up
@@ -297,37 +325,94 @@ fn coarse_to_fine_keeps_single_scale_quality() {
     let caster = RayCaster::new(&site.mesh);
     let k = Intrinsics::from_hfov(320, 240, 60.0).unwrap();
     let cams = triplet_cameras(&site, k, 26.0, 55.0, 120.0, 14.0);
-    let (views, renders) = render_views(&site, &caster, &cams);
-    let score = |params: &MvsParams| {
-        let out = reconstruct(&views, &triplet_sources(3), params, &mut |_| {}).unwrap();
-        let mut tally = [[Tally::default(); 4]; 5];
-        evaluate(&site, &views, &renders, &out, &mut tally);
-        let c = [Material::Rock, Material::Ground]
-            .iter()
-            .flat_map(|&m| tally[m as usize][1..3].iter())
-            .fold(Tally::default(), |a, c| Tally {
-                visible: a.visible + c.visible,
-                complete: a.complete + c.complete,
-                output: a.output + c.output,
-                outliers: a.outliers + c.outliers,
-                gross: a.gross + c.gross,
-            });
-        (
-            c.complete as f64 / c.visible.max(1) as f64,
-            c.outliers as f64 / c.output.max(1) as f64,
-        )
-    };
-    let single = score(&MvsParams {
-        coarse_levels: 0,
-        ..MvsParams::default()
-    });
-    let multi = score(&MvsParams {
-        coarse_levels: 1,
-        coarse_min_size: 100,
-        ..MvsParams::default()
-    });
+    let triplets = [render_views(&site, &caster, &cams)];
+    let single = rock_and_ground_score(
+        &site,
+        &triplets,
+        &MvsParams {
+            coarse_levels: 0,
+            ..MvsParams::default()
+        },
+    );
+    let multi = rock_and_ground_score(
+        &site,
+        &triplets,
+        &MvsParams {
+            coarse_levels: 1,
+            coarse_min_size: 100,
+            ..MvsParams::default()
+        },
+    );
     eprintln!("single scale: {single:?}, coarse-to-fine: {multi:?} (completeness, outliers)");
     assert!(single.0 > 0.8, "single scale completeness {}", single.0);
     assert!(multi.0 >= single.0 - 0.03, "{multi:?} vs {single:?}");
     assert!(multi.1 <= single.1 + 0.01, "{multi:?} vs {single:?}");
+}
+
+/// The default geometric pass (`geom_iterations`, 2) keeps the quality of
+/// six iterations on rock and ground: completeness within 1 point, outliers
+/// at most 0.2 points more. Guards the default's speed-up.
+#[test]
+fn default_geometric_iterations_keep_the_quality_of_six() {
+    let site = site();
+    let caster = RayCaster::new(&site.mesh);
+    let k = Intrinsics::from_hfov(320, 240, 60.0).unwrap();
+    let cams = triplet_cameras(&site, k, 26.0, 55.0, 120.0, 14.0);
+    let triplets = [render_views(&site, &caster, &cams)];
+    let default = rock_and_ground_score(&site, &triplets, &MvsParams::default());
+    let six = rock_and_ground_score(
+        &site,
+        &triplets,
+        &MvsParams {
+            geom_iterations: 6,
+            ..MvsParams::default()
+        },
+    );
+    eprintln!("default: {default:?}, six: {six:?} (completeness, outliers)");
+    assert!(default.0 >= six.0 - 0.01, "{default:?} vs {six:?}");
+    assert!(default.1 <= six.1 + 0.002, "{default:?} vs {six:?}");
+}
+
+/// The table behind the default `geom_iterations` (docs/performance.md):
+/// completeness, outliers and time for 0-6 geometric iterations over three
+/// triplets (8, 14 and 20 degrees) at two resolutions, with the guard's bar
+/// checked on all of them. Minutes in release: run with --ignored.
+#[test]
+#[ignore = "minutes: prints the table behind the default geom_iterations"]
+fn geometric_iterations_table() {
+    let site = site();
+    let caster = RayCaster::new(&site.mesh);
+    for (w, h) in [(320, 240), (640, 480)] {
+        let k = Intrinsics::from_hfov(w, h, 60.0).unwrap();
+        let triplets: Vec<_> = [(0.0, 8.0), (120.0, 14.0), (240.0, 20.0)]
+            .iter()
+            .map(|&(az, angle)| {
+                render_views(
+                    &site,
+                    &caster,
+                    &triplet_cameras(&site, k, 26.0, 55.0, az, angle),
+                )
+            })
+            .collect();
+        let mut scores = Vec::new();
+        for geom_iterations in [0, 1, 2, 3, 4, 6] {
+            let params = MvsParams {
+                geom_iterations,
+                ..MvsParams::default()
+            };
+            let t0 = std::time::Instant::now();
+            let (complete, outliers) = rock_and_ground_score(&site, &triplets, &params);
+            eprintln!(
+                "{w}x{h}, geom_iterations {geom_iterations}: {:.1} s, complete {:.2} %, outliers {:.2} %",
+                t0.elapsed().as_secs_f64(),
+                100.0 * complete,
+                100.0 * outliers
+            );
+            scores.push((geom_iterations, complete, outliers));
+        }
+        let of = |n: u32| scores.iter().find(|s| s.0 == n).unwrap();
+        let (default, six) = (of(MvsParams::default().geom_iterations), of(6));
+        assert!(default.1 >= six.1 - 0.01, "{default:?} vs {six:?}");
+        assert!(default.2 <= six.2 + 0.002, "{default:?} vs {six:?}");
+    }
 }

@@ -179,7 +179,7 @@ pub(crate) fn patch_match_raw(
         .and_then(|p| p.get(reference))
         .and_then(Option::as_ref);
     Ok(match init {
-        Some(init) => problem.run(Some(init), params.iterations),
+        Some(init) => problem.run(Some(init), params.geom_iterations),
         None => problem.solve(params.coarse_levels),
     })
 }
