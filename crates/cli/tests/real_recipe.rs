@@ -36,6 +36,8 @@ use vp_scene::colmap::{self, ModelFrame, Sim3};
 use vp_scene::plan::GeodeticOrigin;
 
 mod common;
+#[path = "../../mission/tests/mavsdk/python.rs"]
+mod mavsdk;
 
 use common::{stderr, stdout, vpctl};
 
@@ -81,29 +83,11 @@ const ORIGIN: GeodeticOrigin = GeodeticOrigin {
     alt_m: 350.0,
 };
 
-fn mavsdk_python() -> Option<String> {
-    let py = std::env::var("VP_MAVSDK_PYTHON").unwrap_or_else(|_| "python3".into());
-    let ok = Command::new(&py)
-        .args(["-c", "import mavsdk"])
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success());
-    if ok {
-        return Some(py);
-    }
-    assert!(
-        std::env::var_os("VP_REQUIRE_MAVSDK").is_none(),
-        "VP_REQUIRE_MAVSDK is set but {py} cannot import mavsdk"
-    );
-    println!("MAVSDK import skipped: {py} cannot import mavsdk (set VP_MAVSDK_PYTHON)");
-    None
-}
-
 #[test]
 fn readme_real_photo_recipe_runs_end_to_end_on_the_visp_cube_photos() {
     let start = Instant::now();
     // Before the work: a required but missing MAVSDK fails at once.
-    let mavsdk = mavsdk_python();
+    let mavsdk = mavsdk::mavsdk_python();
     let data = data();
     let tmp = tempfile::tempdir().unwrap();
     let t = tmp.path().to_str().unwrap();

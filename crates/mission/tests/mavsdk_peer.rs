@@ -18,23 +18,8 @@ use vp_mission::{
 };
 use vp_scene::plan::{GeodeticOrigin, Plan, PlannedView, Role};
 
-fn python() -> Option<String> {
-    let py = std::env::var("VP_MAVSDK_PYTHON").unwrap_or_else(|_| "python3".into());
-    let ok = Command::new(&py)
-        .args(["-c", "import mavsdk"])
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success());
-    if ok {
-        return Some(py);
-    }
-    assert!(
-        std::env::var_os("VP_REQUIRE_MAVSDK").is_none(),
-        "VP_REQUIRE_MAVSDK is set but {py} cannot import mavsdk"
-    );
-    println!("skipped: {py} cannot import mavsdk (set VP_MAVSDK_PYTHON)");
-    None
-}
+#[path = "mavsdk/python.rs"]
+mod mavsdk;
 
 fn script() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/mavsdk/mavsdk_peer.py")
@@ -109,7 +94,9 @@ impl Drop for Peer {
 
 #[test]
 fn upload_to_mavsdk_mission_raw_server() {
-    let Some(py) = python() else { return };
+    let Some(py) = mavsdk::mavsdk_python() else {
+        return;
+    };
     let port = std::net::UdpSocket::bind("127.0.0.1:0")
         .unwrap()
         .local_addr()
@@ -154,7 +141,9 @@ fn upload_to_mavsdk_mission_raw_server() {
 
 #[test]
 fn mavsdk_imports_the_qgc_plan() {
-    let Some(py) = python() else { return };
+    let Some(py) = mavsdk::mavsdk_python() else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("mission.plan");
     let text = qgc::export_qgc(
