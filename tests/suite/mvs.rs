@@ -95,6 +95,19 @@ pub struct Tally {
     pub gross: usize,
 }
 
+impl Tally {
+    /// The cells' counts added up.
+    pub fn sum<'a>(cells: impl IntoIterator<Item = &'a Tally>) -> Tally {
+        cells.into_iter().fold(Tally::default(), |a, c| Tally {
+            visible: a.visible + c.visible,
+            complete: a.complete + c.complete,
+            output: a.output + c.output,
+            outliers: a.outliers + c.outliers,
+            gross: a.gross + c.gross,
+        })
+    }
+}
+
 pub const BINS: [f64; 5] = [0.0, 5.0, 15.0, 25.0, 180.0];
 
 fn bin_of(angle: f64) -> usize {
@@ -202,15 +215,7 @@ fn rock_and_ground_are_complete_and_clean_at_5_to_25_degrees() {
     }
     print_table(&tally);
     for m in [Material::Rock, Material::Ground] {
-        let c = tally[m as usize][1..3]
-            .iter()
-            .fold(Tally::default(), |a, c| Tally {
-                visible: a.visible + c.visible,
-                complete: a.complete + c.complete,
-                output: a.output + c.output,
-                outliers: a.outliers + c.outliers,
-                gross: a.gross + c.gross,
-            });
+        let c = Tally::sum(&tally[m as usize][1..3]);
         let completeness = c.complete as f64 / c.visible as f64;
         let outliers = c.outliers as f64 / c.output as f64;
         assert!(
@@ -297,19 +302,26 @@ fn rock_and_ground_score(
         let out = reconstruct(views, &triplet_sources(3), params, &mut |_| {}).unwrap();
         evaluate(site, views, renders, &out, &mut tally);
     }
-    let c = [Material::Rock, Material::Ground]
-        .iter()
-        .flat_map(|&m| tally[m as usize][1..3].iter())
-        .fold(Tally::default(), |a, c| Tally {
-            visible: a.visible + c.visible,
-            complete: a.complete + c.complete,
-            output: a.output + c.output,
-            outliers: a.outliers + c.outliers,
-            gross: a.gross + c.gross,
-        });
+    let c = Tally::sum(
+        [Material::Rock, Material::Ground]
+            .iter()
+            .flat_map(|&m| &tally[m as usize][1..3]),
+    );
     (
         c.complete as f64 / c.visible.max(1) as f64,
         c.outliers as f64 / c.output.max(1) as f64,
+    )
+}
+
+/// The triplet the quality guards below compare settings on: 320x240, 26 m
+/// from the rock, 14 degrees.
+fn quality_triplet(site: &Site) -> (Vec<View>, Vec<Rendered>) {
+    let caster = RayCaster::new(&site.mesh);
+    let k = Intrinsics::from_hfov(320, 240, 60.0).unwrap();
+    render_views(
+        site,
+        &caster,
+        &triplet_cameras(site, k, 26.0, 55.0, 120.0, 14.0),
     )
 }
 
@@ -320,10 +332,7 @@ fn rock_and_ground_score(
 #[test]
 fn coarse_to_fine_keeps_single_scale_quality() {
     let site = site();
-    let caster = RayCaster::new(&site.mesh);
-    let k = Intrinsics::from_hfov(320, 240, 60.0).unwrap();
-    let cams = triplet_cameras(&site, k, 26.0, 55.0, 120.0, 14.0);
-    let triplets = [render_views(&site, &caster, &cams)];
+    let triplets = [quality_triplet(&site)];
     let single = rock_and_ground_score(
         &site,
         &triplets,
@@ -353,10 +362,7 @@ fn coarse_to_fine_keeps_single_scale_quality() {
 #[test]
 fn default_geometric_iterations_keep_the_quality_of_six() {
     let site = site();
-    let caster = RayCaster::new(&site.mesh);
-    let k = Intrinsics::from_hfov(320, 240, 60.0).unwrap();
-    let cams = triplet_cameras(&site, k, 26.0, 55.0, 120.0, 14.0);
-    let triplets = [render_views(&site, &caster, &cams)];
+    let triplets = [quality_triplet(&site)];
     let default = rock_and_ground_score(&site, &triplets, &MvsParams::default());
     let six = rock_and_ground_score(
         &site,
