@@ -1,0 +1,268 @@
+//! Tests of cost.rs: the homography, view selection, the fast window sums
+//! against the per-sample path and the reference loop, and the lower bound.
+
+use super::*;
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion};
+use vp_scene::{Camera, Intrinsics};
+
+/// A reference camera at the origin and a source camera moved by `t`
+/// and turned by the Euler angles `r`.
+fn pair(k: Intrinsics, t: [f64; 3], r: [f64; 3]) -> (Camera, Camera) {
+    let pose = Isometry3::from_parts(
+        Translation3::new(t[0], t[1], t[2]),
+        UnitQuaternion::from_euler_angles(r[0], r[1], r[2]),
+    );
+    (Camera::new(k, Isometry3::identity()), Camera::new(k, pose))
+}
+
+#[test]
+fn homography_maps_plane_points_like_projection() {
+    let k = Intrinsics {
+        width: 100,
+        height: 80,
+        fx: 90.0,
+        fy: 95.0,
+        cx: 50.0,
+        cy: 40.0,
+    };
+    let (reference, source) = pair(k, [1.0, -0.3, 0.2], [0.05, -0.1, 0.02]);
+    let rel = Relative::new(&reference, &source);
+    let kr = crate::view::k_of(&reference);
+    // Plane through depth 10 at pixel (30, 20), tilted.
+    let n = nalgebra::Vector3::new(0.2, -0.3, -1.0).normalize();
+    let nf = [n.x as f32, n.y as f32, n.z as f32];
+    let ray = crate::view::pixel_ray(&kr, 30, 20);
+    let h = homography(&rel, &kr, 10.0, &nf, &ray).unwrap();
+    let x0 = nalgebra::Vector3::new(f64::from(ray[0]), f64::from(ray[1]), 1.0) * 10.0;
+    // Another pixel: intersect its ray with the plane, project it.
+    let (u, v) = (70.5f64, 60.5f64);
+    let r2 = nalgebra::Vector3::new((u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0);
+    let t = n.dot(&x0) / n.dot(&r2);
+    let p = Point3::from(r2 * t);
+    let expected = source.project(&p).unwrap();
+    let z = h[6] * u as f32 + h[7] * v as f32 + h[8];
+    let got = (
+        (h[0] * u as f32 + h[1] * v as f32 + h[2]) / z,
+        (h[3] * u as f32 + h[4] * v as f32 + h[5]) / z,
+    );
+    assert!(
+        (f64::from(got.0) - expected.x).abs() < 1e-2,
+        "{got:?} {expected}"
+    );
+    assert!(
+        (f64::from(got.1) - expected.y).abs() < 1e-2,
+        "{got:?} {expected}"
+    );
+}
+
+#[test]
+fn aggregate_averages_the_best_k() {
+    assert_eq!(
+        aggregate(&mut [(0.5, 0.5), (0.1, 0.0), (2.0, 1.0)], 2),
+        (0.3, 0.25)
+    );
+    assert_eq!(aggregate(&mut [(0.5, 0.2)], 3), (0.5, 0.2));
+}
+
+/// A textured image: smooth random-looking intensities.
+fn texture(w: u32, h: u32) -> GreyImage {
+    let data = (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as f32, (i / w) as f32);
+            0.5 + 0.2 * (0.37 * x + 0.11 * y).sin() + 0.2 * (0.05 * x * y).cos() * (0.23 * y).sin()
+        })
+        .collect();
+    GreyImage {
+        width: w,
+        height: h,
+        data,
+    }
+}
+
+#[test]
+fn fast_path_scores_like_the_per_sample_path() {
+    // Same window, one scored by the corner test + row-wise homography,
+    // one by the per-sample path: the costs agree to rounding, and both
+    // refuse a window that leaves the source.
+    let img = texture(64, 48);
+    let hs = [
+        [1.02f32, 0.03, -1.5, -0.02, 0.98, 2.0, 1e-4, -2e-4, 1.0],
+        [0.9, -0.1, 4.0, 0.05, 1.1, -3.0, -3e-4, 1e-4, 1.01],
+        [1.0, 0.0, 30.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0], // leaves the image
+    ];
+    // The default window (6 samples a row) and one wider than a chunk.
+    for (radius, step) in [(5, 2), (9, 1)] {
+        let params = MvsParams {
+            window_radius: radius,
+            window_step: step,
+            ..MvsParams::default()
+        };
+        let win = Window::new(&params);
+        let mut patch = RefPatch::default();
+        patch.build(&img, 30, 20, &win);
+        assert!(patch.full && patch.textured());
+        let mut slow = RefPatch::default();
+        patch_clone_partial(&patch, &win, &mut slow);
+        for h in hs {
+            let fast = source_cost(&patch, &win, 30.5, 20.5, &h, &img);
+            let reference = source_cost(&slow, &win, 30.5, 20.5, &h, &img);
+            assert!((fast - reference).abs() < 1e-4, "{fast} vs {reference}");
+        }
+        assert!(source_cost(&patch, &win, 30.5, 20.5, &hs[2], &img) >= MAX_COST);
+        assert!(source_cost(&patch, &win, 30.5, 20.5, &hs[0], &img) < 1.0);
+    }
+}
+
+#[test]
+fn floor_small_is_the_truncating_cast_below_its_limit() {
+    // Every 61st float of [0, 2^22), and the integers with their
+    // neighbours and halves, where rounding to nearest goes up.
+    let limit = (FLOOR_SMALL_LIMIT as f32).to_bits();
+    let spread = (0..limit).step_by(61).map(f32::from_bits);
+    let near = (0..FLOOR_SMALL_LIMIT).step_by(997).flat_map(|i| {
+        let f = i as f32;
+        [
+            f,
+            f + 0.5,
+            f - 0.5,
+            f * (1.0 + f32::EPSILON),
+            f * (1.0 - f32::EPSILON),
+        ]
+    });
+    for x in spread
+        .chain(near)
+        .filter(|x| (0.0..FLOOR_SMALL_LIMIT as f32).contains(x))
+    {
+        let (f, i) = floor_small(x);
+        assert_eq!(
+            (f.to_bits(), i),
+            (((x as usize) as f32).to_bits(), x as i32),
+            "{x}"
+        );
+    }
+}
+
+#[test]
+fn fast_full_window_sums_equal_the_reference_bit_for_bit() {
+    // The AVX2 sums (where the CPU has AVX2) and the scalar fast sums
+    // against the reference loop. Plane hypotheses of a real camera pair (random depths and
+    // normals, as PatchMatch draws them) at every 3rd pixel: the fast
+    // sums must be the reference loop's bits, or PatchMatch would pick
+    // other winners. Windows of one chunk a row (the default) and of
+    // several.
+    let (w, h) = (96u32, 80u32);
+    let img = texture(w, h);
+    let src = GreyImage {
+        data: img.data.iter().map(|v| 0.9 * v + 0.05).collect(),
+        ..img.clone()
+    };
+    let k = Intrinsics {
+        width: w,
+        height: h,
+        fx: 80.0,
+        fy: 80.0,
+        cx: 48.0,
+        cy: 40.0,
+    };
+    let (reference, source) = pair(k, [0.8, -0.2, 0.1], [0.02, -0.06, 0.01]);
+    let rel = Relative::new(&reference, &source);
+    let kr = crate::view::k_of(&reference);
+    let mut rng = crate::rng::PixelRng::new(7, 0, 0, 0);
+    let (mut scored, mut refused) = (0, 0);
+    for (radius, step) in [(5, 2), (9, 1), (4, 1)] {
+        let win = Window::new(&MvsParams {
+            window_radius: radius,
+            window_step: step,
+            ..MvsParams::default()
+        });
+        // The same window without the AVX2 sums (the fallback path).
+        let scalar_win = Window {
+            avx2: None,
+            ..win.clone()
+        };
+        let mut patch = RefPatch::default();
+        for y in (0..h as usize).step_by(3) {
+            for x in (0..w as usize).step_by(3) {
+                patch.build(&img, x, y, &win);
+                if !patch.full {
+                    continue;
+                }
+                let ray = crate::view::pixel_ray(&kr, x, y);
+                let d = 4.0 + 20.0 * rng.next_f32();
+                let n = [0.4 * rng.symmetric(), 0.4 * rng.symmetric(), -1.0];
+                let Some(hm) = homography(&rel, &kr, d, &n, &ray) else {
+                    continue;
+                };
+                let (u, v) = (x as f32 + 0.5, y as f32 + 0.5);
+                let fast = sums_full(&patch, &win, u, v, &hm, &src);
+                let scalar = sums_full(&patch, &scalar_win, u, v, &hm, &src);
+                let slow = sums_full_reference(&patch, &win, u, v, &hm, &src);
+                let bits = |s: Option<(f32, f32, f32)>| {
+                    s.map(|(a, b, c)| [a.to_bits(), b.to_bits(), c.to_bits()])
+                };
+                assert_eq!(
+                    bits(fast),
+                    bits(slow),
+                    "pixel ({x}, {y}), window {radius}/{step}"
+                );
+                assert_eq!(
+                    bits(scalar),
+                    bits(slow),
+                    "scalar path: pixel ({x}, {y}), window {radius}/{step}"
+                );
+                if fast.is_some() {
+                    scored += 1;
+                } else {
+                    refused += 1;
+                }
+            }
+        }
+    }
+    // Both outcomes were exercised, and the AVX2 sums where the CPU
+    // has AVX2.
+    assert!(
+        scored > 500 && refused > 20,
+        "{scored} scored, {refused} refused"
+    );
+    #[cfg(target_arch = "x86_64")]
+    assert_eq!(
+        Avx2::detect().is_some(),
+        std::arch::is_x86_feature_detected!("avx2")
+    );
+}
+
+fn patch_clone_partial(full: &RefPatch, win: &Window, out: &mut RefPatch) {
+    for &oy in &win.offsets {
+        for &ox in &win.offsets {
+            out.dx.push(ox as f32);
+            out.dy.push(oy as f32);
+        }
+    }
+    for (w, wr) in full
+        .w
+        .chunks_exact(win.stride())
+        .zip(full.wr.chunks_exact(win.stride()))
+    {
+        out.w.extend_from_slice(&w[..win.n()]);
+        out.wr.extend_from_slice(&wr[..win.n()]);
+    }
+    out.sum_w = full.sum_w;
+    out.var = full.var;
+    out.full = false;
+}
+
+#[test]
+fn lower_bound_never_exceeds_the_aggregate() {
+    let all = [(0.7f32, 0.7f32), (0.2, 0.2), (1.5, 1.5), (0.4, 0.4)];
+    for k in 1..=4 {
+        let want = aggregate(&mut all.clone(), k).0;
+        for scored in 1..=4 {
+            let mut part = all[..scored].to_vec();
+            let lb = aggregate_lower_bound(&mut part, all.len(), k);
+            assert!(lb <= want + 1e-6, "k {k}, {scored} scored: {lb} > {want}");
+            if scored == all.len() {
+                assert!((lb - want).abs() < 1e-6);
+            }
+        }
+    }
+}
