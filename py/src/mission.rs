@@ -7,12 +7,16 @@ use std::path::PathBuf;
 use num_traits::ToPrimitive;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
+use vp_mission::heights::{
+    HeightLimits, UserMissionOptions, DEFAULT_CEILING_M, DEFAULT_MIN_HEIGHT_M,
+};
 use vp_mission::sim_vehicle::{spawn_udp_vehicle, UdpVehicle, VehicleConfig};
 use vp_mission::{
     build_mission, export_text, export_wpl, Autopilot, ConnectOptions, ExportFormat, Mission,
     MissionItem, MissionOptions,
 };
 use vp_scene::fsio;
+use vp_scene::plan::{GeodeticOrigin, Plan, VerticalDatum};
 
 use crate::errors::{value_error, IntoPy};
 use crate::planner::PyPlan;
@@ -27,15 +31,56 @@ fn autopilot(name: &str) -> PyResult<Autopilot> {
     }
 }
 
-/// Mission options as `vpctl mission` builds them from its flags.
-fn options(
-    autopilot_name: &str,
+/// The keywords every mission call shares, as `vpctl mission` flags.
+struct Keywords {
     hold: f32,
     speed: Option<f32>,
     takeoff: f32,
     rtl: bool,
+}
+
+/// `home=(lat, lon, alt)` or `(lat, lon, alt, "egm96" | "ellipsoid" | "takeoff")`.
+fn home_of(
+    home: Option<&Bound<'_, PyAny>>,
+) -> PyResult<Option<(GeodeticOrigin, Option<VerticalDatum>)>> {
+    let Some(home) = home.filter(|h| !h.is_none()) else {
+        return Ok(None);
+    };
+    let (lat, lon, alt, datum) = if let Ok((lat, lon, alt)) = home.extract::<(f64, f64, f64)>() {
+        (lat, lon, alt, None)
+    } else {
+        let (lat, lon, alt, d) = home
+            .extract::<(f64, f64, f64, String)>()
+            .map_err(|_| value_error("home: expected (lat, lon, alt) or (lat, lon, alt, datum)"))?;
+        (lat, lon, alt, Some(d.parse::<VerticalDatum>().py()?))
+    };
+    Ok(Some((GeodeticOrigin::new(lat, lon, alt).py()?, datum)))
+}
+
+/// Mission options for `plan` as `vpctl mission` builds them from its flags
+/// (vp-mission's `UserMissionOptions`).
+fn options(
+    plan: &Plan,
+    autopilot_name: &str,
+    k: Keywords,
+    home: Option<&Bound<'_, PyAny>>,
+    ceiling: f64,
+    min_height: f64,
 ) -> PyResult<MissionOptions> {
-    MissionOptions::from_user(autopilot(autopilot_name)?, hold, speed, takeoff, rtl).py()
+    UserMissionOptions {
+        autopilot: autopilot(autopilot_name)?,
+        hold_s: k.hold,
+        speed_m_s: k.speed,
+        takeoff_m: k.takeoff,
+        return_to_launch: k.rtl,
+        home: home_of(home)?,
+        limits: HeightLimits {
+            min_height_m: min_height,
+            ceiling_m: ceiling,
+        },
+    }
+    .resolve(plan)
+    .py()
 }
 
 fn item_dict<'py>(py: Python<'py>, item: &MissionItem) -> PyResult<Bound<'py, PyDict>> {
@@ -96,7 +141,8 @@ impl PyMission {
 
 /// Builds the MAVLink mission of a plan (options as `vpctl mission` flags).
 #[pyfunction]
-#[pyo3(name = "build_mission", signature = (plan, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true))]
+#[pyo3(name = "build_mission", signature = (plan, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true, home = None, ceiling = DEFAULT_CEILING_M, min_height = DEFAULT_MIN_HEIGHT_M))]
+#[allow(clippy::too_many_arguments)] // Python keywords, one per `vpctl mission` flag
 fn py_build_mission(
     plan: PyRef<'_, PyPlan>,
     autopilot: &str,
@@ -104,8 +150,17 @@ fn py_build_mission(
     speed: Option<f32>,
     takeoff: f32,
     rtl: bool,
+    home: Option<&Bound<'_, PyAny>>,
+    ceiling: f64,
+    min_height: f64,
 ) -> PyResult<PyMission> {
-    let o = options(autopilot, hold, speed, takeoff, rtl)?;
+    let k = Keywords {
+        hold,
+        speed,
+        takeoff,
+        rtl,
+    };
+    let o = options(&plan.0, autopilot, k, home, ceiling, min_height)?;
     build_mission(&plan.0, &o).py().map(PyMission)
 }
 
@@ -116,7 +171,8 @@ fn py_build_mission(
 /// when given, atomically, refusing to overwrite unless `force` (same
 /// bytes as `vpctl mission export`).
 #[pyfunction]
-#[pyo3(signature = (plan, format = None, out = None, force = false, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true))]
+#[pyo3(signature = (plan, format = None, out = None, force = false, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true, home = None, ceiling = DEFAULT_CEILING_M, min_height = DEFAULT_MIN_HEIGHT_M))]
+#[allow(clippy::too_many_arguments)] // Python keywords, one per `vpctl mission` flag
 fn export(
     plan: PyRef<'_, PyPlan>,
     format: Option<&str>,
@@ -127,13 +183,22 @@ fn export(
     speed: Option<f32>,
     takeoff: f32,
     rtl: bool,
+    home: Option<&Bound<'_, PyAny>>,
+    ceiling: f64,
+    min_height: f64,
 ) -> PyResult<String> {
     let format = format.map(ExportFormat::from_name).transpose().py()?;
     let format = ExportFormat::for_output(out.as_deref(), format).py()?;
     if let Some(p) = &out {
         fsio::check_overwrite(p, force).py()?;
     }
-    let o = options(autopilot, hold, speed, takeoff, rtl)?;
+    let k = Keywords {
+        hold,
+        speed,
+        takeoff,
+        rtl,
+    };
+    let o = options(&plan.0, autopilot, k, home, ceiling, min_height)?;
     let text = export_text(&plan.0, format, &o).py()?;
     if let Some(p) = &out {
         use std::io::Write;
@@ -150,7 +215,8 @@ fn connect_options(heartbeat_timeout: f64, timeout_scale: f64) -> PyResult<Conne
 /// uploads the plan's mission and verifies it by reading it back. The GIL
 /// is released while waiting on the vehicle. Returns a report dict.
 #[pyfunction]
-#[pyo3(signature = (plan, url, heartbeat_timeout = 5.0, timeout_scale = 1.0, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true))]
+#[pyo3(signature = (plan, url, heartbeat_timeout = 5.0, timeout_scale = 1.0, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true, home = None, ceiling = DEFAULT_CEILING_M, min_height = DEFAULT_MIN_HEIGHT_M))]
+#[allow(clippy::too_many_arguments)] // Python keywords, one per `vpctl mission` flag
 fn upload<'py>(
     py: Python<'py>,
     plan: PyRef<'_, PyPlan>,
@@ -162,8 +228,17 @@ fn upload<'py>(
     speed: Option<f32>,
     takeoff: f32,
     rtl: bool,
+    home: Option<&Bound<'_, PyAny>>,
+    ceiling: f64,
+    min_height: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let o = options(autopilot, hold, speed, takeoff, rtl)?;
+    let k = Keywords {
+        hold,
+        speed,
+        takeoff,
+        rtl,
+    };
+    let o = options(&plan.0, autopilot, k, home, ceiling, min_height)?;
     let m = build_mission(&plan.0, &o).py()?;
     let opts = connect_options(heartbeat_timeout, timeout_scale)?;
     let (report, info) = py

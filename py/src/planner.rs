@@ -7,10 +7,14 @@ use nalgebra::Point3;
 use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use vp_planner::free_space::observations_from_model;
 use vp_planner::grid::GridParams;
-use vp_planner::{AcquiredView, PlanInputs, PlanResult, PlannerConfig, RoiSpec};
+use vp_planner::{
+    AcquiredView, GridRequest, HomeSpec, ModelPlanRequest, Observation, PlanInputs, PlanResult,
+    PlannerConfig, RoiSpec,
+};
 use vp_scene::colmap;
-use vp_scene::plan::{GeodeticOrigin, Plan, Role};
+use vp_scene::plan::{GeodeticOrigin, Plan, Role, VerticalDatum};
 use vp_scene::roi::Roi;
 use vp_scene::{io, Mesh};
 
@@ -232,7 +236,7 @@ fn origin_of(obj: Option<(f64, f64, f64)>) -> PyResult<Option<GeodeticOrigin>> {
 fn acquired_of(
     cameras: &Bound<'_, PyAny>,
     confidence: Option<&Bound<'_, PyAny>>,
-) -> PyResult<Vec<AcquiredView>> {
+) -> PyResult<(Vec<AcquiredView>, Vec<Observation>)> {
     let confidence = confidence.filter(|c| !c.is_none());
     if let Ok(list) = cameras.extract::<Vec<PyCamera>>() {
         let conf: Vec<Option<PyConfidence>> = match confidence {
@@ -250,14 +254,15 @@ fn acquired_of(
                 conf.len()
             )));
         }
-        return Ok(list
+        let views = list
             .into_iter()
             .zip(conf)
             .map(|(c, k)| AcquiredView {
                 camera: c.0,
                 confidence: k.map(|k| k.0),
             })
-            .collect());
+            .collect();
+        return Ok((views, Vec::new()));
     }
     let rec = if let Ok(m) = cameras.cast::<PyColmap>() {
         m.get().0.clone()
@@ -274,17 +279,60 @@ fn acquired_of(
             })
         })
         .transpose()?;
-    vp_planner::acquired_from_model(&rec, dir.as_deref()).py()
+    let views = vp_planner::acquired_from_model(&rec, dir.as_deref()).py()?;
+    let observations = observations_from_model(&rec).py()?;
+    Ok((views, observations))
+}
+
+/// `home=(lat, lon, alt)` or `(lat, lon, alt, datum)`, or "first_image".
+fn home_spec(home: Option<&Bound<'_, PyAny>>) -> PyResult<HomeSpec> {
+    let Some(home) = home.filter(|h| !h.is_none()) else {
+        return Ok(HomeSpec::Unset);
+    };
+    if let Ok(s) = home.extract::<String>() {
+        return if s == "first_image" {
+            Ok(HomeSpec::FirstImage)
+        } else {
+            Err(value_error(format!(
+                "home {s:?}: expected (lat, lon, alt[, datum]) or \"first_image\""
+            )))
+        };
+    }
+    let (lat, lon, alt, datum) = if let Ok((lat, lon, alt)) = home.extract::<(f64, f64, f64)>() {
+        (lat, lon, alt, None)
+    } else {
+        let (lat, lon, alt, d) = home.extract::<(f64, f64, f64, String)>().map_err(|_| {
+            value_error("home: expected (lat, lon, alt), (lat, lon, alt, datum) or \"first_image\"")
+        })?;
+        (lat, lon, alt, Some(d.parse::<VerticalDatum>().py()?))
+    };
+    Ok(HomeSpec::At {
+        position: GeodeticOrigin::new(lat, lon, alt).py()?,
+        datum,
+    })
+}
+
+fn datum_of(datum: Option<&str>) -> PyResult<Option<VerticalDatum>> {
+    datum.map(|d| d.parse::<VerticalDatum>().py()).transpose()
 }
 
 /// Plans the next camera triplets (M1-M4) as `vpctl plan` does: `mesh` a
-/// Mesh or file, `cameras` the acquired views (ColmapModel, model folder or
-/// list of Camera), `confidence` their confidence images (folder, list, or
-/// None for no prediction), `config` a dict, TOML path or None, `roi` a box
-/// (xmin, ymin, zmin, xmax, ymax, zmax) or a dict as `--roi` JSON, `origin`
-/// (lat, lon, alt). The GIL is released while planning.
+/// Mesh or file, `cameras` the acquired views, `confidence` their
+/// confidence images (folder, list, or None for no prediction), `config` a
+/// dict, TOML path or None, `roi` a box (xmin, ymin, zmin, xmax, ymax,
+/// zmax) or a dict as `--roi` JSON, `origin` (lat, lon, alt) with its
+/// `datum` ("egm96", "ellipsoid", "takeoff"), `home` (lat, lon, alt[,
+/// datum]) or "first_image" (as `--home-from-first-image`).
+///
+/// With a model folder as `cameras` this is the very call `vpctl plan`
+/// makes (vp-planner's `plan_from_model`): the frame check (unless
+/// `frame_unchecked`), the free space from the model's tracks, the home.
+/// A ColmapModel object or a list of Cameras has no frame.json to check:
+/// they plan as `frame_unchecked` (a ColmapModel's tracks still carve the
+/// free space). The GIL is released while planning.
 #[pyfunction]
-#[pyo3(signature = (mesh, cameras, confidence = None, config = None, roi = None, origin = None))]
+#[pyo3(signature = (mesh, cameras, confidence = None, config = None, roi = None, origin = None, datum = None, home = None, frame_unchecked = false))]
+#[allow(clippy::too_many_arguments)] // Python keywords, one per `vpctl plan` flag
 fn plan(
     py: Python<'_>,
     mesh: &Bound<'_, PyAny>,
@@ -293,23 +341,65 @@ fn plan(
     config: Option<&Bound<'_, PyAny>>,
     roi: Option<&Bound<'_, PyAny>>,
     origin: Option<(f64, f64, f64)>,
+    datum: Option<&str>,
+    home: Option<&Bound<'_, PyAny>>,
+    frame_unchecked: bool,
 ) -> PyResult<PyPlanResult> {
     let cfg = self::config(config)?;
     let mesh = mesh_of(mesh)?;
-    let acquired = acquired_of(cameras, confidence)?;
     let roi = roi_of(roi)?;
     let origin = origin_of(origin)?;
+    let datum = datum_of(datum)?;
+    let home = home_spec(home)?;
+    let is_object =
+        cameras.cast::<PyColmap>().is_ok() || cameras.extract::<Vec<PyCamera>>().is_ok();
+    if !is_object {
+        let model: PathBuf = cameras.extract().map_err(|_| {
+            value_error("cameras: expected a ColmapModel, a model folder or a list of Camera")
+        })?;
+        let conf_dir: Option<PathBuf> = confidence
+            .filter(|c| !c.is_none())
+            .map(|c| {
+                c.extract().map_err(|_| {
+                    value_error("confidence: with a model folder, give a folder of .vpconf files")
+                })
+            })
+            .transpose()?;
+        let job = py
+            .detach(|| {
+                vp_planner::plan_from_model(&ModelPlanRequest {
+                    mesh: &mesh,
+                    model: &model,
+                    confidence_dir: conf_dir.as_deref(),
+                    config: &cfg,
+                    roi,
+                    origin: origin.map(|o| (o, datum)),
+                    home,
+                    frame_unchecked,
+                })
+            })
+            .py()?;
+        return Ok(PyPlanResult(job.result));
+    }
+    let (acquired, observations) = acquired_of(cameras, confidence)?;
     let r = py
-        .detach(|| {
-            vp_planner::plan(&PlanInputs {
+        .detach(|| -> vp_planner::Result<PlanResult> {
+            let mut r = vp_planner::plan(&PlanInputs {
                 mesh: &mesh,
                 acquired: &acquired,
                 roi,
                 config: &cfg,
                 origin,
-                // Free space from rays of the cameras to the mesh.
-                observations: None,
-            })
+                // A model's tracks carve the free space, as `vpctl plan`'s;
+                // without tracks, rays of the cameras to the mesh.
+                observations: (!observations.is_empty()).then_some(&observations[..]),
+            })?;
+            let first = acquired
+                .first()
+                .map(|v| ("the first camera", v.camera.center()));
+            r.plan.vertical_datum = datum;
+            r.plan.home = vp_planner::resolve_home(&mesh, origin, datum, &home, first)?;
+            Ok(r)
         })
         .py()?;
     Ok(PyPlanResult(r))
@@ -317,9 +407,9 @@ fn plan(
 
 /// A lawnmower grid flight over the region of interest, as `vpctl plan grid`.
 #[pyfunction]
-#[pyo3(signature = (mesh, roi = None, height = 50.0, gsd = None, overlap = 0.8, side_overlap = None, pitch = -90.0, yaw = 0.0, initial = false, config = None, origin = None),
+#[pyo3(signature = (mesh, roi = None, height = 50.0, gsd = None, overlap = 0.8, side_overlap = None, pitch = -90.0, yaw = 0.0, initial = false, config = None, origin = None, datum = None, home = None),
     // pyo3 writes a negative default as `...`: help() would show Ellipsis.
-    text_signature = "(mesh, roi=None, height=50.0, gsd=None, overlap=0.8, side_overlap=None, pitch=-90.0, yaw=0.0, initial=False, config=None, origin=None)")]
+    text_signature = "(mesh, roi=None, height=50.0, gsd=None, overlap=0.8, side_overlap=None, pitch=-90.0, yaw=0.0, initial=False, config=None, origin=None, datum=None, home=None)")]
 fn plan_grid(
     py: Python<'_>,
     mesh: &Bound<'_, PyAny>,
@@ -333,11 +423,15 @@ fn plan_grid(
     initial: bool,
     config: Option<&Bound<'_, PyAny>>,
     origin: Option<(f64, f64, f64)>,
+    datum: Option<&str>,
+    home: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<PyPlan> {
     let cfg = self::config(config)?;
     let mesh = mesh_of(mesh)?;
     let roi = roi_of(roi)?;
     let origin = origin_of(origin)?;
+    let datum = datum_of(datum)?;
+    let home = home_spec(home)?;
     let params = GridParams {
         height_m: height,
         gsd_m: gsd,
@@ -347,9 +441,18 @@ fn plan_grid(
         yaw_deg: yaw,
         role: if initial { Role::Initial } else { Role::Grid },
     };
-    py.detach(|| vp_planner::plan_grid(&mesh, &roi, &params, &cfg, origin))
-        .py()
-        .map(PyPlan)
+    py.detach(|| {
+        vp_planner::plan_grid_job(&GridRequest {
+            mesh: &mesh,
+            roi: &roi,
+            params: &params,
+            config: &cfg,
+            origin: origin.map(|o| (o, datum)),
+            home,
+        })
+    })
+    .py()
+    .map(PyPlan)
 }
 
 /// The planner configuration with every default, as a dict.

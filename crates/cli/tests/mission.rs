@@ -4,7 +4,7 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 use vp_mission::sim_vehicle::{spawn_udp_vehicle, VehicleConfig};
-use vp_scene::plan::{GeodeticOrigin, Plan, PlannedView, Role};
+use vp_scene::plan::{GeodeticOrigin, Home, Plan, PlannedView, Role};
 
 fn vpctl(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_vpctl"))
@@ -16,6 +16,11 @@ fn vpctl(args: &[&str]) -> Output {
 /// A plan of one triplet around a point 20 m above the origin.
 fn write_plan(path: &Path) {
     let mut plan = Plan::new(Some(GeodeticOrigin::default()));
+    // The simulator's convention: the origin on the ground, the take-off point.
+    plan.home = Some(Home {
+        position: GeodeticOrigin::default(),
+        source: "the origin".into(),
+    });
     for (i, (x, y)) in [(10.0, 0.0), (-5.0, 8.66), (-5.0, -8.66)]
         .into_iter()
         .enumerate()

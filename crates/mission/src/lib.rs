@@ -32,6 +32,7 @@ use std::time::Duration;
 
 pub use error::{MissionError, Result};
 pub use export::{export_text, ExportFormat};
+pub use items::heights;
 pub use items::{
     build_mission, compare_items, Autopilot, CameraTrigger, GimbalCommand, Mission, MissionItem,
     MissionOptions,

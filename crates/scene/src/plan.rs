@@ -25,6 +25,7 @@ use nalgebra::Point3;
 use serde::{Deserialize, Serialize};
 
 use crate::camera::{Camera, Intrinsics};
+pub use crate::datum::{Home, VerticalDatum};
 use crate::error::{Location, Result, SceneError};
 use crate::fsio;
 
@@ -206,6 +207,16 @@ pub struct Plan {
     /// WGS84 position of the ENU origin; needed to fly or export the plan.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub origin: Option<GeodeticOrigin>,
+    /// The datum of `origin.alt_m` and `home`'s altitude; absent in plans
+    /// written before datums were recorded (then only a home in the same,
+    /// unstated datum can be used with it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vertical_datum: Option<VerticalDatum>,
+    /// Where the vehicle takes off: the relative altitudes of a mission are
+    /// heights above it. Without it a mission cannot be exported (the origin
+    /// may be in the air: `vpctl colmap align` puts it at the first photo).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub home: Option<Home>,
     /// Views in flight order.
     pub waypoints: Vec<PlannedView>,
     /// Inclusion polygon in the ENU x/y plane, metres, not closed (the last
@@ -240,6 +251,8 @@ impl Plan {
         Plan {
             format_version: PLAN_FORMAT_VERSION,
             origin,
+            vertical_datum: None,
+            home: None,
             waypoints: Vec::new(),
             geofence: None,
             altitude_limits: None,
@@ -260,6 +273,16 @@ impl Plan {
         };
         if let Some(o) = &self.origin {
             o.validate()?;
+        }
+        if let Some(h) = &self.home {
+            if self.origin.is_none() {
+                return Err(SceneError::InvalidArgument(
+                    "plan: a home without a geodetic origin: the waypoints cannot be placed \
+                     relative to it"
+                        .into(),
+                ));
+            }
+            h.position.validate()?;
         }
         for (i, v) in self.waypoints.iter().enumerate() {
             if !v.position.iter().all(|c| c.is_finite()) {

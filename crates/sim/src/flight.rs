@@ -120,7 +120,10 @@ pub fn fly(
             }
         }
     }
-    let frame = ModelFrame::identity(world.site.origin);
+    let frame = ModelFrame {
+        home: Some(world.home()),
+        ..ModelFrame::identity(world.site.origin)
+    };
     Ok(Flight {
         images,
         model,

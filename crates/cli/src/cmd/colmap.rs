@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Result;
 use clap::Subcommand;
 use vp_scene::colmap;
+use vp_scene::datum::VerticalDatum;
 
 /// COLMAP subcommands.
 #[derive(Debug, Subcommand)]
@@ -77,6 +78,14 @@ pub struct AlignArgs {
     /// Ignored when the cameras do not lie on a line.
     #[arg(long)]
     pub gravity_from_views: bool,
+    /// What the positions' altitudes are measured from: `egm96` (above mean
+    /// sea level, as most drones write EXIF GPS altitude), `ellipsoid`
+    /// (WGS84, as a GNSS receiver computes it) or `takeoff` (above the
+    /// take-off point). Recorded in frame.json so that a home given later in
+    /// another datum is converted, never mixed. Default: egm96 with --exif;
+    /// unstated with --positions.
+    #[arg(long, value_name = "DATUM")]
+    pub datum: Option<vp_scene::datum::VerticalDatum>,
 }
 
 /// Arguments of `vpctl colmap undistort`.
@@ -165,15 +174,26 @@ fn undistort(a: &UndistortArgs, out: &mut dyn Write) -> Result<()> {
     Ok(())
 }
 
-/// The positions of --positions or --exif, and the file or folder they came
-/// from. The photos without a GPS position are listed first, so that a
-/// refusal to align (too few positions) shows why.
-fn read_positions<'a>(
-    a: &'a AlignArgs,
-    out: &mut dyn Write,
-) -> Result<(Vec<(String, vp_scene::plan::GeodeticOrigin)>, &'a Path)> {
+/// What --positions or --exif gave: the positions, the file or folder they
+/// came from, their altitudes' datum and the take-off altitude if known.
+struct Positions<'a> {
+    geo: Vec<(String, vp_scene::plan::GeodeticOrigin)>,
+    source: &'a Path,
+    datum: Option<VerticalDatum>,
+    takeoff_alt_m: Option<f64>,
+}
+
+/// The positions of --positions or --exif. The photos without a GPS
+/// position are listed first, so that a refusal to align (too few
+/// positions) shows why.
+fn read_positions<'a>(a: &'a AlignArgs, out: &mut dyn Write) -> Result<Positions<'a>> {
     match (&a.positions, &a.exif) {
-        (Some(csv), _) => Ok((colmap::read_positions_csv(csv)?, csv)),
+        (Some(csv), _) => Ok(Positions {
+            geo: colmap::read_positions_csv(csv)?,
+            source: csv,
+            datum: a.datum,
+            takeoff_alt_m: None,
+        }),
         (None, Some(dir)) => {
             let found = colmap::read_positions_exif(dir)?;
             writeln!(
@@ -185,7 +205,20 @@ fn read_positions<'a>(
             for (name, why) in &found.skipped {
                 writeln!(out, "  skipped {name}: {why}")?;
             }
-            Ok((found.positions, dir))
+            let datum = a.datum.unwrap_or(VerticalDatum::Egm96);
+            // The relative altitudes say where the ground of the take-off
+            // is, in the datum of the GPS altitudes; with heights that are
+            // themselves relative to take-off it is 0.
+            let takeoff_alt_m = match datum {
+                VerticalDatum::Takeoff => Some(0.0),
+                _ => found.takeoff_alt_m,
+            };
+            Ok(Positions {
+                geo: found.positions,
+                source: dir,
+                datum: Some(datum),
+                takeoff_alt_m,
+            })
         }
         (None, None) => Err(crate::cmd::UsageError(
             "--positions CSV or --exif IMAGES_DIR is needed".into(),
@@ -205,7 +238,12 @@ fn align(a: &AlignArgs, out: &mut dyn Write) -> Result<()> {
     vp_scene::fsio::check_overwrite(&a.out, a.force)?;
     let format = colmap::detect_format(&a.model)?;
     let rec = colmap::read_model_as(&a.model, format)?;
-    let (geo, source) = read_positions(a, out)?;
+    let Positions {
+        geo,
+        source,
+        datum,
+        takeoff_alt_m,
+    } = read_positions(a, out)?;
     // The readers refuse an empty list; the origin is the first position
     // (in file order, or the first photo by name).
     let Some(&(_, origin)) = geo.first() else {
@@ -229,6 +267,9 @@ fn align(a: &AlignArgs, out: &mut dyn Write) -> Result<()> {
         rms_m: al.rms_m,
         residuals: al.residuals.clone(),
         strip: al.strip,
+        vertical_datum: datum,
+        takeoff_alt_m,
+        home: None,
     };
     // Build beside --out, rename when complete: nothing partial.
     let parent = match a.out.parent() {
@@ -259,9 +300,24 @@ fn align(a: &AlignArgs, out: &mut dyn Write) -> Result<()> {
     let n_in = al.residuals.iter().filter(|r| r.inlier).count();
     writeln!(
         out,
-        "origin: {:.8},{:.8},{:.3} (first position)",
+        "origin: {:.8},{:.8},{:.3} (first position: in the air, not the take-off point)",
         origin.lat_deg, origin.lon_deg, origin.alt_m
     )?;
+    writeln!(
+        out,
+        "altitude datum: {}",
+        datum.map_or(
+            "unstated (pass --datum egm96|ellipsoid|takeoff)",
+            VerticalDatum::name
+        )
+    )?;
+    if let Some(t) = takeoff_alt_m {
+        writeln!(
+            out,
+            "take-off altitude: {t:.2} m (the photos' GPS altitude minus their height above \
+             take-off, median)"
+        )?;
+    }
     writeln!(out, "scale: {:.6} m per model unit", al.sim3.scale)?;
     writeln!(
         out,

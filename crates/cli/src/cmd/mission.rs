@@ -6,6 +6,7 @@ use std::time::Duration;
 
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
+use vp_mission::heights::{HeightLimits, UserMissionOptions};
 use vp_mission::sim_vehicle::{spawn_udp_vehicle, VehicleConfig};
 use vp_mission::{
     build_mission, export_text, Autopilot, ConnectOptions, MissionItem, MissionOptions, Progress,
@@ -108,29 +109,48 @@ pub struct MissionArgs {
     /// Autopilot conventions (ArduPilot keeps home at seq 0).
     #[arg(long, value_enum, default_value_t = AutopilotArg::Px4)]
     autopilot: AutopilotArg,
-    /// Seconds to hold at each waypoint before the photo.
-    #[arg(long, default_value_t = 2.0)]
+    /// Seconds to hold at each waypoint before the photo (0 to 60).
+    #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
     hold: f32,
-    /// Mission speed, m/s.
-    #[arg(long)]
+    /// Mission speed, m/s (0.5 to 20).
+    #[arg(long, allow_negative_numbers = true)]
     speed: Option<f32>,
-    /// Take off to this height above home first, metres (0: no takeoff item).
-    #[arg(long, default_value_t = 20.0)]
+    /// Take off to this height above home first, metres (0: no takeoff
+    /// item; else between --min-height and --ceiling).
+    #[arg(long, default_value_t = 20.0, allow_negative_numbers = true)]
     takeoff: f32,
     /// Do not end the mission with return-to-launch.
     #[arg(long)]
     no_rtl: bool,
+    /// Where the vehicle takes off: LAT,LON,ALT[,DATUM] on the ground
+    /// (DATUM egm96, ellipsoid or takeoff; default the plan's). Overrides
+    /// the plan's home; a plan without one needs it.
+    #[arg(long, value_name = "LAT,LON,ALT[,DATUM]", allow_hyphen_values = true, value_parser = super::plan::home_arg)]
+    home: Option<super::plan::HomeArg>,
+    /// Highest waypoint allowed, metres above home (most rules: 120).
+    #[arg(long, default_value_t = vp_mission::heights::DEFAULT_CEILING_M, allow_negative_numbers = true)]
+    ceiling: f64,
+    /// Lowest waypoint allowed, metres above home.
+    #[arg(long, default_value_t = vp_mission::heights::DEFAULT_MIN_HEIGHT_M, allow_negative_numbers = true)]
+    min_height: f64,
 }
 
 impl MissionArgs {
-    fn options(&self) -> Result<MissionOptions> {
-        Ok(MissionOptions::from_user(
-            self.autopilot.into(),
-            self.hold,
-            self.speed,
-            self.takeoff,
-            !self.no_rtl,
-        )?)
+    /// The options for `plan` (vp-mission's `UserMissionOptions`, as Python's).
+    fn options(&self, plan: &Plan) -> Result<MissionOptions> {
+        let user = UserMissionOptions {
+            autopilot: self.autopilot.into(),
+            hold_s: self.hold,
+            speed_m_s: self.speed,
+            takeoff_m: self.takeoff,
+            return_to_launch: !self.no_rtl,
+            home: self.home.map(|h| (h.position, h.datum)),
+            limits: HeightLimits {
+                min_height_m: self.min_height,
+                ceiling_m: self.ceiling,
+            },
+        };
+        Ok(user.resolve(plan)?)
     }
 }
 
@@ -185,9 +205,11 @@ pub fn run(cmd: MissionCommand, out: &mut dyn Write) -> Result<()> {
             if let Some(p) = &path {
                 fsio::check_overwrite(p, force)?;
             }
-            let plan = load_plan(&plan)?;
-            let opts = mission.options()?;
-            let text = export_text(&plan, format, &opts)?;
+            let plan_path = plan;
+            let plan = load_plan(&plan_path)?;
+            let opts = mission.options(&plan)?;
+            let text = export_text(&plan, format, &opts)
+                .with_context(|| format!("mission of {}", plan_path.display()))?;
             write_or_print(path.as_deref(), &text, out)
         }
         MissionCommand::Upload {
@@ -213,7 +235,8 @@ fn upload(
 ) -> Result<()> {
     let opts = link.options()?;
     let plan = load_plan(plan_path)?;
-    let m = build_mission(&plan, &mission.options()?)?;
+    let m = build_mission(&plan, &mission.options(&plan)?)
+        .with_context(|| format!("mission of {}", plan_path.display()))?;
     writeln!(
         out,
         "mission: {} items ({} photos) for {:?}",

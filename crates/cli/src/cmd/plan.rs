@@ -3,23 +3,17 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use clap::{Args, Subcommand};
 use nalgebra::Point3;
-use vp_planner::free_space::observations_from_model;
 use vp_planner::grid::GridParams;
-use vp_planner::output::{
-    write_frusta_ply, write_plan_glb, write_top_view_png, SceneView, TopView,
+use vp_planner::{
+    GridRequest, HomeSpec, ModelPlanRequest, PlanContext, PlanOutputs, PlannerConfig, RoiSpec,
 };
-use vp_planner::{AcquiredView, Observation, PlanInputs, PlannerConfig, RoiSpec};
+use vp_scene::datum::VerticalDatum;
 use vp_scene::plan::{GeodeticOrigin, Plan, Role};
 use vp_scene::roi::Roi;
 use vp_scene::{colmap, fsio, io, Camera, Mesh};
-
-/// Depth of the camera pyramids in the PLY and the GLB, metres.
-const FRUSTUM_DEPTH_M: f64 = 2.0;
-/// Longest side of the top view, pixels.
-const TOP_VIEW_SIZE: u32 = 1024;
 
 /// Plan the next camera triplets (the paper's M1-M4) from a mesh and the
 /// acquired cameras, or a grid flight (`vpctl plan grid`).
@@ -56,6 +50,11 @@ pub struct PlanArgs {
     /// already in metric, gravity-aligned local ENU.
     #[arg(long)]
     frame_unchecked: bool,
+    /// The take-off point is on the ground straight below the first image
+    /// (by name): its projection centre dropped along gravity onto --mesh.
+    /// For a first flight launched under its first photo; otherwise --home.
+    #[arg(long, conflicts_with = "home")]
+    home_from_first_image: bool,
 }
 
 /// Options shared by `plan` and `plan grid`.
@@ -78,6 +77,17 @@ struct Common {
     /// WGS84 position of the local origin: lat,lon,alt (degrees, metres).
     #[arg(long, allow_hyphen_values = true, value_parser = floats::<3>)]
     origin: Option<[f64; 3]>,
+    /// What --origin's altitude is measured from: egm96 (above mean sea
+    /// level), ellipsoid (WGS84) or takeoff. A model's frame.json says it
+    /// for its own origin.
+    #[arg(long, value_name = "DATUM", requires = "origin")]
+    datum: Option<VerticalDatum>,
+    /// Where the vehicle takes off: LAT,LON,ALT[,DATUM] (degrees, metres on
+    /// the ground; DATUM egm96, ellipsoid or takeoff, default the plan's).
+    /// Mission altitudes are heights above it; a mission cannot be exported
+    /// from a plan without a home.
+    #[arg(long, value_name = "LAT,LON,ALT[,DATUM]", allow_hyphen_values = true, value_parser = home_arg)]
+    home: Option<HomeArg>,
     /// Output plan (JSON).
     #[arg(long, required = true)]
     out: Option<PathBuf>,
@@ -96,6 +106,29 @@ struct Common {
     /// Overwrite existing output files.
     #[arg(long)]
     force: bool,
+}
+
+/// `--home LAT,LON,ALT[,DATUM]`.
+#[derive(Debug, Clone, Copy)]
+pub struct HomeArg {
+    /// Latitude, longitude and altitude.
+    pub position: GeodeticOrigin,
+    /// The altitude's datum, if given.
+    pub datum: Option<VerticalDatum>,
+}
+
+/// Parses `--home LAT,LON,ALT[,DATUM]` (also used by `vpctl mission`).
+pub fn home_arg(s: &str) -> std::result::Result<HomeArg, String> {
+    let (nums, datum) = match s.rsplit_once(',') {
+        Some((head, tail)) if tail.trim().parse::<f64>().is_err() => (
+            head,
+            Some(tail.parse::<VerticalDatum>().map_err(|e| e.to_string())?),
+        ),
+        _ => (s, None),
+    };
+    let [lat, lon, alt] = floats::<3>(nums)?;
+    let position = GeodeticOrigin::new(lat, lon, alt).map_err(|e| e.to_string())?;
+    Ok(HomeArg { position, datum })
 }
 
 /// Parses `N` comma-separated numbers (`--roi-box -5,-5,0,5,5,10`).
@@ -207,8 +240,19 @@ impl Common {
             .transpose()
     }
 
+    fn home(&self, from_first_image: bool) -> HomeSpec {
+        match (self.home, from_first_image) {
+            (Some(h), _) => HomeSpec::At {
+                position: h.position,
+                datum: h.datum,
+            },
+            (None, true) => HomeSpec::FirstImage,
+            (None, false) => HomeSpec::Unset,
+        }
+    }
+
     /// Refuses early, before any work, when an output exists.
-    fn check_outputs(&self) -> Result<&Path> {
+    fn check_outputs(&self) -> Result<PlanOutputs> {
         let out = required(self.out.as_ref(), "--out")?;
         super::check_extension(out, "--out", &["json"])?;
         if let Some(p) = &self.ply {
@@ -231,65 +275,13 @@ impl Common {
                 super::check_output_writable(p, flag)?;
             }
         }
-        Ok(out)
-    }
-
-    fn write(
-        &self,
-        plan: &Plan,
-        mesh: &Mesh,
-        cfg: &PlannerConfig,
-        f: &[(Point3<f64>, f64)],
-        roi: &[[f64; 2]],
-        acquired: &[Camera],
-    ) -> Result<()> {
-        let out = required(self.out.as_ref(), "--out")?;
-        // The views first and the plan last; on a failure the files this
-        // call wrote are removed, so that no partial set of outputs is left.
-        let mut written: Vec<&Path> = Vec::new();
-        let result = (|| -> Result<()> {
-            if let Some(p) = &self.ply {
-                write_frusta_ply(
-                    p,
-                    plan,
-                    cfg.camera.intrinsics(),
-                    FRUSTUM_DEPTH_M,
-                    self.force,
-                )?;
-                written.push(p);
-            }
-            if let Some(p) = &self.png {
-                let view = TopView {
-                    mesh,
-                    fulfillment: f,
-                    roi_outline: roi,
-                    plan,
-                    acquired,
-                    size: TOP_VIEW_SIZE,
-                };
-                write_top_view_png(p, &view, self.force)?;
-                written.push(p);
-            }
-            if let Some(p) = &self.glb {
-                let view = SceneView {
-                    mesh,
-                    acquired,
-                    plans: &[("plan", plan)],
-                    intrinsics: cfg.camera.intrinsics(),
-                    frustum_depth: FRUSTUM_DEPTH_M,
-                };
-                write_plan_glb(p, &view, self.force)?;
-                written.push(p);
-            }
-            plan.save(out, self.force)?;
-            Ok(())
-        })();
-        if result.is_err() {
-            for p in written {
-                let _ = std::fs::remove_file(p);
-            }
-        }
-        result
+        Ok(PlanOutputs {
+            plan: out.to_path_buf(),
+            ply: self.ply.clone(),
+            png: self.png.clone(),
+            glb: self.glb.clone(),
+            force: self.force,
+        })
     }
 }
 
@@ -348,52 +340,25 @@ fn outline(roi: &RoiSpec, pts: impl Iterator<Item = Point3<f64>>) -> Vec<[f64; 2
     }
 }
 
-/// Refuses a confidence folder without any `.vpconf`, saying where they come from.
-fn check_confidence_dir(dir: &Path) -> Result<()> {
-    fn has_vpconf(dir: &Path, depth: usize) -> bool {
-        std::fs::read_dir(dir).is_ok_and(|entries| {
-            entries.flatten().any(|e| {
-                let p = e.path();
-                p.extension().is_some_and(|x| x == "vpconf")
-                    || (depth < 8 && p.is_dir() && has_vpconf(&p, depth + 1))
-            })
-        })
-    }
-    if !dir.is_dir() {
-        return Err(super::UsageError(format!(
-            "--confidence-dir {}: no such folder; write it with `vpctl predict --forest FOREST \
-             --out {} IMAGES` (the model's images), or leave --confidence-dir out to plan \
-             without prediction (NP)",
-            dir.display(),
-            dir.display()
-        ))
-        .into());
-    }
-    if !has_vpconf(dir, 0) {
-        return Err(super::UsageError(format!(
-            "--confidence-dir {}: no confidence images (.vpconf) in it; run `vpctl predict \
-             --forest FOREST --out {} IMAGES` on the model's images first, or leave \
-             --confidence-dir out to plan without prediction (NP)",
-            dir.display(),
-            dir.display()
-        ))
-        .into());
-    }
-    Ok(())
-}
-
-/// The acquired views of the model, its geodetic origin, and its tracks as
-/// observation rays (they carve the planner's observed-free space).
-fn load_acquired(
-    model: &Path,
-    conf_dir: Option<&Path>,
-    frame_unchecked: bool,
-) -> Result<(Vec<AcquiredView>, Option<GeodeticOrigin>, Vec<Observation>)> {
-    let rec = colmap::read_model(model)?;
-    let origin = if frame_unchecked {
-        None
-    } else {
-        let check = colmap::check_frame(model, &rec)?;
+fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
+    let c = &args.common;
+    let outputs = c.check_outputs()?;
+    let cfg = c.config()?;
+    let mesh = io::read_mesh(required(args.mesh.as_ref(), "--mesh")?)?;
+    let model = required(args.cameras.as_ref(), "--colmap")?;
+    let roi = c.roi()?;
+    let job = vp_planner::plan_from_model(&ModelPlanRequest {
+        mesh: &mesh,
+        model,
+        confidence_dir: args.confidence_dir.as_deref(),
+        config: &cfg,
+        roi: roi.clone(),
+        // --origin wins over the model's frame.json.
+        origin: c.origin()?.map(|o| (o, c.datum)),
+        home: c.home(args.home_from_first_image),
+        frame_unchecked: args.frame_unchecked,
+    })?;
+    if let Some(check) = &job.frame {
         eprintln!(
             "frame: {} (origin {:.7},{:.7},{:.2}; cameras {:.2} m apart, median)",
             model.join(colmap::FRAME_FILE).display(),
@@ -402,46 +367,8 @@ fn load_acquired(
             check.frame.origin.alt_m,
             check.median_spacing_m
         );
-        Some(check.frame.origin)
-    };
-    if let Some(dir) = conf_dir {
-        check_confidence_dir(dir)?;
     }
-    // Errors name the confidence file or the image; the context names the model.
-    let views = vp_planner::acquired_from_model(&rec, conf_dir)
-        .with_context(|| format!("acquired views of {}", model.display()))?;
-    let observations = observations_from_model(&rec)
-        .with_context(|| format!("observations of {}", model.display()))?;
-    Ok((views, origin, observations))
-}
-
-fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
-    let c = &args.common;
-    let out_path = c.check_outputs()?.to_path_buf();
-    let cfg = c.config()?;
-    let mesh = io::read_mesh(required(args.mesh.as_ref(), "--mesh")?)?;
-    let (acquired, model_origin, observations) = load_acquired(
-        required(args.cameras.as_ref(), "--colmap")?,
-        args.confidence_dir.as_deref(),
-        args.frame_unchecked,
-    )?;
-    let roi = c.roi()?;
-    eprintln!(
-        "planning: {} faces, {} acquired images, k = {} triplets",
-        mesh.n_faces(),
-        acquired.len(),
-        cfg.n_triplets
-    );
-    let r = vp_planner::plan(&PlanInputs {
-        mesh: &mesh,
-        acquired: &acquired,
-        roi: roi.clone(),
-        config: &cfg,
-        // --origin wins over the model's frame.json.
-        origin: c.origin()?.or(model_origin),
-        // A model without tracks: the planner carves from rays to the mesh.
-        observations: (!observations.is_empty()).then_some(&observations[..]),
-    })?;
+    let r = &job.result;
     for it in &r.iterations {
         let times: Vec<String> = it
             .time_s
@@ -463,20 +390,21 @@ fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
     }
     let f: Vec<(Point3<f64>, f64)> = r.sampled.iter().map(|s| (s.centroid, s.f)).collect();
     let roi_outline = outline(&roi, r.sampled.iter().map(|s| s.centroid));
-    let acquired_cams: Vec<Camera> = acquired.iter().map(|v| v.camera).collect();
-    c.write(&plan, &mesh, &cfg, &f, &roi_outline, &acquired_cams)?;
+    let acquired: Vec<Camera> = job.acquired.iter().map(|v| v.camera).collect();
+    write_outputs(&outputs, &plan, &mesh, &cfg, &f, &roi_outline, &acquired)?;
     let members = plan
         .waypoints
         .iter()
         .filter(|w| w.role == Role::TripletMember)
         .count();
-    writeln!(out, "plan: {}", out_path.display())?;
+    writeln!(out, "plan: {}", outputs.plan.display())?;
     writeln!(
         out,
         "waypoints: {} ({members} triplet members, {} bridging)",
         plan.waypoints.len(),
         plan.waypoints.len() - members
     )?;
+    print_home(&plan, out)?;
     if let (Some(a), Some(b)) = (r.iterations.first(), r.iterations.last()) {
         writeln!(out, "mean f: {:.4} -> {:.4}", a.f_before, b.f_after)?;
     }
@@ -507,9 +435,54 @@ fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
     Ok(())
 }
 
+/// The plan's views and the plan itself (`vp_planner::PlanOutputs`, which
+/// removes what it wrote when a later file fails).
+fn write_outputs(
+    outputs: &PlanOutputs,
+    plan: &Plan,
+    mesh: &Mesh,
+    cfg: &PlannerConfig,
+    f: &[(Point3<f64>, f64)],
+    roi_outline: &[[f64; 2]],
+    acquired: &[Camera],
+) -> Result<()> {
+    outputs.write(
+        plan,
+        &PlanContext {
+            mesh,
+            config: cfg,
+            fulfillment: f,
+            roi_outline,
+            acquired,
+        },
+    )?;
+    Ok(())
+}
+
+/// The home line of the summary: where relative heights are measured from,
+/// or what a mission export will need.
+fn print_home(plan: &Plan, out: &mut dyn Write) -> Result<()> {
+    let datum = plan
+        .vertical_datum
+        .map_or("unstated datum", VerticalDatum::name);
+    match &plan.home {
+        Some(h) => writeln!(
+            out,
+            "home: {:.7},{:.7},{:.2} m ({datum}; {})",
+            h.position.lat_deg, h.position.lon_deg, h.position.alt_m, h.source
+        )?,
+        None => writeln!(
+            out,
+            "home: none (a mission export will need --home LAT,LON,ALT; or plan again with \
+             --home or --home-from-first-image)"
+        )?,
+    }
+    Ok(())
+}
+
 fn grid(g: &GridArgs, out: &mut dyn Write) -> Result<()> {
     let c = &g.common;
-    let out_path = c.check_outputs()?.to_path_buf();
+    let outputs = c.check_outputs()?;
     let cfg = c.config()?;
     let mesh = io::read_mesh(&g.mesh)?;
     let roi = c.roi()?;
@@ -522,10 +495,18 @@ fn grid(g: &GridArgs, out: &mut dyn Write) -> Result<()> {
         yaw_deg: g.yaw,
         role: if g.initial { Role::Initial } else { Role::Grid },
     };
-    let plan = vp_planner::plan_grid(&mesh, &roi, &params, &cfg, c.origin()?)?;
+    let plan = vp_planner::plan_grid_job(&GridRequest {
+        mesh: &mesh,
+        roi: &roi,
+        params: &params,
+        config: &cfg,
+        origin: c.origin()?.map(|o| (o, c.datum)),
+        home: c.home(false),
+    })?;
     let roi_outline = outline(&roi, mesh.vertices.iter().copied());
-    c.write(&plan, &mesh, &cfg, &[], &roi_outline, &[])?;
-    writeln!(out, "plan: {}", out_path.display())?;
+    write_outputs(&outputs, &plan, &mesh, &cfg, &[], &roi_outline, &[])?;
+    writeln!(out, "plan: {}", outputs.plan.display())?;
     writeln!(out, "waypoints: {}", plan.waypoints.len())?;
+    print_home(&plan, out)?;
     Ok(())
 }

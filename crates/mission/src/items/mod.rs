@@ -86,8 +86,12 @@ pub struct MissionOptions {
     pub takeoff_alt_m: Option<f32>,
     /// End with `MAV_CMD_NAV_RETURN_TO_LAUNCH`.
     pub return_to_launch: bool,
-    /// Home (launch) position; relative altitudes refer to it. `None`: the plan's origin.
+    /// Home (launch) position, in the plan's datum; relative altitudes
+    /// refer to it. `None`: the plan's home; a plan without one is refused
+    /// (see [`heights::mission_home`]).
     pub home: Option<GeodeticOrigin>,
+    /// The band every waypoint must stay in above home.
+    pub limits: HeightLimits,
     /// Capture sequence number of the first photo (>= 1).
     pub first_capture_seq: u32,
 }
@@ -114,13 +118,16 @@ impl MissionOptions {
             takeoff_alt_m: Some(20.0),
             return_to_launch: true,
             home: None,
+            limits: HeightLimits::default(),
             first_capture_seq: 1,
         }
     }
 
     /// The options a user sets (`vpctl mission` flags, the Python keywords)
-    /// over [`MissionOptions::for_autopilot`]: hold time and speed must be
-    /// non-negative and finite; `takeoff_m` 0 means no takeoff item.
+    /// over [`MissionOptions::for_autopilot`]: hold time and speed within
+    /// [`heights::HOLD_RANGE_S`] and [`heights::SPEED_RANGE_M_S`]; `takeoff_m`
+    /// 0 means no takeoff item, else it must be finite and > 0 (the height
+    /// band is checked when the mission is built).
     pub fn from_user(
         autopilot: Autopilot,
         hold_s: f32,
@@ -128,18 +135,15 @@ impl MissionOptions {
         takeoff_m: f32,
         return_to_launch: bool,
     ) -> crate::Result<Self> {
-        let bad = |what: &str, v: f32| {
-            crate::MissionError::InvalidInput(format!("{what} = {v} must be a finite number >= 0"))
-        };
-        let ok = |v: f32| v.is_finite() && v >= 0.0;
-        if !ok(hold_s) {
-            return Err(bad("hold", hold_s));
+        heights::check_range("hold time", hold_s, heights::HOLD_RANGE_S, "s")?;
+        if let Some(s) = speed_m_s {
+            heights::check_range("speed", s, heights::SPEED_RANGE_M_S, "m/s")?;
         }
-        if let Some(s) = speed_m_s.filter(|s| !(ok(*s) && *s > 0.0)) {
-            return Err(bad("speed (> 0)", s));
-        }
-        if !ok(takeoff_m) {
-            return Err(bad("takeoff", takeoff_m));
+        if !(takeoff_m.is_finite() && takeoff_m >= 0.0) {
+            return Err(MissionError::InvalidInput(format!(
+                "take-off height {takeoff_m} m is out of range: 0 (no take-off item) or a height \
+                 above home between the minimum height and the ceiling"
+            )));
         }
         let mut o = Self::for_autopilot(autopilot);
         o.hold_time_s = hold_s;
@@ -150,8 +154,11 @@ impl MissionOptions {
     }
 }
 
+pub mod heights;
 mod verify;
 mod wire;
+
+use heights::HeightLimits;
 
 pub use verify::compare_items;
 pub use wire::{float_frame, MissionItem};
@@ -197,8 +204,8 @@ pub fn build_mission(plan: &Plan, opts: &MissionOptions) -> Result<Mission> {
     check("hold time", opts.hold_time_s)?;
     check("acceptance radius", opts.acceptance_radius_m)?;
     let frame = LocalFrame::new(origin)?;
-    let home = opts.home.unwrap_or(origin);
-    home.validate()?;
+    let home = heights::mission_home(plan, opts.home)?;
+    heights::check_heights(plan, &frame, &home, &opts.limits)?;
     let (home_x, home_y) = (deg_to_e7(home.lat_deg)?, deg_to_e7(home.lon_deg)?);
     let rel = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT;
     let hold = match opts.autopilot {
@@ -221,7 +228,13 @@ pub fn build_mission(plan: &Plan, opts: &MissionOptions) -> Result<Mission> {
         });
     }
     if let Some(alt) = opts.takeoff_alt_m {
-        check("takeoff altitude", alt)?;
+        let l = opts.limits;
+        heights::check_range(
+            "take-off height",
+            alt,
+            (l.min_height_m as f32, l.ceiling_m as f32),
+            "m above home",
+        )?;
         items.push(MissionItem {
             command: MavCmd::MAV_CMD_NAV_TAKEOFF,
             frame: rel,
@@ -342,11 +355,16 @@ mod tests {
     use vp_scene::plan::{PlannedView, Role};
 
     fn plan() -> Plan {
-        let mut p = Plan::new(Some(GeodeticOrigin {
+        let origin = GeodeticOrigin {
             lat_deg: 46.0,
             lon_deg: 10.3,
             alt_m: 500.0,
-        }));
+        };
+        let mut p = Plan::new(Some(origin));
+        p.home = Some(vp_scene::plan::Home {
+            position: origin,
+            source: "the origin, on the ground".into(),
+        });
         for (i, yaw) in [0.0, 90.0, 225.0].into_iter().enumerate() {
             p.waypoints.push(PlannedView {
                 position: [i as f64 * 10.0, 5.0, 40.0],

@@ -28,6 +28,13 @@ pub struct ExifPositions {
     pub positions: Vec<(String, GeodeticOrigin)>,
     /// Photos without a usable GPS position, with the reason, sorted by name.
     pub skipped: Vec<(String, String)>,
+    /// Altitude of the take-off point in the GPS altitudes' datum (above mean
+    /// sea level), where the photos also carry their height above take-off
+    /// (DJI's XMP `drone-dji:RelativeAltitude`): the median over those photos
+    /// of GPS altitude minus relative altitude. `None` without such photos.
+    pub takeoff_alt_m: Option<f64>,
+    /// How many photos gave a relative altitude.
+    pub with_relative_alt: usize,
 }
 
 /// Reads the EXIF GPS position (WGS84 degrees, metres above sea level) of
@@ -48,12 +55,21 @@ pub fn read_positions_exif(dir: &Path) -> Result<ExifPositions> {
     collect_photos(dir, dir, 0, &mut files)?;
     files.sort();
     let mut out = ExifPositions::default();
+    let mut takeoff = Vec::new();
     for (name, path) in &files {
         match read_one(path)? {
-            Ok(g) => out.positions.push((name.clone(), g)),
+            Ok(g) => {
+                if let Some(rel) = dji_relative_altitude(path)? {
+                    takeoff.push(g.alt_m - rel);
+                }
+                out.positions.push((name.clone(), g));
+            }
             Err(why) => out.skipped.push((name.clone(), why)),
         }
     }
+    out.with_relative_alt = takeoff.len();
+    takeoff.sort_by(f64::total_cmp);
+    out.takeoff_alt_m = takeoff.get(takeoff.len() / 2).copied();
     if out.positions.is_empty() {
         let listed: Vec<String> = out
             .skipped
@@ -125,6 +141,39 @@ fn read_one(path: &Path) -> Result<std::result::Result<GeodeticOrigin, String>> 
         Err(e) => return Ok(Err(format!("EXIF unreadable ({e})"))),
     };
     Ok(gps_position(&exif))
+}
+
+/// DJI writes its XMP packet near the start of the file, in the first
+/// segments of a JPEG; 256 KiB covers it with room for a large thumbnail.
+const XMP_SCAN_BYTES: u64 = 256 * 1024;
+
+/// The height above the take-off point that DJI drones write into a photo's
+/// XMP (`drone-dji:RelativeAltitude`, as an attribute `="+39.80"` or as an
+/// element), or `None` when the photo has none or it is not a number.
+fn dji_relative_altitude(path: &Path) -> Result<Option<f64>> {
+    use std::io::Read;
+    let file = std::fs::File::open(path).map_err(|e| SceneError::io(path, e))?;
+    let mut head = Vec::new();
+    file.take(XMP_SCAN_BYTES)
+        .read_to_end(&mut head)
+        .map_err(|e| SceneError::io(path, e))?;
+    Ok(xmp_number(&head, "drone-dji:RelativeAltitude"))
+}
+
+/// The number after `key` in an XMP packet, written as an attribute
+/// (`key="+39.80"`) or an element (`<key>+39.80</key>`).
+fn xmp_number(bytes: &[u8], key: &str) -> Option<f64> {
+    let k = key.as_bytes();
+    let at = bytes.windows(k.len()).position(|w| w == k)? + k.len();
+    let rest = &bytes[at..bytes.len().min(at + 64)];
+    let rest = std::str::from_utf8(rest)
+        .or_else(|e| std::str::from_utf8(&rest[..e.valid_up_to()]))
+        .ok()?;
+    let value = rest.trim_start().strip_prefix(['=', '>'])?.trim_start();
+    let value = value.strip_prefix('"').unwrap_or(value);
+    let end = value.find(['"', '<']).unwrap_or(value.len());
+    let v: f64 = value[..end].trim().parse().ok()?;
+    v.is_finite().then_some(v)
 }
 
 /// Latitude, longitude and altitude from the GPS IFD, or why not.
@@ -201,5 +250,30 @@ fn hemisphere(
             "no GPS {what} reference ({} or {})",
             plus as char, minus as char
         )),
+    }
+}
+
+#[cfg(test)]
+mod xmp_tests {
+    use super::xmp_number;
+
+    #[test]
+    fn relative_altitude_reads_as_attribute_and_as_element() {
+        let attr = br#"<rdf:Description drone-dji:AbsoluteAltitude="+198.31" drone-dji:RelativeAltitude="+39.80" drone-dji:GimbalRollDegree="+0.00""#;
+        assert_eq!(xmp_number(attr, "drone-dji:RelativeAltitude"), Some(39.8));
+        assert_eq!(xmp_number(attr, "drone-dji:AbsoluteAltitude"), Some(198.31));
+        let elem = b"<drone-dji:RelativeAltitude>-2.5</drone-dji:RelativeAltitude>";
+        assert_eq!(xmp_number(elem, "drone-dji:RelativeAltitude"), Some(-2.5));
+        assert_eq!(
+            xmp_number(b"no xmp here", "drone-dji:RelativeAltitude"),
+            None
+        );
+        assert_eq!(
+            xmp_number(
+                br#"drone-dji:RelativeAltitude="nan""#,
+                "drone-dji:RelativeAltitude"
+            ),
+            None
+        );
     }
 }

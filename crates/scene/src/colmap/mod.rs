@@ -24,6 +24,7 @@ mod align;
 mod binary;
 mod depth;
 mod exif_positions;
+mod frame;
 mod lens;
 mod model;
 mod reconstruction;
@@ -34,8 +35,8 @@ mod undistort;
 use std::path::{Path, PathBuf};
 
 pub use align::{
-    align_to_positions, check_frame, read_positions_csv, transform_reconstruction, umeyama,
-    AlignParams, Alignment, FrameCheck, ModelFrame, PositionResidual, Sim3, StripFit, FRAME_FILE,
+    align_to_positions, transform_reconstruction, umeyama, AlignParams, Alignment,
+    PositionResidual, Sim3, StripFit,
 };
 pub use binary::{
     cameras_to_bytes, images_to_bytes, parse_cameras_binary, parse_images_binary,
@@ -47,6 +48,7 @@ pub use depth::{
     write_normal_map, DepthMap, DepthStats, NormalMap,
 };
 pub use exif_positions::{read_positions_exif, ExifPositions};
+pub use frame::{check_frame, read_positions_csv, FrameCheck, ModelFrame, FRAME_FILE};
 pub use model::{CameraModel, ColmapCamera, ColmapImage, Point2D, Point3D};
 pub use reconstruction::Reconstruction;
 pub use text::{

@@ -121,6 +121,7 @@ fn grid_cameras(world: &World, cfg: &CampaignConfig) -> Result<Vec<Camera>> {
 /// A plan holding `cams` as views of `role` (for the report's missions).
 fn plan_of(world: &World, cams: &[Camera], role: Role) -> Plan {
     let mut p = Plan::new(Some(world.site.origin));
+    p.home = Some(world.home());
     p.waypoints = cams
         .iter()
         .map(|c| vp_scene::plan::PlannedView::from_camera(c, role))
@@ -246,7 +247,10 @@ impl Known {
             .collect();
         Ok(AcquiredModel {
             model: self.sfm.colmap_model(cfg, &views)?,
-            frame: ModelFrame::identity(world.site.origin),
+            frame: ModelFrame {
+                home: Some(world.home()),
+                ..ModelFrame::identity(world.site.origin)
+            },
             confidence: self
                 .names
                 .iter()
@@ -416,7 +420,9 @@ fn run_strategy(
             out.flown.len()
         ));
         report_dropped(&result, progress);
-        out.plans.push(result.plan);
+        let mut plan = result.plan;
+        plan.home = Some(world.home());
+        out.plans.push(plan);
         let last = it + 1 == strategy.iterations;
         if !last {
             let pred = strategy.prediction.then_some(forest);

@@ -63,6 +63,26 @@ impl World {
         }
     }
 
+    /// Where the simulated vehicle takes off: the ground straight below the
+    /// site's origin (the generator puts the origin on the terrain, so this
+    /// is the origin up to the terrain's height there).
+    pub fn home(&self) -> vp_scene::plan::Home {
+        let ground_z = self
+            .caster
+            .closest_hit(
+                &Point3::new(0.0, 0.0, self.site.mesh.bounds().max.z + 1.0),
+                &-nalgebra::Vector3::z(),
+                f64::INFINITY,
+            )
+            .map_or(0.0, |h| h.point.z);
+        let frame = vp_scene::geodesy::LocalFrame::new(self.site.origin);
+        let position = frame.map_or(self.site.origin, |f| f.to_geodetic([0.0, 0.0, ground_z]));
+        vp_scene::plan::Home {
+            position,
+            source: "the simulated take-off point, on the ground below the site's origin".into(),
+        }
+    }
+
     /// Lowest ground point of the site (flight heights refer to it).
     pub fn ground_min_z(&self) -> f64 {
         self.site.mesh.bounds().min.z
