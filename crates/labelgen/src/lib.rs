@@ -1,6 +1,6 @@
 //! `vp-labelgen`: training labels for MVS confidence prediction without
 //! ground truth, after Section 2.1 of Mostegel et al. (and Mostegel et al.
-//! 2016), as made precise in DESIGN.md "Training labels (labelgen)".
+//! 2016), as docs/design.md#training-labels-labelgen describes it.
 //!
 //! - [`triplets`]: sample image triplets from triangulation-angle bins
 //!   (edges 4, 8, 16, 32, 64, 128 deg) with enough overlap, near-equilateral;

@@ -1,4 +1,5 @@
-//! Parameters of the three labelling stages, with the defaults of DESIGN.md.
+//! Parameters of the three labelling stages, with their defaults
+//! (docs/design.md#training-labels-labelgen).
 
 use serde::{Deserialize, Serialize};
 

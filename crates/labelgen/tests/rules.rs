@@ -136,7 +136,7 @@ fn bad_in_memory_input_is_refused_with_the_place() {
         ..LabelParams::default()
     };
     assert!(generate_labels(&[], None, &bad).is_err());
-    // Defaults as DESIGN.md states them.
+    // Defaults as docs/design.md#training-labels-labelgen states them.
     let d = LabelParams::default();
     assert_eq!(
         (d.alpha_min_deg, d.s_min, d.sigma_px, d.mesh_iterations),

@@ -17,7 +17,7 @@ use vp_scene::{Camera, Intrinsics, Mesh};
 use crate::error::{PlannerError, Result};
 use crate::safety::Safety;
 
-/// Pixel-ray grid of the overlap test (DESIGN.md [vpctl]).
+/// Pixel-ray grid of the overlap test [vpctl] (docs/design.md#m4-flight-path).
 pub const OVERLAP_GRID: (u32, u32) = (32, 24);
 /// Most bridging views inserted before one image.
 pub const MAX_BRIDGES: usize = 8;

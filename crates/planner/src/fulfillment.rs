@@ -1,6 +1,6 @@
 //! M1: quality fulfillment f(t) of sampled triangles of the region of interest.
 //!
-//! DESIGN.md "Quality fulfillment of a triangle (M1)": split the ROI faces to
+//! docs/design.md#m1-quality-fulfillment: split the ROI faces to
 //! the mean edge length, draw N_t of them, find the cameras that see each,
 //! and take f(t) as the best triplet of those cameras. The triplet maximum is
 //! exact; [`best_triplet`] prunes with upper bounds and equals the plain

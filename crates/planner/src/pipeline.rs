@@ -260,7 +260,8 @@ fn checked_start<'a>(inputs: &PlanInputs<'a>) -> Result<&'a AcquiredView> {
     })
 }
 
-/// Plans the next k triplets and the flight path (DESIGN.md M1-M4).
+/// Plans the next k triplets and the flight path (M1-M4;
+/// docs/design.md#the-planning-call).
 pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
     let t0 = Instant::now();
     let cfg = inputs.config;

@@ -22,7 +22,8 @@ use crate::surrogate::{basis, LazyLinks};
 mod mean_shift;
 
 /// Azimuths of the three cameras around the viewing direction, degrees
-/// (DESIGN.md [vpctl]): one above, two below, measured from image right.
+/// [vpctl] (docs/design.md#m3-best-triplet): one above, two below, measured
+/// from image right.
 const AZIMUTHS_DEG: [f64; 3] = [90.0, 210.0, 330.0];
 
 /// Surrogates evaluated together between two early-stop checks; results

@@ -286,7 +286,8 @@ impl Camera {
     }
 
     /// Pixels covered by one square metre of surface at `p` with unit normal
-    /// `normal`: `f^2 cos(theta) / d^2` (DESIGN.md, f_res). Zero when seen from behind.
+    /// `normal`: `f^2 cos(theta) / d^2` (f_res, docs/design.md#shared-geometry).
+    /// Zero when seen from behind.
     pub fn resolution_at(&self, p: &Point3<f64>, normal: &Vector3<f64>) -> f64 {
         let to_cam = self.center() - p;
         let d2 = to_cam.norm_squared();

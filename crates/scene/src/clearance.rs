@@ -1,7 +1,7 @@
 //! Clearance: how far a point or a straight flight segment stays from the
 //! mesh, with parry3d.
 //!
-//! The planner's safety rule (DESIGN.md) is that every waypoint and every
+//! The planner's safety rule (docs/design.md#m4-flight-path) is that every waypoint and every
 //! segment between consecutive waypoints keeps the safety distance to the
 //! surface. The boolean checks ([`Clearance::point_is_clear`],
 //! [`Clearance::segment_is_clear`]) use bounded queries that prune the tree

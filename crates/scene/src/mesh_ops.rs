@@ -79,7 +79,8 @@ pub struct ShrunkExpanded {
     pub expanded: Mesh,
 }
 
-/// The two auxiliary meshes of labelgen stage 3 (DESIGN.md).
+/// The two auxiliary meshes of labelgen stage 3
+/// (docs/design.md#training-labels-labelgen).
 ///
 /// Shrink: `iterations` (paper: 3) rounds in which every vertex moves half way
 /// to the mean of its edge neighbours, all vertices updated together. Expand:

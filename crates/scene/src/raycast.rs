@@ -49,7 +49,8 @@ pub struct Hit {
 const SEGMENT_END_TOLERANCE: f64 = 1e-5;
 
 /// Offset of a face centroid along its normal before the occlusion test of
-/// [`RayCaster::visible_faces`], in metres (DESIGN.md, M1 visibility).
+/// [`RayCaster::visible_faces`], in metres (docs/design.md#shared-geometry,
+/// visibility of a face).
 pub const FACE_VISIBILITY_EPSILON: f64 = 1e-3;
 
 /// obvhs build parameters of the tree (see `RayCaster::new`).
@@ -278,10 +279,10 @@ impl RayCaster {
 
     /// For each face of `mesh` (the mesh this caster was built from, or a
     /// refinement of it with the same surface): visible from `camera` in the
-    /// sense of DESIGN.md M1 — centroid inside the image and in front,
-    /// front-facing (normal . ray < 0), and not occluded on the segment from the
-    /// camera centre to the centroid offset by [`FACE_VISIBILITY_EPSILON`]
-    /// along the normal.
+    /// sense of M1 (docs/design.md#shared-geometry) — centroid inside the
+    /// image and in front, front-facing (normal . ray < 0), and not occluded
+    /// on the segment from the camera centre to the centroid offset by
+    /// [`FACE_VISIBILITY_EPSILON`] along the normal.
     pub fn visible_faces(&self, camera: &Camera, mesh: &Mesh) -> Vec<bool> {
         let c = camera.center();
         (0..mesh.n_faces())

@@ -1,8 +1,9 @@
 //! Triangulation geometry of a 3D point seen by a set of cameras: the
-//! triangulation angle (DESIGN.md's definition) and the first-order 3D
-//! uncertainty of the point. The one home of these quantities: the
-//! simulator, labelgen (per-pixel measurements), the planner (f_unc, the
-//! triplet angle) and the MVS (minimum-angle filter) all call these.
+//! triangulation angle (defined in docs/design.md#shared-geometry) and the
+//! first-order 3D uncertainty of the point. The one home of these
+//! quantities: the simulator, labelgen (per-pixel measurements), the planner
+//! (f_unc, the triplet angle) and the MVS (minimum-angle filter) all call
+//! these.
 //!
 //! Two edge cases are decided here, once:
 //! - **A camera that does not have the point in front** (depth <= 0) did not
@@ -77,8 +78,9 @@ pub fn information<'a>(
 }
 
 /// Covariance (m^2) from a summed information matrix:
-/// `Sigma = (sum_i J_i^T J_i / sigma_px^2)^-1` (DESIGN.md, f_unc). `None`
-/// when the information is singular (see the module doc).
+/// `Sigma = (sum_i J_i^T J_i / sigma_px^2)^-1` (f_unc;
+/// docs/design.md#shared-geometry). `None` when the information is singular
+/// (see the module doc).
 pub fn covariance(info: &Matrix3<f64>) -> Option<Matrix3<f64>> {
     // For a PSD matrix, det / trace^3 is tiny exactly when the smallest
     // eigenvalue is tiny against the largest. Cheaper than an

@@ -1,5 +1,5 @@
 //! M3's orientation of a surrogate: weighted mean shift over the unit
-//! rays of its links (DESIGN.md [vpctl]), and the plain version the
+//! rays of its links [vpctl] (docs/design.md#m3-best-triplet), and the plain version the
 //! memoised one is tested against.
 
 use std::collections::HashMap;

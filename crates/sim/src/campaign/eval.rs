@@ -7,8 +7,10 @@
 //! is at most `eval.depth_tolerance_m` in front of the face's depth or
 //! beyond it (the paper's 24 cm rule; an occluder in front fails it).
 //! Coverage: faces measured by at least c distinct cameras. Per face and
-//! measuring reconstruction, f_res and f_unc follow DESIGN.md M1 with the
-//! true cameras of the reconstruction (a Grid image: it and its sources) (f_conf is what happened, so it is not applied); each face keeps
+//! measuring reconstruction, f_res and f_unc follow M1
+//! (docs/design.md#m1-quality-fulfillment) with the true cameras of the
+//! reconstruction (a Grid image: it and its sources) (f_conf is what
+//! happened, so it is not applied); each face keeps
 //! the best triplet's f_res, f_unc and `alpha f_res + (1 - alpha) f_unc`,
 //! multiplied by f_cov; the table reports their means over the ROI faces.
 

@@ -97,8 +97,8 @@ pub struct MvsProfile {
     /// Reference ground sampling distance of the resolution factor, metres per pixel.
     pub gsd_ref_m: f64,
     /// Image noise of the matcher, pixels of the reconstructed pyramid level
-    /// (DESIGN.md's sigma_px); depth noise follows from it by first-order
-    /// propagation through the triplet.
+    /// (sigma_px of docs/design.md#shared-geometry); depth noise follows
+    /// from it by first-order propagation through the triplet.
     pub sigma_px: f64,
     /// Share of reconstructed pixels whose depth is an outlier, in [0, 1).
     pub outlier_share: f64,
