@@ -221,6 +221,7 @@ mod tests {
             items[0]["command"], 22,
             "first item is the takeoff, not home"
         );
-        assert_eq!(items.len(), 8);
+        // Takeoff, 2 views x (gimbal, heading, waypoint, photo), RTL.
+        assert_eq!(items.len(), 10);
     }
 }
