@@ -222,19 +222,19 @@ fn relay_duplicating_30_percent_20_uploads_verified() {
 }
 
 #[test]
-#[ignore = "1000 uploads over UDP, about a minute; run with --ignored"]
+#[ignore = "1000 uploads over UDP, about 10 s; run with --ignored"]
 fn relay_duplicating_every_packet_1000_uploads_verified() {
     relay_storm(Autopilot::Px4, 1.0, 1000);
 }
 
 #[test]
-#[ignore = "1000 uploads over UDP, about a minute; run with --ignored"]
+#[ignore = "1000 uploads over UDP, about 10 s; run with --ignored"]
 fn relay_duplicating_30_percent_1000_uploads_verified() {
     relay_storm(Autopilot::Px4, 0.3, 1000);
 }
 
 #[test]
-#[ignore = "1000 uploads over UDP, about a minute; run with --ignored"]
+#[ignore = "1000 uploads over UDP, about 10 s; run with --ignored"]
 fn relay_duplicating_every_packet_1000_uploads_to_ardupilot_verified() {
     relay_storm(Autopilot::ArduPilot, 1.0, 1000);
 }
