@@ -336,3 +336,58 @@ fn px4_failure_says_the_previous_mission_is_kept() {
         "nothing half-written"
     );
 }
+
+#[test]
+fn ardupilot_refuses_clear_during_an_upload_but_takes_an_empty_one() {
+    use mavlink::dialects::common::{
+        MavMissionResult, MavMissionType, MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA,
+    };
+    // What the clean-up after a failed upload relies on: ArduPilot answers
+    // MISSION_CLEAR_ALL with MAV_MISSION_ERROR while its upload is open,
+    // and takes MISSION_COUNT 0 from the same station, leaving no item.
+    let m = ardupilot_mission(5);
+    let mut v = ardupilot_vehicle(700);
+    let gcs = MavHeader {
+        system_id: 255,
+        component_id: 190,
+        sequence: 0,
+    };
+    let count = |n: u16| {
+        MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
+            count: n,
+            target_system: 1,
+            target_component: 1,
+            mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+            opaque_id: 0,
+        })
+    };
+    let t = Duration::from_millis(1);
+    v.handle(t, &gcs, &count(m.items.len() as u16));
+    for (seq, item) in m.items.iter().take(6).enumerate() {
+        v.handle(
+            t,
+            &gcs,
+            &MavMessage::MISSION_ITEM_INT(item.to_mavlink(seq as u16, (1, 1))),
+        );
+    }
+    assert_eq!(v.mission().len(), 6, "written as they arrived");
+    let ack = |out: Vec<MavMessage>| match out.first() {
+        Some(MavMessage::MISSION_ACK(a)) => a.mavtype,
+        other => panic!("{other:?}"),
+    };
+    let clear = MavMessage::MISSION_CLEAR_ALL(MISSION_CLEAR_ALL_DATA {
+        target_system: 1,
+        target_component: 1,
+        mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+    });
+    assert_eq!(
+        ack(v.handle(t, &gcs, &clear)),
+        MavMissionResult::MAV_MISSION_ERROR
+    );
+    assert_eq!(v.mission().len(), 6);
+    assert_eq!(
+        ack(v.handle(t, &gcs, &count(0))),
+        MavMissionResult::MAV_MISSION_ACCEPTED
+    );
+    assert!(v.mission().is_empty());
+}
