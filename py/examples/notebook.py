@@ -74,8 +74,9 @@ print("forest:", forest.n_trees, "trees; confidence grid", conf[0].values.shape)
 # %% Plan the next triplets with the predicted confidence.
 cfg = {"n_triangles": 300, "n_surrogates": 600, "n_selected": 60, "n_triplets": 2,
        "camera": camera, "flight_volume": fv}
+# The site's origin lies on its ground, where the vehicle takes off: the home.
 result = vpctl.planner.plan(mesh, cams, confidence=conf, config=cfg, roi=[*lo, *hi],
-                            origin=(46.0, 10.3, 400.0))
+                            origin=(46.0, 10.3, 400.0), home=(46.0, 10.3, 400.0))
 plan = result.plan
 plan.save(out / "plan.json", force=True)
 for it in result.iterations:

@@ -90,7 +90,10 @@ pub fn planner(e: &PlannerError) -> PyErr {
 
 /// Converts a vp-mission error.
 pub fn mission(e: &MissionError) -> PyErr {
-    match e {
+    // The class follows the failure itself (a timeout stays TimeoutError);
+    // the message keeps what was added around it, e.g. what the vehicle
+    // holds after a failed upload.
+    match e.root() {
         MissionError::Scene(s) => scene(s),
         MissionError::InvalidInput(_) | MissionError::BadUrl { .. } => {
             PyValueError::new_err(message(e))

@@ -14,7 +14,9 @@ from conftest import run_cli, vpctl_bin
 @pytest.fixture(scope="module")
 def plan_file(site, tmp_path_factory):
     root = tmp_path_factory.mktemp("mission")
-    plan = vpctl.planner.plan_grid(site.mesh, height=50, overlap=0.5, origin=(46.0, 10.3, 400.0))
+    # The site's origin lies on its ground: it is the take-off point.
+    plan = vpctl.planner.plan_grid(site.mesh, height=50, overlap=0.5, origin=(46.0, 10.3, 400.0),
+                                   home=(46.0, 10.3, 400.0))
     plan.save(root / "plan.json")
     return root / "plan.json", plan
 
@@ -115,6 +117,19 @@ def test_waiting_for_a_vehicle_releases_the_gil_and_times_out(plan_file):
     assert waited >= 0.5
     # With the GIL held the counter could not move at all during the wait.
     assert during >= 50, during
+
+
+def test_heights_are_checked_as_the_cli_checks_them(plan_file, site):
+    _, plan = plan_file
+    # No home: refused, as `vpctl mission export` refuses it.
+    bare = vpctl.planner.plan_grid(site.mesh, height=50, overlap=0.5, origin=(46.0, 10.3, 400.0))
+    with pytest.raises(ValueError, match="no home"):
+        vpctl.mission.build_mission(bare)
+    # The home 60 m below the origin: the 50 m grid is 110 m and more up; a 100 m ceiling refuses it.
+    with pytest.raises(ValueError, match="ceiling of 100"):
+        vpctl.mission.build_mission(plan, home=(46.0, 10.3, 340.0), ceiling=100.0)
+    with pytest.raises(ValueError, match="allowed 0 to 60 s"):
+        vpctl.mission.build_mission(plan, hold=-1.0)
 
 
 def test_bad_inputs(plan_file):

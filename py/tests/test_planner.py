@@ -49,7 +49,12 @@ def test_plan_equals_cli_plan(planning, site, tmp_path):
     roi_arg = ",".join(str(x) for x in roi)
     run_cli("plan", "--mesh", root / "site.ply", "--colmap", root / "model", "--config", root / "plan.toml",
             "--roi-box", roi_arg, "--out", tmp_path / "cli.json", "--no-timings", "--frame-unchecked")
-    r = vpctl.planner.plan(root / "site.ply", root / "model", config=root / "plan.toml", roi=roi)
+    # A model folder goes through the call `vpctl plan` makes: the same
+    # frame check (refused here, as the CLI refuses it without the flag).
+    with pytest.raises(ValueError, match="frame.json"):
+        vpctl.planner.plan(root / "site.ply", root / "model", config=root / "plan.toml", roi=roi)
+    r = vpctl.planner.plan(root / "site.ply", root / "model", config=root / "plan.toml", roi=roi,
+                           frame_unchecked=True)
     r.plan.save(tmp_path / "py.json", no_timings=True)
     assert (tmp_path / "py.json").read_bytes() == (tmp_path / "cli.json").read_bytes()
     assert r.plan.to_json(no_timings=True) + "\n" == (tmp_path / "cli.json").read_text()

@@ -335,6 +335,7 @@ fn fuzz_forest_model() {
 
 fn plan_seed() -> Vec<u8> {
     let mut plan = Plan::new(Some(GeodeticOrigin::new(46.0, 10.3, 400.0).unwrap()));
+    plan.home = plan.origin.map(vp_scene::plan::Home::origin_on_ground);
     for i in 0..3 {
         plan.waypoints.push(PlannedView {
             position: [10.0 * f64::from(i), -5.0, 40.0],

@@ -180,6 +180,27 @@ fn readme_real_photo_recipe_runs_end_to_end_on_the_visp_cube_photos() {
         .unwrap()
         .origin;
     let n_waypoints = check_plan(&tmp.path().join("plan.json"), &volume, &origin);
+    // The origin of `colmap align` is the first photo, in the air: without
+    // a take-off point the mission is refused (it once put every waypoint
+    // below the launch point), and nothing is written.
+    let o = common::vpctl(&[
+        "mission",
+        "export",
+        &format!("{t}/plan.json"),
+        "--out",
+        &format!("{t}/mission.plan"),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("no home"), "{}", stderr(&o));
+    assert!(!tmp.path().join("mission.plan").exists());
+    // With the take-off point under the first photo: heights above it.
+    let text = run(&format!(
+        "plan --mesh {t}/site.ply --colmap {t}/dense/sparse --confidence-dir {t}/conf --config {t}/plan.toml --home-from-first-image --out {t}/plan.json --force"
+    ));
+    assert!(
+        text.contains("home: ") && text.contains("first image"),
+        "{text}"
+    );
     run(&format!(
         "mission export {t}/plan.json --out {t}/mission.plan"
     ));
@@ -189,6 +210,7 @@ fn readme_real_photo_recipe_runs_end_to_end_on_the_visp_cube_photos() {
     assert_eq!(qgc["fileType"], "Plan", "{qgc}");
     let items = qgc["mission"]["items"].as_array().expect("mission items");
     assert!(items.len() > n_waypoints, "{qgc}");
+    check_heights_above_home(&tmp.path().join("plan.json"), items, &origin);
 
     // 7. MAVSDK, an independent implementation, imports the .plan.
     if let Some(py) = mavsdk {
@@ -337,6 +359,36 @@ fn write_plan_config(tmp: &Path) -> [[f64; 3]; 2] {
     )
     .unwrap();
     volume
+}
+
+/// Every waypoint of the exported mission flies at its planned ENU height
+/// minus the home's, so above the take-off point (curvature over the few
+/// metres of this scene is far below the 1 cm tolerance).
+fn check_heights_above_home(plan: &Path, items: &[serde_json::Value], origin: &GeodeticOrigin) {
+    let plan = vp_scene::plan::Plan::load(plan).unwrap();
+    let home = plan.home.expect("the plan records its home").position;
+    let home_z = vp_mission::geodesy::LocalFrame::new(*origin)
+        .unwrap()
+        .to_enu(home)[2];
+    let heights: Vec<f64> = items
+        .iter()
+        .filter(|i| i["command"] == 16)
+        .map(|i| i["params"][6].as_f64().unwrap())
+        .collect();
+    assert_eq!(heights.len(), plan.waypoints.len());
+    for (h, w) in heights.iter().zip(&plan.waypoints) {
+        assert!(*h > 0.0, "waypoint at {h} m above home: {heights:?}");
+        assert!(
+            (h - (w.position[2] - home_z)).abs() < 0.01,
+            "{h} vs {:?}, home z {home_z}",
+            w.position
+        );
+    }
+    eprintln!(
+        "mission heights above home: {:.2} to {:.2} m",
+        heights.iter().copied().fold(f64::INFINITY, f64::min),
+        heights.iter().copied().fold(0.0, f64::max)
+    );
 }
 
 /// MAVSDK's QGC importer reads the `.plan`: as many items as it holds.

@@ -59,7 +59,11 @@ pub enum MissionError {
         elapsed: Duration,
     },
     /// The vehicle answered with a MISSION_ACK other than MAV_MISSION_ACCEPTED.
-    #[error("{operation}: vehicle rejected the mission with {result}{}", match seq { Some(s) => format!(" (after item {s})"), None => String::new() })]
+    #[error(
+        "{operation}: vehicle rejected the mission with {result}{}{}",
+        match seq { Some(s) => format!(" (after item {s})"), None => String::new() },
+        if said.is_empty() { String::new() } else { format!("; the vehicle said: {}", said.iter().map(|t| format!("{t:?}")).collect::<Vec<_>>().join(", ")) }
+    )]
     Rejected {
         /// Upload, download or clear.
         operation: &'static str,
@@ -67,6 +71,9 @@ pub enum MissionError {
         result: String,
         /// The last item sent before the rejection, if any.
         seq: Option<u16>,
+        /// The vehicle's STATUSTEXT messages around the rejection, its own
+        /// words (e.g. ArduPilot's "Only 650 items are supported").
+        said: Vec<String>,
     },
     /// The mission read back from the vehicle differs from the one uploaded.
     #[error("verify: item {seq} differs after upload: {detail}")]
@@ -93,6 +100,15 @@ pub enum MissionError {
         /// The timeout or missing vehicle it explains.
         source: Box<MissionError>,
     },
+    /// A failed upload, with what the vehicle holds afterwards and what to
+    /// do (ArduPilot writes items as they arrive), or how much fits.
+    #[error("{source}; {detail}")]
+    Explained {
+        /// What the vehicle holds now and the next step.
+        detail: String,
+        /// The failure it explains.
+        source: Box<MissionError>,
+    },
     /// The vehicle sent something the protocol does not allow.
     #[error("{operation}: protocol error: {message}")]
     Protocol {
@@ -104,12 +120,24 @@ pub enum MissionError {
 }
 
 impl MissionError {
+    /// The failure itself, under the explanations added around it
+    /// ([`MissionError::Explained`], [`MissionError::Signing`]).
+    pub fn root(&self) -> &MissionError {
+        match self {
+            MissionError::Explained { source, .. } | MissionError::Signing { source, .. } => {
+                source.root()
+            }
+            other => other,
+        }
+    }
+
     /// Whether the user's input is at fault (exit code 2 in `vpctl`): a bad
     /// plan or argument, a malformed connection URL, a missing file. A
     /// vehicle that does not answer, refuses or misbehaves is not.
     pub fn is_input_error(&self) -> bool {
         match self {
             MissionError::Scene(e) => e.is_input_error(),
+            MissionError::Explained { source, .. } => source.is_input_error(),
             MissionError::InvalidInput(_)
             | MissionError::BadUrl { .. }
             | MissionError::SigningKey { .. } => true,
@@ -129,6 +157,9 @@ impl MissionError {
     /// messages are not signed with our key, or it signs and we do not),
     /// 1 anything else (I/O).
     pub fn exit_code(&self) -> u8 {
+        if let MissionError::Explained { source, .. } = self {
+            return source.exit_code();
+        }
         if self.is_input_error() {
             return 2;
         }

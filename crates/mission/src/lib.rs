@@ -17,6 +17,7 @@
 //! [`upload`], [`download`], [`clear`].
 #![warn(missing_docs)]
 
+mod aftermath;
 pub mod error;
 pub mod export;
 pub mod geodesy;
@@ -104,7 +105,9 @@ pub struct TransferReport {
 
 /// Uploads `mission` over an open link, then (if `verify`) reads it back and
 /// compares item by item. A lost final ACK is accepted only when the
-/// read-back matches.
+/// read-back matches. A failed upload says what the vehicle holds after it
+/// ([`MissionError::Explained`]): on ArduPilot, which writes items as they
+/// arrive, the half-written mission is cleared first.
 pub fn upload_over(
     link: &mut dyn Link,
     target: Target,
@@ -113,7 +116,14 @@ pub fn upload_over(
     verify: bool,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<TransferReport> {
-    let up = protocol::upload(link, target, &mission.items, cfg, progress)?;
+    let up = match protocol::upload(link, target, &mission.items, cfg, progress) {
+        Ok(up) => up,
+        Err(e) => {
+            return Err(aftermath::explain_failed_upload(
+                link, target, mission, cfg, e,
+            ))
+        }
+    };
     if !verify {
         if !up.ack_received {
             return Err(MissionError::Timeout {

@@ -147,6 +147,7 @@ mod tests {
             lon_deg: 8.545_594,
             alt_m: 488.0,
         }));
+        p.home = p.origin.map(vp_scene::plan::Home::origin_on_ground);
         for i in 0..2 {
             p.waypoints.push(PlannedView {
                 position: [f64::from(i) * 20.0, 0.0, 30.0],
@@ -221,6 +222,7 @@ mod tests {
             items[0]["command"], 22,
             "first item is the takeoff, not home"
         );
-        assert_eq!(items.len(), 8);
+        // Takeoff, 2 views x (gimbal, heading, waypoint, photo), RTL.
+        assert_eq!(items.len(), 10);
     }
 }

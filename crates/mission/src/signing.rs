@@ -337,7 +337,7 @@ impl SignedLink {
     /// vehicle signs and we do not, becomes [`MissionError::Signing`].
     pub fn explain(&self, e: MissionError) -> MissionError {
         if !matches!(
-            e,
+            e.root(),
             MissionError::NoVehicle { .. } | MissionError::Timeout { .. }
         ) {
             return e;

@@ -152,6 +152,7 @@ mod tests {
             lon_deg: 151.21,
             alt_m: 20.0,
         }));
+        p.home = p.origin.map(vp_scene::plan::Home::origin_on_ground);
         p.waypoints.push(PlannedView {
             position: [5.0, 6.0, 25.0],
             yaw_deg: 45.0,

@@ -32,6 +32,7 @@ fn mission(n_views: usize, seed: u64) -> Mission {
         lon_deg: 10.32,
         alt_m: 450.0,
     }));
+    p.home = p.origin.map(vp_scene::plan::Home::origin_on_ground);
     for i in 0..n_views {
         let k = (i as u64 + seed) as f64;
         p.waypoints.push(PlannedView {
@@ -285,7 +286,7 @@ fn each_rejection_is_named_with_exit_code_5() {
         let e = r.unwrap_err();
         let name = format!("{result:?}");
         assert!(
-            matches!(&e, MissionError::Rejected { result: got, .. } if *got == name),
+            matches!(e.root(), MissionError::Rejected { result: got, .. } if *got == name),
             "{e}"
         );
         assert!(e.to_string().contains(&name), "{e}");
@@ -322,7 +323,7 @@ fn link_silent_for_good_is_a_timeout_with_exit_code_4() {
         None,
     );
     let e = r.unwrap_err();
-    assert!(matches!(e, MissionError::Timeout { .. }), "{e}");
+    assert!(matches!(e.root(), MissionError::Timeout { .. }), "{e}");
     assert_eq!(e.exit_code(), 4);
 }
 
@@ -340,7 +341,16 @@ fn items_re_requested_out_of_order_are_served_and_verify() {
     let (r, m, link) = run(Fault::OutOfOrder, None);
     assert_verified(&r, &m, &link);
     let r = r.unwrap();
-    assert!(r.upload.repeated_requests >= 5, "{:?}", r.upload);
+    // Each stale request names an item sent a few ms before: within the
+    // duplicate window it is a copy and left unanswered (a vehicle that
+    // really lost the item asks again after its own timeout); later, it
+    // is served again. Either way the upload verifies in one attempt.
+    assert!(
+        r.upload.repeated_requests + r.upload.duplicate_requests >= 5,
+        "{:?}",
+        r.upload
+    );
+    assert_eq!(r.upload.attempts, 1);
 }
 
 #[test]

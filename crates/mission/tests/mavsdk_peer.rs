@@ -31,6 +31,7 @@ fn plan() -> Plan {
         lon_deg: 8.545_594,
         alt_m: 488.0,
     }));
+    p.home = p.origin.map(vp_scene::plan::Home::origin_on_ground);
     for i in 0..5 {
         let k = f64::from(i);
         p.waypoints.push(PlannedView {

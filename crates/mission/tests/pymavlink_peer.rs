@@ -72,6 +72,7 @@ fn mission() -> Mission {
         lon_deg: 8.545_594,
         alt_m: 488.0,
     }));
+    p.home = p.origin.map(vp_scene::plan::Home::origin_on_ground);
     for i in 0..3 {
         let k = f64::from(i);
         p.waypoints.push(PlannedView {

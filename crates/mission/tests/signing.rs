@@ -24,6 +24,7 @@ fn key(byte: u8) -> SigningKey {
 
 fn mission() -> Mission {
     let mut p = Plan::new(Some(GeodeticOrigin::default()));
+    p.home = p.origin.map(vp_scene::plan::Home::origin_on_ground);
     for i in 0..4 {
         let k = f64::from(i);
         p.waypoints.push(PlannedView {

@@ -20,6 +20,7 @@ fn mission(n_views: usize, seed: u64) -> Mission {
         lon_deg: 10.32,
         alt_m: 450.0,
     }));
+    p.home = p.origin.map(vp_scene::plan::Home::origin_on_ground);
     for i in 0..n_views {
         let k = (i as u64 * 7 + seed) as f64;
         p.waypoints.push(PlannedView {

@@ -99,6 +99,15 @@ pub struct Home {
 }
 
 impl Home {
+    /// The plan's origin as the take-off point: for frames whose origin
+    /// lies on the ground where the vehicle launches (the simulator's).
+    pub fn origin_on_ground(origin: GeodeticOrigin) -> Home {
+        Home {
+            position: origin,
+            source: "the plan's origin, on the ground".into(),
+        }
+    }
+
     /// A home given in `datum`, expressed in the plan's datum `plan_datum`
     /// (converted through the geoid where they differ). A datum-less plan
     /// (`None`, files from before datums were recorded) only takes a home in

@@ -8,6 +8,8 @@ from vpctl.planner import Plan
 
 _Path = Union[str, PathLike[str]]
 
+_Home = Union[tuple[float, float, float], tuple[float, float, float, str]]
+
 class Mission:
     @property
     def items(self) -> list[dict[str, Any]]: ...
@@ -40,6 +42,9 @@ def build_mission(
     speed: Optional[float] = None,
     takeoff: float = 20.0,
     rtl: bool = True,
+    home: Optional[_Home] = None,
+    ceiling: float = 120.0,
+    min_height: float = 2.0,
 ) -> Mission: ...
 def export(
     plan: Plan,
@@ -51,6 +56,9 @@ def export(
     speed: Optional[float] = None,
     takeoff: float = 20.0,
     rtl: bool = True,
+    home: Optional[_Home] = None,
+    ceiling: float = 120.0,
+    min_height: float = 2.0,
 ) -> str: ...
 def upload(
     plan: Plan,
@@ -62,6 +70,9 @@ def upload(
     speed: Optional[float] = None,
     takeoff: float = 20.0,
     rtl: bool = True,
+    home: Optional[_Home] = None,
+    ceiling: float = 120.0,
+    min_height: float = 2.0,
 ) -> dict[str, Any]: ...
 def download(url: str, heartbeat_timeout: float = 5.0, timeout_scale: float = 1.0) -> list[dict[str, Any]]: ...
 def clear(url: str, heartbeat_timeout: float = 5.0, timeout_scale: float = 1.0) -> None: ...

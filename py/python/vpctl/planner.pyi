@@ -56,6 +56,9 @@ def plan(
     config: _Config = None,
     roi: _Roi = None,
     origin: Optional[tuple[float, float, float]] = None,
+    datum: Optional[str] = None,
+    home: Union[tuple[float, float, float], tuple[float, float, float, str], str, None] = None,
+    frame_unchecked: bool = False,
 ) -> PlanResult: ...
 def plan_grid(
     mesh: Union[Mesh, _Path],
@@ -69,6 +72,8 @@ def plan_grid(
     initial: bool = False,
     config: _Config = None,
     origin: Optional[tuple[float, float, float]] = None,
+    datum: Optional[str] = None,
+    home: Union[tuple[float, float, float], tuple[float, float, float, str], None] = None,
 ) -> Plan: ...
 def default_config() -> dict[str, Any]: ...
 def default_config_toml() -> str: ...

@@ -42,7 +42,10 @@ pub enum MissionCommand {
     /// Exit codes: 0 verified, 2 bad input, 3 no vehicle, 4 timeout, 5
     /// rejected by the vehicle, 6 read-back differs, 7 protocol violation,
     /// 9 signing (the vehicle's messages are not signed with our key, or it
-    /// signs and we were given no key), 1 other failures.
+    /// signs and we were given no key), 1 other failures. A failed upload
+    /// says what the vehicle holds afterwards: ArduPilot writes items as
+    /// they arrive, so vpctl clears a half-written mission (or says it could
+    /// not); a vehicle without room says how many photos fit per flight.
     Upload {
         /// The plan (JSON written by `vpctl plan`).
         plan: PathBuf,
@@ -106,7 +109,9 @@ impl From<AutopilotArg> for Autopilot {
 /// How the plan becomes mission items.
 #[derive(Debug, Args)]
 pub struct MissionArgs {
-    /// Autopilot conventions (ArduPilot keeps home at seq 0).
+    /// Autopilot conventions: ArduPilot keeps home at seq 0 and ignores a
+    /// waypoint's heading, so each photo also gets a CONDITION_YAW (4
+    /// items per photo instead of 3).
     #[arg(long, value_enum, default_value_t = AutopilotArg::Px4)]
     autopilot: AutopilotArg,
     /// Seconds to hold at each waypoint before the photo (0 to 60).

@@ -16,7 +16,10 @@
 //!
 //! The gimbal yaw is 0 in the vehicle frame: the vehicle itself turns to the
 //! view heading, which also works with 2-axis gimbals. Gimbal pitch is
-//! relative to the horizon (pitch lock).
+//! relative to the horizon (pitch lock). ArduCopter keeps neither the
+//! waypoint's yaw nor its acceptance radius, so for ArduPilot each view
+//! also carries a `MAV_CMD_CONDITION_YAW` to the heading, between the gimbal
+//! command and the waypoint ([`heading`] says why there).
 //!
 //! ArduPilot keeps the home position at seq 0: with [`Autopilot::ArduPilot`]
 //! the mission starts with a home placeholder that the vehicle overwrites.
@@ -154,13 +157,17 @@ impl MissionOptions {
     }
 }
 
+mod capacity;
+mod heading;
 pub mod heights;
 mod verify;
 mod wire;
 
+use heading::heading_item;
 use heights::HeightLimits;
 
-pub use verify::compare_items;
+pub use capacity::stated_capacity;
+pub use verify::{ardupilot_alt, compare_items};
 pub use wire::{float_frame, MissionItem};
 
 /// A mission ready to upload or export.
@@ -286,7 +293,7 @@ pub fn build_mission(plan: &Plan, opts: &MissionOptions) -> Result<Mission> {
     })
 }
 
-/// The gimbal, waypoint and photo items of one view.
+/// The gimbal, (ArduPilot: heading,) waypoint and photo items of one view.
 #[allow(deprecated)] // MAV_FRAME_GLOBAL_RELATIVE_ALT_INT and DIGICAM_CONTROL: see module docs.
 fn view_items(
     frame: &LocalFrame,
@@ -295,7 +302,7 @@ fn view_items(
     opts: &MissionOptions,
     hold: f32,
     capture_seq: u32,
-) -> Result<[MissionItem; 3]> {
+) -> Result<Vec<MissionItem>> {
     let geo = frame.to_geodetic(view.position);
     let rel_alt = (geo.alt_m - home.alt_m) as f32;
     let heading = frame.compass_heading_deg(view.position, view.yaw_deg) as f32;
@@ -303,9 +310,13 @@ fn view_items(
     let gimbal = match opts.gimbal {
         // Flags: roll and pitch locked to the horizon (4 | 8), yaw in the
         // vehicle frame (32) with yaw 0 = straight ahead.
+        // Rates 0, not NaN: the spec's NaN ("unset") is refused by
+        // ArduPilot outside param4 of NAV commands (INVALID_PARAM3); with
+        // an angle given, PX4 and ArduPilot steer to the angle and a zero
+        // rate changes nothing.
         GimbalCommand::GimbalManager => MissionItem::command(
             MavCmd::MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW,
-            [pitch, 0.0, f32::NAN, f32::NAN],
+            [pitch, 0.0, 0.0, 0.0],
             4 | 8 | 32,
             0,
             0.0,
@@ -346,7 +357,10 @@ fn view_items(
             0.0,
         ),
     };
-    Ok([gimbal, waypoint, photo])
+    if opts.autopilot == Autopilot::ArduPilot {
+        return Ok(vec![gimbal, heading_item(heading), waypoint, photo]);
+    }
+    Ok(vec![gimbal, waypoint, photo])
 }
 
 #[cfg(test)]
@@ -426,7 +440,10 @@ mod tests {
         assert_eq!((m.items[0].x, m.items[0].y), (460_000_000, 103_000_000));
         assert_eq!(m.items[1].command, MavCmd::MAV_CMD_NAV_TAKEOFF);
         assert_eq!(m.items[2].command, MavCmd::MAV_CMD_DO_MOUNT_CONTROL);
-        assert_eq!(m.items[4].command, MavCmd::MAV_CMD_DO_DIGICAM_CONTROL);
+        // ArduCopter ignores a waypoint's yaw: the heading goes before it.
+        assert_eq!(m.items[3].command, MavCmd::MAV_CMD_CONDITION_YAW);
+        assert_eq!(m.items[4].command, MavCmd::MAV_CMD_NAV_WAYPOINT);
+        assert_eq!(m.items[5].command, MavCmd::MAV_CMD_DO_DIGICAM_CONTROL);
         // Home differs after the vehicle rewrites it: verify still passes.
         let mut got = m.items.clone();
         got[0].x += 1234;
@@ -461,6 +478,7 @@ mod tests {
     fn missing_origin_is_a_clear_error() {
         let mut p = plan();
         p.origin = None;
+        p.home = None;
         let err = build_mission(&p, &MissionOptions::for_autopilot(Autopilot::Px4)).unwrap_err();
         assert!(err.to_string().contains("no geodetic origin"));
     }

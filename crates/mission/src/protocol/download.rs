@@ -9,7 +9,7 @@ use mavlink::dialects::common::{
 };
 
 use super::upload::send_ack;
-use super::{is_mission, result_name, Link, Phase, Progress, ProtocolConfig, Target};
+use super::{is_mission, recv_until, result_name, Link, Phase, Progress, ProtocolConfig, Target};
 use crate::error::{MissionError, Result};
 use crate::items::MissionItem;
 
@@ -143,6 +143,7 @@ fn download_attempt(
                         operation: OP,
                         result: result_name(a.mavtype),
                         seq: Some(seq as u16),
+                        said: Vec::new(),
                     });
                 }
                 _ => None,
@@ -217,6 +218,7 @@ fn request_count(
                         operation: OP,
                         result: result_name(a.mavtype),
                         seq: None,
+                        said: Vec::new(),
                     });
                 }
                 _ => report.ignored += 1,
@@ -226,22 +228,6 @@ fn request_count(
             return Err(timeout(link, "before the overall deadline".into(), attempt));
         }
     })
-}
-
-/// Receives until the absolute time `until`; `None` once it has passed.
-fn recv_until(
-    link: &mut dyn Link,
-    until: Duration,
-) -> Result<Option<(mavlink::MavHeader, MavMessage)>> {
-    loop {
-        let now = link.now();
-        if now >= until {
-            return Ok(None);
-        }
-        if let Some(m) = link.recv(until.saturating_sub(now))? {
-            return Ok(Some(m));
-        }
-    }
 }
 
 /// Deletes the vehicle's mission (MISSION_CLEAR_ALL, answered by MISSION_ACK).
@@ -262,10 +248,21 @@ pub fn clear(link: &mut dyn Link, target: Target, cfg: &ProtocolConfig) -> Resul
                     if a.mavtype == MavMissionResult::MAV_MISSION_ACCEPTED {
                         return Ok(link.now().saturating_sub(start));
                     }
+                    if !matches!(
+                        a.mavtype,
+                        MavMissionResult::MAV_MISSION_ERROR
+                            | MavMissionResult::MAV_MISSION_DENIED
+                            | MavMissionResult::MAV_MISSION_UNSUPPORTED
+                    ) {
+                        // An answer of the transfer before (a rejected
+                        // item, a cancelled upload), still on its way.
+                        continue;
+                    }
                     return Err(MissionError::Rejected {
                         operation: CLEAR,
                         result: result_name(a.mavtype),
                         seq: None,
+                        said: Vec::new(),
                     });
                 }
             }

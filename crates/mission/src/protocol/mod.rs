@@ -22,7 +22,7 @@ pub mod upload;
 
 use std::time::Duration;
 
-use mavlink::dialects::common::{MavMessage, MavMissionResult, MavMissionType};
+use mavlink::dialects::common::{MavMessage, MavMissionResult, MavMissionType, STATUSTEXT_DATA};
 use mavlink::MavHeader;
 
 use crate::error::Result;
@@ -95,6 +95,14 @@ impl ProtocolConfig {
         }
     }
 
+    /// Two requests for the same item closer than this are one request
+    /// duplicated by the link, answered once: a quarter of the item
+    /// timeout, far below the autopilots' own re-request intervals (PX4
+    /// 250 ms, ArduPilot 1 s) and far above a link's reordering (ms).
+    pub fn duplicate_window(&self) -> Duration {
+        self.item_timeout / 4
+    }
+
     /// Longest time without progress before an attempt fails.
     pub fn stall_limit(&self) -> Duration {
         self.timeout * (self.retries + 1)
@@ -134,6 +142,30 @@ pub struct Progress {
 /// The MAV_MISSION_RESULT name, e.g. `MAV_MISSION_NO_SPACE`.
 pub fn result_name(r: MavMissionResult) -> String {
     format!("{r:?}")
+}
+
+/// The text of a STATUSTEXT, trimmed (the vehicle's own words).
+pub(crate) fn statustext(t: &STATUSTEXT_DATA) -> String {
+    String::from_utf8_lossy(&t.text[..])
+        .trim_end_matches('\0')
+        .trim()
+        .to_string()
+}
+
+/// Receives until the absolute time `until`; `None` once it has passed.
+pub(crate) fn recv_until(
+    link: &mut dyn Link,
+    until: Duration,
+) -> Result<Option<(MavHeader, MavMessage)>> {
+    loop {
+        let now = link.now();
+        if now >= until {
+            return Ok(None);
+        }
+        if let Some(m) = link.recv(until.saturating_sub(now))? {
+            return Ok(Some(m));
+        }
+    }
 }
 
 /// True when `mission_type` is the plain mission (other types are fences, rally points).

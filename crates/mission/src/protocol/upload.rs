@@ -8,7 +8,9 @@ use mavlink::dialects::common::{
     MavMessage, MavMissionResult, MavMissionType, MISSION_ACK_DATA, MISSION_COUNT_DATA,
 };
 
-use super::{is_mission, result_name, Link, Phase, Progress, ProtocolConfig, Target};
+use super::{
+    is_mission, recv_until, result_name, statustext, Link, Phase, Progress, ProtocolConfig, Target,
+};
 use crate::error::{MissionError, Result};
 use crate::items::MissionItem;
 
@@ -29,6 +31,10 @@ pub struct UploadReport {
     pub items_sent: u32,
     /// Requests answered again (the vehicle asked twice for an item).
     pub repeated_requests: u32,
+    /// Requests not answered because the same item went out less than
+    /// [`ProtocolConfig::duplicate_window`] before: copies of one request
+    /// made by the link, not the vehicle asking again.
+    pub duplicate_requests: u32,
     /// Messages ignored: other vehicles, stale or duplicate answers.
     pub ignored: u32,
     /// False when every item was served but the final MISSION_ACK never
@@ -76,9 +82,11 @@ pub fn upload(
             count_sends: 0,
             highest: None,
             served: vec![false; n],
+            last_sent: vec![None; n],
             n_served: 0,
             end_waits: 0,
             last_progress: Duration::ZERO,
+            said: Vec::new(),
         };
         let result = run.run(progress);
         report.elapsed = link.now().saturating_sub(start);
@@ -133,9 +141,14 @@ struct Attempt<'a> {
     count_sends: u32,
     highest: Option<u16>,
     served: Vec<bool>,
+    /// When each item last went out: a request for it within the
+    /// duplicate window is a copy made by the link.
+    last_sent: Vec<Option<Duration>>,
     n_served: usize,
     end_waits: u32,
     last_progress: Duration,
+    /// The vehicle's STATUSTEXT messages during this attempt.
+    said: Vec<String>,
 }
 
 /// What a timeout led to.
@@ -174,6 +187,21 @@ impl Attempt<'_> {
             attempts,
             elapsed: self.link.now().saturating_sub(self.start),
         }
+    }
+
+    /// After a rejection, the vehicle's own words: ArduPilot sends its
+    /// STATUSTEXT ("Only 650 items are supported") just after the ACK.
+    /// Waits one item timeout for them.
+    fn linger_for_words(&mut self) -> Vec<String> {
+        let until = self.link.now() + self.cfg.item_timeout;
+        while let Ok(Some((h, msg))) = recv_until(&mut *self.link, until) {
+            if let MavMessage::STATUSTEXT(t) = msg {
+                if self.target.is_source(&h) {
+                    self.said.push(statustext(&t));
+                }
+            }
+        }
+        std::mem::take(&mut self.said)
     }
 
     fn all_served(&self) -> bool {
@@ -216,8 +244,21 @@ impl Attempt<'_> {
     }
 
     fn on_request(&mut self, seq: u16, progress: &mut dyn FnMut(Progress)) -> Result<()> {
-        self.send_item(seq)?;
         let idx = usize::from(seq);
+        let now = self.link.now();
+        // A link that duplicates every packet delivers each request twice;
+        // answering both sends the item twice, and a vehicle that asks
+        // again on a duplicate item doubles the next request: the exchange
+        // grows exponentially. Autopilots time their own re-requests
+        // (250 ms on PX4, 1 s on ArduPilot), so a request for an item sent
+        // moments ago is a copy: answer once per window.
+        if self.last_sent[idx].is_some_and(|t| now.saturating_sub(t) < self.cfg.duplicate_window())
+        {
+            self.report.duplicate_requests += 1;
+            return Ok(());
+        }
+        self.last_sent[idx] = Some(now);
+        self.send_item(seq)?;
         if self.served[idx] {
             self.report.repeated_requests += 1;
         } else {
@@ -268,12 +309,25 @@ impl Attempt<'_> {
             let seq = match &msg {
                 MavMessage::MISSION_REQUEST_INT(r) if is_mission(r.mission_type) => r.seq,
                 MavMessage::MISSION_REQUEST(r) if is_mission(r.mission_type) => r.seq,
+                MavMessage::MISSION_ACK(a)
+                    if is_mission(a.mission_type)
+                        && a.mavtype == MavMissionResult::MAV_MISSION_INVALID_SEQUENCE
+                        && self.highest.is_some() =>
+                {
+                    // ArduPilot answers an item it did not ask for (a
+                    // duplicate, a stale copy) with INVALID_SEQUENCE and
+                    // keeps the transfer going: not the end of the upload.
+                    self.report.ignored += 1;
+                    continue;
+                }
                 MavMessage::MISSION_ACK(a) if is_mission(a.mission_type) => {
                     if a.mavtype != MavMissionResult::MAV_MISSION_ACCEPTED {
+                        let said = self.linger_for_words();
                         return Err(MissionError::Rejected {
                             operation: OP,
                             result: result_name(a.mavtype),
                             seq: self.highest,
+                            said,
                         });
                     }
                     if self.all_served() {
@@ -282,6 +336,10 @@ impl Attempt<'_> {
                     }
                     // An ACK from an earlier transfer, delayed.
                     self.report.ignored += 1;
+                    continue;
+                }
+                MavMessage::STATUSTEXT(t) => {
+                    self.said.push(statustext(t));
                     continue;
                 }
                 _ => {

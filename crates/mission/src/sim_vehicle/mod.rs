@@ -2,6 +2,7 @@
 //! link and a lossy UDP relay. Public so that integration tests and the
 //! simulator can stand in for a real autopilot.
 
+pub mod ardupilot;
 pub mod relay;
 pub mod sim;
 pub mod vehicle;

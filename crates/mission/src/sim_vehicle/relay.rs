@@ -33,6 +33,9 @@ pub struct Impairment {
 /// What an impairment did (plain numbers).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct ImpairmentCounts {
+    /// Datagrams the two ends sent into the link (before loss and
+    /// duplication): the traffic the protocol itself made.
+    pub received: u64,
     /// Datagrams delivered (duplicates included).
     pub passed: u64,
     /// Datagrams lost.
@@ -45,6 +48,7 @@ pub struct ImpairmentCounts {
 
 #[derive(Default)]
 struct Counters {
+    received: AtomicU64,
     passed: AtomicU64,
     dropped: AtomicU64,
     duplicated: AtomicU64,
@@ -141,6 +145,7 @@ impl UdpRelay {
     pub fn counts(&self) -> ImpairmentCounts {
         let c = &self.counters;
         ImpairmentCounts {
+            received: c.received.load(Ordering::Relaxed),
             passed: c.passed.load(Ordering::Relaxed),
             dropped: c.dropped.load(Ordering::Relaxed),
             duplicated: c.duplicated.load(Ordering::Relaxed),
@@ -201,6 +206,7 @@ impl Pipe {
     }
 
     fn forward(&mut self, data: &[u8], send: &mut impl FnMut(&[u8])) {
+        self.counters.received.fetch_add(1, Ordering::Relaxed);
         if self.rng.random::<f64>() < self.imp.drop {
             self.counters.dropped.fetch_add(1, Ordering::Relaxed);
             return;

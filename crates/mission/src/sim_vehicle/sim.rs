@@ -56,6 +56,7 @@ impl SimLink {
     }
 
     fn schedule(&mut self, msg: &MavMessage, to_vehicle: bool) {
+        self.counts.received += 1;
         if self.rng.random::<f64>() < self.impairment.drop {
             self.counts.dropped += 1;
             return;

@@ -6,9 +6,14 @@
 //! out), so the virtual-time simulator and a UDP thread
 //! ([`spawn_udp_vehicle`]) share it. It behaves like PX4's mission manager:
 //! it asks for items one by one, asks again every `item_timeout`, gives up
-//! after `protocol_timeout` without progress, answers a repeated last item
-//! with its ACK again, and serves downloads statelessly. In ArduPilot mode
-//! it overwrites seq 0 with its own home position, as ArduPilot does.
+//! after `protocol_timeout` without progress, ignores an item it did not
+//! ask for (a duplicate: asking again at once would let a duplicating link
+//! double the traffic at every item), answers a repeated last item with its
+//! ACK again, serves downloads statelessly, and replaces its mission only
+//! when an upload completes. In ArduPilot mode it has ArduPilot's habits
+//! ([`super::ardupilot`]): seq 0 is its own home, items are checked and
+//! stored as ArduPilot stores them and written as they arrive, a full
+//! vehicle says so in a STATUSTEXT.
 //!
 //! With a signing key the UDP vehicle signs what it sends and ignores what
 //! is not signed with the key, as an autopilot with signing enabled does
@@ -22,13 +27,14 @@ use std::time::{Duration, Instant};
 
 #[allow(deprecated)] // MISSION_REQUEST_DATA: see `request`.
 use mavlink::dialects::common::{
-    MavAutopilot, MavMessage, MavMissionResult, MavMissionType, MavModeFlag, MavState, MavType,
-    HEARTBEAT_DATA, MISSION_ACK_DATA, MISSION_COUNT_DATA, MISSION_REQUEST_DATA,
-    MISSION_REQUEST_INT_DATA,
+    MavAutopilot, MavMessage, MavMissionResult, MavMissionType, MavModeFlag, MavSeverity, MavState,
+    MavType, HEARTBEAT_DATA, MISSION_ACK_DATA, MISSION_COUNT_DATA, MISSION_REQUEST_DATA,
+    MISSION_REQUEST_INT_DATA, STATUSTEXT_DATA,
 };
 use mavlink::{Connectable, MavHeader, UdpConfig, UdpMode};
 use vp_scene::plan::GeodeticOrigin;
 
+use super::ardupilot;
 use crate::error::{MissionError, Result};
 use crate::geodesy::deg_to_e7;
 use crate::items::{Autopilot, MissionItem};
@@ -247,6 +253,12 @@ impl MissionServer {
                 if for_us(c.target_system) && mission_type(c.mission_type) =>
             {
                 self.gcs = (header.system_id as u8, header.component_id);
+                if self.cfg.autopilot == Autopilot::ArduPilot
+                    && matches!(self.state, State::Receiving { .. })
+                {
+                    // ArduPilot refuses to clear during an upload.
+                    return vec![self.ack(MavMissionResult::MAV_MISSION_ERROR)];
+                }
                 self.mission.clear();
                 self.state = State::Idle;
                 vec![self.ack(MavMissionResult::MAV_MISSION_ACCEPTED)]
@@ -267,7 +279,11 @@ impl MissionServer {
             return vec![self.ack(r)];
         }
         if usize::from(count) > self.cfg.capacity {
-            return vec![self.ack(MavMissionResult::MAV_MISSION_NO_SPACE)];
+            let mut out = vec![self.ack(MavMissionResult::MAV_MISSION_NO_SPACE)];
+            if self.cfg.autopilot == Autopilot::ArduPilot {
+                out.push(statustext(&ardupilot::capacity_text(self.cfg.capacity)));
+            }
+            return out;
         }
         if let State::Receiving {
             count: c,
@@ -285,6 +301,11 @@ impl MissionServer {
             }
         }
         self.completed = None;
+        if self.cfg.autopilot == Autopilot::ArduPilot {
+            // ArduPilot truncates its stored mission to the new count
+            // first, then overwrites items as they arrive.
+            self.mission.truncate(usize::from(count));
+        }
         if count == 0 {
             self.mission.clear();
             self.state = State::Idle;
@@ -319,14 +340,39 @@ impl MissionServer {
             return Vec::new();
         };
         let next = items.len() as u16;
+        let ardupilot = self.cfg.autopilot == Autopilot::ArduPilot;
         if seq != next {
-            if seq.checked_add(1) == Some(next) {
-                // Duplicate of the previous item: our request may be lost.
-                *last_request = now;
-                return vec![self.request(next)];
+            // Not the item asked for: a duplicate or a stale copy. PX4
+            // ignores it and asks again when its timer runs out; ArduPilot
+            // answers INVALID_SEQUENCE and goes on.
+            if ardupilot {
+                return vec![self.ack(MavMissionResult::MAV_MISSION_INVALID_SEQUENCE)];
             }
             return Vec::new();
         }
+        let item = if ardupilot {
+            if let Err(r) = ardupilot::check(&item) {
+                // The transfer ends; what was written stays written.
+                self.state = State::Idle;
+                self.abandoned += 1;
+                return vec![self.ack(r)];
+            }
+            let mut kept = ardupilot::stored(&item);
+            if seq == 0 {
+                // ArduPilot keeps its own home at seq 0, whatever was uploaded.
+                kept.x = deg_to_e7(self.cfg.home.lat_deg).unwrap_or(0);
+                kept.y = deg_to_e7(self.cfg.home.lon_deg).unwrap_or(0);
+                kept.z = self.cfg.home.alt_m as f32;
+            }
+            // Written to storage as it arrives.
+            match self.mission.get_mut(usize::from(seq)) {
+                Some(slot) => *slot = kept,
+                None => self.mission.push(kept),
+            }
+            kept
+        } else {
+            item
+        };
         items.push(item);
         *last_progress = now;
         *last_request = now;
@@ -334,15 +380,8 @@ impl MissionServer {
             return vec![self.request(next + 1)];
         }
         let count = *count;
-        let mut mission = std::mem::take(items);
+        let mission = std::mem::take(items);
         self.state = State::Idle;
-        if self.cfg.autopilot == Autopilot::ArduPilot {
-            // ArduPilot keeps its own home at seq 0, whatever was uploaded.
-            let home = &mut mission[0];
-            home.x = deg_to_e7(self.cfg.home.lat_deg).unwrap_or(0);
-            home.y = deg_to_e7(self.cfg.home.lon_deg).unwrap_or(0);
-            home.z = self.cfg.home.alt_m as f32;
-        }
         self.mission = mission;
         self.completed = Some(count);
         self.uploads += 1;
@@ -402,6 +441,20 @@ impl MissionServer {
             mavlink_version: 3,
         })
     }
+}
+
+/// A STATUSTEXT warning with `text` (cut to the message's 50 bytes).
+fn statustext(text: &str) -> MavMessage {
+    let mut bytes = [0u8; 50];
+    for (b, t) in bytes.iter_mut().zip(text.bytes()) {
+        *b = t;
+    }
+    MavMessage::STATUSTEXT(STATUSTEXT_DATA {
+        severity: MavSeverity::MAV_SEVERITY_WARNING,
+        text: bytes.into(),
+        id: 0,
+        chunk_seq: 0,
+    })
 }
 
 /// A [`MissionServer`] running on a thread behind a MAVLink `udpin` socket.
