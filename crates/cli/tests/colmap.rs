@@ -573,7 +573,14 @@ fn colmap_align_never_deletes_what_it_did_not_write() {
     std::fs::write(d.join("in/pos.csv"), sfm_positions(&[[0.0; 3]; 4])).unwrap();
     common::assert_output_guards(
         d,
-        &["colmap", "align", "--colmap", "in/model", "--positions", "in/pos.csv"],
+        &[
+            "colmap",
+            "align",
+            "--colmap",
+            "in/model",
+            "--positions",
+            "in/pos.csv",
+        ],
         "in/model",
     );
 }
@@ -589,7 +596,14 @@ fn colmap_undistort_never_deletes_what_it_did_not_write() {
     copy_dir(&data.join("images"), &d.join("in/images"));
     common::assert_output_guards(
         d,
-        &["colmap", "undistort", "--colmap", "in/model", "--images", "in/images"],
+        &[
+            "colmap",
+            "undistort",
+            "--colmap",
+            "in/model",
+            "--images",
+            "in/images",
+        ],
         "in",
     );
 }

@@ -379,7 +379,12 @@ fn predict_never_deletes_what_it_did_not_write() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let (images, labels, _, _) = write_data(&d.join("in"), 3, 99);
-    let o = train(&images, &labels, &d.join("in/m.vpforest"), &["--trees", "2"]);
+    let o = train(
+        &images,
+        &labels,
+        &d.join("in/m.vpforest"),
+        &["--trees", "2"],
+    );
     assert!(o.status.success(), "{}", text(&o));
     common::assert_output_guards(
         d,

@@ -203,20 +203,44 @@ fn sim_fly_never_deletes_what_it_did_not_write() {
     .unwrap();
     let o = vpctl(
         d,
-        &["scene", "generate", "--config", "in/site.toml", "--out", "in/site.ply"],
+        &[
+            "scene",
+            "generate",
+            "--config",
+            "in/site.toml",
+            "--out",
+            "in/site.ply",
+        ],
     );
     assert!(o.status.success(), "{}", text(&o.stderr));
     let o = vpctl(
         d,
         &[
-            "plan", "grid", "--mesh", "in/site.ply", "--config", "in/site.toml", "--height",
-            "35", "--overlap", "0.5", "--out", "in/g.json",
+            "plan",
+            "grid",
+            "--mesh",
+            "in/site.ply",
+            "--config",
+            "in/site.toml",
+            "--height",
+            "35",
+            "--overlap",
+            "0.5",
+            "--out",
+            "in/g.json",
         ],
     );
     assert!(o.status.success(), "{}", text(&o.stderr));
     common::assert_output_guards(
         d,
-        &["sim", "fly", "in/g.json", "--site", "in/site.toml", "--exact"],
+        &[
+            "sim",
+            "fly",
+            "in/g.json",
+            "--site",
+            "in/site.toml",
+            "--exact",
+        ],
         "in",
     );
 }

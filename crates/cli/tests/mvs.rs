@@ -260,8 +260,16 @@ fn mvs_run_triplets_never_deletes_what_it_did_not_write() {
     common::assert_output_guards(
         d,
         &[
-            "mvs", "run", "--workspace", "in/ws", "--triplets", "in/triplets.json",
-            "--depth-range", &range, "--config", "in/mvs.toml",
+            "mvs",
+            "run",
+            "--workspace",
+            "in/ws",
+            "--triplets",
+            "in/triplets.json",
+            "--depth-range",
+            &range,
+            "--config",
+            "in/mvs.toml",
         ],
         "in",
     );

@@ -204,13 +204,12 @@ impl OutDir {
             }
             return Ok(Some(m));
         }
-        let mut entries = std::fs::read_dir(&self.abs).map_err(|e| SceneError::io(&self.path, e))?;
+        let mut entries =
+            std::fs::read_dir(&self.abs).map_err(|e| SceneError::io(&self.path, e))?;
         if entries.next().is_some() {
             return Err(SceneError::OutputRefused {
                 path: self.path.clone(),
-                why: format!(
-                    "is not empty and is not a vpctl output (it has no {MANIFEST_FILE})"
-                ),
+                why: format!("is not empty and is not a vpctl output (it has no {MANIFEST_FILE})"),
                 fix: format!(
                     "nothing was written; vpctl never writes into a folder of other files, \
                      even with --force: give `vpctl {}` a new folder, e.g. --out {}, or move \
@@ -419,7 +418,12 @@ impl Drop for Stage<'_> {
 
 /// Every file and every folder under `root`, relative, `/`-separated.
 fn list_tree(root: &Path) -> Result<(Vec<String>, Vec<String>)> {
-    fn walk(root: &Path, rel: &Path, files: &mut Vec<String>, dirs: &mut Vec<String>) -> Result<()> {
+    fn walk(
+        root: &Path,
+        rel: &Path,
+        files: &mut Vec<String>,
+        dirs: &mut Vec<String>,
+    ) -> Result<()> {
         let here = root.join(rel);
         for entry in std::fs::read_dir(&here).map_err(|e| SceneError::io(&here, e))? {
             let entry = entry.map_err(|e| SceneError::io(&here, e))?;

@@ -41,7 +41,10 @@ fn a_foreign_folder_is_refused_even_with_force() {
     write_files(&out, &[("thesis.tex", "mine")]).unwrap();
     let e = OutDir::check(&out, "demo", &[], true).unwrap_err();
     let m = refusal(&e);
-    assert!(m.contains("not a vpctl output") && m.contains("--out"), "{m}");
+    assert!(
+        m.contains("not a vpctl output") && m.contains("--out"),
+        "{m}"
+    );
     // An empty folder is fine.
     std::fs::remove_file(out.join("thesis.tex")).unwrap();
     assert!(OutDir::check(&out, "demo", &[], false).is_ok());
@@ -52,9 +55,22 @@ fn force_replaces_only_what_vpctl_wrote() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("rep");
     let od = OutDir::check(&out, "demo", &[], false).unwrap();
-    od.write(|d| write_files(d, &[("table.md", "old"), ("plans/a.json", "a"), ("gone.csv", "x")]))
-        .unwrap();
-    write_files(&out, &[("notes.txt", "precious"), ("plans/mine.txt", "also mine")]).unwrap();
+    od.write(|d| {
+        write_files(
+            d,
+            &[
+                ("table.md", "old"),
+                ("plans/a.json", "a"),
+                ("gone.csv", "x"),
+            ],
+        )
+    })
+    .unwrap();
+    write_files(
+        &out,
+        &[("notes.txt", "precious"), ("plans/mine.txt", "also mine")],
+    )
+    .unwrap();
     // Without force: refused, untouched.
     let e = OutDir::check(&out, "demo", &[], false).unwrap_err();
     assert!(refusal(&e).contains("--force"), "{e}");
@@ -65,8 +81,14 @@ fn force_replaces_only_what_vpctl_wrote() {
         names(&out),
         ["notes.txt", "plans/a.json", "plans/mine.txt", "table.md"]
     );
-    assert_eq!(std::fs::read_to_string(out.join("table.md")).unwrap(), "new");
-    assert_eq!(std::fs::read_to_string(out.join("notes.txt")).unwrap(), "precious");
+    assert_eq!(
+        std::fs::read_to_string(out.join("table.md")).unwrap(),
+        "new"
+    );
+    assert_eq!(
+        std::fs::read_to_string(out.join("notes.txt")).unwrap(),
+        "precious"
+    );
     let m = Manifest::load(&out).unwrap().unwrap();
     assert_eq!(m.files, ["plans/a.json", "table.md"]);
     // Nothing left beside it.
@@ -94,14 +116,18 @@ fn a_user_file_the_new_output_would_overwrite_is_refused() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("ws");
     let od = OutDir::check(&out, "predict", &[], false).unwrap();
-    od.write(|d| write_files(d, &[("a.vpconf", "old")])).unwrap();
+    od.write(|d| write_files(d, &[("a.vpconf", "old")]))
+        .unwrap();
     write_files(&out, &[("b.vpconf", "the user's")]).unwrap();
     let od = OutDir::check(&out, "predict", &[], true).unwrap();
     let e = od
         .write(|d| write_files(d, &[("a.vpconf", "new"), ("b.vpconf", "new")]))
         .unwrap_err();
     assert!(refusal(&e).contains("b.vpconf"), "{e}");
-    assert_eq!(std::fs::read_to_string(out.join("a.vpconf")).unwrap(), "old");
+    assert_eq!(
+        std::fs::read_to_string(out.join("a.vpconf")).unwrap(),
+        "old"
+    );
     assert_eq!(
         std::fs::read_to_string(out.join("b.vpconf")).unwrap(),
         "the user's"

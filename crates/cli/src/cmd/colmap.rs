@@ -206,10 +206,14 @@ fn align(a: &AlignArgs, out: &mut dyn Write) -> Result<()> {
         ))
         .into());
     }
-    let inputs: Vec<&Path> = [Some(a.model.as_path()), a.positions.as_deref(), a.exif.as_deref()]
-        .into_iter()
-        .flatten()
-        .collect();
+    let inputs: Vec<&Path> = [
+        Some(a.model.as_path()),
+        a.positions.as_deref(),
+        a.exif.as_deref(),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
     let out_dir = vp_scene::outdir::OutDir::check(&a.out, "colmap align", &inputs, a.force)?;
     let format = colmap::detect_format(&a.model)?;
     let rec = colmap::read_model_as(&a.model, format)?;

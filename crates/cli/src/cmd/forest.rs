@@ -188,7 +188,10 @@ pub fn predict(a: &PredictArgs, out: &mut dyn Write) -> Result<()> {
     let predicted = target.write(|stage| -> Result<_> {
         let mut predicted = predict_files(&forest, &images, stage, &options)?;
         // Named where they will be, not where they are staged.
-        let moved = |f: &Path| f.strip_prefix(stage).map_or_else(|_| f.to_path_buf(), |r| a.out.join(r));
+        let moved = |f: &Path| {
+            f.strip_prefix(stage)
+                .map_or_else(|_| f.to_path_buf(), |r| a.out.join(r))
+        };
         for p in &mut predicted {
             p.confidence_file = moved(&p.confidence_file);
             p.preview_file = p.preview_file.as_deref().map(moved);

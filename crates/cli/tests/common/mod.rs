@@ -316,7 +316,10 @@ pub fn assert_output_guards(cwd: &Path, args: &[&str], input_dir: &str) {
         .into_iter()
         .filter(|(p, _)| !p.starts_with("rep"))
         .collect();
-    assert!(after == before.into_iter().collect::<Vec<_>>(), "files outside rep/ changed");
+    assert!(
+        after == before.into_iter().collect::<Vec<_>>(),
+        "files outside rep/ changed"
+    );
     let names: Vec<String> = std::fs::read_dir(cwd)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())

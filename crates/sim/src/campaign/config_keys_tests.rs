@@ -64,7 +64,10 @@ fn every_section_refuses_an_unknown_key_with_line_column_and_valid_keys() {
         );
         // The valid keys are listed (every key the section writes).
         for k in keys {
-            assert!(m.contains(&format!("`{k}`")), "[{path}] does not list {k}: {m}");
+            assert!(
+                m.contains(&format!("`{k}`")),
+                "[{path}] does not list {k}: {m}"
+            );
         }
     }
 }

@@ -8,8 +8,8 @@ use std::path::Path;
 
 use serde::Serialize;
 use vp_mission::{export_qgc, Autopilot, MissionOptions, QgcOptions};
-use vp_scene::plan::Plan;
 use vp_scene::outdir::OutDir;
+use vp_scene::plan::Plan;
 use vp_scene::{Aabb, Mesh};
 
 use super::acquired::AcquiredModel;
