@@ -296,6 +296,38 @@ impl Stage<'_> {
         &self.dir
     }
 
+    /// Refuses when a file that is not vpctl's would be overwritten by the
+    /// new output (or would need a folder where the new output has a file);
+    /// the staged output is then kept.
+    fn refuse_clashes(&mut self, foreign: &[PathBuf]) -> Result<()> {
+        for f in foreign {
+            let clash = f
+                .ancestors()
+                .filter(|a| !a.as_os_str().is_empty())
+                .find(|a| {
+                    std::fs::symlink_metadata(self.dir.join(a))
+                        .is_ok_and(|m| *a == f.as_path() || !m.is_dir())
+                });
+            if let Some(a) = clash {
+                self.keep = true;
+                return Err(SceneError::OutputRefused {
+                    path: self.out.path.join(f),
+                    why: format!(
+                        "is not vpctl's (not in {MANIFEST_FILE}) and the new output writes {} \
+                         too",
+                        a.display()
+                    ),
+                    fix: format!(
+                        "nothing was replaced; move it away and run the command again, or \
+                         take the new output from {}",
+                        self.dir.display()
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
+
     /// Writes the manifest and swaps the staged folder in place of the
     /// output (see the module docs). The output is checked again first: if
     /// it changed during the work so that it must be refused now, the staged
@@ -334,31 +366,7 @@ impl Stage<'_> {
         }
         // Files that are not vpctl's move into the new output first.
         let foreign = foreign_entries(&target, previous.as_ref())?;
-        for f in &foreign {
-            let clash = f
-                .ancestors()
-                .filter(|a| !a.as_os_str().is_empty())
-                .find(|a| {
-                    std::fs::symlink_metadata(self.dir.join(a))
-                        .is_ok_and(|m| *a == f.as_path() || !m.is_dir())
-                });
-            if let Some(a) = clash {
-                self.keep = true;
-                return Err(SceneError::OutputRefused {
-                    path: self.out.path.join(f),
-                    why: format!(
-                        "is not vpctl's (not in {MANIFEST_FILE}) and the new output writes {} \
-                         too",
-                        a.display()
-                    ),
-                    fix: format!(
-                        "nothing was replaced; move it away and run the command again, or \
-                         take the new output from {}",
-                        self.dir.display()
-                    ),
-                });
-            }
-        }
+        self.refuse_clashes(&foreign)?;
         let mut moved: Vec<&PathBuf> = Vec::new();
         let mut step = || -> std::io::Result<PathBuf> {
             for f in &foreign {
