@@ -331,3 +331,40 @@ fn every_subcommand_has_help() {
         assert!(stdout(&o).contains("Usage"), "{args:?}");
     }
 }
+
+/// Regression (issue 39, item 6): `[site]`, `[render]`, `[training.site]`
+/// and `[profile.*]` took a typo such as `sizee = 3` silently and ran with
+/// the default; every section now refuses it with the file, line, column
+/// and the valid keys, exit 2, nothing written.
+#[test]
+fn a_typo_in_any_config_section_is_refused_with_line_column_and_valid_keys() {
+    let dir = tempfile::tempdir().unwrap();
+    for (section, valid) in [
+        ("site", "`size`"),
+        ("render", "`shadows`"),
+        ("training.site", "`size`"),
+        ("profile.grass", "`angles_deg`"),
+    ] {
+        let cfg = dir.path().join("typo.toml");
+        std::fs::write(&cfg, format!("seed = 1\n[{section}]\nsizee = 3\n")).unwrap();
+        let out = dir.path().join("site.ply");
+        let o = vpctl(&[
+            "scene",
+            "generate",
+            "--config",
+            cfg.to_str().unwrap(),
+            "--faces",
+            "5000",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "[{section}]: {err}");
+        assert!(
+            err.contains("typo.toml: line 3: column 1: unknown field `sizee`, expected one of")
+                && err.contains(valid),
+            "[{section}]: {err}"
+        );
+        assert!(!out.exists(), "[{section}]");
+    }
+}

@@ -39,7 +39,11 @@ fn colmap_undistort_writes_a_pinhole_workspace_and_refuses_bad_input() {
     // Refuses to overwrite: exit 2, names the folder.
     let o = run(&model, &ws);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("already exists"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("earlier `vpctl colmap undistort`") && stderr(&o).contains("--force"),
+        "{}",
+        stderr(&o)
+    );
     // An unknown camera model: exit 2, names the file and line, writes nothing.
     let bad = dir.path().join("bad");
     std::fs::create_dir(&bad).unwrap();
@@ -548,4 +552,58 @@ fn scale_error(out: &Path, ext: &str) -> f64 {
     };
     let d = (c(format!("view_00.{ext}")) - c(format!("view_03.{ext}"))).norm();
     (d / (truth(-24.0) - truth(24.0)).norm() - 1.0).abs()
+}
+
+/// Copies the files of folder `from` into a new folder `to`.
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        std::fs::copy(e.path(), to.join(e.file_name())).unwrap();
+    }
+}
+
+/// Regression (issue 39): `colmap align ... --out . --force` deleted every
+/// file in the current folder, the model it read included.
+#[test]
+fn colmap_align_never_deletes_what_it_did_not_write() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    copy_dir(&scene_data("colmap/sfm/txt"), &d.join("in/model"));
+    std::fs::write(d.join("in/pos.csv"), sfm_positions(&[[0.0; 3]; 4])).unwrap();
+    common::assert_output_guards(
+        d,
+        &[
+            "colmap",
+            "align",
+            "--colmap",
+            "in/model",
+            "--positions",
+            "in/pos.csv",
+        ],
+        "in/model",
+    );
+}
+
+/// Regression (issue 39): `colmap undistort --force` replaced its output
+/// folder whole, whatever else it held.
+#[test]
+fn colmap_undistort_never_deletes_what_it_did_not_write() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let data = scene_data("colmap/undistort/input");
+    copy_dir(&data.join("model"), &d.join("in/model"));
+    copy_dir(&data.join("images"), &d.join("in/images"));
+    common::assert_output_guards(
+        d,
+        &[
+            "colmap",
+            "undistort",
+            "--colmap",
+            "in/model",
+            "--images",
+            "in/images",
+        ],
+        "in",
+    );
 }

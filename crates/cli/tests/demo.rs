@@ -8,6 +8,8 @@ use vp_scene::colmap::{read_model, ModelFrame, Reconstruction};
 use vp_scene::plan::Plan;
 use vp_scene::raster::ConfidenceImage;
 
+mod common;
+
 fn vpctl(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_vpctl"))
         .args(args)
@@ -299,4 +301,58 @@ fn sim_config_prints_a_loadable_config_and_sim_run_checks_it() {
     let o = vpctl(&["demo", "--quick", "--forest", s(&model), "--out", s(&out)]);
     assert_eq!(o.status.code(), Some(2), "stderr: {}", text(&o.stderr));
     assert!(!out.exists());
+}
+
+/// The quick preset on the virtual MVS stand-in, written to `in/virtual.toml`.
+fn virtual_quick_config(dir: &Path) {
+    let o = vpctl(&["sim", "config", "--preset", "quick"]);
+    assert!(o.status.success());
+    std::fs::create_dir_all(dir.join("in")).unwrap();
+    std::fs::write(
+        dir.join("in/virtual.toml"),
+        text(&o.stdout).replace("mvs = \"patchmatch\"", "mvs = \"virtual\""),
+    )
+    .unwrap();
+}
+
+/// Regression (issue 39): `sim run --out . --force` deleted every file in
+/// the current folder, its own config included.
+#[test]
+fn sim_run_never_deletes_what_it_did_not_write() {
+    let dir = tempfile::tempdir().unwrap();
+    virtual_quick_config(dir.path());
+    common::assert_output_guards(
+        dir.path(),
+        &["sim", "run", "--config", "in/virtual.toml"],
+        "in",
+    );
+}
+
+/// Regression (issue 39): `demo --quick --force --out .` deleted every file
+/// in the current folder; `demo --force --out rep` deleted a user's files in rep/.
+#[test]
+fn demo_never_deletes_what_it_did_not_write() {
+    let dir = tempfile::tempdir().unwrap();
+    virtual_quick_config(dir.path());
+    // A forest to read (an input): trained on the virtual stand-in, in seconds.
+    let o = common::vpctl_in(
+        dir.path(),
+        &[
+            "sim",
+            "run",
+            "--config",
+            "in/virtual.toml",
+            "--out",
+            "first",
+            "--save-forest",
+            "in/forest.vpf",
+        ],
+    );
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    std::fs::remove_dir_all(dir.path().join("first")).unwrap();
+    common::assert_output_guards(
+        dir.path(),
+        &["demo", "--quick", "--forest", "in/forest.vpf"],
+        "in",
+    );
 }

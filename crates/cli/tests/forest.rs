@@ -7,6 +7,8 @@ use std::process::{Command, Output};
 use vp_forest::synthetic::{label_image, texture_image};
 use vp_scene::raster::{load_rgb, save_rgb, ConfidenceImage, Label, PreviewLayout};
 
+mod common;
+
 fn vpctl(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_vpctl"))
         .args(args)
@@ -368,4 +370,25 @@ fn image_names_with_sub_folders_and_dots_survive_train_and_predict() {
     let wanted = vp_scene::image_files::confidence_file(&conf, name).unwrap();
     assert_eq!(wanted, conf.join("sub/dir/img.v2.JPG.vpconf"));
     assert!(wanted.exists(), "{}", text(&o));
+}
+
+/// Regression (issue 39): `predict --out <folder> --force` wrote into any
+/// folder, the current one or its own images' folder included.
+#[test]
+fn predict_never_deletes_what_it_did_not_write() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (images, labels, _, _) = write_data(&d.join("in"), 3, 99);
+    let o = train(
+        &images,
+        &labels,
+        &d.join("in/m.vpforest"),
+        &["--trees", "2"],
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    common::assert_output_guards(
+        d,
+        &["predict", "--forest", "in/m.vpforest", "in/images"],
+        "in/images",
+    );
 }

@@ -14,6 +14,8 @@ use vp_scene::raster::{Label, LabelImage};
 use vp_scene::raycast::RayCaster;
 use vp_scene::{Camera, Intrinsics};
 
+mod common;
+
 fn vpctl(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_vpctl"))
         .args(args)
@@ -273,4 +275,25 @@ fn bad_depth_maps_are_named_and_leave_no_output() {
     let o = call(&run_args(&f, "out4"));
     assert_eq!(o.status.code(), Some(2));
     assert!(text(&o.stderr).contains("nope.jpg"), "{}", text(&o.stderr));
+}
+
+/// Regression (issue 39): `labelgen run --out <folder> --force` wrote into
+/// any folder, the current one or its own depth maps' folder included.
+#[test]
+fn labelgen_run_never_deletes_what_it_did_not_write() {
+    let f = fixture();
+    let args = [
+        "labelgen",
+        "run",
+        "--colmap",
+        "model",
+        "--triplets",
+        "triplets.txt",
+        "--depth-dir",
+        "depth",
+        "--mesh",
+        "mesh.ply",
+        "--frame-unchecked",
+    ];
+    common::assert_output_guards(&f.root, &args, "depth");
 }

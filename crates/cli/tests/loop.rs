@@ -4,6 +4,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+mod common;
+
 fn vpctl(dir: &Path, args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_vpctl"))
         .current_dir(dir)
@@ -184,5 +186,61 @@ fn sim_fly_writes_exact_binary_models_with_points_seen_twice() {
         text(&o.stderr).contains("QGroundControl"),
         "{}",
         text(&o.stderr)
+    );
+}
+
+/// Regression (issue 39): `sim fly --out <folder> --force` wrote into any
+/// folder, the current one or one holding its plans included.
+#[test]
+fn sim_fly_never_deletes_what_it_did_not_write() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir(d.join("in")).unwrap();
+    std::fs::write(
+        d.join("in/site.toml"),
+        "[site]\nseed = 3\ntarget_faces = 8000\nsize = 40.0\n",
+    )
+    .unwrap();
+    let o = vpctl(
+        d,
+        &[
+            "scene",
+            "generate",
+            "--config",
+            "in/site.toml",
+            "--out",
+            "in/site.ply",
+        ],
+    );
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let o = vpctl(
+        d,
+        &[
+            "plan",
+            "grid",
+            "--mesh",
+            "in/site.ply",
+            "--config",
+            "in/site.toml",
+            "--height",
+            "35",
+            "--overlap",
+            "0.5",
+            "--out",
+            "in/g.json",
+        ],
+    );
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    common::assert_output_guards(
+        d,
+        &[
+            "sim",
+            "fly",
+            "in/g.json",
+            "--site",
+            "in/site.toml",
+            "--exact",
+        ],
+        "in",
     );
 }

@@ -236,3 +236,41 @@ fn mvs_run_triplets_writes_the_layout_labelgen_reads() {
     );
     assert!(!out2.exists());
 }
+
+/// Regression (issue 39): `mvs run --triplets --out <folder> --force` wrote
+/// into any folder, the current one or the workspace's parent included.
+#[test]
+fn mvs_run_triplets_never_deletes_what_it_did_not_write() {
+    use vp_labelgen::triplets::{write_triplet_list, Triplet};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (lo, hi) = mvs_workspace(&d.join("in/ws"));
+    let images = ["im0.png", "im1.png", "im2.png"].map(String::from);
+    write_triplet_list(
+        &d.join("in/triplets.json"),
+        &[Triplet {
+            bin: 1,
+            angle_deg: 10.0,
+            images,
+        }],
+    )
+    .unwrap();
+    std::fs::write(d.join("in/mvs.toml"), "iterations = 1\n").unwrap();
+    let range = format!("{lo},{hi}");
+    common::assert_output_guards(
+        d,
+        &[
+            "mvs",
+            "run",
+            "--workspace",
+            "in/ws",
+            "--triplets",
+            "in/triplets.json",
+            "--depth-range",
+            &range,
+            "--config",
+            "in/mvs.toml",
+        ],
+        "in",
+    );
+}

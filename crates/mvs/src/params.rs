@@ -190,10 +190,9 @@ impl MvsParams {
 
     /// Parses a TOML config (missing fields take defaults) and validates it.
     pub fn from_toml(path: &std::path::Path, text: &str) -> Result<Self> {
-        let p: MvsParams = toml::from_str(text).map_err(|e| MvsError::Config {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
+        // The one reader of every vpctl config: file, line, column, and the
+        // valid keys when a key is unknown.
+        let p: MvsParams = vp_scene::config_file::parse_toml(text, path)?;
         p.validate().map_err(|e| MvsError::Config {
             path: path.to_path_buf(),
             message: e.to_string(),
@@ -265,7 +264,12 @@ mod tests {
         let e = MvsParams::from_toml(std::path::Path::new("m.toml"), "min_ncc = 3.0").unwrap_err();
         assert!(e.to_string().starts_with("m.toml: "), "{e}");
         assert!(e.to_string().contains("min_ncc"), "{e}");
-        let e = MvsParams::from_toml(std::path::Path::new("m.toml"), "bogus = 1").unwrap_err();
-        assert!(e.to_string().contains("bogus"), "{e}");
+        let e = MvsParams::from_toml(std::path::Path::new("m.toml"), "\nbogus = 1").unwrap_err();
+        let m = e.to_string();
+        assert!(
+            m.starts_with("m.toml: line 2: column 1: unknown field `bogus`, expected one of"),
+            "{m}"
+        );
+        assert!(m.contains("`window_radius`"), "{m}");
     }
 }

@@ -95,6 +95,18 @@ pub enum SceneError {
         /// The file that would have been overwritten.
         path: PathBuf,
     },
+    /// An output folder was refused before anything was written
+    /// ([`crate::outdir`]): it is the current folder, holds an input, or
+    /// holds files vpctl did not write.
+    #[error("{}: {why}; {fix}", path.display())]
+    OutputRefused {
+        /// The output folder (or the file in it) at fault.
+        path: PathBuf,
+        /// Why it is refused.
+        why: String,
+        /// What to do instead, with the command.
+        fix: String,
+    },
 }
 
 impl SceneError {

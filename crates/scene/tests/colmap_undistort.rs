@@ -129,16 +129,19 @@ fn undistort_refuses_existing_output_and_missing_images_without_writing() {
         "no temporary left"
     );
 
+    // A folder of other files is refused, even with force.
     std::fs::create_dir(&out).unwrap();
+    std::fs::write(out.join("notes.txt"), "mine").unwrap();
     let e = undistort_workspace(
         &data().join("input/model"),
         &data().join("input/images"),
         &out,
         &UndistortOptions::default(),
-        false,
+        true,
     )
     .unwrap_err();
-    assert!(e.to_string().contains("already exists"), "{e}");
+    assert!(e.to_string().contains("is not a vpctl output"), "{e}");
+    assert_eq!(std::fs::read_dir(&out).unwrap().count(), 1);
 }
 
 #[test]

@@ -19,7 +19,7 @@ const SHADOW_EPSILON: f64 = 2e-3;
 /// Lighting and texture settings of [`render`]. Serialisable with defaults
 /// for missing fields.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct RenderParams {
     /// Sun azimuth, degrees counter-clockwise from east.
     pub sun_azimuth_deg: f64,

@@ -60,13 +60,15 @@ pub struct AlignArgs {
     #[arg(long, value_name = "IMAGES_DIR")]
     pub exif: Option<PathBuf>,
     /// Output folder for the aligned model (same format as the input) and
-    /// frame.json (must not exist, unless --force).
+    /// frame.json (a new or empty folder, or an earlier `colmap align`
+    /// output with --force).
     #[arg(long)]
     pub out: PathBuf,
     /// A position farther than this from its aligned camera is an outlier (m).
     #[arg(long, allow_negative_numbers = true, default_value_t = 3.0)]
     pub max_error: f64,
-    /// Replace an existing output folder.
+    /// Replace an earlier output in --out (only the files vpctl wrote there;
+    /// other files stay).
     #[arg(long)]
     pub force: bool,
     /// For a single strip (corridor) flight, whose cameras lie on a line:
@@ -97,10 +99,12 @@ pub struct UndistortArgs {
     /// The folder of the photos the model names.
     #[arg(long)]
     pub images: PathBuf,
-    /// The workspace folder to write (must not exist, unless --force).
+    /// The workspace folder to write (a new or empty folder, or an earlier
+    /// `colmap undistort` output with --force).
     #[arg(long)]
     pub out: PathBuf,
-    /// Replace an existing workspace folder.
+    /// Replace an earlier workspace in --out (only the files vpctl wrote
+    /// there; other files stay).
     #[arg(long)]
     pub force: bool,
     /// 0: crop to the pixels every ray covers (no black border, COLMAP's
@@ -235,7 +239,15 @@ fn align(a: &AlignArgs, out: &mut dyn Write) -> Result<()> {
         ))
         .into());
     }
-    vp_scene::fsio::check_overwrite(&a.out, a.force)?;
+    let inputs: Vec<&Path> = [
+        Some(a.model.as_path()),
+        a.positions.as_deref(),
+        a.exif.as_deref(),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    let out_dir = vp_scene::outdir::OutDir::check(&a.out, "colmap align", &inputs, a.force)?;
     let format = colmap::detect_format(&a.model)?;
     let rec = colmap::read_model_as(&a.model, format)?;
     let Positions {
@@ -271,32 +283,14 @@ fn align(a: &AlignArgs, out: &mut dyn Write) -> Result<()> {
         takeoff_alt_m,
         home: None,
     };
-    // Build beside --out, rename when complete: nothing partial.
-    let parent = match a.out.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let name = a
-        .out
-        .file_name()
-        .map_or_else(|| "aligned".into(), |n| n.to_string_lossy().into_owned());
-    let tmp = parent.join(format!(".{name}.tmp-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&tmp);
-    let written = (|| -> vp_scene::Result<()> {
+    // Built beside --out and swapped in when complete: nothing partial.
+    out_dir.write(|dir| -> vp_scene::Result<()> {
         match format {
-            colmap::ModelFormat::Binary => colmap::write_binary(&tmp, &moved)?,
-            colmap::ModelFormat::Text => colmap::write_text(&tmp, &moved)?,
+            colmap::ModelFormat::Binary => colmap::write_binary(dir, &moved)?,
+            colmap::ModelFormat::Text => colmap::write_text(dir, &moved)?,
         }
-        model_frame.save(&tmp)
-    })();
-    if let Err(e) = written {
-        let _ = std::fs::remove_dir_all(&tmp);
-        return Err(e.into());
-    }
-    if a.out.exists() {
-        std::fs::remove_dir_all(&a.out)?;
-    }
-    std::fs::rename(&tmp, &a.out)?;
+        model_frame.save(dir)
+    })?;
     let n_in = al.residuals.iter().filter(|r| r.inlier).count();
     writeln!(
         out,

@@ -8,6 +8,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use clap::Args;
 use vp_forest::Forest;
+use vp_scene::outdir::OutDir;
 use vp_sim::campaign::{run_campaign_trained, write_report, CampaignConfig};
 
 /// Arguments shared by `demo` and `sim run`.
@@ -16,7 +17,8 @@ pub struct CampaignArgs {
     /// Report directory (table.md, table.csv, report.json, plots, plans, .plan missions).
     #[arg(long, default_value = "vpctl-report")]
     pub out: PathBuf,
-    /// Overwrite the report directory (and --save-forest) if they exist.
+    /// Replace an earlier report in --out (only the files vpctl wrote there;
+    /// other files stay) and overwrite --save-forest.
     #[arg(long)]
     pub force: bool,
     /// Use this trained forest instead of running the training campaign.
@@ -39,16 +41,20 @@ pub struct DemoArgs {
     pub quick: bool,
 }
 
-/// Runs `cfg`: trains (or loads `--forest`), flies, prints the table, writes the report.
-pub fn run_config(cfg: &CampaignConfig, args: &CampaignArgs, out: &mut dyn Write) -> Result<()> {
+/// Runs `cfg`: trains (or loads `--forest`), flies, prints the table, writes
+/// the report. `command` ("demo", "sim run") and `inputs` (the files it
+/// read) are for the output folder's checks.
+pub fn run_config(
+    cfg: &CampaignConfig,
+    args: &CampaignArgs,
+    command: &str,
+    inputs: &[&Path],
+    out: &mut dyn Write,
+) -> Result<()> {
     // Refuse before hours of work, not after.
-    if args.out.exists() && !args.force {
-        return Err(vp_sim::SimError::InvalidArgument(format!(
-            "{} exists: pass --force to overwrite it",
-            args.out.display()
-        ))
-        .into());
-    }
+    let mut inputs = inputs.to_vec();
+    inputs.extend(args.model.as_deref());
+    let report_dir = OutDir::check(&args.out, command, &inputs, args.force)?;
     if let Some(p) = &args.save_model {
         vp_scene::fsio::check_overwrite(p, args.force)?;
     }
@@ -70,7 +76,7 @@ pub fn run_config(cfg: &CampaignConfig, args: &CampaignArgs, out: &mut dyn Write
             .with_context(|| format!("saving the forest to {}", p.display()))?;
         say(&format!("forest saved to {}", p.display()));
     }
-    write_report(&report, &args.out, args.force)?;
+    write_report(&report, &report_dir)?;
     if cfg.held_out_seeds.len() == 1 {
         writeln!(
             out,
@@ -117,5 +123,5 @@ pub fn run_demo(args: &DemoArgs, out: &mut dyn Write) -> Result<()> {
     } else {
         CampaignConfig::demo()
     };
-    run_config(&cfg, &args.common, out)
+    run_config(&cfg, &args.common, "demo", &[], out)
 }

@@ -68,7 +68,8 @@ pub struct PredictArgs {
     /// Skip the PNG previews.
     #[arg(long)]
     no_previews: bool,
-    /// Overwrite output files that exist.
+    /// Replace an earlier `predict` output in --out (only the files vpctl
+    /// wrote there; other files stay).
     #[arg(long)]
     force: bool,
     /// Images to predict: files, or folders searched recursively for
@@ -172,15 +173,32 @@ pub fn train(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
 
 /// Runs `vpctl predict` (the library's [`vp_forest::predict_files`]).
 pub fn predict(a: &PredictArgs, out: &mut dyn Write) -> Result<()> {
+    let inputs: Vec<&Path> = std::iter::once(a.model.as_path())
+        .chain(a.images.iter().map(PathBuf::as_path))
+        .collect();
+    let target = vp_scene::outdir::OutDir::check(&a.out, "predict", &inputs, a.force)?;
     let forest = Forest::load(&a.model)?;
     let images = vp_scene::image_files::find_images(&a.images)?;
     let options = BatchOptions {
         step: a.step,
         previews: !a.no_previews,
-        force: a.force,
+        force: false,
     };
     let b = forest.bins().len();
-    for p in predict_files(&forest, &images, &a.out, &options)? {
+    let predicted = target.write(|stage| -> Result<_> {
+        let mut predicted = predict_files(&forest, &images, stage, &options)?;
+        // Named where they will be, not where they are staged.
+        let moved = |f: &Path| {
+            f.strip_prefix(stage)
+                .map_or_else(|_| f.to_path_buf(), |r| a.out.join(r))
+        };
+        for p in &mut predicted {
+            p.confidence_file = moved(&p.confidence_file);
+            p.preview_file = p.preview_file.as_deref().map(moved);
+        }
+        Ok(predicted)
+    })?;
+    for p in predicted {
         let (gw, gh) = p.confidence.grid_size();
         writeln!(
             out,

@@ -92,7 +92,8 @@ pub struct RunArgs {
     /// defaults` prints).
     #[arg(long, alias = "params")]
     config: Option<PathBuf>,
-    /// Overwrite existing label files.
+    /// Replace an earlier `labelgen run` output in --out (only the files
+    /// vpctl wrote there; other files stay).
     #[arg(long)]
     force: bool,
 }
@@ -149,6 +150,13 @@ fn sample(a: &TripletsArgs, out: &mut dyn Write) -> Result<()> {
 }
 
 fn label(a: &RunArgs, out: &mut dyn Write) -> Result<()> {
+    let inputs: Vec<&std::path::Path> = [&a.model, &a.triplets, &a.depth_dir]
+        .into_iter()
+        .map(PathBuf::as_path)
+        .chain(a.mesh.as_deref())
+        .chain(a.config.as_deref())
+        .collect();
+    let target = vp_scene::outdir::OutDir::check(&a.out_dir, "labelgen run", &inputs, a.force)?;
     let params = match &a.config {
         Some(path) => LabelParams::load(path)?,
         None => LabelParams::default(),
@@ -168,7 +176,7 @@ fn label(a: &RunArgs, out: &mut dyn Write) -> Result<()> {
         None => None,
     };
     let labels = generate_labels(&recs, meshes.as_ref(), &params)?;
-    let s = io::write_labels(&a.out_dir, &labels, a.force)?;
+    let s = target.write(|stage| io::write_labels(stage, &labels, false))?;
     writeln!(out, "reconstructions: {}", s.reconstructions)?;
     writeln!(out, "measured pixels: {}", s.measured)?;
     writeln!(out, "positive: {}", s.positive)?;

@@ -52,7 +52,8 @@ pub struct RunArgs {
     /// reads, one `<triplet id>/level<L>/` per triplet and level.
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Overwrite an existing `fused.ply` (or --out folder).
+    /// Overwrite an existing `fused.ply` (or replace an earlier --out
+    /// output: only the files vpctl wrote there; other files stay).
     #[arg(long)]
     force: bool,
 }
@@ -132,7 +133,9 @@ fn run_triplets(
     params: &MvsParams,
     out: &mut dyn Write,
 ) -> Result<()> {
-    vp_scene::fsio::check_overwrite(out_dir, args.force)?;
+    let mut inputs = vec![args.workspace.as_path(), list];
+    inputs.extend(args.config.as_deref());
+    let target = vp_scene::outdir::OutDir::check(out_dir, "mvs run", &inputs, args.force)?;
     let triplets = vp_labelgen::triplets::read_triplet_list(list)?;
     let ws = vp_mvs::Workspace::open(&args.workspace)?;
     for (i, t) in triplets.iter().enumerate() {
@@ -145,32 +148,35 @@ fn run_triplets(
         })?;
     }
     let start = std::time::Instant::now();
-    for (i, t) in triplets.iter().enumerate() {
-        let id = vp_labelgen::triplets::triplet_id(i);
-        for &level in &args.levels {
-            eprintln!(
-                "mvs: triplet {id} ({}/{}) level {level}",
-                i + 1,
-                triplets.len()
-            );
-            let dir = out_dir.join(&id).join(format!("level{level}"));
-            let shares = vp_mvs::run_image_set(
-                &ws,
-                &t.images,
-                level,
-                args.depth_range,
-                params,
-                &dir,
-                &mut |_| {},
-            )?;
-            let mean = shares.iter().sum::<f64>() / shares.len().max(1) as f64;
-            writeln!(
-                out,
-                "{id} level{level}: {:.1}% of pixels with a geometric depth",
-                100.0 * mean
-            )?;
+    target.write(|stage| -> Result<()> {
+        for (i, t) in triplets.iter().enumerate() {
+            let id = vp_labelgen::triplets::triplet_id(i);
+            for &level in &args.levels {
+                eprintln!(
+                    "mvs: triplet {id} ({}/{}) level {level}",
+                    i + 1,
+                    triplets.len()
+                );
+                let dir = stage.join(&id).join(format!("level{level}"));
+                let shares = vp_mvs::run_image_set(
+                    &ws,
+                    &t.images,
+                    level,
+                    args.depth_range,
+                    params,
+                    &dir,
+                    &mut |_| {},
+                )?;
+                let mean = shares.iter().sum::<f64>() / shares.len().max(1) as f64;
+                writeln!(
+                    out,
+                    "{id} level{level}: {:.1}% of pixels with a geometric depth",
+                    100.0 * mean
+                )?;
+            }
         }
-    }
+        Ok(())
+    })?;
     writeln!(out, "triplets: {} -> {}", triplets.len(), out_dir.display())?;
     writeln!(out, "time: {:.1} s", start.elapsed().as_secs_f64())?;
     Ok(())

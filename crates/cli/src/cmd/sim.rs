@@ -8,6 +8,7 @@ use anyhow::{Context, Result};
 use clap::Subcommand;
 use nalgebra::Point3;
 use vp_scene::colmap::write_depth_map;
+use vp_scene::outdir::OutDir;
 use vp_scene::procedural::{generate_site, SiteParams};
 use vp_scene::raster::save_rgb;
 use vp_scene::raycast::RayCaster;
@@ -99,7 +100,8 @@ pub enum SimCommand {
         /// Largest number of sparse points.
         #[arg(long, default_value_t = 20_000)]
         max_points: usize,
-        /// Overwrite the output directory's files if they exist.
+        /// Replace an earlier `sim fly` output in --out (only the files
+        /// vpctl wrote there; other files stay).
         #[arg(long)]
         force: bool,
     },
@@ -188,7 +190,7 @@ pub fn run(cmd: SimCommand, out: &mut dyn Write) -> Result<()> {
         } => train(&config, &path, force, out),
         SimCommand::Run { config, common } => {
             let cfg = vp_sim::campaign::CampaignConfig::load(&config)?;
-            super::demo::run_config(&cfg, &common, out)
+            super::demo::run_config(&cfg, &common, "sim run", &[&config], out)
         }
         SimCommand::Config { preset, paper } => {
             let name = if paper { "paper" } else { preset.as_str() };
@@ -263,16 +265,10 @@ fn fly(
     out: &mut dyn Write,
 ) -> Result<()> {
     let cfg = vp_sim::campaign::CampaignConfig::load(site)?;
+    let inputs: Vec<&Path> = plans.iter().map(PathBuf::as_path).chain([site]).collect();
+    let out_dir = OutDir::check(dir, "sim fly", &inputs, force)?;
     let sparse = dir.join("sparse");
     let images_dir = dir.join("images");
-    let model_files = if binary {
-        colmap::ModelFormat::Binary.files(&sparse)
-    } else {
-        colmap::ModelFormat::Text.files(&sparse)
-    };
-    for p in model_files.iter().chain([&sparse.join(colmap::FRAME_FILE)]) {
-        fsio::check_overwrite(p, force)?;
-    }
     let mut loaded = Vec::with_capacity(plans.len());
     for p in plans {
         let plan = vp_scene::plan::Plan::load(p)?;
@@ -289,19 +285,22 @@ fn fly(
     }
     let progress = super::Progress::new();
     let flight = vp_sim::flight::fly(&cfg, &loaded, opts, &mut |m| progress.line(m))?;
-    std::fs::create_dir_all(&images_dir)
-        .with_context(|| format!("creating {}", images_dir.display()))?;
-    for (name, img) in &flight.images {
-        let p = images_dir.join(name);
-        fsio::check_overwrite(&p, force)?;
-        save_rgb(img, &p)?;
-    }
-    if binary {
-        colmap::write_binary(&sparse, &flight.model)?;
-    } else {
-        colmap::write_text(&sparse, &flight.model)?;
-    }
-    flight.frame.save(&sparse)?;
+    out_dir.write(|stage| -> Result<()> {
+        let images = stage.join("images");
+        std::fs::create_dir_all(&images)
+            .with_context(|| format!("creating {}", images.display()))?;
+        for (name, img) in &flight.images {
+            save_rgb(img, &images.join(name))?;
+        }
+        let sparse = stage.join("sparse");
+        if binary {
+            colmap::write_binary(&sparse, &flight.model)?;
+        } else {
+            colmap::write_text(&sparse, &flight.model)?;
+        }
+        flight.frame.save(&sparse)?;
+        Ok(())
+    })?;
     writeln!(
         out,
         "wrote {} images to {}",

@@ -229,3 +229,100 @@ fn exif_gps_tiff(lat: f64, lon: f64, alt: f64, altitude: bool) -> Vec<u8> {
     t.extend_from_slice(&tail);
     t
 }
+
+/// Runs the `vpctl` binary with `args` in the folder `cwd`.
+pub fn vpctl_in(cwd: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_vpctl"))
+        .current_dir(cwd)
+        .args(args)
+        .output()
+        .expect("vpctl runs")
+}
+
+/// Every file under `dir` with its bytes, for before-and-after comparisons.
+pub fn snapshot(dir: &Path) -> std::collections::BTreeMap<PathBuf, Vec<u8>> {
+    fn walk(root: &Path, d: &Path, out: &mut std::collections::BTreeMap<PathBuf, Vec<u8>>) {
+        for e in std::fs::read_dir(d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                walk(root, &p, out);
+            } else {
+                let bytes = std::fs::read(&p).unwrap();
+                out.insert(p.strip_prefix(root).unwrap().to_path_buf(), bytes);
+            }
+        }
+    }
+    let mut out = std::collections::BTreeMap::new();
+    walk(dir, dir, &mut out);
+    out
+}
+
+/// Issue 39, item 4: a command that writes a folder never deletes or
+/// changes what vpctl did not write. `args` run in `cwd` (without `--out`)
+/// and read their inputs from `input_dir` (relative to `cwd`: an input
+/// folder or a folder holding inputs). Checks, with a precious file beside
+/// the outputs:
+/// - `--out . --force`, `--out <input_dir> --force` and `--out <a folder of
+///   someone else's files> --force` exit 2 naming the reason and the fix,
+///   and change no file at all (once they deleted everything);
+/// - `--out rep` writes vpctl's manifest; again without `--force` exits 2;
+///   with `--force` it succeeds and the user's `rep/notes.txt` stays.
+pub fn assert_output_guards(cwd: &Path, args: &[&str], input_dir: &str) {
+    std::fs::write(cwd.join("precious.txt"), "the operator's notes").unwrap();
+    std::fs::create_dir_all(cwd.join("foreign")).unwrap();
+    std::fs::write(cwd.join("foreign/thesis.tex"), "years of work").unwrap();
+    let before = snapshot(cwd);
+    let with = |extra: &[&str]| -> Output {
+        let mut all = args.to_vec();
+        all.extend_from_slice(extra);
+        vpctl_in(cwd, &all)
+    };
+    for (out, why) in [
+        (".", "is the current folder"),
+        (input_dir, "the input"),
+        ("foreign", "is not a vpctl output"),
+    ] {
+        let o = with(&["--out", out, "--force"]);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "--out {out}: {err}");
+        assert!(
+            err.contains(why) && err.contains("nothing was written") && err.contains("--out "),
+            "--out {out}: {err}"
+        );
+        assert!(
+            snapshot(cwd) == before,
+            "`{} --out {out} --force` changed files in {}",
+            args.join(" "),
+            cwd.display()
+        );
+    }
+    let o = with(&["--out", "rep"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(cwd.join("rep/.vpctl-output.json").is_file());
+    std::fs::write(cwd.join("rep/notes.txt"), "mine").unwrap();
+    let o = with(&["--out", "rep"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--force"), "{}", stderr(&o));
+    let o = with(&["--out", "rep", "--force"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read_to_string(cwd.join("rep/notes.txt")).unwrap(),
+        "mine"
+    );
+    let manifest = std::fs::read_to_string(cwd.join("rep/.vpctl-output.json")).unwrap();
+    assert!(!manifest.contains("notes.txt"), "{manifest}");
+    // Everything outside rep/ is as it was, and nothing is left beside it.
+    let after: Vec<_> = snapshot(cwd)
+        .into_iter()
+        .filter(|(p, _)| !p.starts_with("rep"))
+        .collect();
+    assert!(
+        after == before.into_iter().collect::<Vec<_>>(),
+        "files outside rep/ changed"
+    );
+    let names: Vec<String> = std::fs::read_dir(cwd)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(!names.iter().any(|n| n.contains("vpctl-")), "{names:?}");
+}

@@ -16,6 +16,7 @@ use super::model::{CameraModel, ColmapCamera};
 use super::reconstruction::Reconstruction;
 use super::{detect_format, read_model_as};
 use crate::error::{Location, Result, SceneError};
+use crate::outdir::OutDir;
 
 /// COLMAP's `UndistortCameraOptions` (its defaults).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -338,9 +339,9 @@ pub struct UndistortReport {
 /// and the empty `stereo/{depth_maps,normal_maps,consistency_graphs}`.
 /// An aligned model's `frame.json` is copied into `sparse/`.
 ///
-/// Nothing partial is written: the workspace is built in a temporary
-/// folder beside `out` and renamed into place only when complete. `out`
-/// must not exist unless `force` (then it is replaced).
+/// Nothing partial is written: the workspace is built beside `out` and
+/// swapped in when complete ([`OutDir`]). `out` must be new or empty, or
+/// an earlier workspace and `force` (then only its files are replaced).
 pub fn undistort_workspace(
     model_dir: &Path,
     images_dir: &Path,
@@ -348,11 +349,7 @@ pub fn undistort_workspace(
     opts: &UndistortOptions,
     force: bool,
 ) -> Result<UndistortReport> {
-    if out.exists() && !force {
-        return Err(SceneError::AlreadyExists {
-            path: out.to_path_buf(),
-        });
-    }
+    let out_dir = OutDir::check(out, "colmap undistort", &[model_dir, images_dir], force)?;
     let format = detect_format(model_dir)?;
     let cameras_file = format.files(model_dir)[0].clone();
     let rec = read_model_as(model_dir, format)?;
@@ -387,21 +384,8 @@ pub fn undistort_workspace(
             ));
         }
     }
-    let parent = match out.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    std::fs::create_dir_all(&parent).map_err(|e| SceneError::io(&parent, e))?;
-    let name = out
-        .file_name()
-        .ok_or_else(|| {
-            SceneError::InvalidArgument(format!("{}: not a folder path", out.display()))
-        })?
-        .to_string_lossy()
-        .into_owned();
-    let tmp = parent.join(format!(".{name}.tmp-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&tmp);
-    let result = write_workspace(&tmp, images_dir, &rec, &undistorted).and_then(|()| {
+    out_dir.write(|tmp| {
+        write_workspace(tmp, images_dir, &rec, &undistorted)?;
         // Undistortion keeps poses and points: an aligned model's frame
         // (`vpctl colmap align`) holds for the workspace too.
         let frame = model_dir.join(super::FRAME_FILE);
@@ -409,20 +393,8 @@ pub fn undistort_workspace(
             let bytes = crate::fsio::read_file(&frame)?;
             crate::fsio::write_file_atomic(&tmp.join("sparse").join(super::FRAME_FILE), &bytes)?;
         }
-        Ok(())
-    });
-    if let Err(e) = result {
-        let _ = std::fs::remove_dir_all(&tmp);
-        return Err(e);
-    }
-    if out.exists() {
-        let old = parent.join(format!(".{name}.old-{}", std::process::id()));
-        std::fs::rename(out, &old).map_err(|e| SceneError::io(out, e))?;
-        std::fs::rename(&tmp, out).map_err(|e| SceneError::io(out, e))?;
-        let _ = std::fs::remove_dir_all(&old);
-    } else {
-        std::fs::rename(&tmp, out).map_err(|e| SceneError::io(out, e))?;
-    }
+        Ok::<_, SceneError>(())
+    })?;
     let cameras = rec
         .cameras
         .iter()

@@ -47,7 +47,7 @@ pub const FLIGHT_CEILING: f64 = 60.0;
 /// Parameters of [`generate_site`]. Serialisable with defaults for missing
 /// fields, so a config file may name only what it changes.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct SiteParams {
     /// Seed of every random choice.
     pub seed: u64,

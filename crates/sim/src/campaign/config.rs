@@ -560,3 +560,7 @@ mod tests {
         assert!(e.to_string().contains("line 2"), "{e}");
     }
 }
+
+#[cfg(test)]
+#[path = "config_keys_tests.rs"]
+mod keys_tests;

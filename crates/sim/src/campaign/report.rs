@@ -4,10 +4,11 @@
 //! glTF scene and an HTML page).
 
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use serde::Serialize;
 use vp_mission::{export_qgc, Autopilot, MissionOptions, QgcOptions};
+use vp_scene::outdir::OutDir;
 use vp_scene::plan::Plan;
 use vp_scene::{Aabb, Mesh};
 
@@ -347,14 +348,6 @@ fn fmt2(v: Option<&f64>) -> String {
     v.map_or_else(|| "-".into(), |x| format!("{x:.2}"))
 }
 
-/// A sibling of `dir` to build the report in before it takes `dir`'s place.
-fn staging_dir(dir: &Path) -> PathBuf {
-    let name = dir
-        .file_name()
-        .map_or_else(|| "report".into(), |n| n.to_string_lossy().into_owned());
-    dir.with_file_name(format!(".{name}.partial-{}", std::process::id()))
-}
-
 fn io_err(path: &Path, e: std::io::Error) -> SimError {
     SimError::Scene(vp_scene::SceneError::Io {
         path: path.to_path_buf(),
@@ -366,36 +359,18 @@ fn write(path: &Path, text: &str) -> Result<()> {
     std::fs::write(path, text).map_err(|e| io_err(path, e))
 }
 
-/// Writes the report directory `dir`: `table.md`, `table.csv`,
+/// Writes the report folder `out`: `table.md`, `table.csv`,
 /// `report.json`, `curves.csv`, `config.toml`, `plans/<strategy>/iter<i>.json`
 /// and `.plan` (QGroundControl missions via vp-mission),
 /// `plans/<strategy>/iter<i>-acquired/` (what the iteration planned from,
 /// see [`super::acquired`]), the PNG plots
 /// (see [`super::plot`]), `scene.glb` (see [`super::scene`]) and
-/// `report.html` (see [`super::html`]). Refuses an existing `dir` unless `force`; the
-/// directory is built beside it and renamed into place, so a failure leaves
-/// no partial report.
-pub fn write_report(report: &CampaignReport, dir: &Path, force: bool) -> Result<()> {
-    if dir.exists() && !force {
-        return Err(SimError::InvalidArgument(format!(
-            "{} exists: pass --force to overwrite it",
-            dir.display()
-        )));
-    }
-    let stage = staging_dir(dir);
-    if stage.exists() {
-        std::fs::remove_dir_all(&stage).map_err(|e| io_err(&stage, e))?;
-    }
-    std::fs::create_dir_all(&stage).map_err(|e| io_err(&stage, e))?;
-    let built = fill(report, &stage);
-    if let Err(e) = built {
-        let _ = std::fs::remove_dir_all(&stage);
-        return Err(e);
-    }
-    if dir.exists() {
-        std::fs::remove_dir_all(dir).map_err(|e| io_err(dir, e))?;
-    }
-    std::fs::rename(&stage, dir).map_err(|e| io_err(dir, e))
+/// `report.html` (see [`super::html`]), through [`OutDir`]: built beside
+/// the folder and swapped in, so a failure leaves no partial report, and
+/// only the files of an earlier report are replaced (`out` was checked
+/// before the campaign: see [`OutDir::check`]).
+pub fn write_report(report: &CampaignReport, out: &OutDir) -> Result<()> {
+    out.write(|dir| fill(report, dir))
 }
 
 /// The paragraph of `table.md` on the `iter<i>-acquired` folders, with a

@@ -10,6 +10,7 @@ use crate::error::{Result, SimError};
 /// Success probability of one material: a piecewise-linear curve over the
 /// triangulation angle (clamped at both ends), times a resolution factor.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct MaterialCurve {
     /// Increasing triangulation angles of the knots, degrees.
     pub angles_deg: Vec<f64>,
@@ -81,6 +82,7 @@ impl MaterialCurve {
 /// How a dense MVS algorithm behaves: success curves per material, depth
 /// noise, outliers, and the size of failure blobs. Serialisable (TOML/JSON).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct MvsProfile {
     /// Name shown in reports ("sure-like", "pmvs-like", or the user's).
     pub name: String,
