@@ -235,6 +235,9 @@ fn errors_say_what_to_do_next() {
             "30",
             "--origin",
             "46.03,10.35,400",
+            // The generated site's origin is on its ground: the take-off point.
+            "--home",
+            "46.03,10.35,400",
             "--out",
             "o.json",
         ],
@@ -362,6 +365,8 @@ fn output_extensions_are_checked_and_pick_the_format() {
             "--height",
             "30",
             "--origin",
+            "46.03,10.35,400",
+            "--home",
             "46.03,10.35,400",
         ];
         args.extend_from_slice(extra);
