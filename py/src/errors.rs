@@ -56,7 +56,10 @@ pub fn scene(e: &SceneError) -> PyErr {
         SceneError::Parse { .. }
         | SceneError::InvalidMesh(_)
         | SceneError::InvalidArgument(_)
-        | SceneError::Surface(_) => PyValueError::new_err(message(e)),
+        | SceneError::Surface(_)
+        // An output folder that is an input, its parent or someone else's:
+        // a bad argument, whatever is on the disk.
+        | SceneError::OutputRefused { .. } => PyValueError::new_err(message(e)),
     }
 }
 

@@ -180,37 +180,7 @@ fn readme_real_photo_recipe_runs_end_to_end_on_the_visp_cube_photos() {
         .unwrap()
         .origin;
     let n_waypoints = check_plan(&tmp.path().join("plan.json"), &volume, &origin);
-    // The origin of `colmap align` is the first photo, in the air: without
-    // a take-off point the mission is refused (it once put every waypoint
-    // below the launch point), and nothing is written.
-    let o = common::vpctl(&[
-        "mission",
-        "export",
-        &format!("{t}/plan.json"),
-        "--out",
-        &format!("{t}/mission.plan"),
-    ]);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("no home"), "{}", stderr(&o));
-    assert!(!tmp.path().join("mission.plan").exists());
-    // With the take-off point under the first photo: heights above it.
-    let text = run(&format!(
-        "plan --mesh {t}/site.ply --colmap {t}/dense/sparse --confidence-dir {t}/conf --config {t}/plan.toml --home-from-first-image --out {t}/plan.json --force"
-    ));
-    assert!(
-        text.contains("home: ") && text.contains("first image"),
-        "{text}"
-    );
-    run(&format!(
-        "mission export {t}/plan.json --out {t}/mission.plan"
-    ));
-    let qgc: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(tmp.path().join("mission.plan")).unwrap())
-            .unwrap();
-    assert_eq!(qgc["fileType"], "Plan", "{qgc}");
-    let items = qgc["mission"]["items"].as_array().expect("mission items");
-    assert!(items.len() > n_waypoints, "{qgc}");
-    check_heights_above_home(&tmp.path().join("plan.json"), items, &origin);
+    let items = export_with_a_home(tmp.path(), &origin, n_waypoints);
 
     // 7. MAVSDK, an independent implementation, imports the .plan.
     if let Some(py) = mavsdk {
@@ -359,6 +329,46 @@ fn write_plan_config(tmp: &Path) -> [[f64; 3]; 2] {
     )
     .unwrap();
     volume
+}
+
+/// Step 6, the mission: the origin of `colmap align` is the first photo, in
+/// the air, so without a take-off point the export is refused (it once put
+/// every waypoint below the launch point) and nothing is written; planned
+/// again with `--home-from-first-image`, the mission flies above it.
+fn export_with_a_home(
+    tmp: &Path,
+    origin: &GeodeticOrigin,
+    n_waypoints: usize,
+) -> Vec<serde_json::Value> {
+    let t = tmp.to_str().unwrap();
+    let o = common::vpctl(&[
+        "mission",
+        "export",
+        &format!("{t}/plan.json"),
+        "--out",
+        &format!("{t}/mission.plan"),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("no home"), "{}", stderr(&o));
+    assert!(!tmp.join("mission.plan").exists());
+    // With the take-off point under the first photo: heights above it.
+    let text = run(&format!(
+        "plan --mesh {t}/site.ply --colmap {t}/dense/sparse --confidence-dir {t}/conf --config {t}/plan.toml --home-from-first-image --out {t}/plan.json --force"
+    ));
+    assert!(
+        text.contains("home: ") && text.contains("first image"),
+        "{text}"
+    );
+    run(&format!(
+        "mission export {t}/plan.json --out {t}/mission.plan"
+    ));
+    let qgc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(tmp.join("mission.plan")).unwrap()).unwrap();
+    assert_eq!(qgc["fileType"], "Plan", "{qgc}");
+    let items = qgc["mission"]["items"].as_array().expect("mission items");
+    assert!(items.len() > n_waypoints, "{qgc}");
+    check_heights_above_home(&tmp.join("plan.json"), items, origin);
+    items.clone()
 }
 
 /// Every waypoint of the exported mission flies at its planned ENU height

@@ -291,21 +291,34 @@ fn align(a: &AlignArgs, out: &mut dyn Write) -> Result<()> {
         }
         model_frame.save(dir)
     })?;
+    print_alignment(a, &al, &model_frame, out)?;
+    writeln!(out, "written: {}", a.out.display())?;
+    Ok(())
+}
+
+/// What `colmap align` found: the origin and its datum, the scale, the
+/// positions used and their residuals.
+fn print_alignment(
+    a: &AlignArgs,
+    al: &colmap::Alignment,
+    f: &colmap::ModelFrame,
+    out: &mut dyn Write,
+) -> Result<()> {
     let n_in = al.residuals.iter().filter(|r| r.inlier).count();
     writeln!(
         out,
         "origin: {:.8},{:.8},{:.3} (first position: in the air, not the take-off point)",
-        origin.lat_deg, origin.lon_deg, origin.alt_m
+        f.origin.lat_deg, f.origin.lon_deg, f.origin.alt_m
     )?;
     writeln!(
         out,
         "altitude datum: {}",
-        datum.map_or(
+        f.vertical_datum.map_or(
             "unstated (pass --datum egm96|ellipsoid|takeoff)",
             VerticalDatum::name
         )
     )?;
-    if let Some(t) = takeoff_alt_m {
+    if let Some(t) = f.takeoff_alt_m {
         writeln!(
             out,
             "take-off altitude: {t:.2} m (the photos' GPS altitude minus their height above \
@@ -345,6 +358,5 @@ fn align(a: &AlignArgs, out: &mut dyn Write) -> Result<()> {
             if r.inlier { "" } else { " (outlier)" }
         )?;
     }
-    writeln!(out, "written: {}", a.out.display())?;
     Ok(())
 }

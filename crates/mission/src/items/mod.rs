@@ -157,6 +157,44 @@ impl MissionOptions {
     }
 }
 
+impl MissionOptions {
+    /// Checks the values a mission is built from, naming the one at fault:
+    /// capture numbers from 1, hold time and acceptance radius finite and
+    /// >= 0, the take-off height inside the height band, the speed > 0.
+    pub fn validate(&self) -> Result<()> {
+        if self.first_capture_seq == 0 {
+            return Err(MissionError::InvalidInput(
+                "first capture sequence number must be >= 1".into(),
+            ));
+        }
+        for (name, v) in [
+            ("hold time", self.hold_time_s),
+            ("acceptance radius", self.acceptance_radius_m),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(MissionError::InvalidInput(format!(
+                    "{name} {v} must be finite and >= 0"
+                )));
+            }
+        }
+        if let Some(alt) = self.takeoff_alt_m {
+            let l = self.limits;
+            heights::check_range(
+                "take-off height",
+                alt,
+                (l.min_height_m as f32, l.ceiling_m as f32),
+                "m above home",
+            )?;
+        }
+        match self.speed_m_s {
+            Some(speed) if !(speed.is_finite() && speed > 0.0) => Err(MissionError::InvalidInput(
+                format!("speed {speed} m/s must be > 0"),
+            )),
+            _ => Ok(()),
+        }
+    }
+}
+
 mod capacity;
 mod heading;
 pub mod heights;
@@ -194,22 +232,7 @@ pub fn build_mission(plan: &Plan, opts: &MissionOptions) -> Result<Mission> {
                 .into(),
         )
     })?;
-    if opts.first_capture_seq == 0 {
-        return Err(MissionError::InvalidInput(
-            "first capture sequence number must be >= 1".into(),
-        ));
-    }
-    let check = |name: &str, v: f32| {
-        if v.is_finite() && v >= 0.0 {
-            Ok(())
-        } else {
-            Err(MissionError::InvalidInput(format!(
-                "{name} {v} must be finite and >= 0"
-            )))
-        }
-    };
-    check("hold time", opts.hold_time_s)?;
-    check("acceptance radius", opts.acceptance_radius_m)?;
+    opts.validate()?;
     let frame = LocalFrame::new(origin)?;
     let home = heights::mission_home(plan, opts.home)?;
     heights::check_heights(plan, &frame, &home, &opts.limits)?;
@@ -235,13 +258,6 @@ pub fn build_mission(plan: &Plan, opts: &MissionOptions) -> Result<Mission> {
         });
     }
     if let Some(alt) = opts.takeoff_alt_m {
-        let l = opts.limits;
-        heights::check_range(
-            "take-off height",
-            alt,
-            (l.min_height_m as f32, l.ceiling_m as f32),
-            "m above home",
-        )?;
         items.push(MissionItem {
             command: MavCmd::MAV_CMD_NAV_TAKEOFF,
             frame: rel,
@@ -253,11 +269,6 @@ pub fn build_mission(plan: &Plan, opts: &MissionOptions) -> Result<Mission> {
         });
     }
     if let Some(speed) = opts.speed_m_s {
-        if !(speed.is_finite() && speed > 0.0) {
-            return Err(MissionError::InvalidInput(format!(
-                "speed {speed} m/s must be > 0"
-            )));
-        }
         // Speed type 1 = ground speed; throttle -1 = unchanged.
         items.push(MissionItem::command(
             MavCmd::MAV_CMD_DO_CHANGE_SPEED,

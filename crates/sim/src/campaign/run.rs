@@ -131,6 +131,15 @@ fn plan_of(world: &World, cams: &[Camera], role: Role) -> Plan {
     p
 }
 
+/// `plan` with the simulated take-off point as its home (the missions of
+/// the report are exported from it).
+fn with_home(plan: Plan, world: &World) -> Plan {
+    Plan {
+        home: Some(world.home()),
+        ..plan
+    }
+}
+
 /// Everything one triplet strategy produced on one site.
 struct StrategyRun {
     flown: Vec<Flown>,
@@ -438,9 +447,7 @@ fn run_strategy(
             out.flown.len()
         ));
         report_dropped(&result, progress);
-        let mut plan = result.plan;
-        plan.home = Some(world.home());
-        out.plans.push(plan);
+        out.plans.push(with_home(result.plan, world));
         let last = it + 1 == strategy.iterations;
         if !last {
             let pred = strategy.prediction.then_some(forest);
