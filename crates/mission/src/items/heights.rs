@@ -132,7 +132,8 @@ pub fn check_heights(
         }
         heights.push(h);
     }
-    if nearest > MAX_HOME_DISTANCE_M {
+    // An empty plan (every triplet dropped) has no waypoint to be far from.
+    if nearest.is_finite() && nearest > MAX_HOME_DISTANCE_M {
         return Err(MissionError::InvalidInput(format!(
             "the home {:.7},{:.7} is {:.0} m from the nearest waypoint (more than {MAX_HOME_DISTANCE_M} \
              m): check --home (latitude first, then longitude)",
@@ -275,6 +276,17 @@ mod tests {
             ..HeightLimits::default()
         };
         assert!(check_heights(&p, &frame, &o, &raised).is_ok());
+    }
+
+    #[test]
+    fn an_empty_plan_is_not_refused_for_a_far_home() {
+        // Every triplet dropped: nothing to fly, nothing to be far from.
+        let p = plan_at(&[]);
+        let o = p.origin.unwrap();
+        let frame = LocalFrame::new(o).unwrap();
+        assert!(check_heights(&p, &frame, &o, &HeightLimits::default())
+            .unwrap()
+            .is_empty());
     }
 
     #[test]
