@@ -7,9 +7,10 @@ use std::path::PathBuf;
 use num_traits::ToPrimitive;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
-use vp_mission::heights::{
-    HeightLimits, UserMissionOptions, DEFAULT_CEILING_M, DEFAULT_MIN_HEIGHT_M,
-};
+// The keyword defaults are written as literals (pyo3 shows a constant as
+// `...` in help()); keep them equal to vp_mission::heights::DEFAULT_CEILING_M
+// and DEFAULT_MIN_HEIGHT_M.
+use vp_mission::heights::{HeightLimits, UserMissionOptions};
 use vp_mission::sim_vehicle::{spawn_udp_vehicle, UdpVehicle, VehicleConfig};
 use vp_mission::{
     build_mission, export_text, export_wpl, Autopilot, ConnectOptions, ExportFormat, Mission,
@@ -141,7 +142,7 @@ impl PyMission {
 
 /// Builds the MAVLink mission of a plan (options as `vpctl mission` flags).
 #[pyfunction]
-#[pyo3(name = "build_mission", signature = (plan, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true, home = None, ceiling = DEFAULT_CEILING_M, min_height = DEFAULT_MIN_HEIGHT_M))]
+#[pyo3(name = "build_mission", signature = (plan, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true, home = None, ceiling = 120.0, min_height = 2.0))]
 #[allow(clippy::too_many_arguments)] // Python keywords, one per `vpctl mission` flag
 fn py_build_mission(
     plan: PyRef<'_, PyPlan>,
@@ -171,7 +172,7 @@ fn py_build_mission(
 /// when given, atomically, refusing to overwrite unless `force` (same
 /// bytes as `vpctl mission export`).
 #[pyfunction]
-#[pyo3(signature = (plan, format = None, out = None, force = false, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true, home = None, ceiling = DEFAULT_CEILING_M, min_height = DEFAULT_MIN_HEIGHT_M))]
+#[pyo3(signature = (plan, format = None, out = None, force = false, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true, home = None, ceiling = 120.0, min_height = 2.0))]
 #[allow(clippy::too_many_arguments)] // Python keywords, one per `vpctl mission` flag
 fn export(
     plan: PyRef<'_, PyPlan>,
@@ -215,7 +216,7 @@ fn connect_options(heartbeat_timeout: f64, timeout_scale: f64) -> PyResult<Conne
 /// uploads the plan's mission and verifies it by reading it back. The GIL
 /// is released while waiting on the vehicle. Returns a report dict.
 #[pyfunction]
-#[pyo3(signature = (plan, url, heartbeat_timeout = 5.0, timeout_scale = 1.0, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true, home = None, ceiling = DEFAULT_CEILING_M, min_height = DEFAULT_MIN_HEIGHT_M))]
+#[pyo3(signature = (plan, url, heartbeat_timeout = 5.0, timeout_scale = 1.0, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true, home = None, ceiling = 120.0, min_height = 2.0))]
 #[allow(clippy::too_many_arguments)] // Python keywords, one per `vpctl mission` flag
 fn upload<'py>(
     py: Python<'py>,

@@ -64,5 +64,11 @@ def heightfield(n: int = 40, spacing: float = 2.0) -> vpctl.scene.Mesh:
 
 
 def files_under(root: Path) -> dict:
-    """Relative path -> bytes of every file under root."""
-    return {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
+    """Relative path -> bytes of every data file under root. The CLI's
+    `.vpctl-output.json` (its record of what it wrote, so that --force
+    replaces only that) is bookkeeping, not output, and is left out."""
+    return {
+        str(p.relative_to(root)): p.read_bytes()
+        for p in sorted(root.rglob("*"))
+        if p.is_file() and p.name != ".vpctl-output.json"
+    }
