@@ -13,8 +13,8 @@ use pyo3::types::{PyDict, PyList};
 use vp_mission::heights::{HeightLimits, UserMissionOptions};
 use vp_mission::sim_vehicle::{spawn_udp_vehicle, UdpVehicle, VehicleConfig};
 use vp_mission::{
-    build_mission, export_text, export_wpl, Autopilot, ConnectOptions, ExportFormat, Mission,
-    MissionItem, MissionOptions,
+    build_mission, export_flights, export_wpl, one_flight, write_flights, Autopilot,
+    ConnectOptions, ExportFormat, Mission, MissionItem, MissionOptions,
 };
 use vp_scene::fsio;
 use vp_scene::plan::{GeodeticOrigin, Plan, VerticalDatum};
@@ -170,11 +170,14 @@ fn py_build_mission(
 /// `out` (`.plan`, `.waypoints`/`.txt`) as `vpctl mission export`, which
 /// refuses the same files; QGC when there is no `out`. Written to `out`
 /// when given, atomically, refusing to overwrite unless `force` (same
-/// bytes as `vpctl mission export`).
+/// bytes as `vpctl mission export`). A plan split into flights gives a
+/// list, one text per flight, written to `out`'s numbered files
+/// (`m-1.plan`, `m-2.plan`, ...).
 #[pyfunction]
 #[pyo3(signature = (plan, format = None, out = None, force = false, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true, home = None, ceiling = 120.0, min_height = 2.0))]
 #[allow(clippy::too_many_arguments)] // Python keywords, one per `vpctl mission` flag
 fn export(
+    py: Python<'_>,
     plan: PyRef<'_, PyPlan>,
     format: Option<&str>,
     out: Option<PathBuf>,
@@ -187,7 +190,7 @@ fn export(
     home: Option<&Bound<'_, PyAny>>,
     ceiling: f64,
     min_height: f64,
-) -> PyResult<String> {
+) -> PyResult<Py<PyAny>> {
     let format = format.map(ExportFormat::from_name).transpose().py()?;
     let format = ExportFormat::for_output(out.as_deref(), format).py()?;
     if let Some(p) = &out {
@@ -200,12 +203,13 @@ fn export(
         rtl,
     };
     let o = options(&plan.0, autopilot, k, home, ceiling, min_height)?;
-    let text = export_text(&plan.0, format, &o).py()?;
-    if let Some(p) = &out {
-        use std::io::Write;
-        fsio::write_atomic(p, |w| w.write_all(text.as_bytes())).py()?;
+    let flights = export_flights(&plan.0, format, &o, out.as_deref()).py()?;
+    write_flights(&flights, force).py()?;
+    let mut texts: Vec<String> = flights.into_iter().map(|f| f.text).collect();
+    if texts.len() == 1 {
+        return Ok(texts.remove(0).into_pyobject(py)?.into_any().unbind());
     }
-    Ok(text)
+    Ok(texts.into_pyobject(py)?.into_any().unbind())
 }
 
 fn connect_options(heartbeat_timeout: f64, timeout_scale: f64) -> PyResult<ConnectOptions> {
@@ -216,7 +220,7 @@ fn connect_options(heartbeat_timeout: f64, timeout_scale: f64) -> PyResult<Conne
 /// uploads the plan's mission and verifies it by reading it back. The GIL
 /// is released while waiting on the vehicle. Returns a report dict.
 #[pyfunction]
-#[pyo3(signature = (plan, url, heartbeat_timeout = 5.0, timeout_scale = 1.0, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true, home = None, ceiling = 120.0, min_height = 2.0))]
+#[pyo3(signature = (plan, url, heartbeat_timeout = 5.0, timeout_scale = 1.0, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true, home = None, ceiling = 120.0, min_height = 2.0, flight = None))]
 #[allow(clippy::too_many_arguments)] // Python keywords, one per `vpctl mission` flag
 fn upload<'py>(
     py: Python<'py>,
@@ -232,6 +236,7 @@ fn upload<'py>(
     home: Option<&Bound<'_, PyAny>>,
     ceiling: f64,
     min_height: f64,
+    flight: Option<usize>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let k = Keywords {
         hold,
@@ -239,8 +244,9 @@ fn upload<'py>(
         takeoff,
         rtl,
     };
-    let o = options(&plan.0, autopilot, k, home, ceiling, min_height)?;
-    let m = build_mission(&plan.0, &o).py()?;
+    let plan = one_flight(&plan.0, flight).py()?;
+    let o = options(&plan, autopilot, k, home, ceiling, min_height)?;
+    let m = build_mission(&plan, &o).py()?;
     let opts = connect_options(heartbeat_timeout, timeout_scale)?;
     let (report, info) = py
         .detach(|| vp_mission::upload(url, &m, &opts, &mut |_| {}))

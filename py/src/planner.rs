@@ -384,6 +384,10 @@ fn plan(
     let (acquired, observations) = acquired_of(cameras, confidence)?;
     let r = py
         .detach(|| -> vp_planner::Result<PlanResult> {
+            let first = acquired
+                .first()
+                .map(|v| ("the first camera", v.camera.center()));
+            let home_at = vp_planner::resolve_home(&mesh, origin, datum, &home, first)?;
             let mut r = vp_planner::plan(&PlanInputs {
                 mesh: &mesh,
                 acquired: &acquired,
@@ -393,12 +397,10 @@ fn plan(
                 // A model's tracks carve the free space, as `vpctl plan`'s;
                 // without tracks, rays of the cameras to the mesh.
                 observations: (!observations.is_empty()).then_some(&observations[..]),
+                home: vp_planner::request::home_enu(origin, home_at.as_ref())?,
             })?;
-            let first = acquired
-                .first()
-                .map(|v| ("the first camera", v.camera.center()));
             r.plan.vertical_datum = datum;
-            r.plan.home = vp_planner::resolve_home(&mesh, origin, datum, &home, first)?;
+            r.plan.home = home_at;
             Ok(r)
         })
         .py()?;

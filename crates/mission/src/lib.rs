@@ -20,6 +20,7 @@
 mod aftermath;
 pub mod error;
 pub mod export;
+pub mod flights;
 pub mod geodesy;
 pub mod items;
 pub mod link;
@@ -33,6 +34,7 @@ use std::time::Duration;
 
 pub use error::{MissionError, Result};
 pub use export::{export_text, ExportFormat};
+pub use flights::{export_flights, one_flight, write_flights, ExportedFlight};
 pub use items::heights;
 pub use items::{
     build_mission, compare_items, Autopilot, CameraTrigger, GimbalCommand, Mission, MissionItem,

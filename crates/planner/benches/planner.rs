@@ -62,6 +62,7 @@ fn bench(c: &mut Criterion) {
         config: &cfg,
         origin: None,
         observations: None,
+        home: None,
     };
     let r = plan(&inputs).expect("plan");
     eprintln!(

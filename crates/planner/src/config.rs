@@ -8,6 +8,7 @@
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
+use vp_scene::flight_time::FlightParams;
 use vp_scene::plan::AltitudeLimits;
 use vp_scene::raster::AngleBins;
 use vp_scene::{Aabb, Intrinsics};
@@ -123,6 +124,8 @@ pub struct PlannerConfig {
     pub m3_early_stop: bool,
     /// Seed of every random choice.
     pub seed: u64,
+    /// The flight-time model and the battery limit (`[mission]`).
+    pub mission: FlightParams,
 }
 
 impl Default for PlannerConfig {
@@ -156,6 +159,7 @@ impl Default for PlannerConfig {
             time_budget_s: None,
             m3_early_stop: true,
             seed: 0,
+            mission: FlightParams::default(),
         }
     }
 }
@@ -202,6 +206,19 @@ seed = 0
 width = 5472
 height = 3648
 focal_px = 3648.0
+
+# Flight time and batteries: a conservative survey setting for a Phantom 4 Pro
+# class aircraft (docs/formats.md lists other aircraft). Every leg starts and
+# ends at rest; a flight takes off at home and returns to it.
+[mission]
+cruise_speed_m_s = 5.0   # horizontal speed between waypoints
+climb_rate_m_s = 3.0
+descent_rate_m_s = 2.0
+acceleration_m_s2 = 2.0  # and braking
+hover_per_photo_s = 2.0  # settle, gimbal, shoot
+takeoff_landing_s = 10.0 # fixed cost of one take-off and one landing
+reserve_s = 120.0        # kept back from max_flight_time_s
+# max_flight_time_s = 1500.0 # one battery; splits the plan into flights (--max-flight-time)
 "#;
 
 impl PlannerConfig {
@@ -294,6 +311,9 @@ impl PlannerConfig {
                 "must be in (0, 180)",
             );
         }
+        self.mission
+            .validate()
+            .map_err(|e| PlannerError::Config(e.to_string()))?;
         self.validate_limits()
     }
 

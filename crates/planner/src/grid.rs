@@ -13,6 +13,7 @@ use vp_scene::{Aabb, Camera, Intrinsics, Mesh};
 use crate::config::PlannerConfig;
 use crate::error::{PlannerError, Result};
 use crate::flight_path::PathContext;
+use crate::flights::assign_flights;
 use crate::inputs::{safety_for, RoiSpec};
 
 /// Parameters of a grid flight.
@@ -49,6 +50,35 @@ impl Default for GridParams {
             pitch_deg: -90.0,
             yaw_deg: 0.0,
             role: Role::Grid,
+        }
+    }
+}
+
+/// What a grid flies at: its height, ground resolution and spacings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GridFigures {
+    /// Height above the lowest point of the footprint, metres.
+    pub height_m: f64,
+    /// Ground sampling distance at nadir at that height, metres per pixel.
+    pub gsd_m: f64,
+    /// Distance between neighbouring lines, metres.
+    pub line_spacing_m: f64,
+    /// Distance between consecutive photos along a line (the trigger distance), metres.
+    pub trigger_distance_m: f64,
+}
+
+impl GridParams {
+    /// The height, GSD and spacings of this grid with camera `k`: the image
+    /// width lies across the lines, its height along them.
+    pub fn figures(&self, k: Intrinsics) -> GridFigures {
+        let height = self.gsd_m.map_or(self.height_m, |g| g * k.focal());
+        let across = height * f64::from(k.width) / k.fx;
+        let along = height * f64::from(k.height) / k.fy;
+        GridFigures {
+            height_m: height,
+            gsd_m: height / k.focal(),
+            line_spacing_m: across * (1.0 - self.side_overlap),
+            trigger_distance_m: along * (1.0 - self.front_overlap),
         }
     }
 }
@@ -94,7 +124,8 @@ pub fn grid_views(
             p.pitch_deg
         ));
     }
-    let height = p.gsd_m.map_or(p.height_m, |g| g * k.focal());
+    let fig = p.figures(k);
+    let height = fig.height_m;
     if !(height.is_finite() && height > 0.0) {
         return bad(format!("height {height} m must be positive"));
     }
@@ -131,8 +162,8 @@ pub fn grid_views(
     };
     let (u0, u1) = range(|q| q.0);
     let (v0, v1) = range(|q| q.1);
-    let us = stations(u0, u1, along, along * (1.0 - p.front_overlap));
-    let vs = stations(v0, v1, across, across * (1.0 - p.side_overlap));
+    let us = stations(u0, u1, along, fig.trigger_distance_m);
+    let vs = stations(v0, v1, across, fig.line_spacing_m);
     let pitch = p.pitch_deg.to_radians();
     let back = if p.pitch_deg <= -89.999 {
         0.0
@@ -165,6 +196,7 @@ pub fn plan_grid(
     params: &GridParams,
     cfg: &PlannerConfig,
     origin: Option<GeodeticOrigin>,
+    home: Option<&Point3<f64>>,
 ) -> Result<Plan> {
     cfg.validate()?;
     if mesh.n_faces() == 0 {
@@ -190,6 +222,7 @@ pub fn plan_grid(
     };
     let mut plan = Plan::new(origin);
     plan.waypoints = ctx.make_safe(&views)?;
+    plan.flights = assign_flights(&safety, home, &plan.waypoints, &cfg.mission)?;
     plan.geofence.clone_from(&safety.geofence);
     plan.altitude_limits = Some(safety.altitude);
     plan.safety_distance_m = Some(cfg.safety_distance_m);

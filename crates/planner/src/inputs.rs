@@ -54,6 +54,9 @@ pub struct PlanInputs<'a> {
     /// observed-free space (`unknown_space = "occupied"`); `None`: rays from
     /// the acquired cameras to the mesh ([`crate::free_space`]).
     pub observations: Option<&'a [Observation]>,
+    /// The take-off point on the ground (ENU), where every flight starts and
+    /// ends; `None`: the plan's flights leave out the legs to and from home.
+    pub home: Option<Point3<f64>>,
 }
 
 /// One sampled triangle and its final fulfillment.

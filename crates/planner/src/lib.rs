@@ -16,6 +16,7 @@ pub mod acquired;
 pub mod config;
 pub mod error;
 pub mod flight_path;
+pub mod flights;
 pub mod free_space;
 pub mod fulfillment;
 pub mod grid;

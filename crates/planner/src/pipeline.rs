@@ -15,6 +15,7 @@ use vp_scene::{Camera, Mesh};
 use crate::config::PlannerConfig;
 use crate::error::{PlannerError, Result};
 use crate::flight_path::PathContext;
+use crate::flights::assign_flights;
 use crate::free_space::{free_space, observations_from_mesh, UnknownSpace};
 use crate::fulfillment::{sample_triangles, Fulfillment};
 use crate::inputs::{safety_for, AcquiredView, PlanInputs, PlanResult, SampledFulfillment};
@@ -349,6 +350,7 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
 
     let mut plan = Plan::new(inputs.origin);
     (plan.waypoints, plan.unbridged) = (path.waypoints, path.unbridged.clone());
+    plan.flights = assign_flights(&safety, inputs.home.as_ref(), &plan.waypoints, &cfg.mission)?;
     plan.geofence.clone_from(&safety.geofence);
     plan.altitude_limits = Some(safety.altitude);
     plan.safety_distance_m = Some(cfg.safety_distance_m);

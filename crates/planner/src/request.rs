@@ -125,6 +125,7 @@ pub fn plan_from_model(req: &ModelPlanRequest) -> Result<ModelPlan> {
         origin,
         // A model without tracks: the planner carves from rays to the mesh.
         observations: (!observations.is_empty()).then_some(&observations[..]),
+        home: home_enu(origin, home.as_ref())?,
     })?;
     result.plan.vertical_datum = datum;
     result.plan.home = home;
@@ -160,7 +161,14 @@ pub fn plan_grid_job(req: &GridRequest) -> Result<Plan> {
         None => (None, None),
     };
     let home = resolve_home(req.mesh, origin, datum, &req.home, None)?;
-    let mut plan = crate::plan_grid(req.mesh, req.roi, req.params, req.config, origin)?;
+    let mut plan = crate::plan_grid(
+        req.mesh,
+        req.roi,
+        req.params,
+        req.config,
+        origin,
+        home_enu(origin, home.as_ref())?.as_ref(),
+    )?;
     plan.vertical_datum = datum;
     plan.home = home;
     Ok(plan)
@@ -220,6 +228,17 @@ pub fn resolve_home(
                 ),
             }))
         }
+    }
+}
+
+/// Where `home` lies in the ENU frame of `origin` (both in the plan's datum).
+pub fn home_enu(
+    origin: Option<GeodeticOrigin>,
+    home: Option<&Home>,
+) -> Result<Option<Point3<f64>>> {
+    match (origin, home) {
+        (Some(o), Some(h)) => Ok(Some(Point3::from(LocalFrame::new(o)?.to_enu(h.position)))),
+        _ => Ok(None),
     }
 }
 

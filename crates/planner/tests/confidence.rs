@@ -64,6 +64,7 @@ fn angles(
         config: cfg,
         origin: None,
         observations: None,
+        home: None,
     })
     .unwrap();
     r.plan

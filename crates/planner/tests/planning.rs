@@ -106,6 +106,7 @@ fn bad_inputs_give_clear_errors() {
             config: cfg,
             origin: None,
             observations: None,
+            home: None,
         })
         .unwrap_err()
     };

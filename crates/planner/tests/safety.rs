@@ -95,6 +95,7 @@ fn run_case(
         config: &cfg,
         origin: None,
         observations: None,
+        home: None,
     }) {
         Ok(r) => {
             assert_safe(

@@ -22,6 +22,7 @@ pub mod colmap;
 pub mod config_file;
 pub mod datum;
 pub mod error;
+pub mod flight_time;
 pub mod fsio;
 pub mod geodesy;
 pub mod height_field;

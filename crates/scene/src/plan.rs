@@ -243,6 +243,28 @@ pub struct Plan {
     /// link them to the rest of the flight.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub unbridged: Vec<usize>,
+    /// The flights the waypoints are flown in, one battery each, in order;
+    /// every waypoint in exactly one. Empty in plans written before flights
+    /// were recorded (then the plan is one flight).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub flights: Vec<Flight>,
+}
+
+/// One flight of a plan: from home (when the plan has one) through a run
+/// of consecutive waypoints and back, estimated with
+/// [`FlightParams`](crate::flight_time::FlightParams).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Flight {
+    /// Indices into [`Plan::waypoints`], consecutive, in flight order.
+    pub waypoints: Vec<usize>,
+    /// Length of the path, metres (with the legs from and to home when `from_home`).
+    pub distance_m: f64,
+    /// Estimated duration, seconds (with take-off, landing and the home legs when `from_home`).
+    pub duration_s: f64,
+    /// Whether the figures include taking off from home and returning to it
+    /// (false when the plan has no home).
+    pub from_home: bool,
 }
 
 impl Plan {
@@ -261,6 +283,7 @@ impl Plan {
             cut_short: false,
             cut_short_reason: None,
             unbridged: Vec::new(),
+            flights: Vec::new(),
         }
     }
 
@@ -322,6 +345,19 @@ impl Plan {
                 return Err(SceneError::InvalidArgument(format!(
                     "plan: altitude limits [{}, {}] m are not an interval",
                     l.min_m, l.max_m
+                )));
+            }
+        }
+        if !self.flights.is_empty() {
+            let flown: Vec<usize> = self
+                .flights
+                .iter()
+                .flat_map(|f| f.waypoints.iter().copied())
+                .collect();
+            if !flown.iter().copied().eq(0..self.waypoints.len()) {
+                return Err(SceneError::InvalidArgument(format!(
+                    "plan: the flights do not list the {} waypoints once each, in order",
+                    self.waypoints.len()
                 )));
             }
         }

@@ -9,8 +9,8 @@ use clap::{Args, Subcommand, ValueEnum};
 use vp_mission::heights::{HeightLimits, UserMissionOptions};
 use vp_mission::sim_vehicle::{spawn_udp_vehicle, VehicleConfig};
 use vp_mission::{
-    build_mission, export_text, Autopilot, ConnectOptions, MissionItem, MissionOptions, Progress,
-    SigningKey,
+    build_mission, export_flights, one_flight, write_flights, Autopilot, ConnectOptions,
+    MissionItem, MissionOptions, Progress, SigningKey,
 };
 use vp_scene::fsio;
 use vp_scene::plan::Plan;
@@ -26,7 +26,9 @@ pub enum MissionCommand {
         /// qgc, `.waypoints` or `.txt` for wpl; qgc on standard output).
         #[arg(long, value_enum)]
         format: Option<ExportFormat>,
-        /// Output file; prints to standard output when absent.
+        /// Output file; prints to standard output when absent. A plan split
+        /// into flights (`plan --max-flight-time`) writes one numbered file
+        /// per flight: `m.plan` -> `m-1.plan`, `m-2.plan`, ...
         #[arg(long)]
         out: Option<PathBuf>,
         /// Overwrite the output file if it exists.
@@ -49,6 +51,10 @@ pub enum MissionCommand {
     Upload {
         /// The plan (JSON written by `vpctl plan`).
         plan: PathBuf,
+        /// Which flight of a plan split into flights to upload (1, 2, ...);
+        /// needed when there are several.
+        #[arg(long, value_name = "N")]
+        flight: Option<usize>,
         #[command(flatten)]
         link: LinkArgs,
         #[command(flatten)]
@@ -213,15 +219,30 @@ pub fn run(cmd: MissionCommand, out: &mut dyn Write) -> Result<()> {
             let plan_path = plan;
             let plan = load_plan(&plan_path)?;
             let opts = mission.options(&plan)?;
-            let text = export_text(&plan, format, &opts)
+            let flights = export_flights(&plan, format, &opts, path.as_deref())
                 .with_context(|| format!("mission of {}", plan_path.display()))?;
-            write_or_print(path.as_deref(), &text, out)
+            write_flights(&flights, force)?;
+            for f in &flights {
+                match &f.path {
+                    Some(p) => writeln!(out, "wrote {}", p.display())?,
+                    None => out.write_all(f.text.as_bytes())?,
+                }
+            }
+            if flights.len() > 1 {
+                writeln!(
+                    out,
+                    "{} flights, one mission each: fly them in order, a fresh battery for each",
+                    flights.len()
+                )?;
+            }
+            Ok(())
         }
         MissionCommand::Upload {
             plan,
+            flight,
             link,
             mission,
-        } => upload(&plan, &link, &mission, out),
+        } => upload(&plan, flight, &link, &mission, out),
         MissionCommand::Download { link } => download(&link, out),
         MissionCommand::Vehicle {
             bind,
@@ -234,12 +255,14 @@ pub fn run(cmd: MissionCommand, out: &mut dyn Write) -> Result<()> {
 
 fn upload(
     plan_path: &Path,
+    flight: Option<usize>,
     link: &LinkArgs,
     mission: &MissionArgs,
     out: &mut dyn Write,
 ) -> Result<()> {
     let opts = link.options()?;
-    let plan = load_plan(plan_path)?;
+    let plan = one_flight(&load_plan(plan_path)?, flight)
+        .with_context(|| format!("plan {}", plan_path.display()))?;
     let m = build_mission(&plan, &mission.options(&plan)?)
         .with_context(|| format!("mission of {}", plan_path.display()))?;
     writeln!(
@@ -361,21 +384,6 @@ fn print_item(seq: usize, item: &MissionItem, out: &mut dyn Write) -> Result<()>
         item.command, item.frame, p[0], p[1], p[2], p[3], item.x, item.y, item.z
     )?;
     Ok(())
-}
-
-fn write_or_print(path: Option<&Path>, text: &str, out: &mut dyn Write) -> Result<()> {
-    match path {
-        None => {
-            out.write_all(text.as_bytes())?;
-            Ok(())
-        }
-        Some(p) => {
-            fsio::write_atomic(p, |w| w.write_all(text.as_bytes()))
-                .with_context(|| format!("writing {}", p.display()))?;
-            writeln!(out, "wrote {}", p.display())?;
-            Ok(())
-        }
-    }
 }
 
 /// The export format: `--format`, else from the extension of `--out`

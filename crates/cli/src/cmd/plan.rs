@@ -15,6 +15,8 @@ use vp_scene::plan::{GeodeticOrigin, Plan, Role};
 use vp_scene::roi::Roi;
 use vp_scene::{colmap, fsio, io, Camera, Mesh};
 
+mod summary;
+
 /// Plan the next camera triplets (the paper's M1-M4) from a mesh and the
 /// acquired cameras, or a grid flight (`vpctl plan grid`).
 ///
@@ -103,6 +105,11 @@ struct Common {
     /// path. Written Y-up as glTF wants (ENU x, z, -y).
     #[arg(long)]
     glb: Option<PathBuf>,
+    /// Longest flight on one battery, seconds: splits the plan into flights
+    /// that each start and end at home and take at most this less the
+    /// reserve (`[mission] reserve_s`, default 120 s). Needs a home.
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+    max_flight_time: Option<f64>,
     /// Overwrite existing output files.
     #[arg(long)]
     force: bool,
@@ -217,10 +224,15 @@ fn required<'a>(v: Option<&'a PathBuf>, flag: &str) -> Result<&'a Path> {
 
 impl Common {
     fn config(&self) -> Result<PlannerConfig> {
-        Ok(match &self.config {
+        let mut cfg = match &self.config {
             Some(p) => load_planner_config(p)?,
             None => PlannerConfig::default(),
-        })
+        };
+        if let Some(t) = self.max_flight_time {
+            cfg.mission.max_flight_time_s = Some(t);
+        }
+        cfg.validate()?;
+        Ok(cfg)
     }
 
     fn roi(&self) -> Result<RoiSpec> {
@@ -404,7 +416,8 @@ fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
         plan.waypoints.len(),
         plan.waypoints.len() - members
     )?;
-    print_home(&plan, out)?;
+    summary::print_home(&plan, out)?;
+    summary::print_flights(&plan, &cfg.mission, out)?;
     if let (Some(a), Some(b)) = (r.iterations.first(), r.iterations.last()) {
         writeln!(out, "mean f: {:.4} -> {:.4}", a.f_before, b.f_after)?;
     }
@@ -459,27 +472,6 @@ fn write_outputs(
     Ok(())
 }
 
-/// The home line of the summary: where relative heights are measured from,
-/// or what a mission export will need.
-fn print_home(plan: &Plan, out: &mut dyn Write) -> Result<()> {
-    let datum = plan
-        .vertical_datum
-        .map_or("unstated datum", VerticalDatum::name);
-    match &plan.home {
-        Some(h) => writeln!(
-            out,
-            "home: {:.7},{:.7},{:.2} m ({datum}; {})",
-            h.position.lat_deg, h.position.lon_deg, h.position.alt_m, h.source
-        )?,
-        None => writeln!(
-            out,
-            "home: none (a mission export will need --home LAT,LON,ALT; or plan again with \
-             --home or --home-from-first-image)"
-        )?,
-    }
-    Ok(())
-}
-
 fn grid(g: &GridArgs, out: &mut dyn Write) -> Result<()> {
     let c = &g.common;
     let outputs = c.check_outputs()?;
@@ -507,6 +499,8 @@ fn grid(g: &GridArgs, out: &mut dyn Write) -> Result<()> {
     write_outputs(&outputs, &plan, &mesh, &cfg, &[], &roi_outline, &[])?;
     writeln!(out, "plan: {}", outputs.plan.display())?;
     writeln!(out, "waypoints: {}", plan.waypoints.len())?;
-    print_home(&plan, out)?;
+    summary::print_grid_figures(&params.figures(cfg.camera.intrinsics()), out)?;
+    summary::print_home(&plan, out)?;
+    summary::print_flights(&plan, &cfg.mission, out)?;
     Ok(())
 }

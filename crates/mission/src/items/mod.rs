@@ -235,7 +235,7 @@ pub fn build_mission(plan: &Plan, opts: &MissionOptions) -> Result<Mission> {
     opts.validate()?;
     let frame = LocalFrame::new(origin)?;
     let home = heights::mission_home(plan, opts.home)?;
-    heights::check_heights(plan, &frame, &home, &opts.limits)?;
+    let heights = heights::check_heights(plan, &frame, &home, &opts.limits)?;
     let (home_x, home_y) = (deg_to_e7(home.lat_deg)?, deg_to_e7(home.lon_deg)?);
     let rel = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT;
     let hold = match opts.autopilot {
@@ -258,6 +258,9 @@ pub fn build_mission(plan: &Plan, opts: &MissionOptions) -> Result<Mission> {
         });
     }
     if let Some(alt) = opts.takeoff_alt_m {
+        // Climb straight up to at least the first waypoint's height, so the
+        // leg to it is level: the leg the planner checked (vp_planner::flights).
+        let alt = heights.first().map_or(alt, |&h| alt.max(h as f32));
         items.push(MissionItem {
             command: MavCmd::MAV_CMD_NAV_TAKEOFF,
             frame: rel,

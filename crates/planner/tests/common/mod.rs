@@ -84,5 +84,6 @@ pub fn plan_rock(
         config: cfg,
         origin: Some(site.origin),
         observations: None,
+        home: None,
     })
 }

@@ -306,6 +306,7 @@ fn plan_iteration(
         config: &pc,
         origin: Some(world.site.origin),
         observations: Some(&observations),
+        home: None,
     };
     let result = plan(&inputs).map_err(|e| {
         SimError::Campaign(format!(
