@@ -220,7 +220,7 @@ fn connect_options(heartbeat_timeout: f64, timeout_scale: f64) -> PyResult<Conne
 /// uploads the plan's mission and verifies it by reading it back. The GIL
 /// is released while waiting on the vehicle. Returns a report dict.
 #[pyfunction]
-#[pyo3(signature = (plan, url, heartbeat_timeout = 5.0, timeout_scale = 1.0, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true, home = None, ceiling = 120.0, min_height = 2.0, flight = None))]
+#[pyo3(signature = (plan, url, heartbeat_timeout = 5.0, timeout_scale = 1.0, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true, home = None, ceiling = 120.0, min_height = 2.0, flight = None, accept_home_offset = false))]
 #[allow(clippy::too_many_arguments)] // Python keywords, one per `vpctl mission` flag
 fn upload<'py>(
     py: Python<'py>,
@@ -237,6 +237,7 @@ fn upload<'py>(
     ceiling: f64,
     min_height: f64,
     flight: Option<usize>,
+    accept_home_offset: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let k = Keywords {
         hold,
@@ -247,7 +248,14 @@ fn upload<'py>(
     let plan = one_flight(&plan.0, flight).py()?;
     let o = options(&plan, autopilot, k, home, ceiling, min_height)?;
     let m = build_mission(&plan, &o).py()?;
-    let opts = connect_options(heartbeat_timeout, timeout_scale)?;
+    // The vehicle's home against the plan's, as `vpctl mission upload`.
+    let opts = ConnectOptions {
+        home_check: Some(vp_mission::HomePolicy {
+            datum: plan.vertical_datum,
+            accept_offset: accept_home_offset,
+        }),
+        ..connect_options(heartbeat_timeout, timeout_scale)?
+    };
     let (report, info) = py
         .detach(|| vp_mission::upload(url, &m, &opts, &mut |_| {}))
         .py()?;
@@ -258,6 +266,7 @@ fn upload<'py>(
     d.set_item("attempts", report.upload.attempts)?;
     d.set_item("resends", report.upload.resends)?;
     d.set_item("verified", report.verified)?;
+    d.set_item("home", report.home.map(|h| h.to_string()))?;
     d.set_item("system", info.target.system)?;
     d.set_item("component", info.target.component)?;
     Ok(d)

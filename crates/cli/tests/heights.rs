@@ -261,3 +261,65 @@ fn out_of_range_mission_values_are_refused_with_the_allowed_range() {
         );
     }
 }
+
+/// `mission upload` reads the vehicle's HOME_POSITION: a vehicle whose home
+/// is 30 m from the plan's would fly every waypoint 30 m off, so the upload
+/// is refused (exit 2, the vehicle's mission untouched) unless
+/// --accept-home-offset; a vehicle at the plan's home uploads and says so.
+#[test]
+fn upload_compares_the_vehicles_home_with_the_plans() {
+    use vp_mission::sim_vehicle::{spawn_udp_vehicle, VehicleConfig};
+    let dir = tempfile::tempdir().unwrap();
+    let mut p = airborne_plan(&[-10.0, -12.0]);
+    let ground = GeodeticOrigin {
+        alt_m: AIRBORNE.alt_m - 40.0,
+        ..AIRBORNE
+    };
+    p.home = Some(Home {
+        position: ground,
+        source: "test".into(),
+    });
+    let plan = save(&p, &dir.path().join("p.json"));
+    let elsewhere = GeodeticOrigin {
+        lat_deg: ground.lat_deg + 30.0 / 111_200.0,
+        ..ground
+    };
+    let upload = |home: GeodeticOrigin, extra: &[&str]| {
+        let vehicle = spawn_udp_vehicle(
+            "127.0.0.1:0",
+            VehicleConfig {
+                home,
+                reports_home: true,
+                ..VehicleConfig::default()
+            },
+        )
+        .unwrap();
+        let url = format!("udpout:{}", vehicle.addr());
+        let mut args = vec!["mission", "upload", plan.as_str(), "--url", url.as_str()];
+        args.extend_from_slice(extra);
+        let o = vpctl(&args);
+        (o, vehicle.mission().len())
+    };
+    let (o, items) = upload(elsewhere, &[]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
+    let e = text(&o.stderr);
+    assert!(
+        e.contains("30.0 m") && e.contains("--accept-home-offset"),
+        "{e}"
+    );
+    assert_eq!(
+        items, 0,
+        "a refused upload must not touch the vehicle's mission"
+    );
+    let (o, items) = upload(elsewhere, &["--accept-home-offset"]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(text(&o.stdout).contains("ACCEPTED"), "{}", text(&o.stdout));
+    assert!(items > 0);
+    let (o, _) = upload(ground, &[]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stdout).contains("home: vehicle home 0.0 m"),
+        "{}",
+        text(&o.stdout)
+    );
+}

@@ -28,6 +28,7 @@ pub mod protocol;
 pub mod qgc;
 pub mod signing;
 pub mod sim_vehicle;
+pub mod vehicle_home;
 pub mod wpl;
 
 use std::time::Duration;
@@ -44,6 +45,7 @@ pub use link::{MavLink, VehicleInfo};
 pub use protocol::{DownloadReport, Link, Progress, ProtocolConfig, Target, UploadReport};
 pub use qgc::{export_qgc, QgcOptions};
 pub use signing::SigningKey;
+pub use vehicle_home::HomeCheck;
 pub use wpl::{export_wpl, parse_wpl};
 
 /// How to reach the vehicle.
@@ -58,6 +60,18 @@ pub struct ConnectOptions {
     /// MAVLink 2 signing key: sign everything sent, ignore whatever is not
     /// signed with it (unsigned, another key, replays).
     pub signing: Option<SigningKey>,
+    /// Before uploading, read the vehicle's HOME_POSITION and compare it
+    /// with the mission's home (`None`: do not ask).
+    pub home_check: Option<HomePolicy>,
+}
+
+/// How [`upload`] compares the vehicle's home with the mission's.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HomePolicy {
+    /// The datum of the mission's home altitude (the plan's).
+    pub datum: Option<vp_scene::datum::VerticalDatum>,
+    /// Upload even when the homes differ beyond the limits.
+    pub accept_offset: bool,
 }
 
 impl ConnectOptions {
@@ -90,6 +104,7 @@ impl Default for ConnectOptions {
             target_system: None,
             protocol: ProtocolConfig::default(),
             signing: None,
+            home_check: None,
         }
     }
 }
@@ -103,6 +118,8 @@ pub struct TransferReport {
     pub verify: Option<DownloadReport>,
     /// True when the read-back matched item by item.
     pub verified: bool,
+    /// The vehicle's home against the mission's, when asked ([`ConnectOptions::home_check`]).
+    pub home: Option<HomeCheck>,
 }
 
 /// Uploads `mission` over an open link, then (if `verify`) reads it back and
@@ -139,6 +156,7 @@ pub fn upload_over(
             upload: up,
             verify: None,
             verified: false,
+            home: None,
         });
     }
     let (got, down) = protocol::download(link, target, cfg, progress)?;
@@ -147,6 +165,7 @@ pub fn upload_over(
         upload: up,
         verify: Some(down),
         verified: true,
+        home: None,
     })
 }
 
@@ -178,7 +197,20 @@ pub fn upload(
             )));
         }
     }
-    let report = upload_over(
+    let home = match &opts.home_check {
+        Some(policy) => {
+            let vehicle = protocol::home::read_home(&mut link, info.target, &opts.protocol)
+                .map_err(|e| link.explain(e))?;
+            Some(vehicle_home::compare_home(
+                &mission.home,
+                policy.datum,
+                vehicle,
+                policy.accept_offset,
+            )?)
+        }
+        None => None,
+    };
+    let mut report = upload_over(
         &mut link,
         info.target,
         mission,
@@ -187,6 +219,7 @@ pub fn upload(
         progress,
     )
     .map_err(|e| link.explain(e))?;
+    report.home = home;
     Ok((report, info))
 }
 

@@ -61,6 +61,7 @@ fn opts(signing: Option<SigningKey>) -> ConnectOptions {
         target_system: None,
         protocol: ProtocolConfig::default().scaled(SCALE),
         signing,
+        home_check: None,
     }
 }
 

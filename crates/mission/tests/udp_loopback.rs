@@ -60,6 +60,7 @@ fn fast_opts() -> ConnectOptions {
         target_system: None,
         protocol: ProtocolConfig::default().scaled(SCALE),
         signing: None,
+        home_check: None,
     }
 }
 

@@ -10,7 +10,7 @@ use vp_mission::heights::{HeightLimits, UserMissionOptions};
 use vp_mission::sim_vehicle::{spawn_udp_vehicle, VehicleConfig};
 use vp_mission::{
     build_mission, export_flights, one_flight, write_flights, Autopilot, ConnectOptions,
-    MissionItem, MissionOptions, Progress, SigningKey,
+    HomePolicy, MissionItem, MissionOptions, Progress, SigningKey,
 };
 use vp_scene::fsio;
 use vp_scene::plan::Plan;
@@ -55,6 +55,10 @@ pub enum MissionCommand {
         /// needed when there are several.
         #[arg(long, value_name = "N")]
         flight: Option<usize>,
+        /// Upload even when the vehicle's home (HOME_POSITION) lies more
+        /// than 5 m across or 2 m in height from the plan's home.
+        #[arg(long)]
+        accept_home_offset: bool,
         #[command(flatten)]
         link: LinkArgs,
         #[command(flatten)]
@@ -82,6 +86,10 @@ pub enum MissionCommand {
         /// hexadecimal digits) and ignore messages not signed with it.
         #[arg(long, value_name = "FILE")]
         signing_key: Option<PathBuf>,
+        /// The vehicle's home, LAT,LON,ALT (altitude above mean sea level),
+        /// reported as HOME_POSITION; without it the vehicle has no fix.
+        #[arg(long, value_name = "LAT,LON,ALT", allow_hyphen_values = true, value_parser = super::plan::home_arg)]
+        home: Option<super::plan::HomeArg>,
     },
 }
 
@@ -240,29 +248,37 @@ pub fn run(cmd: MissionCommand, out: &mut dyn Write) -> Result<()> {
         MissionCommand::Upload {
             plan,
             flight,
+            accept_home_offset,
             link,
             mission,
-        } => upload(&plan, flight, &link, &mission, out),
+        } => upload(&plan, (flight, accept_home_offset), &link, &mission, out),
         MissionCommand::Download { link } => download(&link, out),
         MissionCommand::Vehicle {
             bind,
             autopilot,
             seconds,
             signing_key,
-        } => vehicle(&bind, autopilot, seconds, signing_key.as_deref(), out),
+            home,
+        } => vehicle(&bind, autopilot, seconds, signing_key.as_deref(), home, out),
     }
 }
 
 fn upload(
     plan_path: &Path,
-    flight: Option<usize>,
+    (flight, accept_home_offset): (Option<usize>, bool),
     link: &LinkArgs,
     mission: &MissionArgs,
     out: &mut dyn Write,
 ) -> Result<()> {
-    let opts = link.options()?;
     let plan = one_flight(&load_plan(plan_path)?, flight)
         .with_context(|| format!("plan {}", plan_path.display()))?;
+    let opts = ConnectOptions {
+        home_check: Some(HomePolicy {
+            datum: plan.vertical_datum,
+            accept_offset: accept_home_offset,
+        }),
+        ..link.options()?
+    };
     let m = build_mission(&plan, &mission.options(&plan)?)
         .with_context(|| format!("mission of {}", plan_path.display()))?;
     writeln!(
@@ -280,6 +296,9 @@ fn upload(
         "vehicle: system {} component {} ({:?})",
         info.target.system, info.target.component, info.autopilot
     )?;
+    if let Some(home) = &report.home {
+        writeln!(out, "home: {home}")?;
+    }
     writeln!(
         out,
         "uploaded {} items in {:.2} s ({} resends); verified: {}",
@@ -319,12 +338,16 @@ fn vehicle(
     autopilot: AutopilotArg,
     seconds: Option<u64>,
     signing_key: Option<&Path>,
+    home: Option<super::plan::HomeArg>,
     out: &mut dyn Write,
 ) -> Result<()> {
+    let d = VehicleConfig::default();
     let cfg = VehicleConfig {
         autopilot: autopilot.into(),
         signing: load_key(signing_key)?,
-        ..VehicleConfig::default()
+        home: home.map_or(d.home, |h| h.position),
+        reports_home: home.is_some(),
+        ..d
     };
     let signing = cfg.signing.is_some();
     let vehicle = spawn_udp_vehicle(bind, cfg)?;

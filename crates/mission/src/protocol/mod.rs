@@ -18,6 +18,7 @@
 //! a download keeps the items it already has.
 
 pub mod download;
+pub mod home;
 pub mod upload;
 
 use std::time::Duration;

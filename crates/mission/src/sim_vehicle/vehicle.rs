@@ -27,9 +27,9 @@ use std::time::{Duration, Instant};
 
 #[allow(deprecated)] // MISSION_REQUEST_DATA: see `request`.
 use mavlink::dialects::common::{
-    MavAutopilot, MavMessage, MavMissionResult, MavMissionType, MavModeFlag, MavSeverity, MavState,
-    MavType, HEARTBEAT_DATA, MISSION_ACK_DATA, MISSION_COUNT_DATA, MISSION_REQUEST_DATA,
-    MISSION_REQUEST_INT_DATA, STATUSTEXT_DATA,
+    MavAutopilot, MavCmd, MavMessage, MavMissionResult, MavMissionType, MavModeFlag, MavResult,
+    MavSeverity, MavState, MavType, COMMAND_ACK_DATA, HEARTBEAT_DATA, MISSION_ACK_DATA,
+    MISSION_COUNT_DATA, MISSION_REQUEST_DATA, MISSION_REQUEST_INT_DATA, STATUSTEXT_DATA,
 };
 use mavlink::{Connectable, MavHeader, UdpConfig, UdpMode};
 use vp_scene::plan::GeodeticOrigin;
@@ -38,6 +38,7 @@ use super::ardupilot;
 use crate::error::{MissionError, Result};
 use crate::geodesy::deg_to_e7;
 use crate::items::{Autopilot, MissionItem};
+use crate::protocol::home::{home_position, HOME_POSITION_ID};
 use crate::signing::{IgnoredCounts, SignedLink, SigningKey, LINK_ID};
 
 /// How the simulated vehicle behaves.
@@ -49,8 +50,12 @@ pub struct VehicleConfig {
     pub component: u8,
     /// ArduPilot mode rewrites seq 0 with `home` after each upload.
     pub autopilot: Autopilot,
-    /// Home position (ArduPilot mode).
+    /// Home position (ArduPilot mode; HOME_POSITION when `reports_home`),
+    /// altitude above mean sea level.
     pub home: GeodeticOrigin,
+    /// Answer a request for HOME_POSITION with `home`; false: refuse it,
+    /// as a vehicle without a GNSS fix does.
+    pub reports_home: bool,
     /// Most items the vehicle stores; more gets MAV_MISSION_NO_SPACE.
     pub capacity: usize,
     /// Answer every MISSION_COUNT with this result instead of accepting.
@@ -81,6 +86,7 @@ impl Default for VehicleConfig {
                 lon_deg: 8.545_594,
                 alt_m: 488.0,
             },
+            reports_home: false,
             capacity: 2000,
             reject_with: None,
             item_timeout: Duration::from_millis(250),
@@ -262,6 +268,30 @@ impl MissionServer {
                 self.mission.clear();
                 self.state = State::Idle;
                 vec![self.ack(MavMissionResult::MAV_MISSION_ACCEPTED)]
+            }
+            MavMessage::COMMAND_LONG(c)
+                if for_us(c.target_system)
+                    && c.command == MavCmd::MAV_CMD_REQUEST_MESSAGE
+                    && c.param1 == HOME_POSITION_ID as f32 =>
+            {
+                let ack = |result| {
+                    MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
+                        command: MavCmd::MAV_CMD_REQUEST_MESSAGE,
+                        result,
+                        progress: 0,
+                        result_param2: 0,
+                        target_system: header.system_id as u8,
+                        target_component: header.component_id,
+                    })
+                };
+                if self.cfg.reports_home {
+                    vec![
+                        ack(MavResult::MAV_RESULT_ACCEPTED),
+                        MavMessage::HOME_POSITION(home_position(&self.cfg.home)),
+                    ]
+                } else {
+                    vec![ack(MavResult::MAV_RESULT_FAILED)]
+                }
             }
             MavMessage::MISSION_ACK(a)
                 if for_us(a.target_system)
