@@ -81,7 +81,7 @@ impl Forest {
             bytes,
             MAGIC,
             FORMAT_VERSION,
-            "vp-forest model",
+            ("vp-forest model", "`vpctl train` (or `vpctl sim train`)"),
         )?);
         let header_len = r.u32("header length")? as usize;
         let at = r.0.pos();
@@ -177,7 +177,10 @@ impl TrainedTree {
             bytes,
             TREE_MAGIC,
             TREE_FORMAT_VERSION,
-            "vp-forest tree",
+            (
+                "vp-forest tree",
+                "distributed training (`vpctl.distributed`)",
+            ),
         )?);
         let header_len = r.u32("header length")? as usize;
         let at = r.0.pos();

@@ -46,6 +46,16 @@ impl Workspace {
     /// distortion.
     pub fn open(root: &Path) -> Result<Self> {
         let sparse = root.join("sparse");
+        if !sparse.is_dir() || !root.join("images").is_dir() {
+            return Err(MvsError::Input {
+                path: root.to_path_buf(),
+                message: "not an MVS workspace: one holds `images/` (undistorted) and `sparse/` \
+                          (their COLMAP model), as `vpctl colmap undistort --colmap MODEL \
+                          --images IMAGES --out WORKSPACE` (or COLMAP's image_undistorter) \
+                          writes; pass that folder as --workspace"
+                    .into(),
+            });
+        }
         let format = colmap::detect_format(&sparse)?;
         let cameras_file = format.files(&sparse)[0].clone();
         let model = colmap::read_model_as(&sparse, format)?;

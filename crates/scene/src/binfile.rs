@@ -66,20 +66,30 @@ impl<'a> ByteReader<'a> {
     /// Checks the frame of a vpctl binary file (magic, version, checksum;
     /// see the module docs) and returns a reader positioned at the start of
     /// the body that ends before the checksum. `what` names the kind of file
-    /// in errors ("vp-forest model").
+    /// in errors ("vp-forest model"), `made_by` the command that writes one
+    /// ("`vpctl train`"), so that a wrong file says what was expected.
     pub fn open_checksummed(
         path: &'a Path,
         data: &'a [u8],
         magic: [u8; 8],
         version: u32,
-        what: &str,
+        (what, made_by): (&str, &str),
     ) -> Result<Self> {
         let r = ByteReader::new(path, data);
         if data.is_empty() {
-            return Err(r.error_at(0, format!("empty file: not a {what} (bad magic number)")));
+            return Err(r.error_at(
+                0,
+                format!("empty file: not a {what} (bad magic number); {made_by} writes one"),
+            ));
         }
         if data.len() < 8 || data[..8] != magic {
-            return Err(r.error_at(0, format!("not a {what} (bad magic number)")));
+            let seems = sniff(data).map_or(String::new(), |k| format!(": this is {k}"));
+            return Err(r.error_at(
+                0,
+                format!(
+                    "not a {what} (bad magic number){seems}; expected the file {made_by} writes"
+                ),
+            ));
         }
         if data.len() < 20 {
             return Err(r.error_at(
@@ -265,6 +275,34 @@ impl<'a> ByteReader<'a> {
     }
 }
 
+/// What a file that is not the expected vpctl file looks like it is, from
+/// its first bytes, for the error message.
+fn sniff(data: &[u8]) -> Option<&'static str> {
+    let starts = |m: &[u8]| data.starts_with(m);
+    let text = std::str::from_utf8(&data[..data.len().min(64)]).ok();
+    Some(if starts(b"\x89PNG") {
+        "a PNG image"
+    } else if starts(&[0xFF, 0xD8, 0xFF]) {
+        "a JPEG image"
+    } else if starts(b"II*\0") || starts(b"MM\0*") {
+        "a TIFF image"
+    } else if starts(b"ply") {
+        "a PLY file"
+    } else if starts(b"VPFOREST") || starts(b"VPFTREE") {
+        "a vp-forest model (.vpforest)"
+    } else if starts(b"VPCONF") {
+        "a vpctl confidence image (.vpconf)"
+    } else if starts(b"VPLABEL") {
+        "a vpctl label image (.vplabel)"
+    } else if text.is_some_and(|t| t.trim_start().starts_with('{')) {
+        "a JSON file"
+    } else if text.is_some() {
+        "a text file"
+    } else {
+        return None;
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -272,7 +310,7 @@ mod tests {
     const MAGIC: [u8; 8] = *b"VPTEST\0\0";
 
     fn open(bytes: &[u8]) -> Result<ByteReader<'_>> {
-        ByteReader::open_checksummed(Path::new("x.bin"), bytes, MAGIC, 3, "test file")
+        ByteReader::open_checksummed(Path::new("x.bin"), bytes, MAGIC, 3, ("test file", "`test`"))
     }
 
     #[test]

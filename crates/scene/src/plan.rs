@@ -388,7 +388,30 @@ impl Plan {
                 format!("column {}: {e}", e.column()),
             )
         };
-        let probe: Probe = serde_json::from_str(text).map_err(|e| json_err(&e))?;
+        let probe: Probe = serde_json::from_str(text).map_err(|e| {
+            let head = text.trim_start();
+            let first = head.lines().next().unwrap_or("");
+            let kind = if head.starts_with("QGC WPL") {
+                Some("a QGC WPL mission (as `vpctl mission export --out m.waypoints` writes)")
+            } else if first.starts_with('[') && first.trim_end().ends_with(']')
+                || first.contains(" = ")
+            {
+                Some("a TOML configuration")
+            } else {
+                None
+            };
+            match kind {
+                Some(k) => SceneError::parse(
+                    path,
+                    Location::Header,
+                    format!(
+                        "this is {k}, not a vpctl plan: pass the plan JSON that `vpctl plan` or \
+                         `vpctl plan grid` wrote (their --out)"
+                    ),
+                ),
+                None => json_err(&e),
+            }
+        })?;
         match probe.format_version {
             None if probe.file_type.as_ref().and_then(|v| v.as_str()) == Some("Plan") => {
                 return Err(SceneError::parse(

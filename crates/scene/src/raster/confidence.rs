@@ -167,7 +167,7 @@ impl ConfidenceImage {
             bytes,
             CONF_MAGIC,
             FORMAT_VERSION,
-            "vpctl confidence image",
+            ("vpctl confidence image", "`vpctl predict`"),
         )?;
         let (width, height, step) = (r.u32("width")?, r.u32("height")?, r.u32("step")?);
         let at = r.pos();

@@ -139,7 +139,7 @@ impl LabelImage {
             bytes,
             LABEL_MAGIC,
             FORMAT_VERSION,
-            "vpctl label image",
+            ("vpctl label image", "`vpctl labelgen run`"),
         )?;
         let width = r.u32("width")?;
         let height = r.u32("height")?;
