@@ -108,8 +108,8 @@ pub fn fly(
         }
     }
     if !opts.exact {
-        for (index, (img, (_, cam))) in model.images.values_mut().zip(&named).enumerate() {
-            img.cam_from_world = sfm_camera(cam, cfg, cfg.seed, index as u64).cam_from_world();
+        for (img, (_, cam)) in model.images.values_mut().zip(&named) {
+            img.cam_from_world = sfm_camera(cam, cfg, cfg.seed).cam_from_world();
         }
         let sigma = cfg.sfm.point_noise_m;
         if sigma > 0.0 {

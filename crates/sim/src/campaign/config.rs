@@ -171,9 +171,11 @@ pub struct GridBaseline {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SfmConfig {
-    /// Standard deviation of camera position noise, metres.
+    /// Standard deviation of the SfM model's georeferencing shift per
+    /// axis, metres (one shift for all its images; see `world::sfm_camera`).
     pub position_noise_m: f64,
-    /// Standard deviation of camera rotation noise, degrees.
+    /// Standard deviation of the SfM model's georeferencing rotation per
+    /// axis, degrees (one rotation about the origin for all its images).
     pub rotation_noise_deg: f64,
     /// Standard deviation of point (planning-mesh vertex) noise, metres.
     pub point_noise_m: f64,

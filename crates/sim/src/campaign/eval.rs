@@ -2,10 +2,13 @@
 //!
 //! ROI faces are split to `eval.split_edge_m`. A camera of a successful
 //! reconstruction (a triplet, or a Grid image with its sources; see
-//! `eval.min_output_share`) measures a face when the face's centroid projects into its depth
-//! map, the face is front-facing, and the reconstructed depth at that pixel
-//! is at most `eval.depth_tolerance_m` in front of the face's depth or
-//! beyond it (the paper's 24 cm rule; an occluder in front fails it).
+//! `eval.min_output_share`) measures a face when the face is front-facing
+//! (true camera), the face's centroid projects into its depth map, and the
+//! reconstructed depth at that pixel lies within `eval.depth_tolerance_m`
+//! of the face's depth (the paper's 24 cm rule), both seen from the SfM
+//! camera the depth map belongs to: the reconstructed point lies on the
+//! face. A depth far behind the face (the ground behind a grass tuft) or in
+//! front of it (an occluder) does not measure it.
 //! Coverage: faces measured by at least c distinct cameras. Per face and
 //! measuring reconstruction, f_res and f_unc follow M1
 //! (docs/design.md#m1-quality-fulfillment) with the true cameras of the
@@ -18,8 +21,9 @@ use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
 use serde::Serialize;
 use vp_planner::quality::{CamTerm, Requirements};
+use vp_scene::colmap::DepthMap;
 use vp_scene::mesh_ops::{split_faces, submesh};
-use vp_scene::Material;
+use vp_scene::{Camera, Material};
 
 use super::config::CampaignConfig;
 use super::fly::Flown;
@@ -87,6 +91,22 @@ pub struct Scores {
     pub safety_violations: usize,
 }
 
+/// Whether the depth map `depth` of the SfM camera `sfm` holds a depth
+/// within `tol` of point `p`'s at the pixel `p` projects to: the 24 cm
+/// rule, on the face and not anywhere behind it.
+pub fn measures(sfm: &Camera, depth: &DepthMap, p: &Point3<f64>, tol: f64) -> bool {
+    let Some(px) = sfm.project_in_frame(p) else {
+        return false;
+    };
+    let (x, y) = (px.x as usize, px.y as usize);
+    if x >= depth.width as usize || y >= depth.height as usize {
+        return false;
+    }
+    let z = f64::from(depth.data[y * depth.width as usize + x]);
+    let face_z = (p - sfm.center()).dot(&sfm.axis());
+    z > 0.0 && (z - face_z).abs() <= tol
+}
+
 /// Scores of `flown` on `em`; also returns each face's f (0..1) for maps.
 pub fn evaluate(
     em: &EvalMesh,
@@ -113,21 +133,10 @@ pub fn evaluate(
             for fl in &ok {
                 let mut any = false;
                 for (v, cam) in fl.cams.iter().enumerate() {
-                    let c = cam.center();
-                    if n.dot(&(c - p)) <= 0.0 {
+                    if n.dot(&(cam.center() - p)) <= 0.0 {
                         continue;
                     }
-                    let Some(px) = cam.project_in_frame(&p) else {
-                        continue;
-                    };
-                    let d = &fl.depth[v];
-                    let (x, y) = (px.x as usize, px.y as usize);
-                    if x >= d.width as usize || y >= d.height as usize {
-                        continue;
-                    }
-                    let z = f64::from(d.data[y * d.width as usize + x]);
-                    let face_z = (p - c).dot(&cam.axis());
-                    if z > 0.0 && z >= face_z - tol {
+                    if measures(&fl.sfm[v], &fl.depth[v], &p, tol) {
                         any = true;
                         ids.push(fl.ids[v]);
                     }
@@ -180,4 +189,39 @@ pub fn evaluate(
         safety_violations: 0,
     };
     Ok((scores, per_face.iter().map(|f| f.2).collect()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vp_scene::Intrinsics;
+
+    /// Regression: a pixel whose depth lay anywhere behind a face measured
+    /// it, so vegetation counted as covered when the ground behind it was
+    /// reconstructed.
+    #[test]
+    fn a_depth_behind_the_face_does_not_measure_it() {
+        let k = Intrinsics::from_hfov(64, 48, 60.0).unwrap();
+        let cam = Camera::from_yaw_pitch(
+            k,
+            Point3::new(0.0, 0.0, 20.0),
+            0.0,
+            -std::f64::consts::FRAC_PI_2,
+        );
+        // A grass tuft 1 m above the ground, straight below the camera.
+        let tuft = Point3::new(0.0, 0.0, 1.0);
+        let map = |z: f32| DepthMap {
+            width: 64,
+            height: 48,
+            data: vec![z; 64 * 48],
+        };
+        // The ground (20 m away) reconstructed behind the tuft (19 m).
+        assert!(!measures(&cam, &map(20.0), &tuft, 0.24));
+        // An occluder 1 m in front of it.
+        assert!(!measures(&cam, &map(18.0), &tuft, 0.24));
+        // On the face, within 24 cm either way.
+        assert!(measures(&cam, &map(19.2), &tuft, 0.24));
+        assert!(measures(&cam, &map(18.8), &tuft, 0.24));
+        assert!(!measures(&cam, &map(0.0), &tuft, 0.24));
+    }
 }

@@ -22,7 +22,7 @@ use super::report::{aggregate, CampaignReport, SiteArtifacts, SiteResult, Strate
 use super::sfm::SfmState;
 use super::strategies::Strategy;
 use super::training::train_forest_with_stats;
-use super::world::{acquire, init_cameras, Acquired, World};
+use super::world::{acquire, init_cameras, sfm_cameras, Acquired, World};
 use crate::error::{Result, SimError};
 use crate::noise::mix64;
 
@@ -45,15 +45,16 @@ fn name_hash(s: &str) -> u64 {
 
 /// Flies a flight that is not a set of triplets (the initial images, the
 /// Grid): checks its path (waypoints in order, from its first) against the
-/// truth and reconstructs it: with vp-mvs as the paper's Grid, every image
-/// against its best overlapping neighbours; with the virtual MVS (triplets
-/// only), sliding triplets (i, i+1, i+2) along the flight in order.
+/// truth and reconstructs it with SfM's estimates `sfm` of its cameras:
+/// with vp-mvs as the paper's Grid, every image against its best
+/// overlapping neighbours; with the virtual MVS (triplets only), sliding
+/// triplets (i, i+1, i+2) along the flight in order.
 #[allow(clippy::too_many_arguments)]
 fn fly_flight(
     world: &World,
     matcher: &Matcher<'_>,
     cfg: &CampaignConfig,
-    (name, cams): (&str, &[Camera]),
+    (name, cams, sfm): (&str, &[Camera], &[Camera]),
     source: u64,
     seed: u64,
     curves: &mut CurveAccumulator,
@@ -66,13 +67,14 @@ fn fly_flight(
     let scene = world.scene();
     let ids: Vec<u64> = (0..cams.len()).map(|i| image_id(source, i)).collect();
     let flown = if cfg.mvs == MvsKind::Patchmatch {
-        matcher.image_set(&scene, cams, &ids, &world.roi, mix64(seed ^ source))?
+        matcher.image_set(&scene, (cams, sfm), &ids, &world.roi, mix64(seed ^ source))?
     } else {
         (0..cams.len().saturating_sub(2))
             .map(|i| {
                 matcher.fly_triplet(
                     &scene,
                     [cams[i], cams[i + 1], cams[i + 2]],
+                    [sfm[i], sfm[i + 1], sfm[i + 2]],
                     [ids[i], ids[i + 1], ids[i + 2]],
                     &world.roi,
                     mix64(seed ^ mix64(source << 40 | i as u64)),
@@ -191,18 +193,27 @@ fn flight_line(seed: u64, name: &str, images: usize, flown: &[Flown], tolerance_
     )
 }
 
-/// A plan's cameras in flight order, and its triplets' cameras by triplet id.
-fn plan_cameras(world: &World, plan: &Plan) -> (Vec<Camera>, BTreeMap<u32, Vec<Camera>>) {
-    let mut triplets: BTreeMap<u32, Vec<Camera>> = BTreeMap::new();
+/// A plan's cameras in flight order, and its triplets' cameras (indices
+/// into them) by triplet id.
+fn plan_cameras(world: &World, plan: &Plan) -> (Vec<Camera>, BTreeMap<u32, Vec<usize>>) {
+    let mut triplets: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
     let mut cams = Vec::new();
     for w in &plan.waypoints {
-        let cam = w.to_camera(world.intrinsics);
-        cams.push(cam);
         if let (Role::TripletMember, Some(t)) = (w.role, w.triplet_id) {
-            triplets.entry(t).or_default().push(cam);
+            triplets.entry(t).or_default().push(cams.len());
         }
+        cams.push(w.to_camera(world.intrinsics));
     }
     (cams, triplets)
+}
+
+/// The seed of everything random in one triplet strategy on one site (the
+/// planner, SfM's noise of its images, the matcher): it depends on the
+/// strategy's shape (iterations x triplets), not on whether it predicts,
+/// so F5x4 and NP5x4 differ only in the prediction.
+fn strategy_seed(cfg_seed: u64, site_seed: u64, strategy: &Strategy) -> u64 {
+    let shape = format!("{}x{}", strategy.iterations, strategy.per_iteration);
+    mix64(cfg_seed ^ mix64(site_seed) ^ name_hash(&shape))
 }
 
 /// What the flights so far left: the acquired images and what SfM and
@@ -213,6 +224,8 @@ struct Known {
     /// The image name of each of `acquired` (in the acquired models).
     names: Vec<String>,
     sfm: SfmState,
+    /// Seed of the site's SfM model (its georeferencing error).
+    sfm_seed: u64,
 }
 
 impl Known {
@@ -222,9 +235,9 @@ impl Known {
         cfg: &CampaignConfig,
         acquired: Vec<Acquired>,
         flown: &[Flown],
-        seed: u64,
+        sfm_seed: u64,
     ) -> Self {
-        let mut sfm = SfmState::new(world, cfg, seed);
+        let mut sfm = SfmState::new(world);
         sfm.add_images(world, &acquired);
         sfm.add_fused(flown, cfg.sfm.dense_spacing_m);
         let names = (0..acquired.len())
@@ -234,6 +247,7 @@ impl Known {
             acquired,
             names,
             sfm,
+            sfm_seed,
         }
     }
 
@@ -351,7 +365,7 @@ fn run_strategy(
     progress: &mut dyn FnMut(&str),
 ) -> Result<StrategyRun> {
     let site_seed = world.site.params.seed;
-    let base = mix64(cfg.seed ^ mix64(site_seed) ^ name_hash(&strategy.name));
+    let base = strategy_seed(cfg.seed, site_seed, strategy);
     let mut known = init.clone();
     let mut out = StrategyRun {
         flown: Vec::new(),
@@ -395,8 +409,11 @@ fn run_strategy(
         );
         vehicle = path.last().copied().or(vehicle);
         let first_flown = out.flown.len();
-        for (t, cams) in &triplets {
-            let [a, b, c] = cams.as_slice() else {
+        // SfM's estimates of the new images: the poses they are matched
+        // with now and planned with in the next iteration.
+        let new_sfm = sfm_cameras(&new_cams, cfg, known.sfm_seed);
+        for (t, members) in &triplets {
+            let &[a, b, c] = members.as_slice() else {
                 continue;
             };
             let i = next_index;
@@ -408,7 +425,8 @@ fn run_strategy(
             ];
             let fl = matcher.fly_triplet(
                 &world.scene(),
-                [*a, *b, *c],
+                [new_cams[a], new_cams[b], new_cams[c]],
+                [new_sfm[a], new_sfm[b], new_sfm[c]],
                 ids,
                 &world.roi,
                 mix64(base ^ mix64(i as u64)),
@@ -434,8 +452,7 @@ fn run_strategy(
         let last = it + 1 == strategy.iterations;
         if !last {
             let pred = strategy.prediction.then_some(forest);
-            let first = (source << 32) + 0x8000_0000 + known.acquired.len() as u64;
-            let new = acquire(world, &new_cams, pred, cfg, base, first, curves)?;
+            let new = acquire(world, &new_cams, &new_sfm, pred, cfg, curves)?;
             known.sfm.add_images(world, &new);
             known
                 .names
@@ -510,30 +527,29 @@ fn run_site(
     let run_seed = mix64(cfg.seed ^ mix64(seed ^ 0x7369_7465));
 
     let init_cams = init_cameras(&world, cfg);
-    let init = acquire(&world, &init_cams, Some(forest), cfg, run_seed, 0, curves)?;
+    // One SfM model of the site: every image of every flight is registered
+    // in it, with one georeferencing error.
+    let sfm_seed = mix64(run_seed ^ 0x0073_666d);
+    let init_sfm = sfm_cameras(&init_cams, cfg, sfm_seed);
+    let init = acquire(&world, &init_cams, &init_sfm, Some(forest), cfg, curves)?;
     let (init_flown, init_check) = fly_flight(
         &world,
         &matcher,
         cfg,
-        ("initial flight", &init_cams),
+        ("initial flight", &init_cams, &init_sfm),
         SOURCE_INIT,
         run_seed,
         curves,
         progress,
     )?;
-    let known = Known::new(
-        &world,
-        cfg,
-        init,
-        &init_flown,
-        mix64(run_seed ^ 0x0073_666d),
-    );
+    let known = Known::new(&world, cfg, init, &init_flown, sfm_seed);
     let grid_cams = grid_cameras(&world, cfg)?;
+    let grid_sfm = sfm_cameras(&grid_cams, cfg, sfm_seed);
     let (grid_flown, grid_check) = fly_flight(
         &world,
         &matcher,
         cfg,
-        ("Grid", &grid_cams),
+        ("Grid", &grid_cams, &grid_sfm),
         SOURCE_GRID,
         run_seed,
         curves,
@@ -670,3 +686,7 @@ pub fn run_campaign_trained(
     report.training = stats;
     Ok((report, forest))
 }
+
+#[cfg(test)]
+#[path = "run_tests.rs"]
+mod tests;

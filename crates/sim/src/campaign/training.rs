@@ -1,7 +1,8 @@
 //! The offline training campaign: procedural training sites, random camera
 //! triplets over the triangulation-angle range reconstructed by the
-//! campaign's MVS at each pyramid level, vp-labelgen labels (on SfM's noisy
-//! poses, stage 3 on the 3D mesh of sparse points, as a user has them),
+//! campaign's MVS at each pyramid level on SfM's noisy poses and the depth
+//! ranges of SfM's sparse points, vp-labelgen labels (on the same poses,
+//! stage 3 on the 3D mesh of the sparse points, as a user has them),
 //! vp-forest training on the rendered pixels. The held-out sites are never
 //! among them.
 
@@ -23,18 +24,17 @@ use super::config::CampaignConfig;
 use super::curves::CurveAccumulator;
 use super::fly::{Matcher, Scene};
 use super::label_quality::LabelQuality;
+use super::sfm::SparseCandidates;
 use super::world::sfm_camera;
 use crate::error::{Result, SimError};
-use crate::mvs::{level_camera, PixelStatus, PixelTruth};
-use crate::noise::{gaussian, mix64};
+use crate::mvs::{level_camera, PixelTruth};
+use crate::noise::mix64;
 
 /// Margin around the rock within which training triplets focus, metres:
 /// the rock and the vegetation around it, as the ROI of a flight.
 const FOCUS_MARGIN_M: f64 = 6.0;
 /// Smallest training triangulation angle, degrees.
 const MIN_ANGLE_DEG: f64 = 2.0;
-/// One in this many visible pixels of a training view becomes a sparse point.
-const SPARSE_STRIDE: usize = 61;
 
 /// What the training campaign did.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
@@ -94,34 +94,25 @@ fn random_triplet(
     Some([cams[0], cams[1], cams[2]])
 }
 
-/// One triplet at one level: its images, truth and depth maps.
+/// One triplet at one level: its images, truth and depth maps (in the true
+/// cameras, for the label quality).
 type LevelRun = ([RgbImage; 3], [Vec<PixelTruth>; 3], [DepthMap; 3]);
 
-/// A seeded share of the points a triplet's views see, with SfM's point
-/// noise: the sparse points the site's stage-3 mesh is built from.
-fn sparse_points(
-    cams: &[Camera; 3],
-    truth: &[Vec<PixelTruth>; 3],
-    cfg: &CampaignConfig,
-    seed: u64,
-    out: &mut Vec<SurfaceSample>,
+/// Adds a triplet's sparse points (SfM of its images, [`TripletRun::sparse`])
+/// to the site's, each candidate once, observed from the SfM centres
+/// `sfm_centres` of the views that see it.
+fn add_sparse_points(
+    sparse: &[(usize, Point3<f64>, Vec<usize>)],
+    sfm_centres: &[Point3<f64>; 3],
+    out: &mut BTreeMap<usize, SurfaceSample>,
 ) {
-    for (v, cam) in cams.iter().enumerate() {
-        let w = cam.intrinsics.width as usize;
-        for (i, t) in truth[v].iter().enumerate() {
-            // Points matched in >= 2 images; about one in SPARSE_STRIDE pixels.
-            if !matches!(t.status, PixelStatus::Visible) || i % SPARSE_STRIDE != 0 {
-                continue;
-            }
-            let px = nalgebra::Point2::new((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
-            let p = cam.unproject(&px, f64::from(t.true_depth));
-            let g = |k: i64| gaussian(seed, v as i64, i as i64, k);
-            out.push(SurfaceSample {
-                position: p + Vector3::new(g(0), g(1), g(2)) * cfg.sfm.point_noise_m,
-                normal: None,
-                seen_from: vec![cam.center()],
-            });
-        }
+    for (i, p, views) in sparse {
+        let e = out.entry(*i).or_insert_with(|| SurfaceSample {
+            position: *p,
+            normal: None,
+            seen_from: Vec::new(),
+        });
+        e.seen_from.extend(views.iter().map(|&v| sfm_centres[v]));
     }
 }
 
@@ -140,10 +131,12 @@ fn train_site(
     params.seed = seed;
     let site = generate_site(&params)?;
     let caster = RayCaster::new(&site.mesh);
+    let candidates = SparseCandidates::of_site(&site.mesh, cfg, seed);
     let scene = Scene {
         mesh: &site.mesh,
         caster: &caster,
         texture_seed: seed,
+        candidates: &candidates,
     };
     let k = Intrinsics::from_hfov(t.width, t.height, t.hfov_deg)?;
     let matcher = Matcher::new(cfg)?;
@@ -151,7 +144,7 @@ fn train_site(
     let mut recs = Vec::new();
     // Per reconstruction id: each view's image at the level and its truth.
     let mut runs: BTreeMap<String, LevelRun> = BTreeMap::new();
-    let mut points = Vec::new();
+    let mut points = BTreeMap::new();
     let mut attempts = 0;
     let mut n = 0;
     while n < t.triplets_per_site && attempts < 20 * t.triplets_per_site {
@@ -159,13 +152,14 @@ fn train_site(
         let Some(cams) = random_triplet(&site, &caster, k, cfg, &mut rng) else {
             continue;
         };
-        // SfM's estimate of the three poses: what labelgen works with.
-        let sfm = [0usize, 1, 2].map(|v| sfm_camera(&cams[v], cfg, seed, (n << 2 | v) as u64));
+        // SfM's estimate of the three poses: what vp-mvs and labelgen work with.
+        let sfm = cams.each_ref().map(|c| sfm_camera(c, cfg, seed));
         for &level in &t.levels {
             let tseed = mix64(cfg.seed ^ mix64(seed ^ mix64((n as u64) << 8 | u64::from(level))));
             let run = matcher.triplet(
                 &scene,
                 [&cams[0], &cams[1], &cams[2]],
+                [&sfm[0], &sfm[1], &sfm[2]],
                 level,
                 None,
                 tseed,
@@ -174,12 +168,8 @@ fn train_site(
             stats.triplets += 1;
             stats.successful_triplets += usize::from(matcher.succeeded(&run.stats));
             if level == t.levels[0] {
-                let lc = [
-                    level_camera(&cams[0], level)?,
-                    level_camera(&cams[1], level)?,
-                    level_camera(&cams[2], level)?,
-                ];
-                sparse_points(&lc, &run.truth, cfg, mix64(tseed ^ 0x7370), &mut points);
+                let centres = sfm.each_ref().map(Camera::center);
+                add_sparse_points(&run.sparse, &centres, &mut points);
             }
             let id = format!("t{n:03}/level{level}");
             let view = |v: usize, d: DepthMap| -> Result<View> {
@@ -194,7 +184,7 @@ fn train_site(
                 id: id.clone(),
                 views: [view(0, d0)?, view(1, d1)?, view(2, d2)?],
             });
-            runs.insert(id, (run.images, run.truth, run.depth));
+            runs.insert(id, (run.images, run.truth, run.depth_in_truth));
         }
         n += 1;
     }
@@ -205,6 +195,7 @@ fn train_site(
     // Stage 3's mesh as a user has it: `vpctl mesh build`'s 3D mesher on
     // the sparse points. Too few or degenerate points (a tiny test site):
     // no mesh, and missing parts stay unlabelled, as for a user without one.
+    let points: Vec<SurfaceSample> = points.into_values().collect();
     let meshes = match reconstruct_surface(&points, &cfg.surface) {
         Ok(mesh) => Some(MissingPartMeshes::new(&mesh, t.labels.mesh_iterations)),
         Err(e) => {

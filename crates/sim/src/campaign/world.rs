@@ -13,6 +13,8 @@ use vp_scene::{Aabb, Camera, Intrinsics, Mesh};
 
 use super::config::CampaignConfig;
 use super::curves::CurveAccumulator;
+use super::features::FeatureMask;
+use super::sfm::SparseCandidates;
 use crate::error::{Result, SimError};
 use crate::noise::{gaussian, mix64};
 use crate::render::render;
@@ -29,6 +31,9 @@ pub struct World {
     pub roi: Aabb,
     /// Camera of every flight.
     pub intrinsics: Intrinsics,
+    /// The surface points SfM may triangulate (one SfM simulator for the
+    /// planning geometry and every reconstruction's depth range).
+    pub candidates: SparseCandidates,
 }
 
 impl World {
@@ -45,7 +50,9 @@ impl World {
             min: Point3::new(rb.min.x - m, rb.min.y - m, b.min.z - 1.0),
             max: Point3::new(rb.max.x + m, rb.max.y + m, b.max.z + 1.0),
         };
+        let candidates = SparseCandidates::of_site(&site.mesh, cfg, seed);
         Ok(World {
+            candidates,
             clearance: Clearance::new(&site.mesh),
             site,
             caster,
@@ -60,6 +67,7 @@ impl World {
             mesh: &self.site.mesh,
             caster: &self.caster,
             texture_seed: self.site.params.seed,
+            candidates: &self.candidates,
         }
     }
 
@@ -89,14 +97,19 @@ impl World {
     }
 }
 
-/// An acquired image: where it really was, where SfM thinks it was, and its
-/// predicted confidence (for F strategies).
+/// An acquired image: where it really was, where SfM thinks it was, where
+/// a feature detector fires on it, and its predicted confidence (for F
+/// strategies).
 #[derive(Debug, Clone)]
 pub struct Acquired {
     /// The true camera (renders, virtual MVS).
     pub truth: Camera,
-    /// The camera as SfM estimated it (the planner's input).
+    /// The camera as SfM estimated it (the planner's, the matcher's and
+    /// labelgen's input).
     pub sfm: Camera,
+    /// Where FAST fires on the rendered image (which sparse points SfM
+    /// gets from it).
+    pub features: FeatureMask,
     /// Predicted confidence, when the strategy predicts.
     pub confidence: Option<ConfidenceImage>,
 }
@@ -113,19 +126,31 @@ pub fn point_noise(seed: u64, p: &Point3<f64>, sigma: f64) -> Vector3<f64> {
     ) * sigma
 }
 
-/// The camera as SfM estimates it: true pose plus seeded position and rotation noise.
-pub fn sfm_camera(cam: &Camera, cfg: &CampaignConfig, seed: u64, index: u64) -> Camera {
-    let s = mix64(seed ^ mix64(index ^ 0x0073_666d));
+/// The camera as SfM estimates it: the true pose moved by the
+/// georeferencing error of the SfM model of `seed`, one rigid transform
+/// for every image of that model (rotation about the site's origin with
+/// `sfm.rotation_noise_deg` per axis, shift with `sfm.position_noise_m`
+/// per axis). The images' poses relative to each other are exact: bundle
+/// adjustment leaves sub-pixel reprojection errors, so the error a matcher
+/// sees is not epipolar; the planner and the evaluation see the shift.
+/// (Independent centimetre noise per camera, as before issue 34, would be a
+/// 1-2 % depth error at the campaign's short baselines: no SfM model has
+/// relative poses that poor.)
+pub fn sfm_camera(cam: &Camera, cfg: &CampaignConfig, seed: u64) -> Camera {
+    let s = mix64(seed ^ 0x0073_666d);
     let g = |k: i64| gaussian(s, k, 0, 0);
     let dp = Vector3::new(g(0), g(1), g(2)) * cfg.sfm.position_noise_m;
     let dr = Vector3::new(g(3), g(4), g(5)) * cfg.sfm.rotation_noise_deg.to_radians();
-    let pose = cam.world_from_cam;
-    let rot = UnitQuaternion::from_scaled_axis(dr) * pose.rotation;
-    let t = pose.translation.vector + dp;
-    Camera::new(
-        cam.intrinsics,
-        Isometry3::from_parts(Translation3::from(t), rot),
-    )
+    let georef =
+        Isometry3::from_parts(Translation3::from(dp), UnitQuaternion::from_scaled_axis(dr));
+    Camera::new(cam.intrinsics, georef * cam.world_from_cam)
+}
+
+/// SfM's estimates of `cams`, all in the SfM model of `seed`
+/// ([`sfm_camera`]): the one pose set a reconstruction, labelgen and the
+/// planner share.
+pub fn sfm_cameras(cams: &[Camera], cfg: &CampaignConfig, seed: u64) -> Vec<Camera> {
+    cams.iter().map(|c| sfm_camera(c, cfg, seed)).collect()
 }
 
 /// The initial flight: a nadir grid centred on the ROI (see [`super::config::InitFlight`]).
@@ -152,25 +177,31 @@ pub fn init_cameras(world: &World, cfg: &CampaignConfig) -> Vec<Camera> {
     cams
 }
 
-/// Renders each camera's image and predicts its confidence (when a forest
-/// is given); adds the learned confidence per material to `curves`.
+/// Renders each camera's image (`cams`: true, `sfm`: SfM's estimate of
+/// the same), finds its features and predicts its confidence (when a
+/// forest is given); adds the learned confidence per material to `curves`.
 pub fn acquire(
     world: &World,
     cams: &[Camera],
+    sfm: &[Camera],
     forest: Option<&Forest>,
     cfg: &CampaignConfig,
-    seed: u64,
-    first_index: u64,
     curves: &mut CurveAccumulator,
 ) -> Result<Vec<Acquired>> {
+    if cams.len() != sfm.len() {
+        return Err(SimError::Campaign(format!(
+            "{} cameras but {} SfM estimates",
+            cams.len(),
+            sfm.len()
+        )));
+    }
+    let mut rp = cfg.render.clone();
+    rp.texture_seed = world.site.params.seed;
     let mut out = Vec::with_capacity(cams.len());
-    for (j, cam) in cams.iter().enumerate() {
-        let index = first_index + j as u64;
+    for (cam, sfm) in cams.iter().zip(sfm) {
+        let img = render(&world.site.mesh, &world.caster, cam, &rp)?;
         let confidence = match forest {
             Some(forest) => {
-                let mut rp = cfg.render.clone();
-                rp.texture_seed = world.site.params.seed;
-                let img = render(&world.site.mesh, &world.caster, cam, &rp)?;
                 let conf = forest
                     .predict_image(&img.rgb, cfg.confidence_step)
                     .map_err(|e| {
@@ -183,7 +214,8 @@ pub fn acquire(
         };
         out.push(Acquired {
             truth: *cam,
-            sfm: sfm_camera(cam, cfg, seed, index),
+            sfm: *sfm,
+            features: FeatureMask::detect(&img.rgb),
             confidence,
         });
     }
