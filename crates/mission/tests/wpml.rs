@@ -231,7 +231,7 @@ fn our_kmz_has_one_photo_per_image_at_the_plan_exports_positions() {
         // Heading: WPML's [-180, 180] is the .plan's compass heading.
         let heading = q["params"][3].as_f64().unwrap();
         let d = (p.heading_deg.unwrap() - heading).rem_euclid(360.0);
-        assert!(d < 1e-2 || d > 360.0 - 1e-2, "waypoint {i} heading");
+        assert!(!(1e-2..=360.0 - 1e-2).contains(&d), "waypoint {i} heading");
     }
     assert!(line.distance_m > 0.0 && line.duration_s > line.distance_m / 5.0);
 }

@@ -247,10 +247,13 @@ pub fn run(cmd: MissionCommand, out: &mut dyn Write) -> Result<()> {
             let plan_path = plan;
             let plan = load_plan(&plan_path)?;
             let opts = mission.options(&plan)?;
-            let Some(path) = path.filter(|_| !format.is_text()) else {
-                let text = export_text(&plan, format, &opts)
-                    .with_context(|| format!("mission of {}", plan_path.display()))?;
-                return write_or_print(path.as_deref(), &text, out);
+            let path = match path {
+                Some(p) if !format.is_text() => p,
+                text_out => {
+                    let text = export_text(&plan, format, &opts)
+                        .with_context(|| format!("mission of {}", plan_path.display()))?;
+                    return write_or_print(text_out.as_deref(), &text, out);
+                }
             };
             let dji = DjiOptions {
                 drone,
