@@ -162,6 +162,10 @@ fn bad_dji_input_exits_2_and_writes_nothing() {
             &["nohome.json", "no home"],
         ),
         (
+            vec![&with_home, "--format", "wpml", "--drone", "m3e"],
+            &["--out mission.kmz"],
+        ),
+        (
             vec![&long, "--out", csv.to_str().unwrap()],
             &["long.json", "120 waypoints", "99", "--split"],
         ),

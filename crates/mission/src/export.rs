@@ -131,8 +131,10 @@ pub fn export_text(plan: &Plan, format: ExportFormat, opts: &MissionOptions) -> 
         ExportFormat::Qgc => export_qgc(plan, opts, &QgcOptions::default()),
         ExportFormat::Wpl => export_wpl(&build_mission(plan, opts)?),
         other => Err(MissionError::InvalidInput(format!(
-            "the {} format is written to a file: give an output path",
-            other.name()
+            "the {} format is written to a file, not printed: give one with --out (e.g. \
+             --out mission.{})",
+            other.name(),
+            other.extensions()[0]
         ))),
     }
 }
