@@ -12,16 +12,18 @@ echo "== cargo clippy (warnings denied)"
 cargo clippy --workspace --all-targets --locked -- -D warnings
 
 # A virtualenv for the Python-side peers (MAVSDK as an independent MAVLink
-# vehicle, pymavlink for MAVLink 2 signing). Created once; pip is a no-op when
+# vehicle, pymavlink for MAVLink 2 signing, litchi-wp reading Litchi CSVs). Created once; pip is a no-op when
 # the pins are already installed.
 if [ ! -x .venv/bin/python ]; then
   python3 -m venv .venv
 fi
 .venv/bin/python -m pip install --quiet --disable-pip-version-check \
   -r crates/mission/tests/mavsdk/requirements.txt \
-  -r crates/mission/tests/pymavlink/requirements.txt
+  -r crates/mission/tests/pymavlink/requirements.txt \
+  -r crates/cli/tests/litchi/requirements.txt
 export VP_MAVSDK_PYTHON="$PWD/.venv/bin/python" VP_REQUIRE_MAVSDK=1
 export VP_PYMAVLINK_PYTHON="$PWD/.venv/bin/python"
+export VP_LITCHI_PYTHON="$PWD/.venv/bin/python" VP_REQUIRE_LITCHI=1
 
 # The view checks' node packages (tests/js: gltf-validator, playwright-core),
 # exactly as pinned in its package-lock.json. No node or npm: this fails.

@@ -203,13 +203,32 @@ fn export(
         rtl,
     };
     let o = options(&plan.0, autopilot, k, home, ceiling, min_height)?;
-    let flights = export_flights(&plan.0, format, &o, out.as_deref()).py()?;
-    write_flights(&flights, force).py()?;
-    let mut texts: Vec<String> = flights.into_iter().map(|f| f.text).collect();
-    if texts.len() == 1 {
-        return Ok(texts.remove(0).into_pyobject(py)?.into_any().unbind());
+    let files = export_flights(
+        &plan.0,
+        format,
+        &o,
+        &vp_mission::DjiOptions::default(),
+        out.as_deref(),
+    )
+    .py()?;
+    write_flights(&files, force).py()?;
+    // Text formats as str, the others (a .kmz) as bytes.
+    let mut objs = Vec::with_capacity(files.len());
+    for f in files {
+        objs.push(if format.is_text() {
+            String::from_utf8_lossy(&f.bytes)
+                .into_owned()
+                .into_pyobject(py)?
+                .into_any()
+                .unbind()
+        } else {
+            pyo3::types::PyBytes::new(py, &f.bytes).into_any().unbind()
+        });
     }
-    Ok(texts.into_pyobject(py)?.into_any().unbind())
+    if objs.len() == 1 {
+        return Ok(objs.remove(0));
+    }
+    Ok(objs.into_pyobject(py)?.into_any().unbind())
 }
 
 fn connect_options(heartbeat_timeout: f64, timeout_scale: f64) -> PyResult<ConnectOptions> {

@@ -404,7 +404,8 @@ fn output_extensions_are_checked_and_pick_the_format() {
     );
     assert_eq!(o.status.code(), Some(2));
     assert!(text(&o.stderr).contains("'.txt'"), "{}", text(&o.stderr));
-    let o = vpctl(d, &["mission", "export", "g.json", "--out", "m.kml"]);
+    // (.kml is the Google Earth preview now: a shapefile is no mission.)
+    let o = vpctl(d, &["mission", "export", "g.json", "--out", "m.shp"]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(text(&o.stderr).contains("'.kml'"), "{}", text(&o.stderr));
+    assert!(text(&o.stderr).contains("'.shp'"), "{}", text(&o.stderr));
 }

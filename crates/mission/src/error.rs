@@ -11,6 +11,15 @@ pub enum MissionError {
     /// The plan or the options cannot be turned into a mission.
     #[error("invalid mission input: {0}")]
     InvalidInput(String),
+    /// A mission or area file (KMZ, WPML, KML, GeoJSON) that is not what
+    /// its format says: the file, the element and the problem.
+    #[error("{}: {message}", path.display())]
+    BadFile {
+        /// The file.
+        path: std::path::PathBuf,
+        /// Where in it and what is wrong.
+        message: String,
+    },
     /// The connection URL is malformed or names an unknown transport.
     #[error("connection URL {url:?}: {message} (expected udpin:HOST:PORT, udpout:HOST:PORT, tcpout:HOST:PORT or serial:DEVICE:BAUD)")]
     BadUrl {
@@ -139,6 +148,7 @@ impl MissionError {
             MissionError::Scene(e) => e.is_input_error(),
             MissionError::Explained { source, .. } => source.is_input_error(),
             MissionError::InvalidInput(_)
+            | MissionError::BadFile { .. }
             | MissionError::BadUrl { .. }
             | MissionError::SigningKey { .. } => true,
             _ => false,

@@ -6,67 +6,75 @@ use std::path::{Path, PathBuf};
 use vp_scene::plan::{Flight, Plan};
 
 use crate::error::{MissionError, Result};
-use crate::export::{export_text, ExportFormat};
+use crate::export::{export_files, export_text, DjiOptions, ExportFormat};
 use crate::items::MissionOptions;
 
-/// One exported mission: the file it goes to (none: standard output or a
-/// string) and its text.
+/// One exported file: where it goes (none: standard output or a string)
+/// and its bytes.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ExportedFlight {
     /// Where it is written; `None` when there is no output file.
     pub path: Option<PathBuf>,
-    /// The mission in the chosen format.
-    pub text: String,
+    /// The file's content.
+    pub bytes: Vec<u8>,
 }
 
-/// The missions of `plan`'s flights in `format` (one file each,
-/// [`flight_path`]), the one entry `vpctl mission export` and Python's
-/// `export` share. Several flights need an output file to number.
+/// The missions of `plan`'s flights in `format`, each flight's files named
+/// by [`flight_path`] (a Litchi mission split at 99 waypoints numbers its
+/// parts within that): the one entry `vpctl mission export` and Python's
+/// `export` share. Without `out` only the text formats of a one-flight plan
+/// can be returned (to print).
 pub fn export_flights(
     plan: &Plan,
     format: ExportFormat,
     opts: &MissionOptions,
+    dji: &DjiOptions,
     out: Option<&Path>,
 ) -> Result<Vec<ExportedFlight>> {
     let flights = flight_plans(plan);
     let n = flights.len();
-    if n > 1 && out.is_none() {
-        return Err(MissionError::InvalidInput(format!(
-            "the plan is split into {n} flights: give --out FILE and each flight is written              to its own numbered file (FILE-1, FILE-2, ...)"
-        )));
+    let Some(out) = out else {
+        if n > 1 {
+            return Err(MissionError::InvalidInput(format!(
+                "the plan is split into {n} flights: give --out FILE and each flight is written \
+                 to its own numbered file (FILE-1, FILE-2, ...)"
+            )));
+        }
+        return Ok(vec![ExportedFlight {
+            path: None,
+            bytes: export_text(plan, format, opts)?.into_bytes(),
+        }]);
+    };
+    let mut files = Vec::new();
+    for (i, p) in flights.iter().enumerate() {
+        let path = flight_path(out, i + 1, n);
+        let these = export_files(p, format, opts, dji, &path).map_err(|e| match e {
+            MissionError::InvalidInput(m) if n > 1 => {
+                MissionError::InvalidInput(format!("flight {}: {m}", i + 1))
+            }
+            other => other,
+        })?;
+        files.extend(these.into_iter().map(|(path, bytes)| ExportedFlight {
+            path: Some(path),
+            bytes,
+        }));
     }
-    flights
-        .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let text = export_text(p, format, opts).map_err(|e| match e {
-                MissionError::InvalidInput(m) if n > 1 => {
-                    MissionError::InvalidInput(format!("flight {}: {m}", i + 1))
-                }
-                other => other,
-            })?;
-            Ok(ExportedFlight {
-                path: out.map(|o| flight_path(o, i + 1, n)),
-                text,
-            })
-        })
-        .collect()
+    Ok(files)
 }
 
-/// Writes every exported flight that has a file, all or none: existing
+/// Writes every exported file that has a path, all or none: existing
 /// files are refused before anything is written (unless `force`), and a
 /// failed write removes the files written before it.
-pub fn write_flights(flights: &[ExportedFlight], force: bool) -> Result<()> {
-    use std::io::Write;
-    let files: Vec<(&PathBuf, &String)> = flights
+pub fn write_flights(files: &[ExportedFlight], force: bool) -> Result<()> {
+    let files: Vec<(&PathBuf, &Vec<u8>)> = files
         .iter()
-        .filter_map(|f| f.path.as_ref().map(|p| (p, &f.text)))
+        .filter_map(|f| f.path.as_ref().map(|p| (p, &f.bytes)))
         .collect();
     for (p, _) in &files {
         vp_scene::fsio::check_overwrite(p, force)?;
     }
-    for (i, (p, text)) in files.iter().enumerate() {
-        if let Err(e) = vp_scene::fsio::write_atomic(p, |w| w.write_all(text.as_bytes())) {
+    for (i, (p, bytes)) in files.iter().enumerate() {
+        if let Err(e) = vp_scene::fsio::write_file_atomic(p, bytes) {
             for (done, _) in &files[..i] {
                 let _ = std::fs::remove_file(done);
             }

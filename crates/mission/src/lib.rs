@@ -10,6 +10,9 @@
 //! - [`signing`]: MAVLink 2 message signing (key files, checks that say
 //!   why a message was ignored).
 //! - [`qgc`] and [`wpl`]: QGroundControl `.plan` and `QGC WPL 110` export.
+//! - [`wpml`] (and [`wpml_read`]): DJI WPML `.kmz` missions for DJI Pilot 2;
+//!   [`litchi`]: Litchi CSV; [`preview`]: a KML preview for Google Earth;
+//!   all from the photo points of [`fly::Flight`].
 //! - [`sim_vehicle`]: the simulated vehicle (`vpctl mission vehicle`): a vehicle-side mission server, a virtual-time link and a
 //!   lossy UDP relay, for tests and the simulator.
 //!
@@ -21,20 +24,26 @@ mod aftermath;
 pub mod error;
 pub mod export;
 pub mod flights;
+pub mod fly;
 pub mod geodesy;
 pub mod items;
 pub mod link;
+pub mod litchi;
+pub mod preview;
 pub mod protocol;
 pub mod qgc;
 pub mod signing;
 pub mod sim_vehicle;
 pub mod vehicle_home;
 pub mod wpl;
+pub mod wpml;
+pub mod wpml_read;
+pub mod xml;
 
 use std::time::Duration;
 
 pub use error::{MissionError, Result};
-pub use export::{export_text, ExportFormat};
+pub use export::{export_files, export_text, DjiOptions, ExportFormat};
 pub use flights::{export_flights, one_flight, write_flights, ExportedFlight};
 pub use items::heights;
 pub use items::{

@@ -10,7 +10,7 @@ use vp_mission::heights::{HeightLimits, UserMissionOptions};
 use vp_mission::sim_vehicle::{spawn_udp_vehicle, VehicleConfig};
 use vp_mission::{
     build_mission, export_flights, one_flight, write_flights, Autopilot, ConnectOptions,
-    HomePolicy, MissionItem, MissionOptions, Progress, SigningKey,
+    DjiOptions, HomePolicy, MissionItem, MissionOptions, Progress, SigningKey,
 };
 use vp_scene::fsio;
 use vp_scene::plan::Plan;
@@ -18,14 +18,29 @@ use vp_scene::plan::Plan;
 /// Mission subcommands.
 #[derive(Debug, Subcommand)]
 pub enum MissionCommand {
-    /// Export a plan as a QGroundControl `.plan` file or as `QGC WPL 110` text.
+    /// Export a plan as a QGroundControl `.plan` file, `QGC WPL 110` text, a
+    /// DJI WPML mission (`.kmz`, DJI Pilot 2 / FlightHub 2), a Litchi CSV or
+    /// a KML preview for Google Earth.
     Export {
         /// The plan (JSON written by `vpctl plan`).
         plan: PathBuf,
-        /// Output format (default: from the extension of --out, `.plan` for
-        /// qgc, `.waypoints` or `.txt` for wpl; qgc on standard output).
+        /// Output format (default: from the extension of --out: `.plan` qgc,
+        /// `.waypoints` or `.txt` wpl, `.kmz` wpml, `.csv` litchi, `.kml` a
+        /// preview; qgc on standard output).
         #[arg(long, value_enum)]
         format: Option<ExportFormat>,
+        /// The DJI aircraft of a `.kmz` (WPML) mission: m3e, m3t, m3m, m30,
+        /// m30t, m300, m350 (both with a Zenmuse H20), m3d, m3td.
+        #[arg(long, value_parser = drone_arg)]
+        drone: Option<vp_mission::wpml::Drone>,
+        /// Heights of a `.kmz`: relative (above the take-off point, the
+        /// plan's home) or wgs84 (ellipsoidal, converted from the plan's datum).
+        #[arg(long, value_parser = dji_heights_arg, default_value = "relative")]
+        dji_heights: vp_mission::wpml::WpmlHeights,
+        /// Litchi: write a plan over 99 waypoints as several missions
+        /// NAME-1.csv, NAME-2.csv, ... (flown one after another).
+        #[arg(long)]
+        split: bool,
         /// Output file; prints to standard output when absent. A plan split
         /// into flights (`plan --max-flight-time`) writes one numbered file
         /// per flight: `m.plan` -> `m-1.plan`, `m-2.plan`, ...
@@ -100,6 +115,22 @@ pub enum ExportFormat {
     Qgc,
     /// `QGC WPL 110` waypoint text.
     Wpl,
+    /// DJI WPML mission (`.kmz`).
+    Wpml,
+    /// Litchi waypoint CSV.
+    Litchi,
+    /// KML preview of the path and photos (not a mission).
+    Kml,
+}
+
+fn drone_arg(s: &str) -> std::result::Result<vp_mission::wpml::Drone, String> {
+    s.parse()
+        .map_err(|e: vp_mission::MissionError| e.to_string())
+}
+
+fn dji_heights_arg(s: &str) -> std::result::Result<vp_mission::wpml::WpmlHeights, String> {
+    s.parse()
+        .map_err(|e: vp_mission::MissionError| e.to_string())
 }
 
 /// Autopilot conventions.
@@ -219,6 +250,9 @@ pub fn run(cmd: MissionCommand, out: &mut dyn Write) -> Result<()> {
             out: path,
             force,
             mission,
+            drone,
+            dji_heights,
+            split,
         } => {
             let format = export_format(path.as_deref(), format)?;
             if let Some(p) = &path {
@@ -227,20 +261,28 @@ pub fn run(cmd: MissionCommand, out: &mut dyn Write) -> Result<()> {
             let plan_path = plan;
             let plan = load_plan(&plan_path)?;
             let opts = mission.options(&plan)?;
-            let flights = export_flights(&plan, format, &opts, path.as_deref())
+            let dji = DjiOptions {
+                drone,
+                heights: dji_heights,
+                split,
+                time_ms: std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map_or(0, |d| u64::try_from(d.as_millis()).unwrap_or(0)),
+            };
+            let files = export_flights(&plan, format, &opts, &dji, path.as_deref())
                 .with_context(|| format!("mission of {}", plan_path.display()))?;
-            write_flights(&flights, force)?;
-            for f in &flights {
+            write_flights(&files, force)?;
+            for f in &files {
                 match &f.path {
                     Some(p) => writeln!(out, "wrote {}", p.display())?,
-                    None => out.write_all(f.text.as_bytes())?,
+                    None => out.write_all(&f.bytes)?,
                 }
             }
-            if flights.len() > 1 {
+            let flights = plan.flights.len();
+            if flights > 1 {
                 writeln!(
                     out,
-                    "{} flights, one mission each: fly them in order, a fresh battery for each",
-                    flights.len()
+                    "{flights} flights, one mission each: fly them in order, a fresh battery for each"
                 )?;
             }
             Ok(())
@@ -418,6 +460,9 @@ fn export_format(
     let format = format.map(|f| match f {
         ExportFormat::Qgc => vp_mission::ExportFormat::Qgc,
         ExportFormat::Wpl => vp_mission::ExportFormat::Wpl,
+        ExportFormat::Wpml => vp_mission::ExportFormat::Wpml,
+        ExportFormat::Litchi => vp_mission::ExportFormat::Litchi,
+        ExportFormat::Kml => vp_mission::ExportFormat::Kml,
     });
     vp_mission::ExportFormat::for_output(out, format).map_err(|e| match e {
         vp_mission::MissionError::InvalidInput(m) => super::UsageError(format!("--out {m}")).into(),
