@@ -108,7 +108,7 @@ def test_run_writes_the_cli_label_folder_byte_for_byte(scene_files, tmp_path):
     for rel in want:
         assert got[rel] == want[rel], rel
     assert summary["reconstructions"] == 4 and summary["positive"] > 0
-    with pytest.raises(FileExistsError):
+    with pytest.raises(ValueError, match="earlier `vpctl labelgen run`"):
         vpctl.labelgen.run(root / "model", out=tmp_path / "py", **args)
     vpctl.labelgen.run(root / "model", out=tmp_path / "py", force=True, **args)
     (tmp_path / "mine").mkdir()
