@@ -46,7 +46,8 @@ pub struct SurfaceRequest {
 }
 
 impl SurfaceRequest {
-    /// IMLS with default parameters; no input yet.
+    /// `method` with default parameters; no input yet (set `colmap`
+    /// and/or `points`).
     pub fn new(method: SurfaceMethod) -> Self {
         SurfaceRequest {
             colmap: None,
