@@ -4,16 +4,18 @@
 //! as bytes, the support maps of a chunk of reconstructions as bytes, the
 //! summary of a chunk of labels. The logic is the crates':
 //! [`vp_forest::train_tree`] / [`vp_forest::assemble`],
-//! [`vp_mvs::run_image_set`], [`vp_labelgen::support_for`] /
+//! [`vp_mvs::run_image_set`], [`vp_labelgen::load_label_run`] (the loading
+//! `vpctl labelgen run` does), [`vp_labelgen::support_for`] /
 //! [`vp_labelgen::labels_for`].
 
 use std::path::PathBuf;
 
 use pyo3::prelude::*;
 use vp_forest::{Forest, TrainParams, TrainedTree, TrainingPlan, TrainingSet};
-use vp_labelgen::{io, LabelParams, LabelSummary, MissingPartMeshes, TripletReconstruction};
+use vp_labelgen::{
+    io, LabelParams, LabelRunRequest, LabelSummary, MissingPartMeshes, TripletReconstruction,
+};
 use vp_mvs::MvsParams;
-use vp_scene::colmap;
 
 use crate::convert;
 use crate::errors::{value_error, IntoPy};
@@ -39,13 +41,7 @@ impl PyTrainingData {
         max_per_label_image: Option<usize>,
     ) -> PyResult<Self> {
         py.detach(|| {
-            let labelled = vp_forest::load_label_dir(&images_dir, &labels_dir)?;
-            let mut set = match max_per_label_image {
-                Some(n) => TrainingSet::with_cap_per_label_image(n, seed),
-                None => TrainingSet::new(),
-            };
-            set.add_labelled(&labelled)?;
-            Ok::<_, vp_forest::ForestError>(set)
+            TrainingSet::from_label_dir(&images_dir, &labels_dir, max_per_label_image, seed)
         })
         .py()
         .map(PyTrainingData)
@@ -155,27 +151,15 @@ impl PyLabelData {
         params: Option<&Bound<'_, PyAny>>,
         frame_unchecked: bool,
     ) -> PyResult<Self> {
-        let p: LabelParams = convert::from_py(params, "params")?;
-        p.validate().py()?;
-        let rec = py.detach(|| colmap::read_model(&model)).py()?;
-        if !frame_unchecked {
-            colmap::check_frame(&model, &rec).py()?;
-        }
-        let list = vp_labelgen::triplets::read_triplet_list(&triplets).py()?;
-        let recs = py
-            .detach(|| io::load_reconstructions(&rec, &list, &depth_dir))
-            .py()?;
-        let meshes = match mesh {
-            Some(path) => {
-                let m = vp_scene::io::read_mesh(&path).py()?;
-                Some(py.detach(|| MissingPartMeshes::new(&m, p.mesh_iterations)))
-            }
-            None => None,
-        };
+        let mut req = LabelRunRequest::new(model, triplets, depth_dir);
+        req.mesh = mesh;
+        req.params = convert::from_py(params, "params")?;
+        req.frame_unchecked = frame_unchecked;
+        let run = py.detach(|| vp_labelgen::load_label_run(&req)).py()?;
         Ok(PyLabelData {
-            recs,
-            meshes,
-            params: p,
+            recs: run.reconstructions,
+            meshes: run.meshes,
+            params: run.params,
         })
     }
 

@@ -252,13 +252,7 @@ fn train_dirs(
     let p: TrainParams = convert::from_py(params, "params")?;
     p.validate().py()?;
     py.detach(|| {
-        let labelled = vp_forest::load_label_dir(&images_dir, &labels_dir)?;
-        let mut set = match max_per_label_image {
-            Some(n) => TrainingSet::with_cap_per_label_image(n, seed),
-            None => TrainingSet::new(),
-        };
-        set.add_labelled(&labelled)?;
-        drop(labelled);
+        let set = TrainingSet::from_label_dir(&images_dir, &labels_dir, max_per_label_image, seed)?;
         vp_forest::train(&set, &p, seed)
     })
     .py()

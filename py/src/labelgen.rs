@@ -7,7 +7,9 @@ use numpy::{PyArray2, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use vp_labelgen::triplets::{self, Triplet, TripletParams};
-use vp_labelgen::{io, LabelParams, LabelSummary, MissingPartMeshes, ReconLabels};
+use vp_labelgen::{
+    io, LabelOutput, LabelParams, LabelRunRequest, LabelSummary, MissingPartMeshes, ReconLabels,
+};
 use vp_labelgen::{TripletReconstruction, View};
 use vp_scene::fsio;
 
@@ -247,6 +249,38 @@ fn generate_labels(
     Ok(PyLabels(labels))
 }
 
+/// `vpctl labelgen run --colmap MODEL --triplets T --depth-dir D --out OUT
+/// [--mesh --frame-unchecked --force]` ([`vp_labelgen::run_labelling`]):
+/// loads, labels and writes the label folder and `summary.json`; returns
+/// the summary. `params`: any subset of `vpctl labelgen defaults`.
+#[pyfunction]
+#[pyo3(signature = (model, triplets, depth_dir, out, mesh = None, params = None, frame_unchecked = false, force = false))]
+fn run<'py>(
+    py: Python<'py>,
+    model: PathBuf,
+    triplets: PathBuf,
+    depth_dir: PathBuf,
+    out: PathBuf,
+    mesh: Option<PathBuf>,
+    params: Option<&Bound<'py, PyAny>>,
+    frame_unchecked: bool,
+    force: bool,
+) -> PyResult<Bound<'py, PyAny>> {
+    let mut req = LabelRunRequest::new(model, triplets, depth_dir);
+    req.mesh = mesh;
+    req.params = convert::from_py(params, "params")?;
+    req.frame_unchecked = frame_unchecked;
+    let output = LabelOutput {
+        out,
+        inputs: Vec::new(),
+        force,
+    };
+    let s = py
+        .detach(|| vp_labelgen::run_labelling(&req, &output))
+        .py()?;
+    convert::to_py(py, &s)
+}
+
 /// Registers the submodule.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyRecon>()?;
@@ -259,5 +293,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sparse_model, m)?)?;
     m.add_function(wrap_pyfunction!(load_reconstructions, m)?)?;
     m.add_function(wrap_pyfunction!(generate_labels, m)?)?;
+    m.add_function(wrap_pyfunction!(run, m)?)?;
     Ok(())
 }

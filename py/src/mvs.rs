@@ -1,16 +1,19 @@
 //! `vpctl._native.mvs`: vp-mvs (CPU PatchMatch multi-view stereo) on a
 //! COLMAP dense workspace or on labelgen triplets, writing exactly the files
 //! `vpctl mvs run` writes, or on images in memory returning numpy maps. The
-//! logic is [`vp_mvs::run_workspace`], [`vp_mvs::run_image_set`] and
-//! [`vp_mvs::reconstruct`]; this module only translates arguments.
+//! logic is the front doors `vpctl mvs run` calls too
+//! ([`vp_mvs::reconstruct_workspace`], [`vp_mvs::reconstruct_image_sets`])
+//! and [`vp_mvs::reconstruct`]; this module only translates arguments.
 
-use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use numpy::{PyArray2, PyArray3, PyReadonlyArray3};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use vp_mvs::{DepthNormalMap, MvsError, MvsParams, RunOptions, View};
+use vp_mvs::{
+    DepthNormalMap, ImageSet, ImageSetsRequest, MvsParams, RunOptions, SetShares, View,
+    WorkspaceRequest,
+};
 
 use crate::convert::{self, image2, image3, rgb};
 use crate::errors::{value_error, IntoPy};
@@ -38,14 +41,15 @@ fn run_workspace<'py>(
     seed: Option<u64>,
     force: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let options = RunOptions {
+    let mut req = WorkspaceRequest::new(workspace);
+    req.options = RunOptions {
         images,
         depth_range,
         params: params_with_seed(params, seed)?,
     };
-    vp_scene::fsio::check_overwrite(&workspace.join("fused.ply"), force).py()?;
+    req.force = force;
     let summary = py
-        .detach(|| vp_mvs::run_workspace(&workspace, &options, &mut |_| {}))
+        .detach(|| vp_mvs::reconstruct_workspace(&req, &mut |_| {}))
         .map_err(|e| crate::errors::mvs(&e))?;
     let d = PyDict::new(py);
     d.set_item("reconstructed", summary.reconstructed)?;
@@ -71,42 +75,23 @@ fn run_triplets(
     params: Option<&Bound<'_, PyAny>>,
     seed: Option<u64>,
     force: bool,
-) -> PyResult<BTreeMap<String, BTreeMap<u32, Vec<f64>>>> {
-    let p = params_with_seed(params, seed)?;
-    vp_scene::fsio::check_overwrite(&out, force).py()?;
-    let list = py
-        .detach(|| vp_labelgen::triplets::read_triplet_list(&triplets))
+) -> PyResult<SetShares> {
+    let params = params_with_seed(params, seed)?;
+    let sets = py
+        .detach(|| vp_labelgen::triplets::read_image_sets(&triplets))
         .py()?;
-    py.detach(|| {
-        let ws = vp_mvs::Workspace::open(&workspace)?;
-        for (i, t) in list.iter().enumerate() {
-            ws.select(Some(&t.images)).map_err(|e| MvsError::Input {
-                path: triplets.clone(),
-                message: format!("triplet {}: {e}", vp_labelgen::triplets::triplet_id(i)),
-            })?;
-        }
-        let mut shares = BTreeMap::new();
-        for (i, t) in list.iter().enumerate() {
-            let id = vp_labelgen::triplets::triplet_id(i);
-            let mut per_level = BTreeMap::new();
-            for &level in &levels {
-                let dir = out.join(&id).join(format!("level{level}"));
-                let s = vp_mvs::run_image_set(
-                    &ws,
-                    &t.images,
-                    level,
-                    depth_range,
-                    &p,
-                    &dir,
-                    &mut |_| {},
-                )?;
-                per_level.insert(level, s);
-            }
-            shares.insert(id, per_level);
-        }
-        Ok::<_, MvsError>(shares)
-    })
-    .map_err(|e| crate::errors::mvs(&e))
+    let mut req = ImageSetsRequest::new(
+        workspace,
+        sets.into_iter().map(ImageSet::from).collect(),
+        out,
+    );
+    req.list = Some(triplets);
+    req.levels = levels;
+    req.depth_range = depth_range;
+    req.params = params;
+    req.force = force;
+    py.detach(|| vp_mvs::reconstruct_image_sets(&req, &mut |_| {}))
+        .map_err(|e| crate::errors::mvs(&e))
 }
 
 /// Depth (H, W), normal (H, W, 3) and cost (H, W) arrays of one map.

@@ -2,9 +2,12 @@
 //! procedural site and a virtual MVS whose failures depend on material and
 //! triangulation angle; closed-loop campaigns (see [`crate::campaign`]).
 
+use std::path::PathBuf;
+
 use numpy::PyArray2;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use vp_sim::flight::{FlightRequest, FlyOptions};
 use vp_sim::{MvsProfile, RenderParams, VirtualMvs};
 
 use crate::convert::{self, image2, rgb_array};
@@ -101,9 +104,52 @@ impl PyVirtualMvs {
     }
 }
 
+/// `vpctl sim fly PLANS --site SITE --out OUT [--exact --output-type
+/// --max-points --force]` ([`vp_sim::flight::write_flight`]): flies the plan
+/// files in order over the config's site and writes `images/` and the
+/// COLMAP model `sparse/` with its `frame.json`, byte for byte as the CLI.
+/// Returns {images_dir, images, sparse_dir, points, min_views}.
+#[pyfunction]
+#[pyo3(signature = (plans, site, out, exact = false, output_type = "txt", max_points = 20_000, force = false))]
+fn fly<'py>(
+    py: Python<'py>,
+    plans: Vec<PathBuf>,
+    site: PathBuf,
+    out: PathBuf,
+    exact: bool,
+    output_type: &str,
+    max_points: usize,
+    force: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    let binary = match output_type {
+        "txt" => false,
+        "bin" => true,
+        other => {
+            return Err(value_error(format!(
+                "output_type {other:?}: expected \"txt\" or \"bin\""
+            )))
+        }
+    };
+    let mut req = FlightRequest::new(plans, site, out);
+    req.options = FlyOptions { exact, max_points };
+    req.binary = binary;
+    req.force = force;
+    let s = py
+        .detach(|| vp_sim::flight::write_flight(&req, &mut |_| {}))
+        .py()?;
+    let d = PyDict::new(py);
+    d.set_item("images_dir", s.images_dir)?;
+    d.set_item("images", s.images)?;
+    d.set_item("sparse_dir", s.sparse_dir)?;
+    d.set_item("points", s.points)?;
+    d.set_item("min_views", s.min_views)?;
+    Ok(d)
+}
+
 /// Registers the submodule.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyVirtualMvs>()?;
     m.add_function(wrap_pyfunction!(render, m)?)?;
+    m.add_function(wrap_pyfunction!(fly, m)?)?;
     crate::campaign::register(m)
 }

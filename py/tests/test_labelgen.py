@@ -89,6 +89,39 @@ def test_labels_equal_cli_run(scene_files, tmp_path):
     assert labels.summary() == summary
 
 
+def test_run_writes_the_cli_label_folder_byte_for_byte(scene_files, tmp_path):
+    """vpctl.labelgen.run is the front door `vpctl labelgen run` calls: the
+    same inputs give the same label files and summary, and the same refusals
+    (an earlier output without force, a folder vpctl did not write)."""
+    root = scene_files[0]
+    args = dict(triplets=root / "triplets.txt", depth_dir=root / "depth",
+                mesh=root / "mesh.ply", frame_unchecked=True)
+    (tmp_path / "lg.toml").write_text("min_support = 2\n")
+    run_cli("labelgen", "run", "--colmap", root / "model", "--triplets", args["triplets"],
+            "--depth-dir", args["depth_dir"], "--mesh", args["mesh"], "--out", tmp_path / "cli",
+            "--frame-unchecked", "--config", tmp_path / "lg.toml")
+    summary = vpctl.labelgen.run(root / "model", out=tmp_path / "py",
+                                 params={"min_support": 2}, **args)
+    got, want = files_under(tmp_path / "py"), files_under(tmp_path / "cli")
+    assert got.keys() == want.keys()
+    assert sum(k.endswith(".vplabel") for k in got) == 4 * 3
+    for rel in want:
+        assert got[rel] == want[rel], rel
+    assert summary["reconstructions"] == 4 and summary["positive"] > 0
+    with pytest.raises(ValueError, match="earlier `vpctl labelgen run`"):
+        vpctl.labelgen.run(root / "model", out=tmp_path / "py", **args)
+    vpctl.labelgen.run(root / "model", out=tmp_path / "py", force=True, **args)
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine/notes.txt").write_text("mine")
+    with pytest.raises(ValueError, match="mine"):
+        vpctl.labelgen.run(root / "model", out=tmp_path / "mine", **args)
+    # Without --frame-unchecked the model's frame.json is required, as in the CLI.
+    with pytest.raises((ValueError, FileNotFoundError), match="frame"):
+        vpctl.labelgen.run(root / "model", out=tmp_path / "f", triplets=args["triplets"],
+                           depth_dir=args["depth_dir"])
+    assert not (tmp_path / "f").exists()
+
+
 def test_reconstructions_from_numpy_and_bad_inputs(scene_files):
     root, _, _, triplets, cams = scene_files
     by_name = dict(cams)

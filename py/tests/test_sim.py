@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 import vpctl
+from conftest import files_under, run_cli
 
 
 @pytest.fixture(scope="module")
@@ -72,3 +73,33 @@ def test_virtual_mvs(world):
         vpctl.sim.VirtualMvs("colmap")
     with pytest.raises(ValueError, match="3"):
         mvs.reconstruct(mesh, caster, cams[:2])
+
+
+def test_fly_writes_the_cli_flight_byte_for_byte(tmp_path):
+    """vpctl.sim.fly is the front door `vpctl sim fly` calls: the same plan
+    and site give the same images, COLMAP model and frame.json, byte for
+    byte (noisy SfM poses included), and the same refusals."""
+    (tmp_path / "site.toml").write_text("[site]\nseed = 3\ntarget_faces = 8000\nsize = 40.0\n")
+    run_cli("scene", "generate", "--config", tmp_path / "site.toml", "--out", tmp_path / "site.ply")
+    run_cli("plan", "grid", "--mesh", tmp_path / "site.ply", "--config", tmp_path / "site.toml",
+            "--height", "35", "--overlap", "0.6", "--out", tmp_path / "g.json")
+    run_cli("sim", "fly", tmp_path / "g.json", "--site", tmp_path / "site.toml",
+            "--out", tmp_path / "cli", "--output-type", "bin")
+    s = vpctl.sim.fly([tmp_path / "g.json"], tmp_path / "site.toml", tmp_path / "py",
+                      output_type="bin")
+    got, want = files_under(tmp_path / "py"), files_under(tmp_path / "cli")
+    assert got.keys() == want.keys()
+    assert {"sparse/cameras.bin", "sparse/images.bin", "sparse/points3D.bin",
+            "sparse/frame.json", "images/g_0000.png"} <= got.keys()
+    for rel in want:
+        assert got[rel] == want[rel], rel
+    assert s["images"] == sum(k.startswith("images/") for k in got) > 3
+    assert s["points"] > 0 and s["min_views"] >= 2
+    with pytest.raises(ValueError, match="earlier `vpctl sim fly`"):
+        vpctl.sim.fly([tmp_path / "g.json"], tmp_path / "site.toml", tmp_path / "py")
+    with pytest.raises(ValueError, match="output_type"):
+        vpctl.sim.fly([tmp_path / "g.json"], tmp_path / "site.toml", tmp_path / "x",
+                      output_type="ply")
+    with pytest.raises(ValueError, match="clash"):
+        vpctl.sim.fly([tmp_path / "g.json"] * 2, tmp_path / "site.toml", tmp_path / "x")
+    assert not (tmp_path / "x").exists()

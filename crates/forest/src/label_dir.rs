@@ -99,6 +99,28 @@ pub fn load_label_dir(images_dir: &Path, labels_dir: &Path) -> Result<Vec<Labell
 }
 
 impl TrainingSet {
+    /// The training set of a label folder: the one entry `vpctl train`, the
+    /// Python `vpctl.forest.train_dirs` and the Dask workers' `TrainingData`
+    /// call, so that the same folders and seed give the same samples.
+    /// Images from `images_dir`, `<image name>.vplabel` files found under
+    /// `labels_dir` (as `vpctl labelgen run` writes them); with
+    /// `max_per_label_image`, at most that many pixels per label image,
+    /// drawn with `seed`.
+    pub fn from_label_dir(
+        images_dir: &Path,
+        labels_dir: &Path,
+        max_per_label_image: Option<usize>,
+        seed: u64,
+    ) -> Result<TrainingSet> {
+        let labelled = load_label_dir(images_dir, labels_dir)?;
+        let mut set = match max_per_label_image {
+            Some(cap) => TrainingSet::with_cap_per_label_image(cap, seed),
+            None => TrainingSet::new(),
+        };
+        set.add_labelled(&labelled)?;
+        Ok(set)
+    }
+
     /// Adds every [`LabelledImage`] of [`load_label_dir`].
     pub fn add_labelled(&mut self, images: &[LabelledImage]) -> Result<()> {
         for li in images {

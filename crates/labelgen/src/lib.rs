@@ -18,6 +18,7 @@
 
 pub mod error;
 pub mod io;
+pub mod job;
 pub mod measurement;
 pub mod missing;
 pub mod params;
@@ -33,6 +34,7 @@ use rayon::prelude::*;
 use vp_scene::raster::LabelImage;
 
 pub use error::{LabelgenError, Result};
+pub use job::{load_label_run, run_labelling, LabelOutput, LabelRun, LabelRunRequest};
 pub use measurement::{TripletReconstruction, View};
 pub use missing::MissingPartMeshes;
 pub use params::LabelParams;

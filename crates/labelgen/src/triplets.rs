@@ -299,6 +299,17 @@ pub fn read_triplet_list(path: &Path) -> Result<Vec<Triplet>> {
     Ok(out)
 }
 
+/// The triplet list at `path` as (id, image names) pairs: the image sets
+/// `vp_mvs::reconstruct_image_sets` reconstructs into the folders
+/// `vpctl labelgen run --depth-dir` reads.
+pub fn read_image_sets(path: &Path) -> Result<Vec<(String, Vec<String>)>> {
+    Ok(read_triplet_list(path)?
+        .into_iter()
+        .enumerate()
+        .map(|(i, t)| (triplet_id(i), t.images.to_vec()))
+        .collect())
+}
+
 /// Writes one COLMAP image list per triplet, `<dir>/<id>.txt`, creating
 /// `dir`. Refuses to overwrite existing lists unless `force`.
 pub fn write_image_lists(dir: &Path, triplets: &[Triplet], force: bool) -> Result<()> {

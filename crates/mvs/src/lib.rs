@@ -14,7 +14,9 @@
 //! reads a COLMAP dense workspace and writes COLMAP's layout and formats
 //! (`stereo/depth_maps`, `stereo/normal_maps`, `fused.ply`), so that vpctl,
 //! COLMAP and OpenMVS users read the same files. [`MvsParams`] holds every
-//! parameter with documented defaults.
+//! parameter with documented defaults. [`job`] holds the front doors the CLI
+//! and Python both call: [`reconstruct_workspace`] and
+//! [`reconstruct_image_sets`] (labelgen's triplets at pyramid levels).
 //!
 //! Every random choice comes from a hash of (seed, view, pixel, step): the
 //! same inputs and seed give the same bytes whatever the thread count.
@@ -24,6 +26,7 @@ mod cost;
 pub mod error;
 pub mod fusion;
 pub mod geometric;
+pub mod job;
 pub mod params;
 pub mod patchmatch;
 mod pyramid;
@@ -35,6 +38,10 @@ pub mod workspace;
 pub use error::{MvsError, Result};
 pub use fusion::{fuse, write_fused_ply, FusedPoint};
 pub use geometric::geometric_filter;
+pub use job::{
+    reconstruct_image_sets, reconstruct_workspace, ImageSet, ImageSetsRequest, SetShares,
+    WorkspaceRequest,
+};
 pub use params::MvsParams;
 pub use patchmatch::{patch_match, DepthNormalMap};
 pub use view::{GreyImage, View};

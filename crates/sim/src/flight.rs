@@ -11,12 +11,15 @@
 //! at most [`FlyOptions::max_points`]) that at least `sfm.min_views` images
 //! see, each with its track, as SfM triangulates them.
 
+use std::path::{Path, PathBuf};
+
 use nalgebra::Point3;
 use vp_labelgen::synthetic::sparse_model;
-use vp_scene::colmap::{ModelFrame, Reconstruction};
+use vp_scene::colmap::{self, ModelFrame, Reconstruction};
+use vp_scene::outdir::OutDir;
 use vp_scene::plan::Plan;
-use vp_scene::raster::RgbImage;
-use vp_scene::Camera;
+use vp_scene::raster::{save_rgb, RgbImage};
+use vp_scene::{Camera, SceneError};
 
 use crate::campaign::world::{point_noise, sfm_camera, World};
 use crate::campaign::CampaignConfig;
@@ -129,6 +132,109 @@ pub fn fly(
         model,
         frame,
         candidate_points: points.len(),
+    })
+}
+
+/// A `vpctl sim fly` job: plans flown in order over a campaign config's
+/// site, written as `images/` and a COLMAP `sparse/` model with its
+/// `frame.json`. `#[non_exhaustive]` with a constructor: a new option is a
+/// new field with a default.
+#[derive(Debug, Clone)]
+#[non_exhaustive]
+pub struct FlightRequest {
+    /// Plan files (JSON), flown in order; their file stems name the images.
+    pub plans: Vec<PathBuf>,
+    /// The campaign config (TOML) whose site, render, SfM and camera
+    /// sections describe the world.
+    pub site: PathBuf,
+    /// Exact poses, point budget.
+    pub options: FlyOptions,
+    /// Write the model in COLMAP's binary encoding instead of text.
+    pub binary: bool,
+    /// The output folder.
+    pub out: PathBuf,
+    /// Replace an earlier `sim fly` output in `out` (only vpctl's files).
+    pub force: bool,
+}
+
+impl FlightRequest {
+    /// Noisy poses, 20 000 points at most, a text model, no overwriting.
+    pub fn new(plans: Vec<PathBuf>, site: impl Into<PathBuf>, out: impl Into<PathBuf>) -> Self {
+        FlightRequest {
+            plans,
+            site: site.into(),
+            options: FlyOptions::default(),
+            binary: false,
+            out: out.into(),
+            force: false,
+        }
+    }
+}
+
+/// What [`write_flight`] wrote.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FlightSummary {
+    /// The images folder and how many images it holds.
+    pub images_dir: PathBuf,
+    /// Images written.
+    pub images: usize,
+    /// The model folder.
+    pub sparse_dir: PathBuf,
+    /// Sparse points in the model.
+    pub points: usize,
+    /// Views a sparse point needs (the config's `sfm.min_views`, at least 2).
+    pub min_views: usize,
+}
+
+/// Flies `req` (the one entry `vpctl sim fly` and Python's `vpctl.sim.fly`
+/// call): reads the config and the plans, checks the output folder before
+/// rendering, and writes the images and the model through an
+/// [`OutDir`], so a failure leaves no partial folder. Two plans with the
+/// same file stem are refused (their image names would clash).
+pub fn write_flight(req: &FlightRequest, progress: &mut dyn FnMut(&str)) -> Result<FlightSummary> {
+    let cfg = CampaignConfig::load(&req.site)?;
+    let inputs: Vec<&Path> = req
+        .plans
+        .iter()
+        .map(PathBuf::as_path)
+        .chain([req.site.as_path()])
+        .collect();
+    let out_dir = OutDir::check(&req.out, "sim fly", &inputs, req.force)?;
+    let mut loaded: Vec<(String, Plan)> = Vec::with_capacity(req.plans.len());
+    for p in &req.plans {
+        let plan = Plan::load(p)?;
+        let label = p
+            .file_stem()
+            .map_or_else(|| "view".into(), |s| s.to_string_lossy().into_owned());
+        if loaded.iter().any(|(l, _)| *l == label) {
+            return Err(SimError::InvalidArgument(format!(
+                "two plans are named {label}: image names would clash; rename one"
+            )));
+        }
+        loaded.push((label, plan));
+    }
+    let flight = fly(&cfg, &loaded, &req.options, progress)?;
+    out_dir.write(|stage| -> Result<()> {
+        let images = stage.join("images");
+        std::fs::create_dir_all(&images).map_err(|e| SceneError::io(&images, e))?;
+        for (name, img) in &flight.images {
+            save_rgb(img, &images.join(name))?;
+        }
+        let sparse = stage.join("sparse");
+        if req.binary {
+            colmap::write_binary(&sparse, &flight.model)?;
+        } else {
+            colmap::write_text(&sparse, &flight.model)?;
+        }
+        flight.frame.save(&sparse)?;
+        Ok(())
+    })?;
+    Ok(FlightSummary {
+        images_dir: req.out.join("images"),
+        images: flight.images.len(),
+        sparse_dir: req.out.join("sparse"),
+        points: flight.model.points.len(),
+        min_views: cfg.sfm.min_views.max(2),
     })
 }
 

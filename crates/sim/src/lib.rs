@@ -38,4 +38,4 @@ mod test_scenes;
 
 pub use error::{Result, SimError};
 pub use mvs::{MaterialCurve, MvsProfile, VirtualMvs};
-pub use render::{render, RenderParams, Rendered};
+pub use render::{look_at_camera, material_shares, render, RenderParams, Rendered};

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use vp_scene::colmap::DepthMap;
 use vp_scene::raster::RgbImage;
 use vp_scene::raycast::RayCaster;
-use vp_scene::{Camera, Material, Mesh};
+use vp_scene::{Camera, Intrinsics, Material, Mesh};
 
 use crate::error::{Result, SimError};
 use crate::noise::{gaussian, mix64};
@@ -244,4 +244,34 @@ fn image_noise_seed(camera: &Camera, seed: u64) -> u64 {
         .fold(mix64(seed ^ 0x006e_6f69_7365), |h, v| {
             mix64(h ^ v.to_bits())
         })
+}
+
+/// A camera at `from` looking at `at` (`vpctl sim render --from --at`);
+/// straight down or up it uses heading east (roll is undefined there).
+pub fn look_at_camera(k: Intrinsics, from: Point3<f64>, at: Point3<f64>) -> Result<Camera> {
+    let d = at - from;
+    if !(d.norm() > 0.0) {
+        return Err(SimError::InvalidArgument(
+            "--from and --at are the same point".into(),
+        ));
+    }
+    let horizontal = d.x.hypot(d.y);
+    if horizontal < 1e-6 * d.norm() {
+        let pitch = std::f64::consts::FRAC_PI_2.copysign(d.z);
+        return Ok(Camera::from_yaw_pitch(k, from, 0.0, pitch));
+    }
+    Ok(Camera::look_at(k, from, at)?)
+}
+
+/// The share of a rendering's pixels on each material of `mesh`, in
+/// [`Material::ALL`] order (`face_id` as [`Rendered::face_id`]; a face
+/// without a material counts as ground). Their sum is the share of pixels
+/// that see the surface.
+pub fn material_shares(mesh: &Mesh, face_id: &[u32]) -> [f64; Material::ALL.len()] {
+    let total = face_id.len().max(1) as f64;
+    let mut counts = [0usize; Material::ALL.len()];
+    for &f in face_id.iter().filter(|&&f| f != u32::MAX) {
+        counts[mesh.material(f as usize).unwrap_or(Material::Ground) as usize] += 1;
+    }
+    counts.map(|n| n as f64 / total)
 }

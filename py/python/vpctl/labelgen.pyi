@@ -47,3 +47,14 @@ def generate_labels(
     mesh: Optional[Mesh] = None,
     params: Optional[Mapping[str, Any]] = None,
 ) -> Labels: ...
+
+def run(
+    model: _Path,
+    triplets: _Path,
+    depth_dir: _Path,
+    out: _Path,
+    mesh: Optional[_Path] = None,
+    params: Optional[Mapping[str, Any]] = None,
+    frame_unchecked: bool = False,
+    force: bool = False,
+) -> dict[str, Any]: ...

@@ -37,7 +37,9 @@ def reconstruct(workspace, *, images=None, triplets=None, levels=(1,), out=None,
     ``depth_range``: ``(min, max)`` along the optical axis for every image
     (needed when the model has no 3D points). ``params``: a dict with any
     subset of ``vpctl mvs defaults``; ``seed`` overrides its seed.
-    ``force``: overwrite ``fused.ply`` or the ``out`` folder.
+    ``force``: overwrite ``fused.ply``, or replace an earlier output in
+    ``out`` (only the files vpctl wrote there, as ``vpctl mvs run``; a
+    non-empty folder vpctl did not write is refused with ``ValueError``).
 
     Raises ``FileNotFoundError`` for a missing workspace, triplet file or
     image, ``FileExistsError`` for existing output without ``force`` and

@@ -27,6 +27,15 @@ def render(
     camera: Camera,
     params: Optional[Mapping[str, Any]] = None,
 ) -> dict[str, npt.NDArray[Any]]: ...
+def fly(
+    plans: Sequence[Union[str, PathLike[str]]],
+    site: Union[str, PathLike[str]],
+    out: Union[str, PathLike[str]],
+    exact: bool = False,
+    output_type: str = "txt",
+    max_points: int = 20000,
+    force: bool = False,
+) -> dict[str, Any]: ...
 def campaign_config(
     config: Union[Mapping[str, Any], str, PathLike[str], None] = None, preset: str = "demo"
 ) -> dict[str, Any]: ...

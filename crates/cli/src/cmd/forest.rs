@@ -129,13 +129,7 @@ pub fn train(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
         );
     }
 
-    let labelled = load_label_dir(&a.images, &a.labels)?;
-    let mut set = match a.max_per_label_image {
-        Some(cap) => TrainingSet::with_cap_per_label_image(cap, a.seed),
-        None => TrainingSet::new(),
-    };
-    set.add_labelled(&labelled)?;
-    drop(labelled);
+    let set = TrainingSet::from_label_dir(&a.images, &a.labels, a.max_per_label_image, a.seed)?;
     writeln!(
         out,
         "training set: {} images, {} label images, {} positive and {} negative pixels",

@@ -3,10 +3,10 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::{Args, Subcommand};
 use vp_labelgen::triplets::{self, TripletParams};
-use vp_labelgen::{generate_labels, io, LabelParams, MissingPartMeshes};
+use vp_labelgen::{run_labelling, LabelOutput, LabelParams, LabelRunRequest};
 use vp_scene::{colmap, fsio};
 
 /// Label-generation subcommands.
@@ -150,33 +150,18 @@ fn sample(a: &TripletsArgs, out: &mut dyn Write) -> Result<()> {
 }
 
 fn label(a: &RunArgs, out: &mut dyn Write) -> Result<()> {
-    let inputs: Vec<&std::path::Path> = [&a.model, &a.triplets, &a.depth_dir]
-        .into_iter()
-        .map(PathBuf::as_path)
-        .chain(a.mesh.as_deref())
-        .chain(a.config.as_deref())
-        .collect();
-    let target = vp_scene::outdir::OutDir::check(&a.out_dir, "labelgen run", &inputs, a.force)?;
-    let params = match &a.config {
-        Some(path) => LabelParams::load(path)?,
-        None => LabelParams::default(),
+    let mut req = LabelRunRequest::new(&a.model, &a.triplets, &a.depth_dir);
+    req.mesh.clone_from(&a.mesh);
+    req.frame_unchecked = a.frame_unchecked;
+    let output = LabelOutput {
+        out: a.out_dir.clone(),
+        inputs: a.config.iter().cloned().collect(),
+        force: a.force,
     };
-    let model = colmap::read_model(&a.model)?;
-    if !a.frame_unchecked {
-        colmap::check_frame(&a.model, &model)?;
+    if let Some(path) = &a.config {
+        req.params = LabelParams::load(path)?;
     }
-    let list = triplets::read_triplet_list(&a.triplets)?;
-    let recs = io::load_reconstructions(&model, &list, &a.depth_dir)
-        .with_context(|| format!("loading depth maps from {}", a.depth_dir.display()))?;
-    let meshes = match &a.mesh {
-        Some(p) => Some(MissingPartMeshes::new(
-            &vp_scene::io::read_mesh(p)?,
-            params.mesh_iterations,
-        )),
-        None => None,
-    };
-    let labels = generate_labels(&recs, meshes.as_ref(), &params)?;
-    let s = target.write(|stage| io::write_labels(stage, &labels, false))?;
+    let s = run_labelling(&req, &output)?;
     writeln!(out, "reconstructions: {}", s.reconstructions)?;
     writeln!(out, "measured pixels: {}", s.measured)?;
     writeln!(out, "positive: {}", s.positive)?;

@@ -5,13 +5,11 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Subcommand;
-use vp_scene::height_field::{mesh_from_points, MeshingParams};
-use vp_scene::io::{self, MeshFormat};
-use vp_scene::surface::{
-    reconstruct_surface_with_report, samples_from_model, SurfaceParams, SurfaceSample,
-    SurfaceSolver,
-};
-use vp_scene::{colmap, fsio, Material, Mesh};
+use vp_scene::height_field::MeshingParams;
+use vp_scene::io;
+use vp_scene::surface::job::{write_surface, SurfaceBuildReport, SurfaceMethod, SurfaceRequest};
+use vp_scene::surface::SurfaceParams;
+use vp_scene::{Material, Mesh};
 
 /// How `vpctl mesh build` meshes the points.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -80,110 +78,52 @@ pub enum MeshCommand {
     },
 }
 
-/// Samples from the inputs; errors name the file.
-fn load_samples(
-    colmap_dir: Option<&std::path::Path>,
-    points: Option<&std::path::Path>,
-) -> Result<Vec<SurfaceSample>> {
-    let mut samples = Vec::new();
-    if let Some(dir) = colmap_dir {
-        samples.extend(samples_from_model(&colmap::read_model(dir)?));
-    }
-    if let Some(file) = points {
-        let (pts, normals) = io::load_points_with_normals(file)?;
-        let normals: Vec<Option<nalgebra::Vector3<f64>>> = match normals {
-            Some(n) => n.into_iter().map(Some).collect(),
-            None => vec![None; pts.len()],
-        };
-        samples.extend(
-            pts.into_iter()
-                .zip(normals)
-                .map(|(position, normal)| SurfaceSample {
-                    position,
-                    normal,
-                    seen_from: Vec::new(),
-                }),
-        );
-    }
-    Ok(samples)
-}
-
-fn build_3d(
-    samples: &[SurfaceSample],
-    points: Option<&std::path::Path>,
-    params: &SurfaceParams,
-    out: &mut dyn Write,
-) -> Result<Mesh> {
-    if let (Some(file), Some(i)) = (
-        points,
-        samples
-            .iter()
-            .position(|s| s.normal.is_none() && s.seen_from.is_empty()),
-    ) {
-        return Err(super::UsageError(format!(
-            "{}: point {i} has no normal (no 'nx ny nz' vertex properties?) and no camera saw \
-             it: a 3D surface needs one or the other; give a fused.ply with normals, a COLMAP \
-             model (--colmap), or use --method height-field",
-            file.display()
-        ))
-        .into());
-    }
-    let (mesh, r) = reconstruct_surface_with_report(samples, params)?;
-    writeln!(out, "points: {}", r.samples)?;
-    writeln!(
-        out,
-        "normals: {} given, {} estimated from neighbours and cameras",
-        r.samples - r.estimated_normals,
-        r.estimated_normals
-    )?;
-    writeln!(
-        out,
-        "spacing: {:.3} m; cell {:.3} m; trim distance {:.3} m",
-        r.spacing, r.leaf, r.trim_distance
-    )?;
-    writeln!(
-        out,
-        "faces: {} ({} far from the points and {} in small pieces dropped)",
-        mesh.n_faces(),
-        r.trimmed_faces,
-        r.small_piece_faces
-    )?;
-    Ok(mesh)
-}
-
-fn build_height_field(
-    samples: &[SurfaceSample],
+/// Prints what `mesh build` did: the numbers a user checks the surface by.
+fn print_report(
+    report: &SurfaceBuildReport,
+    mesh: &Mesh,
     max_edge: f64,
     out: &mut dyn Write,
-) -> Result<Mesh> {
-    let pts: Vec<_> = samples.iter().map(|s| s.position).collect();
-    let params = MeshingParams {
-        max_edge,
-        ..MeshingParams::default()
-    };
-    let (mesh, report) = mesh_from_points(&pts, &params)?;
-    if mesh.n_faces() == 0 {
-        return Err(super::UsageError(format!(
-            "no surface could be built from {} points (need at least 3 spread in x-y \
-             within --max-edge {max_edge} m)",
-            report.input_points
-        ))
-        .into());
+) -> Result<()> {
+    match report {
+        SurfaceBuildReport::Surface(r) => {
+            writeln!(out, "points: {}", r.samples)?;
+            writeln!(
+                out,
+                "normals: {} given, {} estimated from neighbours and cameras",
+                r.samples - r.estimated_normals,
+                r.estimated_normals
+            )?;
+            writeln!(
+                out,
+                "spacing: {:.3} m; cell {:.3} m; trim distance {:.3} m",
+                r.spacing, r.leaf, r.trim_distance
+            )?;
+            writeln!(
+                out,
+                "faces: {} ({} far from the points and {} in small pieces dropped)",
+                mesh.n_faces(),
+                r.trimmed_faces,
+                r.small_piece_faces
+            )?;
+        }
+        SurfaceBuildReport::HeightField(r) => {
+            writeln!(out, "points: {}", r.input_points)?;
+            writeln!(
+                out,
+                "dropped: {} non-finite, {} stacked, {} spikes",
+                r.non_finite, r.merged, r.spikes
+            )?;
+            writeln!(
+                out,
+                "faces: {} ({} longer than {max_edge} m and {} slivers dropped)",
+                mesh.n_faces(),
+                r.long_faces,
+                r.slivers
+            )?;
+        }
     }
-    writeln!(out, "points: {}", report.input_points)?;
-    writeln!(
-        out,
-        "dropped: {} non-finite, {} stacked, {} spikes",
-        report.non_finite, report.merged, report.spikes
-    )?;
-    writeln!(
-        out,
-        "faces: {} ({} longer than {max_edge} m and {} slivers dropped)",
-        mesh.n_faces(),
-        report.long_faces,
-        report.slivers
-    )?;
-    Ok(mesh)
+    Ok(())
 }
 
 pub fn run(cmd: MeshCommand, out: &mut dyn Write) -> Result<()> {
@@ -199,26 +139,18 @@ pub fn run(cmd: MeshCommand, out: &mut dyn Write) -> Result<()> {
             max_edge,
             force,
         } => {
-            fsio::check_overwrite(&path, force)?;
-            let format = MeshFormat::for_path(&path)?;
-            let samples = load_samples(colmap.as_deref(), points.as_deref())?;
-            let mesh = match method {
-                Method::HeightField => build_height_field(&samples, max_edge, out)?,
-                Method::Imls | Method::Poisson => {
-                    let params = SurfaceParams {
-                        solver: if method == Method::Poisson {
-                            SurfaceSolver::Poisson
-                        } else {
-                            SurfaceSolver::Imls
-                        },
-                        cell_size,
-                        trim_distance,
-                        ..SurfaceParams::default()
-                    };
-                    build_3d(&samples, points.as_deref(), &params, out)?
-                }
-            };
-            io::write_mesh(&path, &mesh, format)?;
+            let mut req = SurfaceRequest::new(match method {
+                Method::Imls => SurfaceMethod::Imls,
+                Method::Poisson => SurfaceMethod::Poisson,
+                Method::HeightField => SurfaceMethod::HeightField,
+            });
+            req.colmap = colmap;
+            req.points = points;
+            req.surface.cell_size = cell_size;
+            req.surface.trim_distance = trim_distance;
+            req.height_field.max_edge = max_edge;
+            let (mesh, report) = write_surface(&req, &path, force)?;
+            print_report(&report, &mesh, max_edge, out)?;
             writeln!(out, "wrote {}", path.display())?;
             Ok(())
         }

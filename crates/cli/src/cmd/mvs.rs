@@ -1,11 +1,14 @@
 //! `vpctl mvs ...`: dense multi-view stereo on a COLMAP dense workspace.
 
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
-use vp_mvs::{run_workspace, MvsParams, RunOptions};
+use vp_mvs::{
+    reconstruct_image_sets, reconstruct_workspace, ImageSet, ImageSetsRequest, MvsParams,
+    RunOptions, WorkspaceRequest,
+};
 
 /// MVS subcommands.
 #[derive(Debug, Subcommand)]
@@ -89,18 +92,17 @@ pub fn run(cmd: MvsCommand, out: &mut dyn Write) -> Result<()> {
                 params.seed = seed;
             }
             if let (Some(list), Some(out_dir)) = (&args.triplets, &args.out) {
-                return run_triplets(&args, list, out_dir, &params, out);
+                return run_triplets(&args, list, out_dir, params, out);
             }
-            vp_scene::fsio::check_overwrite(&args.workspace.join("fused.ply"), args.force)?;
-            let options = RunOptions {
+            let mut req = WorkspaceRequest::new(&args.workspace);
+            req.options = RunOptions {
                 images: args.images,
                 depth_range: args.depth_range,
                 params,
             };
+            req.force = args.force;
             let start = std::time::Instant::now();
-            let summary = run_workspace(&args.workspace, &options, &mut |line| {
-                eprintln!("mvs: {line}");
-            })?;
+            let summary = reconstruct_workspace(&req, &mut |line| eprintln!("mvs: {line}"))?;
             for (name, share) in summary
                 .reconstructed
                 .iter()
@@ -125,59 +127,43 @@ pub fn run(cmd: MvsCommand, out: &mut dyn Write) -> Result<()> {
 }
 
 /// `mvs run --triplets`: every triplet at every level, into the layout
-/// labelgen reads. Everything is checked before the first reconstruction.
+/// labelgen reads ([`reconstruct_image_sets`]).
 fn run_triplets(
     args: &RunArgs,
-    list: &std::path::Path,
-    out_dir: &std::path::Path,
-    params: &MvsParams,
+    list: &Path,
+    out_dir: &Path,
+    params: MvsParams,
     out: &mut dyn Write,
 ) -> Result<()> {
-    let mut inputs = vec![args.workspace.as_path(), list];
-    inputs.extend(args.config.as_deref());
-    let target = vp_scene::outdir::OutDir::check(out_dir, "mvs run", &inputs, args.force)?;
-    let triplets = vp_labelgen::triplets::read_triplet_list(list)?;
-    let ws = vp_mvs::Workspace::open(&args.workspace)?;
-    for (i, t) in triplets.iter().enumerate() {
-        ws.select(Some(&t.images)).with_context(|| {
-            format!(
-                "{}: triplet {}",
-                list.display(),
-                vp_labelgen::triplets::triplet_id(i)
-            )
-        })?;
-    }
+    let sets = vp_labelgen::triplets::read_image_sets(list)?;
+    let mut req = ImageSetsRequest::new(
+        &args.workspace,
+        sets.into_iter().map(ImageSet::from).collect(),
+        out_dir,
+    );
+    req.list = Some(list.to_path_buf());
+    req.levels.clone_from(&args.levels);
+    req.depth_range = args.depth_range;
+    req.params = params;
+    req.inputs.extend(args.config.clone());
+    req.force = args.force;
     let start = std::time::Instant::now();
-    target.write(|stage| -> Result<()> {
-        for (i, t) in triplets.iter().enumerate() {
-            let id = vp_labelgen::triplets::triplet_id(i);
-            for &level in &args.levels {
-                eprintln!(
-                    "mvs: triplet {id} ({}/{}) level {level}",
-                    i + 1,
-                    triplets.len()
-                );
-                let dir = stage.join(&id).join(format!("level{level}"));
-                let shares = vp_mvs::run_image_set(
-                    &ws,
-                    &t.images,
-                    level,
-                    args.depth_range,
-                    params,
-                    &dir,
-                    &mut |_| {},
-                )?;
-                let mean = shares.iter().sum::<f64>() / shares.len().max(1) as f64;
-                writeln!(
-                    out,
-                    "{id} level{level}: {:.1}% of pixels with a geometric depth",
-                    100.0 * mean
-                )?;
-            }
+    let shares = reconstruct_image_sets(&req, &mut |line| eprintln!("mvs: {line}"))?;
+    for set in &req.sets {
+        for level in &req.levels {
+            let Some(s) = shares.get(&set.id).and_then(|m| m.get(level)) else {
+                continue;
+            };
+            let mean = s.iter().sum::<f64>() / s.len().max(1) as f64;
+            writeln!(
+                out,
+                "{} level{level}: {:.1}% of pixels with a geometric depth",
+                set.id,
+                100.0 * mean
+            )?;
         }
-        Ok(())
-    })?;
-    writeln!(out, "triplets: {} -> {}", triplets.len(), out_dir.display())?;
+    }
+    writeln!(out, "triplets: {} -> {}", req.sets.len(), out_dir.display())?;
     writeln!(out, "time: {:.1} s", start.elapsed().as_secs_f64())?;
     Ok(())
 }

@@ -8,13 +8,12 @@ use anyhow::{Context, Result};
 use clap::Subcommand;
 use nalgebra::Point3;
 use vp_scene::colmap::write_depth_map;
-use vp_scene::outdir::OutDir;
 use vp_scene::procedural::{generate_site, SiteParams};
 use vp_scene::raster::save_rgb;
 use vp_scene::raycast::RayCaster;
-use vp_scene::{colmap, fsio, Camera, Intrinsics, Material};
-use vp_sim::flight::FlyOptions;
-use vp_sim::{render, RenderParams, SimError};
+use vp_scene::{fsio, Intrinsics, Material};
+use vp_sim::flight::{write_flight, FlightRequest, FlyOptions};
+use vp_sim::{look_at_camera, material_shares, render, RenderParams};
 
 /// Simulation subcommands.
 #[derive(Debug, Subcommand)]
@@ -148,22 +147,6 @@ fn parse_point(s: &str) -> Result<[f64; 3], String> {
     Ok([num(x)?, num(y)?, num(z)?])
 }
 
-/// A camera at `from` looking at `at`; straight down or up it uses heading
-/// east (roll is undefined there).
-fn camera(k: Intrinsics, from: [f64; 3], at: [f64; 3]) -> Result<Camera> {
-    let (c, t) = (Point3::from(from), Point3::from(at));
-    let d = t - c;
-    if !(d.norm() > 0.0) {
-        return Err(SimError::InvalidArgument("--from and --at are the same point".into()).into());
-    }
-    let horizontal = d.x.hypot(d.y);
-    if horizontal < 1e-6 * d.norm() {
-        let pitch = std::f64::consts::FRAC_PI_2.copysign(d.z);
-        return Ok(Camera::from_yaw_pitch(k, c, 0.0, pitch));
-    }
-    Ok(Camera::look_at(k, c, t)?)
-}
-
 pub fn run(cmd: SimCommand, out: &mut dyn Write) -> Result<()> {
     match cmd {
         SimCommand::Fly {
@@ -174,15 +157,13 @@ pub fn run(cmd: SimCommand, out: &mut dyn Write) -> Result<()> {
             output_type,
             max_points,
             force,
-        } => fly(
-            &plans,
-            &site,
-            &dir,
-            &FlyOptions { exact, max_points },
-            output_type == "bin",
-            force,
-            out,
-        ),
+        } => {
+            let mut req = FlightRequest::new(plans, site, dir);
+            req.options = FlyOptions { exact, max_points };
+            req.binary = output_type == "bin";
+            req.force = force;
+            fly(&req, out)
+        }
         SimCommand::Train {
             config,
             out: path,
@@ -216,7 +197,7 @@ pub fn run(cmd: SimCommand, out: &mut dyn Write) -> Result<()> {
                 fsio::check_overwrite(d, force)?;
             }
             let k = Intrinsics::from_hfov(width, height, hfov)?;
-            let cam = camera(k, from, at)?;
+            let cam = look_at_camera(k, Point3::from(from), Point3::from(at))?;
             let site = generate_site(&SiteParams {
                 seed,
                 target_faces: faces,
@@ -235,19 +216,14 @@ pub fn run(cmd: SimCommand, out: &mut dyn Write) -> Result<()> {
                 write_depth_map(d, &r.depth)?;
                 writeln!(out, "wrote {}", d.display())?;
             }
-            let total = r.face_id.len().max(1) as f64;
-            let mut counts = [0usize; Material::ALL.len()];
-            for &f in r.face_id.iter().filter(|&&f| f != u32::MAX) {
-                counts[site.mesh.material(f as usize).unwrap_or(Material::Ground) as usize] += 1;
-            }
-            let hit: usize = counts.iter().sum();
+            let shares = material_shares(&site.mesh, &r.face_id);
             writeln!(
                 out,
                 "surface: {:.1} % of pixels",
-                100.0 * hit as f64 / total
+                100.0 * shares.iter().sum::<f64>()
             )?;
-            for (m, n) in Material::ALL.iter().zip(counts) {
-                writeln!(out, "  {}: {:.1} %", m.name(), 100.0 * n as f64 / total)?;
+            for (m, share) in Material::ALL.iter().zip(shares) {
+                writeln!(out, "  {}: {:.1} %", m.name(), 100.0 * share)?;
             }
             Ok(())
         }
@@ -255,68 +231,25 @@ pub fn run(cmd: SimCommand, out: &mut dyn Write) -> Result<()> {
 }
 
 /// `vpctl sim fly`.
-fn fly(
-    plans: &[PathBuf],
-    site: &Path,
-    dir: &Path,
-    opts: &FlyOptions,
-    binary: bool,
-    force: bool,
-    out: &mut dyn Write,
-) -> Result<()> {
-    let cfg = vp_sim::campaign::CampaignConfig::load(site)?;
-    let inputs: Vec<&Path> = plans.iter().map(PathBuf::as_path).chain([site]).collect();
-    let out_dir = OutDir::check(dir, "sim fly", &inputs, force)?;
-    let sparse = dir.join("sparse");
-    let images_dir = dir.join("images");
-    let mut loaded = Vec::with_capacity(plans.len());
-    for p in plans {
-        let plan = vp_scene::plan::Plan::load(p)?;
-        let label = p
-            .file_stem()
-            .map_or_else(|| "view".into(), |s| s.to_string_lossy().into_owned());
-        if loaded.iter().any(|(l, _)| *l == label) {
-            return Err(super::UsageError(format!(
-                "two plans are named {label}: image names would clash; rename one"
-            ))
-            .into());
-        }
-        loaded.push((label, plan));
-    }
+fn fly(req: &FlightRequest, out: &mut dyn Write) -> Result<()> {
     let progress = super::Progress::new();
-    let flight = vp_sim::flight::fly(&cfg, &loaded, opts, &mut |m| progress.line(m))?;
-    out_dir.write(|stage| -> Result<()> {
-        let images = stage.join("images");
-        std::fs::create_dir_all(&images)
-            .with_context(|| format!("creating {}", images.display()))?;
-        for (name, img) in &flight.images {
-            save_rgb(img, &images.join(name))?;
-        }
-        let sparse = stage.join("sparse");
-        if binary {
-            colmap::write_binary(&sparse, &flight.model)?;
-        } else {
-            colmap::write_text(&sparse, &flight.model)?;
-        }
-        flight.frame.save(&sparse)?;
-        Ok(())
-    })?;
+    let s = write_flight(req, &mut |m| progress.line(m))?;
     writeln!(
         out,
         "wrote {} images to {}",
-        flight.images.len(),
-        images_dir.display()
+        s.images,
+        s.images_dir.display()
     )?;
     writeln!(
         out,
         "wrote {} ({} images, {} sparse points seen by >= {} images, {} poses)",
-        sparse.display(),
-        flight.model.images.len(),
-        flight.model.points.len(),
-        cfg.sfm.min_views.max(2),
-        if opts.exact { "exact" } else { "noisy" }
+        s.sparse_dir.display(),
+        s.images,
+        s.points,
+        s.min_views,
+        if req.options.exact { "exact" } else { "noisy" }
     )?;
-    if flight.model.points.is_empty() {
+    if s.points == 0 {
         eprintln!(
             "warning: no surface point is seen by two images: `vpctl plan` will have nothing \
              to plan on; fly with more overlap (plan grid --overlap)"

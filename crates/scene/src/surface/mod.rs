@@ -33,6 +33,7 @@
 
 mod extract;
 mod grid;
+pub mod job;
 mod normals;
 
 use nalgebra::{Matrix3, Point3, Vector3};

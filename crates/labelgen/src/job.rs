@@ -1,0 +1,133 @@
+//! The front door of a labelling run: the one library entry `vpctl labelgen
+//! run`, the Python `vpctl.labelgen.run` and the Dask workers
+//! (`vpctl.distributed`) all call, so that each loads the same inputs the
+//! same way (the frame check, the triplet list, the depth folder, the mesh
+//! for missing parts) and writes the same label folder.
+//!
+//! [`load_label_run`] reads everything a run needs; [`run_labelling`] checks
+//! the output folder first, loads, labels ([`crate::generate_labels`]) and
+//! writes the labels and `summary.json` through a
+//! [`vp_scene::outdir::OutDir`], so a failure leaves no partial folder.
+//!
+//! The request is `#[non_exhaustive]` with a constructor: a new option is a
+//! new field with a default, and no caller breaks.
+
+use std::path::{Path, PathBuf};
+
+use vp_scene::colmap;
+use vp_scene::outdir::OutDir;
+
+use crate::error::Result;
+use crate::{generate_labels, TripletReconstruction};
+use crate::{io, triplets, LabelParams, LabelSummary, MissingPartMeshes, ReconLabels};
+
+/// A labelling run, as `vpctl labelgen run` takes it.
+#[derive(Debug, Clone)]
+#[non_exhaustive]
+pub struct LabelRunRequest {
+    /// The COLMAP model with the poses of every image (with `frame.json`).
+    pub model: PathBuf,
+    /// The triplet list (`vpctl labelgen triplets`).
+    pub triplets: PathBuf,
+    /// The depth folder: `<triplet id>/level<L>/<image>.geometric.bin`.
+    pub depth_dir: PathBuf,
+    /// A surface mesh for missing-part negatives (stage 3); without it,
+    /// holes stay unlabelled.
+    pub mesh: Option<PathBuf>,
+    /// Label parameters.
+    pub params: LabelParams,
+    /// Skip the frame check: the model is already metric, gravity-aligned
+    /// local ENU.
+    pub frame_unchecked: bool,
+}
+
+impl LabelRunRequest {
+    /// Default parameters, no mesh, the frame checked.
+    pub fn new(
+        model: impl Into<PathBuf>,
+        triplets: impl Into<PathBuf>,
+        depth_dir: impl Into<PathBuf>,
+    ) -> Self {
+        LabelRunRequest {
+            model: model.into(),
+            triplets: triplets.into(),
+            depth_dir: depth_dir.into(),
+            mesh: None,
+            params: LabelParams::default(),
+            frame_unchecked: false,
+        }
+    }
+
+    /// The files and folders the run reads (which its output may not hold).
+    pub fn inputs(&self) -> Vec<&Path> {
+        [&self.model, &self.triplets, &self.depth_dir]
+            .into_iter()
+            .map(PathBuf::as_path)
+            .chain(self.mesh.as_deref())
+            .collect()
+    }
+}
+
+/// Everything a labelling run reads, loaded.
+pub struct LabelRun {
+    /// Every (triplet, level) reconstruction, in id order.
+    pub reconstructions: Vec<TripletReconstruction>,
+    /// The missing-part meshes, when a mesh was given.
+    pub meshes: Option<MissingPartMeshes>,
+    /// The parameters (validated).
+    pub params: LabelParams,
+}
+
+/// Loads the run of `req`: the model (frame-checked unless told not to),
+/// the triplet list, the depth maps and the mesh. Errors name the file.
+pub fn load_label_run(req: &LabelRunRequest) -> Result<LabelRun> {
+    req.params.validate()?;
+    let model = colmap::read_model(&req.model)?;
+    if !req.frame_unchecked {
+        colmap::check_frame(&req.model, &model)?;
+    }
+    let list = triplets::read_triplet_list(&req.triplets)?;
+    let reconstructions = io::load_reconstructions(&model, &list, &req.depth_dir)?;
+    let meshes = match &req.mesh {
+        Some(p) => Some(MissingPartMeshes::new(
+            &vp_scene::io::read_mesh(p)?,
+            req.params.mesh_iterations,
+        )),
+        None => None,
+    };
+    Ok(LabelRun {
+        reconstructions,
+        meshes,
+        params: req.params.clone(),
+    })
+}
+
+impl LabelRun {
+    /// Labels every view of every reconstruction (stages 1-3).
+    pub fn label(&self) -> Result<Vec<ReconLabels>> {
+        generate_labels(&self.reconstructions, self.meshes.as_ref(), &self.params)
+    }
+}
+
+/// Where a labelling run writes.
+#[derive(Debug, Clone)]
+pub struct LabelOutput {
+    /// The output folder: `<triplet id>/level<L>/<image>.vplabel` and
+    /// `summary.json`.
+    pub out: PathBuf,
+    /// Other files the job read (the config), which `out` may not hold.
+    pub inputs: Vec<PathBuf>,
+    /// Replace an earlier `labelgen run` output in `out` (only vpctl's files).
+    pub force: bool,
+}
+
+/// The labelling run of `req` into `output` (see the module doc); returns
+/// the summary written to `summary.json`.
+pub fn run_labelling(req: &LabelRunRequest, output: &LabelOutput) -> Result<LabelSummary> {
+    let mut inputs = req.inputs();
+    inputs.extend(output.inputs.iter().map(PathBuf::as_path));
+    let target = OutDir::check(&output.out, "labelgen run", &inputs, output.force)?;
+    let run = load_label_run(req)?;
+    let labels = run.label()?;
+    target.write(|stage| io::write_labels(stage, &labels, false))
+}
