@@ -82,28 +82,34 @@ pub(crate) fn cost_volume(pair: &RectifiedPair, cw: usize, ch: usize) -> Vec<u8>
 }
 
 /// One step of a scanline: `cur[1..=nd]` from the previous pixel's
-/// `prev[1..=nd]` (both padded with `BIG` at 0 and nd + 1), Hirschmüller's
-/// recursion `L(p, d) = C(p, d) + min(L(p-r, d), L(p-r, d±1) + P1,
-/// min L(p-r) + P2) - min L(p-r)`. Returns nothing: `cur`'s minimum is
-/// taken by the next step.
+/// `prev[1..=nd]` (both padded with `BIG` at 0 and nd + 1) and its minimum
+/// `prev_min`, Hirschmüller's recursion `L(p, d) = C(p, d) + min(L(p-r, d),
+/// L(p-r, d±1) + P1, min L(p-r) + P2) - min L(p-r)`. Returns the minimum of
+/// `cur`, which the next step needs.
 #[inline]
-fn step(cost: &[u8], prev: &[u16], p1: u16, p2: u16, cur: &mut [u16]) {
+fn step(cost: &[u8], prev: &[u16], prev_min: u16, p1: u16, p2: u16, cur: &mut [u16]) -> u16 {
     let nd = cost.len();
-    let prev_min = prev[1..=nd].iter().copied().min().unwrap_or(0);
     let lim = prev_min + p2;
     let (lo, mid, hi) = (&prev[..nd], &prev[1..=nd], &prev[2..nd + 2]);
-    for d in 0..nd {
-        let v = mid[d].min(lo[d] + p1).min(hi[d] + p1).min(lim);
-        cur[d + 1] = u16::from(cost[d]) + v - prev_min;
+    let mut min = u16::MAX;
+    for ((((o, &c), &m), &l), &h) in cur[1..=nd].iter_mut().zip(cost).zip(mid).zip(lo).zip(hi) {
+        let v = u16::from(c) + m.min(l + p1).min(h + p1).min(lim) - prev_min;
+        *o = v;
+        min = min.min(v);
     }
+    min
 }
 
-/// A path's first pixel: its aggregated cost is its matching cost.
+/// A path's first pixel: its aggregated cost is its matching cost. Returns
+/// the minimum.
 #[inline]
-fn start(cost: &[u8], cur: &mut [u16]) {
+fn start(cost: &[u8], cur: &mut [u16]) -> u16 {
+    let mut min = u16::MAX;
     for (c, &v) in cur[1..=cost.len()].iter_mut().zip(cost) {
         *c = u16::from(v);
+        min = min.min(*c);
     }
+    min
 }
 
 #[inline]
@@ -152,14 +158,15 @@ pub(crate) fn aggregate(
                 .for_each(|(srow, crow)| {
                     let mut prev = vec![BIG; pad];
                     let mut cur = vec![BIG; pad];
+                    let mut min = 0;
                     for n in 0..w {
                         let x = if dx > 0 { n } else { w - 1 - n };
                         let c = &crow[x * nd..(x + 1) * nd];
-                        if n == 0 {
-                            start(c, &mut cur);
+                        min = if n == 0 {
+                            start(c, &mut cur)
                         } else {
-                            step(c, &prev, p1, p2, &mut cur);
-                        }
+                            step(c, &prev, min, p1, p2, &mut cur)
+                        };
                         accumulate(&mut srow[x * nd..(x + 1) * nd], &cur);
                         std::mem::swap(&mut prev, &mut cur);
                     }
@@ -168,27 +175,31 @@ pub(crate) fn aggregate(
         }
         let mut prev = vec![BIG; w * pad];
         let mut cur = vec![BIG; w * pad];
+        let mut prev_mins = vec![0u16; w];
+        let mut cur_mins = vec![0u16; w];
         for n in 0..h {
             let y = if dy > 0 { n } else { h - 1 - n };
             let crow = &cost[y * w * nd..(y + 1) * w * nd];
             let srow = &mut sum[y * w * nd..(y + 1) * w * nd];
-            let prev_row = &prev;
+            let (prev_row, mins) = (&prev, &prev_mins);
             cur.par_chunks_mut(pad)
                 .zip(srow.par_chunks_mut(nd))
+                .zip(cur_mins.par_iter_mut())
                 .enumerate()
                 .with_min_len(64)
-                .for_each(|(x, (cell, s))| {
+                .for_each(|(x, ((cell, s), min))| {
                     let c = &crow[x * nd..(x + 1) * nd];
                     let px = x as isize - dx;
-                    if n == 0 || px < 0 || px >= w as isize {
-                        start(c, cell);
+                    *min = if n == 0 || px < 0 || px >= w as isize {
+                        start(c, cell)
                     } else {
                         let p = px as usize;
-                        step(c, &prev_row[p * pad..(p + 1) * pad], p1, p2, cell);
-                    }
+                        step(c, &prev_row[p * pad..(p + 1) * pad], mins[p], p1, p2, cell)
+                    };
                     accumulate(s, cell);
                 });
             std::mem::swap(&mut prev, &mut cur);
+            std::mem::swap(&mut prev_mins, &mut cur_mins);
         }
     }
     sum

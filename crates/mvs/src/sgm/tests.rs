@@ -343,3 +343,17 @@ fn sgm_table_round_trips_and_unknown_keys_are_refused() {
     let e = MvsParams::from_toml(std::path::Path::new("m.toml"), "[sgm]\npaths = 5\n").unwrap_err();
     assert!(e.to_string().contains("sgm.paths = 5"), "{e}");
 }
+
+/// The share within 2 px per angle on the analytic scene, for a look at how
+/// SGM's accuracy falls with the angle (the paper's SURE curve); prints only.
+#[test]
+#[ignore = "prints a table; run with --ignored --nocapture"]
+fn share_within_2px_by_angle() {
+    for angle in [5.0, 10.0, 20.0, 30.0, 45.0] {
+        let cams = cameras(2, angle, (320, 240));
+        let (views, truth) = views(&cams);
+        let map = semi_global(&views, 0, &[1], &sgm_params()).unwrap();
+        let share = share_within_2px(&views, &truth, &map.depth);
+        eprintln!("{angle:>4} deg: {:5.1} % within 2 px", 100.0 * share);
+    }
+}
