@@ -7,6 +7,7 @@
 use rayon::prelude::*;
 
 use super::SgmParams;
+use crate::simd::Avx2;
 
 /// A rectified image pair on one grid, the reference (left) first.
 pub(crate) struct RectifiedPair {
@@ -86,8 +87,15 @@ pub(crate) fn cost_volume(pair: &RectifiedPair, cw: usize, ch: usize) -> Vec<u8>
 /// `prev_min`, Hirschmüller's recursion `L(p, d) = C(p, d) + min(L(p-r, d),
 /// L(p-r, d±1) + P1, min L(p-r) + P2) - min L(p-r)`. Returns the minimum of
 /// `cur`, which the next step needs.
-#[inline]
-fn step(cost: &[u8], prev: &[u16], prev_min: u16, p1: u16, p2: u16, cur: &mut [u16]) -> u16 {
+#[inline(always)]
+pub(crate) fn step(
+    cost: &[u8],
+    prev: &[u16],
+    prev_min: u16,
+    p1: u16,
+    p2: u16,
+    cur: &mut [u16],
+) -> u16 {
     let nd = cost.len();
     let lim = prev_min + p2;
     let (lo, mid, hi) = (&prev[..nd], &prev[1..=nd], &prev[2..nd + 2]);
@@ -126,15 +134,21 @@ fn accumulate(sum: &mut [u16], cur: &[u16]) {
 /// Each direction touches every cell once with a handful of u16 min/add
 /// operations that LLVM vectorises. Horizontal paths run rows in
 /// parallel; the others sweep rows in order with the pixels of a row in
-/// parallel (each depends only on the previous row).
+/// parallel (each depends only on the previous row). AVX2 (detected at
+/// run time) only changes the code generation of the step, not its result.
 pub(crate) fn aggregate(
     cost: &[u8],
     w: usize,
     h: usize,
     nd: usize,
     params: &SgmParams,
+    avx2: Option<Avx2>,
 ) -> Vec<u16> {
     let (p1, p2) = (params.p1, params.p2);
+    let advance = |c: &[u8], prev: &[u16], prev_min: u16, cur: &mut [u16]| match avx2 {
+        Some(a) => a.sgm_step(c, prev, prev_min, p1, p2, cur),
+        None => step(c, prev, prev_min, p1, p2, cur),
+    };
     let mut sum = vec![0u16; w * h * nd];
     let dirs: &[(isize, isize)] = if params.paths == 4 {
         &[(1, 0), (-1, 0), (0, 1), (0, -1)]
@@ -165,7 +179,7 @@ pub(crate) fn aggregate(
                         min = if n == 0 {
                             start(c, &mut cur)
                         } else {
-                            step(c, &prev, min, p1, p2, &mut cur)
+                            advance(c, &prev, min, &mut cur)
                         };
                         accumulate(&mut srow[x * nd..(x + 1) * nd], &cur);
                         std::mem::swap(&mut prev, &mut cur);
@@ -194,7 +208,7 @@ pub(crate) fn aggregate(
                         start(c, cell)
                     } else {
                         let p = px as usize;
-                        step(c, &prev_row[p * pad..(p + 1) * pad], mins[p], p1, p2, cell)
+                        advance(c, &prev_row[p * pad..(p + 1) * pad], mins[p], cell)
                     };
                     accumulate(s, cell);
                 });
@@ -326,7 +340,14 @@ pub(crate) fn filter_speckles(
 pub(crate) fn match_pair(pair: &RectifiedPair, params: &SgmParams) -> Vec<f32> {
     let (cw, ch) = (params.census_width as usize, params.census_height as usize);
     let cost = cost_volume(pair, cw, ch);
-    let sum = aggregate(&cost, pair.width, pair.height, pair.n_disp, params);
+    let sum = aggregate(
+        &cost,
+        pair.width,
+        pair.height,
+        pair.n_disp,
+        params,
+        Avx2::detect(),
+    );
     drop(cost);
     let mut disp = winners(&sum, pair, params);
     filter_speckles(

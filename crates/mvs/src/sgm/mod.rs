@@ -17,7 +17,7 @@
 //! and COLMAP's files follow unchanged. Integer aggregation and a fixed
 //! order: the same inputs give the same bytes for any thread count.
 
-mod matching;
+pub(crate) mod matching;
 pub(crate) mod rectify;
 #[cfg(test)]
 mod tests;

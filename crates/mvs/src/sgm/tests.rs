@@ -259,6 +259,29 @@ fn a_shifted_texture_gives_its_shift() {
 }
 
 #[test]
+fn avx2_aggregation_equals_the_scalar_one_bit_for_bit() {
+    let Some(avx2) = crate::simd::Avx2::detect() else {
+        return;
+    };
+    let (w, h) = (37, 23);
+    for nd in [1, 5, 16, 61] {
+        // Hashed costs over the census range, and a few path edges.
+        let cost: Vec<u8> = (0..w * h * nd)
+            .map(|i| ((i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 58) as u8)
+            .collect();
+        for paths in [4, 8] {
+            let params = SgmParams {
+                paths,
+                ..SgmParams::default()
+            };
+            let scalar = matching::aggregate(&cost, w, h, nd, &params, None);
+            let simd = matching::aggregate(&cost, w, h, nd, &params, Some(avx2));
+            assert_eq!(scalar, simd, "nd {nd}, {paths} paths");
+        }
+    }
+}
+
+#[test]
 fn speckles_are_removed_and_large_regions_kept() {
     let (w, h) = (20, 20);
     let mut disp = vec![5.0f32; w * h];
