@@ -319,7 +319,8 @@ fn mvs_run_algorithm_sgm_writes_the_same_layout() {
     for i in 0..3 {
         for kind in ["photometric", "geometric"] {
             let d = ws.join(format!("stereo/depth_maps/im{i}.png.{kind}.bin"));
-            assert!(vp_scene::colmap::read_depth_map(&d).unwrap().stats().valid > 0);
+            let valid = vp_scene::colmap::read_depth_map(&d).unwrap().stats().valid;
+            assert!(valid > 0, "{}: {}", d.display(), stdout(&o));
         }
     }
     let fused = std::fs::read(ws.join("fused.ply")).unwrap();

@@ -45,9 +45,13 @@ pub(crate) enum RectifyError {
     TooManyDisparities(usize),
 }
 
-/// Most the rectified image may grow over the original along each axis; a
-/// pair that needs more looks too differently to be matched row by row.
+/// Most the rectified image may grow over the original along each axis
+/// before its focal length shrinks instead.
 const MAX_GROWTH: f64 = 2.0;
+
+/// Most the focal length may shrink; a pair that needs more (the epipole
+/// near the image) has no usable row structure.
+const MAX_SHRINK: f64 = 4.0;
 
 fn rotation(camera: &Camera) -> Matrix3<f64> {
     camera
@@ -93,32 +97,44 @@ impl Rectification {
         let r_new = Matrix3::from_rows(&[x.transpose(), y.transpose(), z.transpose()]);
         let rect_from_ref = r_new * r_ref.transpose();
         let rect_from_src = r_new * rotation(source).transpose();
-        let f = 0.5 * (k.fx + k.fy);
-        // The reference image's corners bound the rectified grid.
-        let (mut umin, mut umax, mut vmin, mut vmax) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-        for (px, py) in [
+        // The reference image's corners bound the rectified grid, at the
+        // reference's focal length; where the baseline has a component
+        // along the view (the epipole near the image) the grid grows, and
+        // the focal length shrinks to keep it within MAX_GROWTH per axis.
+        let f0 = 0.5 * (k.fx + k.fy);
+        let mut corners = [(0.0, 0.0); 4];
+        for (c, (px, py)) in corners.iter_mut().zip([
             (0.0, 0.0),
             (f64::from(k.width), 0.0),
             (0.0, f64::from(k.height)),
             (f64::from(k.width), f64::from(k.height)),
-        ] {
+        ]) {
             let r = rect_from_ref * Vector3::new((px - k.cx) / k.fx, (py - k.cy) / k.fy, 1.0);
             if !(r.z > 1e-6) {
                 return Err(RectifyError::Degenerate(
                     "an image corner looks backwards after rectification".into(),
                 ));
             }
-            let (u, v) = (f * r.x / r.z, f * r.y / r.z);
-            (umin, umax, vmin, vmax) = (umin.min(u), umax.max(u), vmin.min(v), vmax.max(v));
+            *c = (r.x / r.z, r.y / r.z);
         }
-        let (width, height) = ((umax - umin).ceil(), (vmax - vmin).ceil());
-        if width > MAX_GROWTH * f64::from(k.width) || height > MAX_GROWTH * f64::from(k.height) {
+        let span = |a: fn(&(f64, f64)) -> f64| {
+            let lo = corners.iter().map(a).fold(f64::MAX, f64::min);
+            let hi = corners.iter().map(a).fold(f64::MIN, f64::max);
+            (lo, hi)
+        };
+        let ((ulo, uhi), (vlo, vhi)) = (span(|c| c.0), span(|c| c.1));
+        let grow = ((uhi - ulo) * f0 / (MAX_GROWTH * f64::from(k.width)))
+            .max((vhi - vlo) * f0 / (MAX_GROWTH * f64::from(k.height)))
+            .max(1.0);
+        if grow > MAX_SHRINK {
             return Err(RectifyError::Degenerate(format!(
-                "the rectified image would be {width}x{height} for a {}x{} image: the views \
-                 look too differently",
-                k.width, k.height
+                "the rectified image would need {grow:.1}x less resolution: the baseline points \
+                 too nearly along the view"
             )));
         }
+        let f = f0 / grow;
+        let (umin, vmin) = (f * ulo, f * vlo);
+        let (width, height) = ((f * uhi - umin).ceil(), (f * vhi - vmin).ceil());
         // Disparities of a grid of reference pixels at both ends of the
         // depth range: d = f B / Z in the rectified frame.
         let (mut dlo, mut dhi) = (f64::MAX, f64::MIN);

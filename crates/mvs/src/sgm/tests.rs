@@ -174,11 +174,24 @@ fn rectified_epipolar_lines_are_rows_and_disparity_is_f_b_over_z() {
         ),
         (Point3::new(5.0, -20.0, 12.0), Point3::new(9.0, -17.0, 15.0)),
         (Point3::new(0.0, -25.0, 8.0), Point3::new(-7.0, -23.0, 6.0)),
+        // Mostly forward: the rectified focal length shrinks.
+        (
+            Point3::new(-10.0, -20.0, 15.0),
+            Point3::new(-6.2, -19.1, 13.3),
+        ),
     ];
     for (ca, cb) in pairs {
         let a = Camera::look_at(k, ca, target).unwrap();
         let b = Camera::look_at(k2, cb, Point3::new(1.0, 0.5, 0.0)).unwrap();
         let rect = Rectification::new(&a, &b, (10.0, 40.0), 4096).unwrap();
+        // The grid stays within twice the image per axis (the focal length
+        // shrinks for the forward pair instead).
+        assert!(
+            rect.width <= 800 && rect.height <= 600,
+            "{}x{}",
+            rect.width,
+            rect.height
+        );
         let to_rect = |cam: &Camera, m: &nalgebra::Matrix3<f64>, cx: f64, p: &Point2<f64>| {
             let ki = cam.intrinsics;
             let r = m * Vector3::new((p.x - ki.cx) / ki.fx, (p.y - ki.cy) / ki.fy, 1.0);
