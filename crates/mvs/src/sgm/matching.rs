@@ -87,6 +87,9 @@ pub(crate) fn cost_volume(pair: &RectifiedPair, cw: usize, ch: usize) -> Vec<u8>
 /// `prev_min`, Hirschmüller's recursion `L(p, d) = C(p, d) + min(L(p-r, d),
 /// L(p-r, d±1) + P1, min L(p-r) + P2) - min L(p-r)`. Returns the minimum of
 /// `cur`, which the next step needs.
+// Always inlined: the copy inside simd.rs's `#[target_feature(enable =
+// "avx2")]` function is then compiled for AVX2; a call would run this one.
+#[allow(clippy::inline_always)]
 #[inline(always)]
 pub(crate) fn step(
     cost: &[u8],
