@@ -104,7 +104,10 @@ pub(crate) fn step(
     let (lo, mid, hi) = (&prev[..nd], &prev[1..=nd], &prev[2..nd + 2]);
     let mut min = u16::MAX;
     for ((((o, &c), &m), &l), &h) in cur[1..=nd].iter_mut().zip(cost).zip(mid).zip(lo).zip(hi) {
-        let v = u16::from(c) + m.min(l + p1).min(h + p1).min(lim) - prev_min;
+        // Wrapping ops that never wrap (every term stays below BIG + 8000 +
+        // 64): without overflow checks the loop vectorises in test builds too.
+        let best = m.min(l.wrapping_add(p1)).min(h.wrapping_add(p1)).min(lim);
+        let v = u16::from(c).wrapping_add(best).wrapping_sub(prev_min);
         *o = v;
         min = min.min(v);
     }
@@ -125,8 +128,9 @@ fn start(cost: &[u8], cur: &mut [u16]) -> u16 {
 
 #[inline]
 fn accumulate(sum: &mut [u16], cur: &[u16]) {
+    // At most 8 paths x (64 + 8000) < 65536: never wraps.
     for (s, &v) in sum.iter_mut().zip(&cur[1..]) {
-        *s += v;
+        *s = s.wrapping_add(v);
     }
 }
 
