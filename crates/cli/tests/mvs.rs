@@ -274,3 +274,58 @@ fn mvs_run_triplets_never_deletes_what_it_did_not_write() {
         "in",
     );
 }
+
+/// `--algorithm sgm` runs the semi-global matcher through the same
+/// workspace path (maps, fused.ply); a bad matcher name, a bad `[sgm]` key
+/// and a depth range that needs too many disparities exit 2 with nothing
+/// written.
+#[test]
+fn mvs_run_algorithm_sgm_writes_the_same_layout() {
+    let o = vpctl(&["mvs", "defaults"]);
+    assert!(stdout(&o).contains("\n[sgm]\n"), "{}", stdout(&o));
+    assert!(stdout(&o).contains("algorithm = \"patchmatch\""));
+    let dir = tempfile::tempdir().unwrap();
+    let ws = dir.path().join("ws");
+    let (lo, hi) = mvs_workspace(&ws);
+    let range = format!("{lo},{hi}");
+    let ws_str = ws.to_str().unwrap();
+    let run = |extra: &[&str]| {
+        let mut args = vec!["mvs", "run", "--workspace", ws_str, "--depth-range", &range];
+        args.extend_from_slice(extra);
+        vpctl(&args)
+    };
+    let o = run(&["--algorithm", "sgmx"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("patchmatch, sgm"), "{}", stderr(&o));
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(&bad, "[sgm]\nbogus = 1\n").unwrap();
+    let o = run(&["--algorithm", "sgm", "--config", bad.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("bogus"), "{}", stderr(&o));
+    let narrow = dir.path().join("narrow.toml");
+    std::fs::write(&narrow, "[sgm]\nmax_disparities = 4\n").unwrap();
+    let o = run(&["--algorithm", "sgm", "--config", narrow.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("sgm.max_disparities"), "{}", stderr(&o));
+    assert!(!ws.join("fused.ply").exists() && !ws.join("stereo").exists());
+
+    let o = run(&["--algorithm", "sgm"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("mvs: [1/3] semi-global matching im0.png"),
+        "{}",
+        stderr(&o)
+    );
+    for i in 0..3 {
+        for kind in ["photometric", "geometric"] {
+            let d = ws.join(format!("stereo/depth_maps/im{i}.png.{kind}.bin"));
+            let valid = vp_scene::colmap::read_depth_map(&d).unwrap().stats().valid;
+            assert!(valid > 0, "{}: {}", d.display(), stdout(&o));
+        }
+    }
+    let fused = std::fs::read(ws.join("fused.ply")).unwrap();
+    // Same input, same bytes.
+    let o = run(&["--algorithm", "sgm", "--force"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read(ws.join("fused.ply")).unwrap(), fused);
+}

@@ -10,6 +10,11 @@
 //! [`fuse`] merges the filtered maps into a point cloud with normals and
 //! colours.
 //!
+//! [`sgm`] is the other matcher: semi-global matching on rectified pairs
+//! with a multi-baseline fusion per reference ([`semi_global`]), chosen
+//! with [`MvsParams::algorithm`]; its maps go through the same geometric
+//! filter and fusion.
+//!
 //! [`reconstruct`] runs the three on views in memory; [`run_workspace`]
 //! reads a COLMAP dense workspace and writes COLMAP's layout and formats
 //! (`stereo/depth_maps`, `stereo/normal_maps`, `fused.ply`), so that vpctl,
@@ -31,6 +36,7 @@ pub mod params;
 pub mod patchmatch;
 mod pyramid;
 mod rng;
+pub mod sgm;
 mod simd;
 pub mod view;
 pub mod workspace;
@@ -44,6 +50,7 @@ pub use job::{
 };
 pub use params::MvsParams;
 pub use patchmatch::{patch_match, DepthNormalMap};
+pub use sgm::{semi_global, Algorithm, SgmParams};
 pub use view::{GreyImage, View};
 pub use workspace::{
     frustum_sources, run_image_set, run_workspace, RunOptions, RunSummary, Workspace,
@@ -64,7 +71,7 @@ pub struct Output {
 
 /// Reconstructs `views`: view `i` is a reference against the views
 /// `sources[i]` (a view without sources is only used as a source). Runs
-/// PatchMatch for each reference, then the geometric filter, then fusion.
+/// the matcher of `params.algorithm` (PatchMatch or SGM) for each reference, then the geometric filter, then fusion.
 /// `progress` receives one line per step.
 pub fn reconstruct(
     views: &[View],
@@ -91,6 +98,58 @@ pub fn reconstruct(
             "no image has a source image (too little overlap or triangulation angle)".into(),
         ));
     }
+    let (photometric, refined) = match params.algorithm {
+        Algorithm::PatchMatch => patch_match_all(views, sources, params, progress)?,
+        Algorithm::Sgm => {
+            let mut maps = Vec::with_capacity(views.len());
+            for (r, src) in sources.iter().enumerate() {
+                if src.is_empty() {
+                    progress(&format!(
+                        "[{}/{}] {}: no source images, skipped",
+                        r + 1,
+                        views.len(),
+                        views[r].name
+                    ));
+                    maps.push(None);
+                    continue;
+                }
+                progress(&format!(
+                    "[{}/{}] semi-global matching {} against {} source(s)",
+                    r + 1,
+                    views.len(),
+                    views[r].name,
+                    src.len().min(params.max_sources)
+                ));
+                maps.push(Some(semi_global(views, r, src, params)?));
+            }
+            // SGM has no geometric pass: the filter below takes its maps.
+            (maps.clone(), maps)
+        }
+    };
+    progress("geometric consistency filter");
+    let geometric: Vec<Option<DepthNormalMap>> = (0..views.len())
+        .map(|r| geometric_filter(views, &refined, r, &sources[r], params))
+        .collect();
+    progress("fusion");
+    let fused = fuse(views, &geometric, sources, params);
+    Ok(Output {
+        photometric,
+        geometric,
+        fused,
+    })
+}
+
+/// One optional map per view.
+type Maps = Vec<Option<DepthNormalMap>>;
+
+/// Photometric and refined maps of PatchMatch (photometric pass, then the
+/// geometric pass when `geom_consistency` is on).
+fn patch_match_all(
+    views: &[View],
+    sources: &[Vec<usize>],
+    params: &MvsParams,
+    progress: &mut dyn FnMut(&str),
+) -> Result<(Maps, Maps)> {
     let mut raw = Vec::with_capacity(views.len());
     for (r, src) in sources.iter().enumerate() {
         if src.is_empty() {
@@ -141,15 +200,5 @@ pub fn reconstruct(
     } else {
         photometric.clone()
     };
-    progress("geometric consistency filter");
-    let geometric: Vec<Option<DepthNormalMap>> = (0..views.len())
-        .map(|r| geometric_filter(views, &refined, r, &sources[r], params))
-        .collect();
-    progress("fusion");
-    let fused = fuse(views, &geometric, sources, params);
-    Ok(Output {
-        photometric,
-        geometric,
-        fused,
-    })
+    Ok((photometric, refined))
 }

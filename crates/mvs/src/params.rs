@@ -6,12 +6,18 @@ use std::fmt::Write as _;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{MvsError, Result};
+use crate::sgm::{Algorithm, SgmParams};
 
 /// Parameters of PatchMatch, geometric filtering and fusion. Missing fields
 /// in a config take their defaults.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct MvsParams {
+    /// The dense matcher: PatchMatch (default) or semi-global matching.
+    /// The geometric filter and fusion parameters below serve both; the
+    /// PatchMatch ones (window, iterations, NCC, geometric pass) are unused
+    /// by SGM, whose own are in `sgm`.
+    pub algorithm: Algorithm,
     /// Seed of every random choice (per-pixel hash, so the output does not
     /// depend on the thread count).
     pub seed: u64,
@@ -77,11 +83,14 @@ pub struct MvsParams {
     /// Cap of the reprojection error in the geometric pass, pixels (COLMAP's
     /// `geom_consistency_max_cost`).
     pub geom_max_error_px: f32,
+    /// Parameters of the semi-global matcher (the `[sgm]` table).
+    pub sgm: SgmParams,
 }
 
 impl Default for MvsParams {
     fn default() -> Self {
         MvsParams {
+            algorithm: Algorithm::PatchMatch,
             seed: 0,
             window_radius: 5,
             window_step: 2,
@@ -105,6 +114,7 @@ impl Default for MvsParams {
             geom_iterations: 2,
             geom_regularizer: 0.3,
             geom_max_error_px: 3.0,
+            sgm: SgmParams::default(),
         }
     }
 }
@@ -174,7 +184,7 @@ impl MvsParams {
                 self.geom_regularizer, self.geom_max_error_px
             ));
         }
-        Ok(())
+        self.sgm.validate()
     }
 
     /// Window sample offsets along one axis: `-r, -r + step, ..., <= r`.
@@ -203,7 +213,8 @@ impl MvsParams {
     /// The defaults as TOML, each field preceded by its documentation.
     pub fn defaults_toml() -> String {
         let d = MvsParams::default();
-        let fields: [(&str, &str, String); 23] = [
+        let fields: [(&str, &str, String); 24] = [
+            ("algorithm", "Dense matcher: \"patchmatch\" or \"sgm\" (semi-global matching, parameters in [sgm] below).", format!("\"{}\"", d.algorithm)),
             ("seed", "Seed of every random choice (same seed, same bytes for any thread count).", d.seed.to_string()),
             ("window_radius", "Half size of the matching window, pixels (5: an 11x11 window).", d.window_radius.to_string()),
             ("window_step", "Step between window samples, pixels.", d.window_step.to_string()),
@@ -234,6 +245,7 @@ impl MvsParams {
         for (name, doc, value) in fields {
             let _ = write!(s, "\n# {doc}\n{name} = {value}\n");
         }
+        s.push_str(&SgmParams::defaults_toml());
         s
     }
 }

@@ -17,6 +17,13 @@
 //! - every vector load is from a bounds-checked fixed-size array;
 //! - no FMA: every lane does the scalar loop's operations in the same order,
 //!   so the sums are bit for bit the scalar ones (tested in `cost.rs`).
+//!
+//! The semi-global matcher's scanline step ([`Avx2::sgm_step`]) is the
+//! safe scalar `sgm::matching::step` compiled a second time with AVX2
+//! enabled, so that LLVM vectorises it 16 u16 lanes wide instead of the
+//! baseline's 8: the only `unsafe` is the call into the `#[target_feature]`
+//! function, under the same detected token; the operations are integer and
+//! identical, so the sums are the scalar ones (tested in `sgm/tests.rs`).
 #![allow(unsafe_code)]
 // Off x86-64 the token is never made and the window's fields never read.
 #![cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
@@ -91,6 +98,33 @@ impl Avx2 {
     }
 }
 
+impl Avx2 {
+    /// `sgm::matching::step` with AVX2 code generation: the same result.
+    #[allow(clippy::unused_self)] // `self` is the proof that AVX2 is there
+    pub fn sgm_step(
+        self,
+        cost: &[u8],
+        prev: &[u16],
+        prev_min: u16,
+        p1: u16,
+        p2: u16,
+        cur: &mut [u16],
+    ) -> u16 {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: `self` exists only if `detect` found AVX2 on this CPU,
+            // the one feature `x86::sgm_step` is compiled for; its body is
+            // safe code.
+            unsafe { x86::sgm_step(cost, prev, prev_min, p1, p2, cur) }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let _ = self;
+            crate::sgm::matching::step(cost, prev, prev_min, p1, p2, cur)
+        }
+    }
+}
+
 #[cfg(target_arch = "x86_64")]
 mod x86 {
     use std::arch::x86_64::{
@@ -141,6 +175,19 @@ mod x86 {
         let i = _mm256_add_epi32(bits, _mm256_castps_si256(up));
         let f = _mm256_blendv_ps(r, _mm256_sub_ps(r, _mm256_set1_ps(1.0)), up);
         (f, i)
+    }
+
+    /// The safe scalar step, inlined here and so compiled for AVX2.
+    #[target_feature(enable = "avx2")]
+    pub(super) fn sgm_step(
+        cost: &[u8],
+        prev: &[u16],
+        prev_min: u16,
+        p1: u16,
+        p2: u16,
+        cur: &mut [u16],
+    ) -> u16 {
+        crate::sgm::matching::step(cost, prev, prev_min, p1, p2, cur)
     }
 
     /// See [`super::Avx2::sums_full`]; the caller checked the shapes.

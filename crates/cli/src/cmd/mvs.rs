@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
 use vp_mvs::{
-    reconstruct_image_sets, reconstruct_workspace, ImageSet, ImageSetsRequest, MvsParams,
-    RunOptions, WorkspaceRequest,
+    reconstruct_image_sets, reconstruct_workspace, Algorithm, ImageSet, ImageSetsRequest,
+    MvsParams, RunOptions, WorkspaceRequest,
 };
 
 /// MVS subcommands.
@@ -19,7 +19,8 @@ pub enum MvsCommand {
     /// `stereo/normal_maps` (`.photometric.bin`, `.geometric.bin`) and
     /// `fused.ply` in COLMAP's formats. Progress on stderr.
     Run(RunArgs),
-    /// Print the default parameters as a commented TOML config.
+    /// Print the default parameters as a commented TOML config (PatchMatch's
+    /// and, in its `[sgm]` table, the semi-global matcher's).
     Defaults,
 }
 
@@ -44,6 +45,11 @@ pub struct RunArgs {
     /// Seed of every random choice (overrides the config's).
     #[arg(long)]
     seed: Option<u64>,
+    /// Dense matcher: slanted-plane PatchMatch, or semi-global matching on
+    /// rectified pairs (its parameters: the config's `[sgm]` table).
+    /// Overrides the config's `algorithm`.
+    #[arg(long, value_parser = parse_algorithm)]
+    algorithm: Option<Algorithm>,
     /// Reconstruct each triplet of this list (written by `vpctl labelgen
     /// triplets`) on its own instead of the whole workspace; needs --out.
     #[arg(long, requires = "out")]
@@ -59,6 +65,14 @@ pub struct RunArgs {
     /// output: only the files vpctl wrote there; other files stay).
     #[arg(long)]
     force: bool,
+}
+
+fn parse_algorithm(s: &str) -> std::result::Result<Algorithm, String> {
+    match s {
+        "patchmatch" => Ok(Algorithm::PatchMatch),
+        "sgm" => Ok(Algorithm::Sgm),
+        _ => Err(format!("'{s}' is not a matcher (patchmatch, sgm)")),
+    }
 }
 
 fn parse_range(s: &str) -> std::result::Result<(f64, f64), String> {
@@ -90,6 +104,9 @@ pub fn run(cmd: MvsCommand, out: &mut dyn Write) -> Result<()> {
             };
             if let Some(seed) = args.seed {
                 params.seed = seed;
+            }
+            if let Some(algorithm) = args.algorithm {
+                params.algorithm = algorithm;
             }
             if let (Some(list), Some(out_dir)) = (&args.triplets, &args.out) {
                 return run_triplets(&args, list, out_dir, params, out);
