@@ -184,7 +184,7 @@ fn a_split_plan_flies_every_image_once_within_the_limit_with_clear_legs_home() {
             "flight {i}: {} s over the limit",
             f.duration_s
         );
-        for &w in [f.waypoints[0], f.waypoints[f.waypoints.len() - 1]].iter() {
+        for w in [f.waypoints[0], f.waypoints[f.waypoints.len() - 1]] {
             // As flown: straight up from home to the waypoint's height, then level.
             let p = Point3::from(split.waypoints[w].position);
             let above = Point3::new(base.x, base.y, p.z.max(base.z));

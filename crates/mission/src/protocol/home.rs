@@ -42,8 +42,8 @@ pub fn read_home(
         }
         link.send(&msg)?;
         let deadline = link.now() + cfg.timeout;
-        while link.now() < deadline {
-            let Some((header, reply)) = link.recv(deadline - link.now())? else {
+        while let Some(left) = deadline.checked_sub(link.now()).filter(|d| !d.is_zero()) {
+            let Some((header, reply)) = link.recv(left)? else {
                 break;
             };
             if !target.is_source(&header) {

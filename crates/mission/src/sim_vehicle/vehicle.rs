@@ -272,7 +272,7 @@ impl MissionServer {
             MavMessage::COMMAND_LONG(c)
                 if for_us(c.target_system)
                     && c.command == MavCmd::MAV_CMD_REQUEST_MESSAGE
-                    && c.param1 == HOME_POSITION_ID as f32 =>
+                    && c.param1.round() as u32 == HOME_POSITION_ID =>
             {
                 let ack = |result| {
                     MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
