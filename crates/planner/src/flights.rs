@@ -70,10 +70,19 @@ pub fn assign_flights(
     };
     let legs = Legs::new(safety, home, &points);
     let Some(usable) = params.usable_s() else {
+        // One flight: the legs home are checked and a blocked one is
+        // reported in the plan (a split, below, refuses it instead). The
+        // planned path itself starts from the vehicle's last position and
+        // was checked from there; routing the legs from home around what
+        // blocks them is the planner's next step.
         let last = points.len() - 1;
-        legs.check(0)?;
-        legs.check(last)?;
-        return Ok(vec![flight(params, Some(home), &points, 0, last)]);
+        let mut f = flight(params, Some(home), &points, 0, last);
+        f.warning = legs
+            .check(0)
+            .and_then(|()| legs.check(last))
+            .err()
+            .map(|e| e.to_string());
+        return Ok(vec![f]);
     };
     let mut flights = Vec::new();
     let mut start = 0;
@@ -130,6 +139,7 @@ fn flight(
         distance_m: e.distance_m,
         duration_s: e.duration_s,
         from_home: home.is_some(),
+        warning: None,
     }
 }
 
@@ -280,17 +290,25 @@ mod tests {
         let s = safety_for(&open, &cfg());
         assert_eq!(assign_flights(&s, Some(&home), &w, &p).unwrap().len(), 1);
         // A 30 m wall at x = 10 between home and the waypoints.
+        // A split refuses a blocked way; one flight carries the warning.
+        let split = FlightParams {
+            max_flight_time_s: Some(1000.0),
+            ..p
+        };
         let wall = scene(&[[10.0, -40.0, 10.0, 40.0, 0.0, 30.0]]);
         let s = safety_for(&wall, &cfg());
-        let e = assign_flights(&s, Some(&home), &w, &p).unwrap_err();
+        let e = assign_flights(&s, Some(&home), &w, &split).unwrap_err();
         assert!(
             e.to_string().contains("waypoint 0") && e.is_input_error(),
             "{e}"
         );
+        let one = assign_flights(&s, Some(&home), &w, &p).unwrap();
+        let warning = one[0].warning.as_deref().unwrap_or("");
+        assert!(warning.contains("level leg"), "{warning}");
         // A roof 8 m over home: the climb hits it.
         let roof = scene(&[[-3.0, -3.0, 3.0, 3.0, 8.0, 8.0]]);
         let s = safety_for(&roof, &cfg());
-        let e = assign_flights(&s, Some(&home), &w, &p).unwrap_err();
+        let e = assign_flights(&s, Some(&home), &w, &split).unwrap_err();
         assert!(e.to_string().contains("climb straight up"), "{e}");
         // Next to a 1.5 m bush 3 m from home: taking off is fine.
         let bush = scene(&[[3.0, -1.0, 3.0, 1.0, 0.0, 1.5]]);
