@@ -28,18 +28,6 @@ pub fn acquired_from_model(
             None => None,
             Some(dir) => {
                 let path = confidence_file(dir, &image.name)?;
-                if !path.is_file() {
-                    // A new flight's images are in the model but were never predicted.
-                    return Err(SceneError::InvalidArgument(format!(
-                        "{}: no confidence image for image {} of the model: run `vpctl predict \
-                         --forest FOREST --out {} IMAGES` on the model's images (the new flight's \
-                         too), or leave --confidence-dir out to plan without prediction (NP)",
-                        path.display(),
-                        image.name,
-                        dir.display()
-                    ))
-                    .into());
-                }
                 let conf = ConfidenceImage::load(&path)?;
                 let k = &camera.intrinsics;
                 // The planner samples confidence at the camera's pixels: an
@@ -125,7 +113,6 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let err = acquired_from_model(&rec, Some(dir.path())).unwrap_err();
         assert!(err.to_string().contains("img1.jpg.vpconf"), "{err}");
-        assert!(err.to_string().contains("vpctl predict"), "{err}");
         assert!(err.is_input_error());
         ConfidenceImage::constant(0.5)
             .save(&confidence_file(dir.path(), "img1.jpg").unwrap())

@@ -59,7 +59,7 @@ def export(
     home: Optional[_Home] = None,
     ceiling: float = 120.0,
     min_height: float = 2.0,
-) -> str: ...
+) -> Union[str, bytes, list[str], list[bytes]]: ...
 def upload(
     plan: Plan,
     url: str,
@@ -73,6 +73,8 @@ def upload(
     home: Optional[_Home] = None,
     ceiling: float = 120.0,
     min_height: float = 2.0,
+    flight: Optional[int] = None,
+    accept_home_offset: bool = False,
 ) -> dict[str, Any]: ...
 def download(url: str, heartbeat_timeout: float = 5.0, timeout_scale: float = 1.0) -> list[dict[str, Any]]: ...
 def clear(url: str, heartbeat_timeout: float = 5.0, timeout_scale: float = 1.0) -> None: ...
