@@ -7,20 +7,16 @@
 //! mission per flight; bad limits are refused with nothing written.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use nalgebra::{Point3, Vector3};
 use vp_scene::geodesy::LocalFrame;
 use vp_scene::plan::{GeodeticOrigin, Plan};
 use vp_scene::Mesh;
 
-fn vpctl(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vpctl"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("vpctl runs")
-}
+mod common;
+
+use common::vpctl_in as vpctl;
 
 fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()

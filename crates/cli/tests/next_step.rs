@@ -1,16 +1,11 @@
 //! Wrong files get errors that say what the file is, what was expected and
 //! which command makes the right one (issue "What an operator sees").
 
-use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn vpctl(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vpctl"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("vpctl runs")
-}
+mod common;
+
+use common::vpctl_in as vpctl;
 
 fn refused(o: &Output, words: &[&str]) {
     let e = String::from_utf8_lossy(&o.stderr);

@@ -38,6 +38,7 @@ mod pyramid;
 mod rng;
 pub mod sgm;
 mod simd;
+mod sources;
 pub mod view;
 pub mod workspace;
 
@@ -51,10 +52,9 @@ pub use job::{
 pub use params::MvsParams;
 pub use patchmatch::{patch_match, DepthNormalMap};
 pub use sgm::{semi_global, Algorithm, SgmParams};
+pub use sources::frustum_sources;
 pub use view::{GreyImage, View};
-pub use workspace::{
-    frustum_sources, run_image_set, run_workspace, RunOptions, RunSummary, Workspace,
-};
+pub use workspace::{run_image_set, run_workspace, RunOptions, RunSummary, Workspace};
 
 /// The result of [`reconstruct`], indexed like the views.
 #[derive(Debug, Clone)]
