@@ -282,6 +282,9 @@ fn align(a: &AlignArgs, out: &mut dyn Write) -> Result<()> {
         vertical_datum: datum,
         takeoff_alt_m,
         home: None,
+        // The class of the positions is not known here: the planner then
+        // assumes standard GNSS unless its config says otherwise.
+        gnss: None,
     };
     // Built beside --out and swapped in when complete: nothing partial.
     out_dir.write(|dir| -> vp_scene::Result<()> {

@@ -410,6 +410,7 @@ fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
         .filter(|w| w.role == Role::TripletMember)
         .count();
     writeln!(out, "plan: {}", outputs.plan.display())?;
+    writeln!(out, "{}", job.clearance)?;
     writeln!(
         out,
         "waypoints: {} ({members} triplet members, {} bridging)",

@@ -28,7 +28,8 @@ pub struct Sim3 {
 }
 
 impl Sim3 {
-    pub(super) fn rotation(&self) -> UnitQuaternion<f64> {
+    /// The rotation part.
+    pub fn rotation(&self) -> UnitQuaternion<f64> {
         let [w, x, y, z] = self.rotation_wxyz;
         UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z))
     }
