@@ -15,8 +15,8 @@ use super::eval::{evaluate, EvalMesh, Scores};
 use super::fly::{Flown, Matcher, MvsKind};
 use super::report::{aggregate, CampaignReport, SiteArtifacts, SiteResult, StrategyArtifacts};
 use super::strategies::Strategy;
-use super::training::train_forest_with_stats;
 use super::strategy_run::{check_path, run_strategy, Known};
+use super::training::train_forest_with_stats;
 use super::world::{acquire, init_cameras, sfm_cameras, World};
 use crate::error::Result;
 use crate::noise::mix64;
@@ -82,6 +82,26 @@ fn fly_flight(
     let site = world.site.params.seed;
     progress(&flight_line(site, name, cams.len(), &flown, tol));
     Ok((flown, check))
+}
+
+/// `planned` flown with the vehicle's position error (a flight of its
+/// own, drawn with `seed`): the true cameras and their GNSS tags.
+fn fly_with_error(
+    cfg: &CampaignConfig,
+    planned: &[Camera],
+    seed: u64,
+) -> (Vec<Camera>, Vec<Point3<f64>>) {
+    let path: Vec<Point3<f64>> = planned.iter().map(Camera::center).collect();
+    let m = &cfg.planner.mission;
+    let flown = cfg
+        .flight_error
+        .fly(&path, m.cruise_speed_m_s, m.hover_per_photo_s, mix64(seed));
+    let cams = planned
+        .iter()
+        .zip(&flown.truth)
+        .map(|(c, t)| crate::gnss::moved_to(c, t))
+        .collect();
+    (cams, flown.tagged)
 }
 
 /// The Grid baseline's cameras: nadir lawnmower over the ROI footprint plus margin.
@@ -209,7 +229,22 @@ fn run_site(
     ));
     let run_seed = mix64(cfg.seed ^ mix64(seed ^ 0x7369_7465));
 
-    let init_cams = init_cameras(&world, cfg);
+    // The initial flight flown with the vehicle's position error; the
+    // model of its images is georeferenced from their GNSS tags.
+    let (init_cams, init_tags) = fly_with_error(cfg, &init_cameras(&world, cfg), run_seed ^ 1);
+    let georef = if cfg.flight_error.enabled {
+        let al = crate::gnss::georeference(&init_cams, &init_tags, run_seed)?;
+        let roi_centre = nalgebra::center(&world.roi.min, &world.roi.max);
+        progress(&format!(
+            "  site {seed}: initial flight aligned to its {} GNSS positions: rms residual {:.2} m, the model {:.2} m off the truth at the ROI's centre",
+            cfg.flight_error.gnss.label(),
+            al.rms_m,
+            (al.sim3.apply(&roi_centre) - roi_centre).norm()
+        ));
+        (al.sim3, al.rms_m)
+    } else {
+        (crate::gnss::identity_sim3(), 0.0)
+    };
     // One SfM model of the site: every image of every flight is registered
     // in it, with one georeferencing error.
     let sfm_seed = mix64(run_seed ^ 0x0073_666d);
@@ -225,8 +260,8 @@ fn run_site(
         curves,
         progress,
     )?;
-    let known = Known::new(&world, cfg, init, &init_flown, sfm_seed);
-    let grid_cams = grid_cameras(&world, cfg)?;
+    let known = Known::new(&world, cfg, init, &init_flown, sfm_seed, georef);
+    let (grid_cams, _) = fly_with_error(cfg, &grid_cameras(&world, cfg)?, run_seed ^ 2);
     let grid_sfm = sfm_cameras(&grid_cams, cfg, sfm_seed);
     let (grid_flown, grid_check) = fly_flight(
         &world,

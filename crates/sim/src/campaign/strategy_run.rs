@@ -6,8 +6,8 @@ use std::collections::BTreeMap;
 
 use nalgebra::Point3;
 use vp_forest::Forest;
-use vp_planner::{plan, AcquiredView, PlanInputs, RoiSpec};
-use vp_scene::colmap::ModelFrame;
+use vp_planner::{plan, AcquiredView, PlanInputs, RoiSpec, SafetyConfig};
+use vp_scene::colmap::{ModelFrame, Sim3};
 use vp_scene::plan::{Plan, Role};
 use vp_scene::roi::Roi;
 use vp_scene::Camera;
@@ -22,9 +22,9 @@ use super::sfm::SfmState;
 use super::strategies::Strategy;
 use super::world::{acquire, sfm_cameras, Acquired, World};
 use crate::error::{Result, SimError};
+use crate::gnss::{camera_through, mesh_through, moved_to};
 use crate::noise::mix64;
 
-/// Everything one triplet strategy produced on one site.
 /// Everything one triplet strategy produced on one site.
 pub(super) struct StrategyRun {
     pub(super) flown: Vec<Flown>,
@@ -94,6 +94,12 @@ pub(super) struct Known {
     sfm: SfmState,
     /// Seed of the site's SfM model (its georeferencing error).
     sfm_seed: u64,
+    /// The model's georeference: the similarity from the true world into
+    /// the model's frame, as `colmap align` fitted it to the first
+    /// flight's GNSS positions (what the planner sees is in that frame).
+    georef: Sim3,
+    /// RMS residual of that alignment, metres.
+    alignment_rms_m: f64,
 }
 
 impl Known {
@@ -104,6 +110,7 @@ impl Known {
         acquired: Vec<Acquired>,
         flown: &[Flown],
         sfm_seed: u64,
+        (georef, alignment_rms_m): (Sim3, f64),
     ) -> Self {
         let mut sfm = SfmState::new(world);
         sfm.add_images(world, &acquired);
@@ -116,6 +123,8 @@ impl Known {
             names,
             sfm,
             sfm_seed,
+            georef,
+            alignment_rms_m,
         }
     }
 
@@ -140,6 +149,7 @@ impl Known {
             model: self.sfm.colmap_model(cfg, &views)?,
             frame: ModelFrame {
                 home: Some(world.home()),
+                gnss: Some(cfg.flight_error.gnss),
                 ..ModelFrame::identity(world.site.origin)
             },
             confidence: self
@@ -164,12 +174,15 @@ fn plan_iteration(
     it: usize,
     base: u64,
 ) -> Result<(vp_planner::PlanResult, vp_scene::Mesh)> {
-    let mesh = known.sfm.planning_mesh(cfg)?;
+    // The planner sees the model in its georeferenced frame.
+    let g = &known.georef;
+    let seen = known.sfm.planning_mesh(cfg)?;
+    let mesh = mesh_through(g, &seen);
     let views: Vec<AcquiredView> = known
         .acquired
         .iter()
         .map(|a| AcquiredView {
-            camera: a.sfm,
+            camera: camera_through(g, &a.sfm),
             confidence: if strategy.prediction {
                 a.confidence.clone()
             } else {
@@ -180,7 +193,19 @@ fn plan_iteration(
     let mut pc = cfg.planner.clone();
     pc.n_triplets = strategy.per_iteration;
     pc.seed = mix64(base ^ 0x706c_616e ^ it as u64);
-    let observations = known.sfm.observations(cfg);
+    if cfg.flight_error.position_margin {
+        // What `plan_from_model` takes from the model's frame.json.
+        pc.safety.alignment_rms_m = Some(known.alignment_rms_m);
+        pc.safety.model_gnss = Some(cfg.flight_error.gnss);
+    } else {
+        pc.safety = SafetyConfig::exact();
+    }
+    let observations: Vec<_> = known
+        .sfm
+        .observations(cfg)
+        .into_iter()
+        .map(|(c, p)| (g.apply(&c), g.apply(&p)))
+        .collect();
     let inputs = PlanInputs {
         mesh: &mesh,
         acquired: &views,
@@ -198,7 +223,7 @@ fn plan_iteration(
             it + 1
         ))
     })?;
-    Ok((result, mesh))
+    Ok((result, seen))
 }
 
 /// Checks a flown path against the truth and says every violation loudly.
@@ -264,8 +289,22 @@ pub(super) fn run_strategy(
             q.dense_points,
             100.0 * q.dense_outlier_share,
         ));
-        let (new_cams, triplets) = plan_cameras(world, &result.plan);
-        let path: Vec<Point3<f64>> = new_cams.iter().map(Camera::center).collect();
+        let (planned, triplets) = plan_cameras(world, &result.plan);
+        // The plan flown with the vehicle's position error: the true
+        // cameras the images are taken from and the path checked.
+        let planned_path: Vec<Point3<f64>> = planned.iter().map(Camera::center).collect();
+        let flown = cfg.flight_error.fly(
+            &planned_path,
+            cfg.planner.mission.cruise_speed_m_s,
+            cfg.planner.mission.hover_per_photo_s,
+            mix64(base ^ 0x666c_7974 ^ it as u64),
+        );
+        let new_cams: Vec<Camera> = planned
+            .iter()
+            .zip(&flown.truth)
+            .map(|(c, t)| moved_to(c, t))
+            .collect();
+        let path = flown.truth;
         let label = format!("site {site_seed} {} iteration {}", strategy.name, it + 1);
         check_path(
             &mut out.check,
@@ -336,4 +375,3 @@ pub(super) fn run_strategy(
     }
     Ok(out)
 }
-
