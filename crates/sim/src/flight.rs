@@ -155,31 +155,9 @@ pub fn fly(
         ..ModelFrame::identity(world.site.origin)
     };
     if !opts.exact && cfg.flight_error.enabled {
-        // Georeferenced as `colmap align --positions` would: from the
-        // photos' GNSS tags.
         let truth: Vec<Camera> = named.iter().map(|(_, c)| *c).collect();
-        let al = crate::gnss::georeference(&truth, &tags, cfg.seed)?;
-        model = colmap::transform_reconstruction(&model, &al.sim3);
         let names: Vec<&String> = named.iter().map(|(n, _)| n).collect();
-        frame.sim3 = al.sim3;
-        frame.rms_m = al.rms_m;
-        frame.residuals = al
-            .residuals
-            .into_iter()
-            .map(|mut r| {
-                // The alignment names images img_<index>; the model by their flight names.
-                if let Some(n) = r
-                    .name
-                    .strip_prefix("img_")
-                    .and_then(|x| x.strip_suffix(".png"))
-                    .and_then(|x| x.parse::<usize>().ok())
-                    .and_then(|i| names.get(i))
-                {
-                    r.name = (*n).clone();
-                }
-                r
-            })
-            .collect();
+        model = georeferenced(&model, &mut frame, (&truth, &names), &tags, cfg.seed)?;
     }
     Ok(Flight {
         images,
@@ -187,6 +165,39 @@ pub fn fly(
         frame,
         candidate_points: points.len(),
     })
+}
+
+/// `model` (in the true world) georeferenced as `colmap align
+/// --positions` would from the photos' GNSS `tags`; `frame` records the
+/// transform and the residuals by image name.
+fn georeferenced(
+    model: &Reconstruction,
+    frame: &mut ModelFrame,
+    (truth, names): (&[Camera], &[&String]),
+    tags: &[Point3<f64>],
+    seed: u64,
+) -> Result<Reconstruction> {
+    let al = crate::gnss::georeference(truth, tags, seed)?;
+    frame.sim3 = al.sim3;
+    frame.rms_m = al.rms_m;
+    frame.residuals = al
+        .residuals
+        .into_iter()
+        .map(|mut r| {
+            // The alignment names images img_<index>; the model by their flight names.
+            if let Some(n) = r
+                .name
+                .strip_prefix("img_")
+                .and_then(|x| x.strip_suffix(".png"))
+                .and_then(|x| x.parse::<usize>().ok())
+                .and_then(|i| names.get(i))
+            {
+                r.name.clone_from(n);
+            }
+            r
+        })
+        .collect();
+    Ok(colmap::transform_reconstruction(model, &frame.sim3))
 }
 
 /// A `vpctl sim fly` job: plans flown in order over a campaign config's

@@ -86,7 +86,7 @@ fn fly_flight(
 
 /// `planned` flown with the vehicle's position error (a flight of its
 /// own, drawn with `seed`): the true cameras and their GNSS tags.
-fn fly_with_error(
+pub(super) fn fly_with_error(
     cfg: &CampaignConfig,
     planned: &[Camera],
     seed: u64,

@@ -17,12 +17,12 @@ use super::config::CampaignConfig;
 use super::crash::PathCheck;
 use super::curves::CurveAccumulator;
 use super::fly::{Flown, Matcher};
-use super::run::{image_id, name_hash, with_home, MESH_TOLERANCE_M};
+use super::run::{fly_with_error, image_id, name_hash, with_home, MESH_TOLERANCE_M};
 use super::sfm::SfmState;
 use super::strategies::Strategy;
 use super::world::{acquire, sfm_cameras, Acquired, World};
 use crate::error::{Result, SimError};
-use crate::gnss::{camera_through, mesh_through, moved_to};
+use crate::gnss::{camera_through, mesh_through};
 use crate::noise::mix64;
 
 /// Everything one triplet strategy produced on one site.
@@ -290,21 +290,9 @@ pub(super) fn run_strategy(
             100.0 * q.dense_outlier_share,
         ));
         let (planned, triplets) = plan_cameras(world, &result.plan);
-        // The plan flown with the vehicle's position error: the true
-        // cameras the images are taken from and the path checked.
-        let planned_path: Vec<Point3<f64>> = planned.iter().map(Camera::center).collect();
-        let flown = cfg.flight_error.fly(
-            &planned_path,
-            cfg.planner.mission.cruise_speed_m_s,
-            cfg.planner.mission.hover_per_photo_s,
-            mix64(base ^ 0x666c_7974 ^ it as u64),
-        );
-        let new_cams: Vec<Camera> = planned
-            .iter()
-            .zip(&flown.truth)
-            .map(|(c, t)| moved_to(c, t))
-            .collect();
-        let path = flown.truth;
+        // Flown with the vehicle's position error: the true cameras and path.
+        let (new_cams, _) = fly_with_error(cfg, &planned, base ^ 0x666c_7974 ^ it as u64);
+        let path: Vec<Point3<f64>> = new_cams.iter().map(Camera::center).collect();
         let label = format!("site {site_seed} {} iteration {}", strategy.name, it + 1);
         check_path(
             &mut out.check,
@@ -325,11 +313,7 @@ pub(super) fn run_strategy(
             };
             let i = next_index;
             next_index += 3;
-            let ids = [
-                image_id(source, i),
-                image_id(source, i + 1),
-                image_id(source, i + 2),
-            ];
+            let ids = [i, i + 1, i + 2].map(|k| image_id(source, k));
             let fl = matcher.fly_triplet(
                 &world.scene(),
                 [new_cams[a], new_cams[b], new_cams[c]],
