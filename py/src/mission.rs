@@ -337,13 +337,24 @@ impl PyVehicle {
 
 #[pymethods]
 impl PyVehicle {
-    /// Listens on `bind` (port 0: any free port) as a PX4 or ArduPilot vehicle.
+    /// Listens on `bind` (port 0: any free port) as a PX4 or ArduPilot
+    /// vehicle. `home=(lat, lon, alt)` (altitude above mean sea level) makes
+    /// it report that HOME_POSITION, as a vehicle with a GNSS fix does, so
+    /// `upload` compares it with the plan's home; without it the vehicle
+    /// has no fix and reports none.
     #[new]
-    #[pyo3(signature = (bind = "127.0.0.1:0", autopilot = "px4"))]
-    fn new(bind: &str, autopilot: &str) -> PyResult<Self> {
+    #[pyo3(signature = (bind = "127.0.0.1:0", autopilot = "px4", home = None))]
+    fn new(bind: &str, autopilot: &str, home: Option<(f64, f64, f64)>) -> PyResult<Self> {
+        let default = VehicleConfig::default();
         let cfg = VehicleConfig {
             autopilot: self::autopilot(autopilot)?,
-            ..VehicleConfig::default()
+            home: home.map_or(default.home, |(lat_deg, lon_deg, alt_m)| GeodeticOrigin {
+                lat_deg,
+                lon_deg,
+                alt_m,
+            }),
+            reports_home: home.is_some(),
+            ..default
         };
         let v = spawn_udp_vehicle(bind, cfg).py()?;
         Ok(PyVehicle(std::sync::Mutex::new(Some(v))))

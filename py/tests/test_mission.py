@@ -88,6 +88,23 @@ def test_upload_download_round_trip_through_simulated_vehicle(plan_file):
         v.url
 
 
+def test_upload_compares_the_simulated_vehicles_home_with_the_plans(plan_file):
+    """A vehicle whose home lies 30 m from the plan's is refused (its
+    mission untouched) unless the offset is accepted; the same home passes."""
+    _, plan = plan_file
+    far = (46.0 + 30.0 / 111_195.0, 10.3, 400.0)
+    with vpctl.mission.SimulatedVehicle(home=far) as v:
+        with pytest.raises(ValueError, match="accept"):
+            vpctl.mission.upload(plan, v.url, heartbeat_timeout=3.0)
+        assert v.mission() == [] and v.upload_counts() == (0, 0)
+        report = vpctl.mission.upload(plan, v.url, heartbeat_timeout=3.0, accept_home_offset=True)
+        assert report["verified"] and "ACCEPTED" in report["home"], report["home"]
+    with vpctl.mission.SimulatedVehicle(home=(46.0, 10.3, 400.0)) as v:
+        report = vpctl.mission.upload(plan, v.url, heartbeat_timeout=3.0)
+        assert report["verified"] and report["home"] is not None
+        assert "ACCEPTED" not in report["home"], report["home"]
+
+
 def test_waiting_for_a_vehicle_releases_the_gil_and_times_out(plan_file):
     """A Python thread keeps running while upload waits for a heartbeat
     that never comes; the wait ends in TimeoutError."""

@@ -221,8 +221,8 @@ pub fn plan_grid(
         min_overlap: cfg.min_overlap,
     };
     let mut plan = Plan::new(origin);
-    plan.waypoints = ctx.make_safe(&views)?;
-    plan.flights = assign_flights(&safety, home, &plan.waypoints, &cfg.mission)?;
+    let flights = assign_flights(&safety, home, &ctx.make_safe(&views)?, &cfg.mission)?;
+    (plan.waypoints, plan.flights) = (flights.waypoints, flights.flights);
     plan.geofence.clone_from(&safety.geofence);
     plan.altitude_limits = Some(safety.altitude);
     plan.safety_distance_m = Some(cfg.safety_distance_m);

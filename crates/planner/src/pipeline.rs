@@ -349,8 +349,9 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
     }
 
     let mut plan = Plan::new(inputs.origin);
-    (plan.waypoints, plan.unbridged) = (path.waypoints, path.unbridged.clone());
-    plan.flights = assign_flights(&safety, inputs.home.as_ref(), &plan.waypoints, &cfg.mission)?;
+    let flights = assign_flights(&safety, inputs.home.as_ref(), &path.waypoints, &cfg.mission)?;
+    (plan.waypoints, plan.flights) = (flights.waypoints, flights.flights);
+    plan.unbridged = path.unbridged.iter().map(|&i| flights.index[i]).collect();
     plan.geofence.clone_from(&safety.geofence);
     plan.altitude_limits = Some(safety.altitude);
     plan.safety_distance_m = Some(cfg.safety_distance_m);
@@ -359,6 +360,7 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
     plan.cut_short = cut.is_some();
     plan.cut_short_reason.clone_from(&cut);
     let sampled = sampled_results(&ful, &selected);
+    let unbridged = plan.unbridged.clone();
     Ok(PlanResult {
         plan,
         iterations,
@@ -367,7 +369,7 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
         sampled,
         triplet_gains: gains,
         visited,
-        unbridged: path.unbridged,
+        unbridged,
         dropped_triplets: path.dropped_triplets,
         dropped_reasons: path.dropped_reasons,
         cut_short: cut.is_some(),
