@@ -118,6 +118,27 @@ pub enum SimCommand {
         #[arg(long)]
         force: bool,
     },
+    /// Leave-one-site-out evaluation of the confidence forest: flies and
+    /// labels every training site of the config as `sim train` does, then
+    /// for each site trains on the others and scores the site's labelled
+    /// pixels at their own angle. Writes DIR/forest_eval.csv (one row per
+    /// fold, material and angle bin: accuracy against the labels and the
+    /// truth, Brier score and the angle-only baseline's) and
+    /// DIR/summary.txt, and prints the summary.
+    #[command(after_help = "Example: vpctl sim config --preset quick > q.toml && \
+                            vpctl sim evaluate --config q.toml --out eval")]
+    Evaluate {
+        /// Campaign configuration (TOML); `[training] site_seeds` are the folds.
+        #[arg(long)]
+        config: PathBuf,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+        /// Replace an earlier `sim evaluate` output in --out (only the
+        /// files vpctl wrote there).
+        #[arg(long)]
+        force: bool,
+    },
     /// Print a complete campaign configuration (TOML, every key written out).
     Config {
         /// Which preset: demo (what `vpctl demo` runs), quick (seconds) or
@@ -172,6 +193,18 @@ pub fn run(cmd: SimCommand, out: &mut dyn Write) -> Result<()> {
         SimCommand::Run { config, common } => {
             let cfg = vp_sim::campaign::CampaignConfig::load(&config)?;
             super::demo::run_config(&cfg, &common, "sim run", &[&config], out)
+        }
+        SimCommand::Evaluate {
+            config,
+            out: dir,
+            force,
+        } => {
+            let t0 = std::time::Instant::now();
+            let mut say = |m: &str| eprintln!("[{:6.1} s] {m}", t0.elapsed().as_secs_f64());
+            let eval = vp_sim::campaign::evaluate_to_dir(&config, &dir, force, &mut say)?;
+            writeln!(out, "{}", eval.summary())?;
+            writeln!(out, "wrote {}", dir.join("forest_eval.csv").display())?;
+            Ok(())
         }
         SimCommand::Config { preset, paper } => {
             let name = if paper { "paper" } else { preset.as_str() };

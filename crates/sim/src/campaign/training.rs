@@ -15,7 +15,7 @@ use vp_forest::{Forest, TrainingSet};
 use vp_labelgen::{generate_labels, MissingPartMeshes, TripletReconstruction, View};
 use vp_scene::colmap::DepthMap;
 use vp_scene::procedural::{generate_site, Site};
-use vp_scene::raster::{Label, RgbImage};
+use vp_scene::raster::{Label, LabelImage, RgbImage};
 use vp_scene::raycast::RayCaster;
 use vp_scene::surface::{reconstruct_surface, SurfaceSample};
 use vp_scene::{Camera, Intrinsics};
@@ -116,16 +116,28 @@ fn add_sparse_points(
     }
 }
 
-/// Flies the training triplets of one site and labels them; adds the
-/// labelled images to `set`.
-fn train_site(
+/// One labelled image of a training site, with the renderer's truth under
+/// each pixel (for scoring the labels and the forest, never for training).
+pub struct LabelledView {
+    /// The rendered image at the reconstruction's level.
+    pub image: RgbImage,
+    /// labelgen's labels, with each pixel's triangulation angle.
+    pub label: LabelImage,
+    /// The renderer's truth per pixel (row-major).
+    pub truth: Vec<PixelTruth>,
+    /// The depth the matcher wrote per pixel, in the truth's frame.
+    pub depth: Vec<f32>,
+}
+
+/// Flies the training triplets of one site and labels them, as the
+/// training campaign does: the labelled images, in a fixed order.
+pub(crate) fn label_site(
     cfg: &CampaignConfig,
     seed: u64,
-    set: &mut TrainingSet,
     stats: &mut TrainingStats,
     curves: &mut CurveAccumulator,
     progress: &mut dyn FnMut(&str),
-) -> Result<()> {
+) -> Result<Vec<LabelledView>> {
     let t = &cfg.training;
     let mut params = t.site.clone();
     params.seed = seed;
@@ -209,24 +221,47 @@ fn train_site(
     };
     let labels = generate_labels(&recs, meshes.as_ref(), &t.labels)?;
     let k_sigma = t.labels.k_sigma as f32;
-    for rl in &labels {
-        let Some((images, truth, depth)) = runs.get(&rl.id) else {
+    let mut out = Vec::with_capacity(3 * labels.len());
+    for rl in labels {
+        let Some((images, truth, depth)) = runs.remove(&rl.id) else {
             return Err(SimError::Campaign(format!(
                 "training: labels for unknown reconstruction {}",
                 rl.id
             )));
         };
-        for v in 0..3 {
-            let label = &rl.labels[v];
+        for (((image, label), truth), depth) in
+            images.into_iter().zip(rl.labels).zip(truth).zip(depth)
+        {
             stats
                 .label_quality
-                .add(label, &truth[v], &depth[v].data, k_sigma);
+                .add(&label, &truth, &depth.data, k_sigma);
             stats.positives += label.count(Label::Positive);
             stats.negatives += label.count(Label::Negative);
-            set.add_image(&images[v], std::slice::from_ref(label))?;
+            out.push(LabelledView {
+                image,
+                label,
+                truth,
+                depth: depth.data,
+            });
         }
     }
     stats.sites += 1;
+    Ok(out)
+}
+
+/// Flies and labels the training triplets of one site; adds the labelled
+/// images to `set`.
+fn train_site(
+    cfg: &CampaignConfig,
+    seed: u64,
+    set: &mut TrainingSet,
+    stats: &mut TrainingStats,
+    curves: &mut CurveAccumulator,
+    progress: &mut dyn FnMut(&str),
+) -> Result<()> {
+    for v in label_site(cfg, seed, stats, curves, progress)? {
+        set.add_image(&v.image, std::slice::from_ref(&v.label))?;
+    }
     Ok(())
 }
 
