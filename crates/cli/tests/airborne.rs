@@ -6,6 +6,7 @@
 //! point: a check against the simulator's own mesh, which the chain
 //! (align, home from the first image, relative heights) never sees.
 
+use std::fmt::Write as _;
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -42,67 +43,8 @@ fn an_airborne_origin_from_align_flies_every_waypoint_at_its_true_height() {
         "[site]\nseed = 3\ntarget_faces = 8000\nsize = 40.0\n",
     )
     .unwrap();
-    ok(&vpctl(
-        d,
-        &[
-            "scene",
-            "generate",
-            "--config",
-            "site.toml",
-            "--out",
-            "site.ply",
-        ],
-    ));
-    ok(&vpctl(
-        d,
-        &[
-            "plan",
-            "grid",
-            "--mesh",
-            "site.ply",
-            "--config",
-            "site.toml",
-            "--height",
-            "35",
-            "--overlap",
-            "0.8",
-            "--out",
-            "g.json",
-        ],
-    ));
-    ok(&vpctl(
-        d,
-        &[
-            "sim",
-            "fly",
-            "g.json",
-            "--site",
-            "site.toml",
-            "--out",
-            "f",
-            "--exact",
-            "--output-type",
-            "bin",
-        ],
-    ));
-    // The photos' GPS positions: the simulator's exact camera centres.
-    let sim = LocalFrame::new(ModelFrame::load(&d.join("f/sparse")).unwrap().origin).unwrap();
-    let rec = read_model(&d.join("f/sparse")).unwrap();
-    let mut csv = String::from("name,lat,lon,alt\n");
-    let mut first: Option<(String, Point3<f64>)> = None;
-    for (&id, im) in &rec.images {
-        let c = rec.camera_of(id).unwrap().center();
-        let g = sim.to_geodetic([c.x, c.y, c.z]);
-        csv += &format!(
-            "{},{:.10},{:.10},{:.4}\n",
-            im.name, g.lat_deg, g.lon_deg, g.alt_m
-        );
-        if first.as_ref().is_none_or(|(n, _)| im.name < *n) {
-            first = Some((im.name.clone(), c));
-        }
-    }
-    let (_, first_c) = first.expect("images");
-    std::fs::write(d.join("pos.csv"), csv).unwrap();
+    fly_a_grid(d);
+    let (sim, first_c) = write_positions(d);
     ok(&vpctl(
         d,
         &[
@@ -179,4 +121,78 @@ fn an_airborne_origin_from_align_flies_every_waypoint_at_its_true_height() {
             "exported {h} m, truly {truth:.3} m above home"
         );
     }
+}
+
+/// The site, a 35 m grid over it and its simulated flight with exact poses
+/// (`f/sparse`, origin on the ground).
+fn fly_a_grid(d: &Path) {
+    ok(&vpctl(
+        d,
+        &[
+            "scene",
+            "generate",
+            "--config",
+            "site.toml",
+            "--out",
+            "site.ply",
+        ],
+    ));
+    ok(&vpctl(
+        d,
+        &[
+            "plan",
+            "grid",
+            "--mesh",
+            "site.ply",
+            "--config",
+            "site.toml",
+            "--height",
+            "35",
+            "--overlap",
+            "0.8",
+            "--out",
+            "g.json",
+        ],
+    ));
+    ok(&vpctl(
+        d,
+        &[
+            "sim",
+            "fly",
+            "g.json",
+            "--site",
+            "site.toml",
+            "--out",
+            "f",
+            "--exact",
+            "--output-type",
+            "bin",
+        ],
+    ));
+}
+
+/// Writes `pos.csv`, the photos' GPS positions (the simulator's exact camera
+/// centres); returns the simulator's frame and the first photo's centre.
+fn write_positions(d: &Path) -> (LocalFrame, Point3<f64>) {
+    // The photos' GPS positions: the simulator's exact camera centres.
+    let sim = LocalFrame::new(ModelFrame::load(&d.join("f/sparse")).unwrap().origin).unwrap();
+    let rec = read_model(&d.join("f/sparse")).unwrap();
+    let mut csv = String::from("name,lat,lon,alt\n");
+    let mut first: Option<(String, Point3<f64>)> = None;
+    for (&id, im) in &rec.images {
+        let c = rec.camera_of(id).unwrap().center();
+        let g = sim.to_geodetic([c.x, c.y, c.z]);
+        writeln!(
+            csv,
+            "{},{:.10},{:.10},{:.4}",
+            im.name, g.lat_deg, g.lon_deg, g.alt_m
+        )
+        .unwrap();
+        if first.as_ref().is_none_or(|(n, _)| im.name < *n) {
+            first = Some((im.name.clone(), c));
+        }
+    }
+    let (_, first_c) = first.expect("images");
+    std::fs::write(d.join("pos.csv"), csv).unwrap();
+    (sim, first_c)
 }

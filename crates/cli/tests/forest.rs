@@ -447,7 +447,7 @@ fn sim_evaluate_scores_each_held_out_site_and_refuses_a_single_site() {
     assert_eq!(
         lines.next(),
         Some(
-            "matcher,fold,material,angle_bin,pixels,accuracy_labels,accuracy_truth,\
+            "matcher,forest,fold,material,angle_bin,pixels,accuracy_labels,accuracy_truth,\
              majority_rate,brier,brier_angle_only"
         )
     );
@@ -455,11 +455,11 @@ fn sim_evaluate_scores_each_held_out_site_and_refuses_a_single_site() {
     let mut pixels = 0u64;
     for l in lines {
         let f: Vec<&str> = l.split(',').collect();
-        assert_eq!(f.len(), 10, "{l}");
+        assert_eq!(f.len(), 11, "{l}");
         assert_eq!(f[0], "patchmatch");
-        folds.insert(f[1].to_string());
-        pixels += f[4].parse::<u64>().unwrap();
-        let v: Vec<f64> = f[5..].iter().map(|x| x.parse().unwrap()).collect();
+        folds.insert(f[2].to_string());
+        pixels += f[5].parse::<u64>().unwrap();
+        let v: Vec<f64> = f[6..].iter().map(|x| x.parse().unwrap()).collect();
         assert!(v.iter().all(|x| (0.0..=1.0).contains(x)), "{l}");
         assert!(
             v[2] >= 0.5,

@@ -131,6 +131,10 @@ pub enum SimCommand {
         /// Campaign configuration (TOML); `[training] site_seeds` are the folds.
         #[arg(long)]
         config: PathBuf,
+        /// Forest sizes to compare on the same labels and folds, TREESxDEPTH
+        /// (e.g. 20x20,10x16,4x14); default: the config's `[training.forest]`.
+        #[arg(long, value_delimiter = ',', value_parser = parse_size)]
+        sizes: Vec<(usize, usize)>,
         /// Output directory.
         #[arg(long)]
         out: PathBuf,
@@ -149,6 +153,14 @@ pub enum SimCommand {
         #[arg(long, conflicts_with = "preset")]
         paper: bool,
     },
+}
+
+/// Parses a forest size "TREESxDEPTH" ("20x20").
+fn parse_size(s: &str) -> Result<(usize, usize), String> {
+    s.split_once(['x', 'X'])
+        .and_then(|(t, d)| Some((t.trim().parse().ok()?, d.trim().parse().ok()?)))
+        .filter(|&(t, d)| t > 0 && d > 0)
+        .ok_or_else(|| format!("{s:?}: expected TREESxDEPTH with both > 0, e.g. 20x20"))
 }
 
 /// Parses "x,y,z" into three finite numbers.
@@ -196,12 +208,13 @@ pub fn run(cmd: SimCommand, out: &mut dyn Write) -> Result<()> {
         }
         SimCommand::Evaluate {
             config,
+            sizes,
             out: dir,
             force,
         } => {
             let t0 = std::time::Instant::now();
             let mut say = |m: &str| eprintln!("[{:6.1} s] {m}", t0.elapsed().as_secs_f64());
-            let eval = vp_sim::campaign::evaluate_to_dir(&config, &dir, force, &mut say)?;
+            let eval = vp_sim::campaign::evaluate_to_dir(&config, &sizes, &dir, force, &mut say)?;
             writeln!(out, "{}", eval.summary())?;
             writeln!(out, "wrote {}", dir.join("forest_eval.csv").display())?;
             Ok(())

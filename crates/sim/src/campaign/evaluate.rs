@@ -14,6 +14,10 @@
 //! the angle and nothing of the image. Brier skill = 1 - Brier / Brier of
 //! that baseline: above 0 the forest's appearance features add something
 //! the angle alone does not.
+//!
+//! Several forest sizes can be compared on the same labels and folds: the
+//! measurement by which the default size is chosen (labelling is the
+//! expensive part and is done once).
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -41,6 +45,8 @@ pub const PAPER_ACCURACY: [(&str, f64, f64); 2] = [("PMVS", 81.1, 4.2), ("SURE",
 pub struct EvalRow {
     /// The campaign's matcher.
     pub matcher: String,
+    /// The forest's size, trees x depth.
+    pub forest: String,
     /// The held-out site's seed.
     pub fold: u64,
     /// Material under the pixels.
@@ -66,8 +72,8 @@ pub struct EvalRow {
 pub struct ForestEvaluation {
     /// One row per (fold, material, angle bin) with pixels.
     pub rows: Vec<EvalRow>,
-    /// Per fold (held-out site seed): totals over its rows.
-    pub folds: Vec<(u64, Tally)>,
+    /// Per forest size and fold (held-out site seed): totals over its rows.
+    pub folds: Vec<(String, u64, Tally)>,
     /// Labelling statistics of all sites.
     pub stats: TrainingStats,
 }
@@ -125,13 +131,14 @@ impl Tally {
 /// written when the evaluation fails).
 pub fn evaluate_to_dir(
     config: &Path,
+    sizes: &[(usize, usize)],
     out: &Path,
     force: bool,
     progress: &mut dyn FnMut(&str),
 ) -> Result<ForestEvaluation> {
     let cfg = CampaignConfig::load(config)?;
     let dir = OutDir::check(out, "sim evaluate", &[config], force)?;
-    let eval = evaluate_forest(&cfg, progress).map_err(|e| match e {
+    let eval = evaluate_forest(&cfg, sizes, progress).map_err(|e| match e {
         SimError::InvalidArgument(m) => {
             SimError::InvalidArgument(format!("{}: {m}", config.display()))
         }
@@ -152,8 +159,12 @@ pub fn evaluate_to_dir(
 
 /// Runs the leave-one-site-out evaluation of `cfg`'s training campaign;
 /// `progress` hears one line per site and per fold.
+///
+/// `sizes` lists forest sizes (trees, depth) to evaluate on the same labels
+/// and folds; empty: the config's own.
 pub fn evaluate_forest(
     cfg: &CampaignConfig,
+    sizes: &[(usize, usize)],
     progress: &mut dyn FnMut(&str),
 ) -> Result<ForestEvaluation> {
     cfg.validate()?;
@@ -178,78 +189,102 @@ pub fn evaluate_forest(
         stats,
         ..ForestEvaluation::default()
     };
-    for (i, &fold) in t.site_seeds.iter().enumerate() {
-        let train: Vec<&LabelledView> = sites
-            .iter()
-            .enumerate()
-            .filter(|&(j, _)| j != i)
-            .flat_map(|(_, s)| s.iter())
-            .collect();
-        // The training campaign's cap, seeds and parameters.
-        let mut set = TrainingSet::with_cap_per_label_image(
-            t.max_per_label_image,
-            mix64(cfg.seed ^ 0x0063_6170),
-        );
-        for v in &train {
-            set.add_image(&v.image, std::slice::from_ref(&v.label))?;
-        }
-        let forest = vp_forest::train(&set, &t.forest, mix64(cfg.seed ^ 0x666f_7265_7374))?;
-        let base = angle_only(&train, bins);
-        let mut cells: BTreeMap<(usize, usize), Tally> = BTreeMap::new();
-        for v in &sites[i] {
-            let scored = forest.score_labels(&v.image, &v.label)?;
-            let w = v.label.width() as usize;
-            for ((x, y, label, angle), s) in v.label.labelled().zip(scored) {
-                let px = y as usize * w + x as usize;
-                let (Some(truth), Some(bin)) = (v.truth.get(px), bins.bin_of(angle)) else {
-                    continue;
-                };
-                let Some(material) = truth.material else {
-                    continue;
-                };
-                let positive = label == Label::Positive;
-                let truly = truly_positive(truth, v.depth[px], k_sigma);
-                let predicted = s.confidence >= 0.5;
-                let y = f64::from(u8::from(positive));
-                let c = cells.entry((material as usize, bin)).or_default();
-                c.n += 1;
-                c.right_labels += u64::from(predicted == positive);
-                c.right_truth += u64::from(predicted == truly);
-                c.positive += u64::from(positive);
-                c.brier += (f64::from(s.confidence) - y).powi(2);
-                c.brier_angle_only += (base[bin] - y).powi(2);
+    let own = [(t.forest.n_trees, t.forest.max_depth)];
+    for &(n_trees, max_depth) in if sizes.is_empty() { &own[..] } else { sizes } {
+        let params = vp_forest::TrainParams {
+            n_trees,
+            max_depth,
+            ..t.forest.clone()
+        };
+        params.validate()?;
+        let size = format!("{n_trees}x{max_depth}");
+        for (i, &fold) in t.site_seeds.iter().enumerate() {
+            let train: Vec<&LabelledView> = sites
+                .iter()
+                .enumerate()
+                .filter(|&(j, _)| j != i)
+                .flat_map(|(_, s)| s.iter())
+                .collect();
+            // The training campaign's cap, seeds and parameters.
+            let mut set = TrainingSet::with_cap_per_label_image(
+                t.max_per_label_image,
+                mix64(cfg.seed ^ 0x0063_6170),
+            );
+            for v in &train {
+                set.add_image(&v.image, std::slice::from_ref(&v.label))?;
             }
+            let forest = vp_forest::train(&set, &params, mix64(cfg.seed ^ 0x666f_7265_7374))?;
+            let base = angle_only(&train, bins);
+            let cells = score_site(&forest, &sites[i], &base, bins, k_sigma)?;
+            let mut total = Tally::default();
+            for (&(m, bin), c) in &cells {
+                total.add(c);
+                let n = c.n as f64;
+                out.rows.push(EvalRow {
+                    matcher: matcher.clone(),
+                    forest: size.clone(),
+                    fold,
+                    material: Material::ALL[m].name().to_string(),
+                    angle_bin: bin,
+                    pixels: c.n,
+                    accuracy_labels: c.accuracy_labels(),
+                    accuracy_truth: c.accuracy_truth(),
+                    majority_rate: c.share(c.positive.max(c.n - c.positive)),
+                    brier: c.brier / n,
+                    brier_angle_only: c.brier_angle_only / n,
+                });
+            }
+            progress(&format!(
+                "forest {size}, fold {}/{} (site {fold} held out): {} labelled pixels, accuracy {:.1} % against \
+                 the labels, {:.1} % against the truth, Brier skill {:+.3}",
+                i + 1,
+                t.site_seeds.len(),
+                total.n,
+                100.0 * total.accuracy_labels(),
+                100.0 * total.accuracy_truth(),
+                total.brier_skill()
+            ));
+            out.folds.push((size.clone(), fold, total));
         }
-        let mut total = Tally::default();
-        for (&(m, bin), c) in &cells {
-            total.add(c);
-            let n = c.n as f64;
-            out.rows.push(EvalRow {
-                matcher: matcher.clone(),
-                fold,
-                material: Material::ALL[m].name().to_string(),
-                angle_bin: bin,
-                pixels: c.n,
-                accuracy_labels: c.accuracy_labels(),
-                accuracy_truth: c.accuracy_truth(),
-                majority_rate: c.share(c.positive.max(c.n - c.positive)),
-                brier: c.brier / n,
-                brier_angle_only: c.brier_angle_only / n,
-            });
-        }
-        progress(&format!(
-            "fold {}/{} (site {fold} held out): {} labelled pixels, accuracy {:.1} % against \
-             the labels, {:.1} % against the truth, Brier skill {:+.3}",
-            i + 1,
-            t.site_seeds.len(),
-            total.n,
-            100.0 * total.accuracy_labels(),
-            100.0 * total.accuracy_truth(),
-            total.brier_skill()
-        ));
-        out.folds.push((fold, total));
     }
     Ok(out)
+}
+
+/// Scores the labelled pixels of one held-out site's `views` with `forest`
+/// and the angle-only baseline `base`: running sums per (material, angle bin).
+fn score_site(
+    forest: &vp_forest::Forest,
+    views: &[LabelledView],
+    base: &[f64],
+    bins: &vp_scene::raster::AngleBins,
+    k_sigma: f32,
+) -> Result<BTreeMap<(usize, usize), Tally>> {
+    let mut cells: BTreeMap<(usize, usize), Tally> = BTreeMap::new();
+    for v in views {
+        let scored = forest.score_labels(&v.image, &v.label)?;
+        let w = v.label.width() as usize;
+        for ((x, y, label, angle), s) in v.label.labelled().zip(scored) {
+            let px = y as usize * w + x as usize;
+            let (Some(truth), Some(bin)) = (v.truth.get(px), bins.bin_of(angle)) else {
+                continue;
+            };
+            let Some(material) = truth.material else {
+                continue;
+            };
+            let positive = label == Label::Positive;
+            let truly = truly_positive(truth, v.depth[px], k_sigma);
+            let predicted = s.confidence >= 0.5;
+            let y = f64::from(u8::from(positive));
+            let c = cells.entry((material as usize, bin)).or_default();
+            c.n += 1;
+            c.right_labels += u64::from(predicted == positive);
+            c.right_truth += u64::from(predicted == truly);
+            c.positive += u64::from(positive);
+            c.brier += (f64::from(s.confidence) - y).powi(2);
+            c.brier_angle_only += (base[bin] - y).powi(2);
+        }
+    }
+    Ok(cells)
 }
 
 /// Share of positive labels per angle bin over `views`: the angle-only
@@ -275,14 +310,15 @@ impl ForestEvaluation {
     /// `forest_eval.csv`: a header and one line per row.
     pub fn csv(&self) -> String {
         let mut s = String::from(
-            "matcher,fold,material,angle_bin,pixels,accuracy_labels,accuracy_truth,\
+            "matcher,forest,fold,material,angle_bin,pixels,accuracy_labels,accuracy_truth,\
              majority_rate,brier,brier_angle_only\n",
         );
         for r in &self.rows {
             let _ = writeln!(
                 s,
-                "{},{},{},{},{},{:.4},{:.4},{:.4},{:.5},{:.5}",
+                "{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.5},{:.5}",
                 r.matcher,
+                r.forest,
                 r.fold,
                 r.material,
                 r.angle_bin,
@@ -297,42 +333,65 @@ impl ForestEvaluation {
         s
     }
 
-    /// Mean and sample standard deviation over folds of `f`, in percent.
-    fn over_folds(&self, f: impl Fn(&Tally) -> f64) -> (f64, f64) {
-        let v: Vec<f64> = self.folds.iter().map(|(_, t)| 100.0 * f(t)).collect();
-        let n = v.len() as f64;
-        let mean = v.iter().sum::<f64>() / n.max(1.0);
-        let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
-        (mean, var.sqrt())
+    /// The forest sizes evaluated, in order.
+    fn sizes(&self) -> Vec<&str> {
+        let mut v: Vec<&str> = Vec::new();
+        for (size, _, _) in &self.folds {
+            if !v.contains(&size.as_str()) {
+                v.push(size);
+            }
+        }
+        v
     }
 
-    /// The printed summary: accuracy over folds next to the paper's, and
-    /// the Brier skill over the angle-only baseline.
+    /// The printed summary, per forest size: accuracy over folds (mean and
+    /// sample standard deviation) next to the paper's, and the Brier skill
+    /// over the angle-only baseline.
     pub fn summary(&self) -> String {
-        let mut all = Tally::default();
-        for (_, t) in &self.folds {
-            all.add(t);
-        }
-        let (la, ls) = self.over_folds(Tally::accuracy_labels);
-        let (ta, ts) = self.over_folds(Tally::accuracy_truth);
-        let (sa, ss) = self.over_folds(Tally::brier_skill);
         let paper: Vec<String> = PAPER_ACCURACY
             .iter()
             .map(|(m, a, s)| format!("{m} {a} ± {s}"))
             .collect();
-        format!(
-            "leave-one-site-out over {} folds, {} labelled pixels:\n  accuracy against the \
-             labels: {la:.1} ± {ls:.1} % (the paper, against its labels: {} %)\n  accuracy \
-             against the truth: {ta:.1} ± {ts:.1} %\n  Brier skill over the angle-only \
-             baseline: {:+.3} pooled, {:+.3} ± {:.3} over folds (> 0: the image adds to \
-             the angle)\n  majority label share: {:.1} %",
-            self.folds.len(),
-            all.n,
-            paper.join(", "),
-            all.brier_skill(),
-            sa / 100.0,
-            ss / 100.0,
-            100.0 * all.share(all.positive.max(all.n - all.positive)),
-        )
+        let mut out = String::new();
+        for size in self.sizes() {
+            let folds: Vec<&Tally> = self
+                .folds
+                .iter()
+                .filter(|(s, _, _)| s == size)
+                .map(|(_, _, t)| t)
+                .collect();
+            let mut all = Tally::default();
+            for t in &folds {
+                all.add(t);
+            }
+            let over = |f: fn(&Tally) -> f64| {
+                let v: Vec<f64> = folds.iter().map(|t| f(t)).collect();
+                let n = v.len() as f64;
+                let mean = v.iter().sum::<f64>() / n.max(1.0);
+                let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
+                (mean, var.sqrt())
+            };
+            let (la, ls) = over(Tally::accuracy_labels);
+            let (ta, ts) = over(Tally::accuracy_truth);
+            let (sa, ss) = over(Tally::brier_skill);
+            let _ = writeln!(
+                out,
+                "forest {size}, leave-one-site-out over {} folds, {} labelled pixels:\n  \
+                 accuracy against the labels: {:.1} ± {:.1} % (the paper, against its labels: \
+                 {} %)\n  accuracy against the truth: {:.1} ± {:.1} %\n  Brier skill over the \
+                 angle-only baseline: {:+.3} pooled, {sa:+.3} ± {ss:.3} over folds (> 0: the \
+                 image adds to the angle)\n  majority label share: {:.1} %",
+                folds.len(),
+                all.n,
+                100.0 * la,
+                100.0 * ls,
+                paper.join(", "),
+                100.0 * ta,
+                100.0 * ts,
+                all.brier_skill(),
+                100.0 * all.share(all.positive.max(all.n - all.positive)),
+            );
+        }
+        out
     }
 }

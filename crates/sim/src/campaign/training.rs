@@ -220,7 +220,19 @@ pub(crate) fn label_site(
         }
     };
     let labels = generate_labels(&recs, meshes.as_ref(), &t.labels)?;
-    let k_sigma = t.labels.k_sigma as f32;
+    let out = labelled_views(labels, runs, stats, t.labels.k_sigma as f32)?;
+    stats.sites += 1;
+    Ok(out)
+}
+
+/// labelgen's labels joined with the images and the truth of their
+/// reconstructions, counted into `stats`.
+fn labelled_views(
+    labels: Vec<vp_labelgen::ReconLabels>,
+    mut runs: BTreeMap<String, LevelRun>,
+    stats: &mut TrainingStats,
+    k_sigma: f32,
+) -> Result<Vec<LabelledView>> {
     let mut out = Vec::with_capacity(3 * labels.len());
     for rl in labels {
         let Some((images, truth, depth)) = runs.remove(&rl.id) else {
@@ -245,7 +257,6 @@ pub(crate) fn label_site(
             });
         }
     }
-    stats.sites += 1;
     Ok(out)
 }
 
