@@ -627,8 +627,16 @@ mod tests {
             ..UndistortOptions::default()
         };
         let u = undistort_camera(&cam, &opts).unwrap();
-        assert_eq!((u.model, u.width, u.height), (CameraModel::Pinhole, 2000, 1122));
-        let colmap = [1_535.804_296_375_338_3, 1_530.678_713_318_580_3, 1000.0, 561.0];
+        assert_eq!(
+            (u.model, u.width, u.height),
+            (CameraModel::Pinhole, 2000, 1122)
+        );
+        let colmap = [
+            1_535.804_296_375_338_3,
+            1_530.678_713_318_580_3,
+            1000.0,
+            561.0,
+        ];
         for (a, b) in u.params.iter().zip(colmap) {
             assert!((a - b).abs() < 1e-6 * b, "{:?} vs {colmap:?}", u.params);
         }
