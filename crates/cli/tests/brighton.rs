@@ -216,7 +216,11 @@ fn brighton_beach_photos_to_a_plan_and_a_kmz() {
         heights.iter().copied().fold(0.0, f64::max)
     );
 
-    // The .kmz: a zip with DJI's two WPML files, and the glTF view.
+    check_kmz_and_glb(&out);
+}
+
+/// The .kmz: a zip with DJI's two WPML files; the glTF view.
+fn check_kmz_and_glb(out: &Path) {
     let kmz = std::fs::read(out.join("mission.kmz")).unwrap();
     assert!(kmz.starts_with(b"PK"), "not a zip");
     for name in ["wpmz/template.kml", "wpmz/waylines.wpml"] {

@@ -155,19 +155,16 @@ fn limit_size(mut cam: ColmapCamera, max_size: Option<u32>) -> ColmapCamera {
     let (w2, h2) = ((scale * w).round().max(1.0), (scale * h).round().max(1.0));
     let (sx, sy) = (w2 / w, h2 / h);
     (cam.width, cam.height) = (w2 as u64, h2 as u64);
-    match cam.model {
+    if cam.model == CameraModel::SimplePinhole {
         // f, cx, cy: one focal length, scaled by the mean.
-        CameraModel::SimplePinhole => {
-            cam.params[0] *= (sx + sy) / 2.0;
-            cam.params[1] *= sx;
-            cam.params[2] *= sy;
-        }
-        _ => {
-            cam.params[0] *= sx;
-            cam.params[1] *= sy;
-            cam.params[2] *= sx;
-            cam.params[3] *= sy;
-        }
+        cam.params[0] *= f64::midpoint(sx, sy);
+        cam.params[1] *= sx;
+        cam.params[2] *= sy;
+    } else {
+        cam.params[0] *= sx;
+        cam.params[1] *= sy;
+        cam.params[2] *= sx;
+        cam.params[3] *= sy;
     }
     cam
 }
@@ -616,8 +613,8 @@ mod tests {
                 2_975.410_226_156_705_4,
                 2000.0,
                 1125.0,
-                0.018_747_280_137_605_821,
-                0.045_167_011_622_628_511,
+                0.018_747_280_137_605_82,
+                0.045_167_011_622_628_51,
                 -0.002_042_228_928_231_938,
                 0.001_503_420_011_284_270_5,
             ],
