@@ -29,6 +29,7 @@ pub mod crash;
 pub mod curves;
 mod depth_maps;
 pub mod eval;
+pub mod f_vs_np;
 pub mod features;
 pub mod fly;
 mod gate;
