@@ -224,6 +224,43 @@ pub fn top_view(view: &TopView) -> TopViewPicture {
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &z| {
             (a.min(z), b.max(z))
         });
+    let home_px = home.map(|p| cv.px(p[0], p[1]));
+    draw_flights(&mut cv, plan, home_px, &alts, &mut marks);
+    for v in wps {
+        let colour = role_colour(v.role);
+        let p = cv.px(v.position[0], v.position[1]);
+        let yaw = v.yaw_deg.to_radians();
+        let tick = 4.0 * r as f64;
+        cv.line(p, (p.0 + tick * yaw.cos(), p.1 - tick * yaw.sin()), colour);
+        cv.dot(p, r + 1, colour);
+    }
+    draw_numbers(&mut cv, plan, home_px, (&alts, r), &mut marks);
+    let keys = panel::Keys {
+        kind,
+        width_m: f64::from(w) / scale,
+        altitude: (!wps.is_empty()).then_some((amin, amax, home.is_some())),
+        flights: flight_runs(plan).len(),
+    };
+    let (image, lines) = panel::with_panel(&cv.img, view, &keys);
+    marks.extend(lines.into_iter().map(Mark::Text));
+    TopViewPicture { image, marks, kind }
+}
+
+/// Per flight: dashed legs from and to home, the path coloured by altitude
+/// (`alts`, one per waypoint) and an arrow on each leg long enough for one.
+fn draw_flights(
+    cv: &mut Canvas,
+    plan: &Plan,
+    home_px: Option<(f64, f64)>,
+    alts: &[f64],
+    marks: &mut Vec<Mark>,
+) {
+    let wps = &plan.waypoints;
+    let (amin, amax) = alts
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &z| {
+            (a.min(z), b.max(z))
+        });
     let alt_t = |z: f64| {
         if amax > amin {
             (z - amin) / (amax - amin)
@@ -232,14 +269,13 @@ pub fn top_view(view: &TopView) -> TopViewPicture {
         }
     };
     let xy = |cv: &Canvas, i: usize| cv.px(wps[i].position[0], wps[i].position[1]);
-    let home_px = home.map(|p| cv.px(p[0], p[1]));
     for (fi, (run, from_home)) in flight_runs(plan).iter().enumerate() {
         let (Some(&first), Some(&last)) = (run.first(), run.last()) else {
             continue;
         };
         if let (Some(hp), true) = (home_px, *from_home) {
             for (end, to_home) in [(first, false), (last, true)] {
-                let p = xy(&cv, end);
+                let p = xy(&*cv, end);
                 cv.dashed(hp, p, HOME_COLOUR, 5);
                 marks.push(Mark::HomeLeg {
                     flight: fi,
@@ -249,7 +285,7 @@ pub fn top_view(view: &TopView) -> TopViewPicture {
         }
         for pair in run.windows(2) {
             let (i, j) = (pair[0], pair[1]);
-            let (a, c) = (xy(&cv, i), xy(&cv, j));
+            let (a, c) = (xy(&*cv, i), xy(&*cv, j));
             let colour = altitude_ramp(alt_t(0.5 * (alts[i] + alts[j])));
             cv.thick(a, c, colour, 2);
             let len = (c.0 - a.0).hypot(c.1 - a.1);
@@ -265,14 +301,19 @@ pub fn top_view(view: &TopView) -> TopViewPicture {
             }
         }
     }
-    for v in wps {
-        let colour = role_colour(v.role);
-        let p = cv.px(v.position[0], v.position[1]);
-        let yaw = v.yaw_deg.to_radians();
-        let tick = 4.0 * r as f64;
-        cv.line(p, (p.0 + tick * yaw.cos(), p.1 - tick * yaw.sin()), colour);
-        cv.dot(p, r + 1, colour);
-    }
+}
+
+/// The home "H" and the waypoints' numbers, each on a dark box; a number
+/// that would overlap an earlier one (or the H) is left out, except the
+/// first and the last. `r` is the waypoint dots' radius.
+fn draw_numbers(
+    cv: &mut Canvas,
+    plan: &Plan,
+    home_px: Option<(f64, f64)>,
+    (alts, r): (&[f64], i64),
+    marks: &mut Vec<Mark>,
+) {
+    let wps = &plan.waypoints;
     let mut taken: Vec<[f64; 4]> = Vec::new();
     if let Some(hp) = home_px {
         cv.dot(hp, 8, Rgb([255, 255, 255]));
@@ -320,17 +361,7 @@ pub fn top_view(view: &TopView) -> TopViewPicture {
             labelled,
         });
     }
-    let keys = panel::Keys {
-        kind,
-        width_m: f64::from(w) / scale,
-        altitude: (!wps.is_empty()).then_some((amin, amax, home.is_some())),
-        flights: flight_runs(plan).len(),
-    };
-    let (image, lines) = panel::with_panel(&cv.img, view, &keys);
-    marks.extend(lines.into_iter().map(Mark::Text));
-    TopViewPicture { image, marks, kind }
 }
-
 /// The mesh faces from below to above, by f(t) where sampled, else grey by height.
 fn draw_faces(cv: &mut Canvas, view: &TopView) {
     let b = view.mesh.bounds();

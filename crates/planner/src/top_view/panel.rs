@@ -92,24 +92,7 @@ pub(super) fn with_panel(map: &RgbImage, view: &TopView, keys: &Keys) -> (RgbIma
         keys.kind,
         ViewKind::PlanOverFulfillment | ViewKind::FulfillmentMap
     );
-    let mut legend: Vec<(Rgb<u8>, &str)> = Vec::new();
-    if plan_kind {
-        if has_home {
-            legend.push((HOME_COLOUR, "H home"));
-        }
-        legend.extend([
-            (TEXT_COLOUR, "1 2 3 flight order"),
-            (TRIPLET_COLOUR, "triplet"),
-            (BRIDGE_COLOUR, "bridge"),
-            (GRID_COLOUR, "grid"),
-        ]);
-    }
-    if !view.acquired.is_empty() {
-        legend.push((ACQUIRED_COLOUR, "acquired"));
-    }
-    if !view.roi_outline.is_empty() {
-        legend.push((ROI_COLOUR, "ROI"));
-    }
+    let legend = legend(view, plan_kind, has_home);
     let altitude = keys.altitude.map(|(lo, hi, above_home)| {
         let what = if above_home {
             "path altitude above home"
@@ -189,6 +172,29 @@ pub(super) fn with_panel(map: &RgbImage, view: &TopView, keys: &Keys) -> (RgbIma
     }
     draw_text(&mut img, 6, row(), &footer, TEXT_COLOUR);
     (img, lines)
+}
+
+/// The marks' legend: swatch colour and label.
+fn legend(view: &TopView, plan_kind: bool, has_home: bool) -> Vec<(Rgb<u8>, &'static str)> {
+    let mut legend: Vec<(Rgb<u8>, &'static str)> = Vec::new();
+    if plan_kind {
+        if has_home {
+            legend.push((HOME_COLOUR, "H home"));
+        }
+        legend.extend([
+            (TEXT_COLOUR, "1 2 3 flight order"),
+            (TRIPLET_COLOUR, "triplet"),
+            (BRIDGE_COLOUR, "bridge"),
+            (GRID_COLOUR, "grid"),
+        ]);
+    }
+    if !view.acquired.is_empty() {
+        legend.push((ACQUIRED_COLOUR, "acquired"));
+    }
+    if !view.roi_outline.is_empty() {
+        legend.push((ROI_COLOUR, "ROI"));
+    }
+    legend
 }
 
 /// A colour key `low [ramp] high` at (x, y); returns its right end.
