@@ -90,7 +90,7 @@ pub fn report_html(report: &CampaignReport, figures: &[Figure]) -> String {
             "label-quality",
             None,
             &header,
-            rows.iter().map(|r| r.as_slice()),
+            rows.iter().map(<[String; 5]>::as_slice),
         );
     }
     h.push_str(
