@@ -475,3 +475,55 @@ fn sim_evaluate_scores_each_held_out_site_and_refuses_a_single_site() {
     let summary = std::fs::read_to_string(out.join("summary.txt")).unwrap();
     assert!(printed.starts_with(&summary), "{printed}\n---\n{summary}");
 }
+
+/// Regression (issue 40): `predict` into a log wrote a line per image on
+/// stderr (two with previews); now timestamped summary lines, a few per
+/// stage, however many images.
+#[test]
+fn predict_in_a_log_writes_few_timestamped_lines_not_one_per_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (images, labels, _, _) = write_data(&d.join("in"), 3, 99);
+    let model = d.join("m.vpforest");
+    let o = train(&images, &labels, &model, &["--trees", "2"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let many = d.join("many");
+    std::fs::create_dir_all(&many).unwrap();
+    let n = 40;
+    for i in 0..n {
+        std::fs::copy(images.join("i0.png"), many.join(format!("p{i:02}.png"))).unwrap();
+    }
+    let t0 = std::time::Instant::now();
+    let o = vpctl(&[
+        "predict",
+        "--forest",
+        model.to_str().unwrap(),
+        "--out",
+        d.join("conf").to_str().unwrap(),
+        "--no-previews",
+        many.to_str().unwrap(),
+    ]);
+    let secs = t0.elapsed().as_secs();
+    assert!(o.status.success(), "{}", text(&o));
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    let lines: Vec<&str> = err.lines().collect();
+    // Start and end of the prediction, the writing stage, and at most one
+    // line per 5 s of a stage on a slow machine: never one per image.
+    let bound = 3 + 2 * (secs as usize / 5 + 1);
+    assert!(
+        lines.len() <= bound && lines.len() < n,
+        "{} lines for {n} images in {secs} s:\n{err}",
+        lines.len()
+    );
+    for l in &lines {
+        assert!(
+            l.starts_with('[') && l.contains(" s] "),
+            "no timestamp: {l}"
+        );
+    }
+    assert!(err.contains(&format!("predicted: {n}/{n}")), "{err}");
+    assert!(
+        !err.contains('\r') && !err.contains('\u{1b}'),
+        "no terminal codes in a log: {err:?}"
+    );
+}

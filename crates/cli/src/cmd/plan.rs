@@ -283,7 +283,7 @@ impl Common {
             (self.glb.as_deref(), "--glb"),
         ] {
             if let Some(p) = p {
-                fsio::check_overwrite(p, self.force)?;
+                fsio::check_output_file(p, self.force)?;
                 super::check_output_writable(p, flag)?;
             }
         }

@@ -238,9 +238,9 @@ pub fn run(cmd: SimCommand, out: &mut dyn Write) -> Result<()> {
             depth,
             force,
         } => {
-            fsio::check_overwrite(&path, force)?;
+            fsio::check_output_file(&path, force)?;
             if let Some(d) = &depth {
-                fsio::check_overwrite(d, force)?;
+                fsio::check_output_file(d, force)?;
             }
             let k = Intrinsics::from_hfov(width, height, hfov)?;
             let cam = look_at_camera(k, Point3::from(from), Point3::from(at))?;
@@ -279,7 +279,8 @@ pub fn run(cmd: SimCommand, out: &mut dyn Write) -> Result<()> {
 /// `vpctl sim fly`.
 fn fly(req: &FlightRequest, out: &mut dyn Write) -> Result<()> {
     let progress = super::Progress::new();
-    let s = write_flight(req, &mut |m| progress.line(m))?;
+    let s = write_flight(req, &mut |m| progress.message(m))?;
+    progress.finish();
     writeln!(
         out,
         "wrote {} images to {}",
@@ -306,13 +307,15 @@ fn fly(req: &FlightRequest, out: &mut dyn Write) -> Result<()> {
 
 /// `vpctl sim train`.
 fn train(config: &Path, path: &Path, force: bool, out: &mut dyn Write) -> Result<()> {
-    fsio::check_overwrite(path, force)?;
+    fsio::check_output_file(path, force)?;
     let cfg = vp_sim::campaign::CampaignConfig::load(config)?;
-    let t0 = std::time::Instant::now();
     let mut curves =
         vp_sim::campaign::curves::CurveAccumulator::new(cfg.training.forest.bins.clone());
-    let mut say = |m: &str| eprintln!("[{:6.1} s] {m}", t0.elapsed().as_secs_f64());
-    let (forest, stats) = vp_sim::campaign::train_forest_with_stats(&cfg, &mut curves, &mut say)?;
+    let progress = super::Progress::new();
+    let (forest, stats) = vp_sim::campaign::train_forest_with_stats(&cfg, &mut curves, &mut |m| {
+        progress.message(m);
+    })?;
+    progress.finish();
     forest
         .save(path)
         .with_context(|| format!("saving the forest to {}", path.display()))?;

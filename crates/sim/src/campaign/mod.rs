@@ -30,6 +30,7 @@ pub mod curves;
 mod depth_maps;
 pub mod eval;
 pub mod evaluate;
+pub mod f_vs_np;
 pub mod features;
 pub mod fly;
 mod gate;

@@ -159,7 +159,8 @@ pub(crate) fn label_site(
     let mut points = BTreeMap::new();
     let mut attempts = 0;
     let mut n = 0;
-    while n < t.triplets_per_site && attempts < 20 * t.triplets_per_site {
+    let per_site = t.triplets_per_site;
+    while n < per_site && attempts < 20 * per_site {
         attempts += 1;
         let Some(cams) = random_triplet(&site, &caster, k, cfg, &mut rng) else {
             continue;
@@ -199,6 +200,7 @@ pub(crate) fn label_site(
             runs.insert(id, (run.images, run.truth, run.depth_in_truth));
         }
         n += 1;
+        progress(&format!("training site {seed}: triplets ({n}/{per_site})"));
     }
     progress(&format!(
         "training site {seed}: {n} triplets reconstructed, {} with output; labelling",
@@ -289,6 +291,8 @@ pub fn train_forest_with_stats(
         TrainingSet::with_cap_per_label_image(t.max_per_label_image, mix64(cfg.seed ^ 0x0063_6170));
     let mut stats = TrainingStats::default();
     for &seed in &t.site_seeds {
+        // Said first: the site and the first MVS runs were the demo's silent 18 s.
+        progress(&format!("training site {seed}: generating the site"));
         train_site(cfg, seed, &mut set, &mut stats, curves, progress)?;
     }
     progress(&format!(
