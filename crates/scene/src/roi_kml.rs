@@ -22,7 +22,7 @@ pub(crate) fn kml_from_kmz(bytes: &[u8], path: &Path) -> Result<String> {
         .map_err(|e| bad(format!("not a ZIP archive (a .kmz is one): {e}")))?;
     let names: Vec<String> = zip
         .file_names()
-        .filter_map(|n| n.ok().map(|n| n.into_owned()))
+        .filter_map(|n| n.ok().map(std::borrow::Cow::into_owned))
         .collect();
     let kml = names
         .iter()
@@ -74,11 +74,7 @@ struct Walk {
 pub(crate) fn polygons(text: &str, path: &Path) -> Result<Vec<Candidate>> {
     let line_of = |pos: u64| {
         let end = usize::try_from(pos).unwrap_or(usize::MAX).min(text.len());
-        text.as_bytes()[..end]
-            .iter()
-            .filter(|&&b| b == b'\n')
-            .count()
-            + 1
+        text.as_bytes()[..end].split(|&b| b == b'\n').count()
     };
     let err =
         |pos: u64, message: String| SceneError::parse(path, Location::Line(line_of(pos)), message);
