@@ -209,8 +209,11 @@ fn export(
     };
     let o = options(&plan.0, autopilot, k, home, ceiling, min_height)?;
     let dji = vp_mission::DjiOptions {
-        drone: drone.map(str::parse).transpose().py()?,
-        heights: dji_heights.parse().py()?,
+        drone: drone
+            .map(str::parse::<vp_mission::wpml::Drone>)
+            .transpose()
+            .py()?,
+        heights: dji_heights.parse::<vp_mission::wpml::WpmlHeights>().py()?,
         split,
         // WPML's createTime/updateTime: the wall clock, as the CLI writes.
         time_ms: std::time::SystemTime::now()

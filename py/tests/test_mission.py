@@ -163,15 +163,19 @@ def _kmz_entries(data: bytes) -> dict:
 
 
 @pytest.mark.parametrize("heights", ["relative", "wgs84"])
-def test_export_kmz_equals_cli(plan_file, tmp_path, heights):
-    path, plan = plan_file
+def test_export_kmz_equals_cli(site, tmp_path, heights):
+    # WGS84 heights are converted from the plan's datum: the plan says it.
+    plan = vpctl.planner.plan_grid(site.mesh, height=50, overlap=0.5, origin=(46.0, 10.3, 400.0),
+                                   datum="egm96", home=(46.0, 10.3, 400.0))
+    path = tmp_path / "plan.json"
+    plan.save(path)
     cli = tmp_path / "cli.kmz"
     run_cli("mission", "export", path, "--out", cli, "--drone", "m3e", "--dji-heights", heights)
     py = tmp_path / "py.kmz"
     data = vpctl.mission.export(plan, out=py, drone="m3e", dji_heights=heights)
     assert isinstance(data, bytes) and data == py.read_bytes()
     mine, theirs = _kmz_entries(data), _kmz_entries(cli.read_bytes())
-    assert list(mine) == ["wpmz/template.kml", "wpmz/waylines.wpml"]
+    assert [n for n in mine if not n.endswith("/")] == ["wpmz/template.kml", "wpmz/waylines.wpml"]
     assert mine == theirs
     assert "<wpml:createTime/>" in mine["wpmz/template.kml"]
 
