@@ -218,13 +218,13 @@ fn mesh_of(obj: &Bound<'_, PyAny>) -> PyResult<Mesh> {
 /// `--roi`/`--roi-box` or `--roi-polygon` (one library call for the file).
 fn roi_of(obj: Option<&Bound<'_, PyAny>>, area: &AreaArgs) -> PyResult<RoiSpec> {
     let obj = obj.filter(|o| !o.is_none());
-    if let Some(path) = &area.roi_polygon {
+    if let Some(path) = &area.file {
         if obj.is_some() {
             return Err(value_error("give roi or roi_polygon, not both"));
         }
-        return RoiSpec::from_area_file(path, area.roi_name.as_deref(), area.roi_heights).py();
+        return RoiSpec::from_area_file(path, area.name.as_deref(), area.heights).py();
     }
-    if area.roi_name.is_some() || area.roi_heights.is_some() {
+    if area.name.is_some() || area.heights.is_some() {
         return Err(value_error("roi_name and roi_heights need roi_polygon"));
     }
     let Some(obj) = obj else {
@@ -239,9 +239,9 @@ fn roi_of(obj: Option<&Bound<'_, PyAny>>, area: &AreaArgs) -> PyResult<RoiSpec> 
 
 /// The `roi_polygon=` keywords.
 struct AreaArgs {
-    roi_polygon: Option<PathBuf>,
-    roi_name: Option<String>,
-    roi_heights: Option<(f64, f64)>,
+    file: Option<PathBuf>,
+    name: Option<String>,
+    heights: Option<(f64, f64)>,
 }
 
 fn origin_of(obj: Option<(f64, f64, f64)>) -> PyResult<Option<GeodeticOrigin>> {
@@ -372,9 +372,9 @@ fn plan(
     let cfg = self::config(config)?;
     let mesh = mesh_of(mesh)?;
     let area = AreaArgs {
-        roi_polygon,
-        roi_name,
-        roi_heights,
+        file: roi_polygon,
+        name: roi_name,
+        heights: roi_heights,
     };
     let roi = roi_of(roi, &area)?;
     let origin = origin_of(origin)?;
@@ -463,9 +463,9 @@ fn plan_grid(
     let cfg = self::config(config)?;
     let mesh = mesh_of(mesh)?;
     let area = AreaArgs {
-        roi_polygon,
-        roi_name,
-        roi_heights,
+        file: roi_polygon,
+        name: roi_name,
+        heights: roi_heights,
     };
     let roi = roi_of(roi, &area)?;
     let origin = origin_of(origin)?;
