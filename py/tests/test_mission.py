@@ -163,3 +163,45 @@ def test_bad_inputs(plan_file):
         vpctl.mission.SimulatedVehicle(autopilot="dji")
     with pytest.raises(OSError):
         vpctl.mission.SimulatedVehicle(bind="256.0.0.1:0")
+
+
+def _kmz_entries(data: bytes) -> dict:
+    """Entry name -> text of a .kmz, WPML's wall-clock createTime and
+    updateTime blanked (they differ between two runs)."""
+    import io
+    import re
+    import zipfile
+
+    with zipfile.ZipFile(io.BytesIO(data)) as z:
+        return {
+            n: re.sub(r"<wpml:(create|update)Time>\d+</wpml:\1Time>", r"<wpml:\1Time/>", z.read(n).decode())
+            for n in z.namelist()
+        }
+
+
+@pytest.mark.parametrize("heights", ["relative", "wgs84"])
+def test_export_kmz_equals_cli(site, tmp_path, heights):
+    # WGS84 heights are converted from the plan's datum: the plan says it.
+    plan = vpctl.planner.plan_grid(site.mesh, height=50, overlap=0.5, origin=(46.0, 10.3, 400.0),
+                                   datum="egm96", home=(46.0, 10.3, 400.0))
+    path = tmp_path / "plan.json"
+    plan.save(path)
+    cli = tmp_path / "cli.kmz"
+    run_cli("mission", "export", path, "--out", cli, "--drone", "m3e", "--dji-heights", heights)
+    py = tmp_path / "py.kmz"
+    data = vpctl.mission.export(plan, out=py, drone="m3e", dji_heights=heights)
+    assert isinstance(data, bytes) and data == py.read_bytes()
+    mine, theirs = _kmz_entries(data), _kmz_entries(cli.read_bytes())
+    assert [n for n in mine if not n.endswith("/")] == ["wpmz/template.kml", "wpmz/waylines.wpml"]
+    assert mine == theirs
+    assert "<wpml:createTime/>" in mine["wpmz/template.kml"]
+
+
+def test_export_kmz_needs_a_known_drone(plan_file, tmp_path):
+    _, plan = plan_file
+    out = tmp_path / "m.kmz"
+    with pytest.raises(ValueError, match="drone"):
+        vpctl.mission.export(plan, out=out)
+    with pytest.raises(ValueError, match="m99"):
+        vpctl.mission.export(plan, out=out, drone="m99")
+    assert not out.exists()

@@ -203,7 +203,7 @@ pub fn plan_grid(
         return Err(PlannerError::Input("the mesh has no faces".into()));
     }
     let caster = RayCaster::new(mesh);
-    let faces = roi.faces(mesh, &caster)?;
+    let faces = roi.faces(mesh, &caster, origin)?;
     let mut fp = Aabb::empty();
     for &f in &faces {
         for p in mesh.triangle(f as usize) {

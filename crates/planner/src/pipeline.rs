@@ -275,7 +275,7 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
     // BVH of the safety rules) are independent, single-threaded builds.
     let (caster, (safety, t_clear)) =
         rayon::join(|| RayCaster::new(mesh), || timed(|| safety_for(mesh, cfg)));
-    let roi = inputs.roi.faces(mesh, &caster)?;
+    let roi = inputs.roi.faces(mesh, &caster, inputs.origin)?;
     let (safety, t_free) = timed(|| with_free_space(safety, inputs, &caster));
     let safety = safety?;
     times.insert("free_space".into(), t_clear + t_free);

@@ -64,6 +64,9 @@ def export(
     home: Optional[_Home] = None,
     ceiling: float = 120.0,
     min_height: float = 2.0,
+    drone: Optional[str] = None,
+    dji_heights: str = "relative",
+    split: bool = False,
 ) -> Union[str, bytes, list[str], list[bytes]]: ...
 def upload(
     plan: Plan,
