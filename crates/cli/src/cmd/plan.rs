@@ -305,8 +305,10 @@ impl Common {
             (self.glb.as_deref(), "--glb"),
         ] {
             if let Some(p) = p {
-                fsio::check_output_file(p, self.force)?;
+                // The flag-naming check first: it names which option the
+                // missing folder belongs to.
                 super::check_output_writable(p, flag)?;
+                fsio::check_output_file(p, self.force)?;
             }
         }
         Ok(PlanOutputs {
