@@ -8,7 +8,7 @@
 
 use std::fmt::Write as _;
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use nalgebra::{Point3, Vector3};
 use vp_scene::colmap::{read_model, ModelFrame};
@@ -16,13 +16,8 @@ use vp_scene::geodesy::LocalFrame;
 use vp_scene::io::{read_mesh, write_mesh, MeshFormat};
 use vp_scene::plan::Plan;
 
-fn vpctl(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vpctl"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("vpctl runs")
-}
+mod common;
+use common::vpctl_in as vpctl;
 
 fn ok(o: &Output) -> String {
     let out = String::from_utf8_lossy(&o.stdout).into_owned();
