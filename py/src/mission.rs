@@ -165,16 +165,18 @@ fn py_build_mission(
     build_mission(&plan.0, &o).py().map(PyMission)
 }
 
-/// The plan as export text: QGroundControl `.plan` JSON (`format="qgc"`)
-/// or `QGC WPL 110` (`"wpl"`); without `format`, from the extension of
-/// `out` (`.plan`, `.waypoints`/`.txt`) as `vpctl mission export`, which
-/// refuses the same files; QGC when there is no `out`. Written to `out`
+/// The plan as an export: QGroundControl `.plan` JSON (`format="qgc"`),
+/// `QGC WPL 110` (`"wpl"`), a DJI WPML `.kmz` (`"wpml"`, needs `drone`:
+/// "m3e", "m30t", ...; `dji_heights` "relative" or "wgs84"), a Litchi CSV
+/// (`"litchi"`, `split` over 99 waypoints) or a KML preview (`"kml"`);
+/// without `format`, from the extension of `out` as `vpctl mission export`,
+/// which refuses the same files; QGC when there is no `out`. Written to `out`
 /// when given, atomically, refusing to overwrite unless `force` (same
 /// bytes as `vpctl mission export`). A plan split into flights gives a
 /// list, one text per flight, written to `out`'s numbered files
 /// (`m-1.plan`, `m-2.plan`, ...).
 #[pyfunction]
-#[pyo3(signature = (plan, format = None, out = None, force = false, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true, home = None, ceiling = 120.0, min_height = 2.0))]
+#[pyo3(signature = (plan, format = None, out = None, force = false, autopilot = "px4", hold = 2.0, speed = None, takeoff = 20.0, rtl = true, home = None, ceiling = 120.0, min_height = 2.0, drone = None, dji_heights = "relative", split = false))]
 #[allow(clippy::too_many_arguments)] // Python keywords, one per `vpctl mission` flag
 fn export(
     py: Python<'_>,
@@ -190,6 +192,9 @@ fn export(
     home: Option<&Bound<'_, PyAny>>,
     ceiling: f64,
     min_height: f64,
+    drone: Option<&str>,
+    dji_heights: &str,
+    split: bool,
 ) -> PyResult<Py<PyAny>> {
     let format = format.map(ExportFormat::from_name).transpose().py()?;
     let format = ExportFormat::for_output(out.as_deref(), format).py()?;
@@ -203,14 +208,19 @@ fn export(
         rtl,
     };
     let o = options(&plan.0, autopilot, k, home, ceiling, min_height)?;
-    let files = export_flights(
-        &plan.0,
-        format,
-        &o,
-        &vp_mission::DjiOptions::default(),
-        out.as_deref(),
-    )
-    .py()?;
+    let dji = vp_mission::DjiOptions {
+        drone: drone
+            .map(str::parse::<vp_mission::wpml::Drone>)
+            .transpose()
+            .py()?,
+        heights: dji_heights.parse::<vp_mission::wpml::WpmlHeights>().py()?,
+        split,
+        // WPML's createTime/updateTime: the wall clock, as the CLI writes.
+        time_ms: std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| u64::try_from(d.as_millis()).unwrap_or(0)),
+    };
+    let files = export_flights(&plan.0, format, &o, &dji, out.as_deref()).py()?;
     write_flights(&files, force).py()?;
     // Text formats as str, the others (a .kmz) as bytes.
     let mut objs = Vec::with_capacity(files.len());
@@ -337,13 +347,24 @@ impl PyVehicle {
 
 #[pymethods]
 impl PyVehicle {
-    /// Listens on `bind` (port 0: any free port) as a PX4 or ArduPilot vehicle.
+    /// Listens on `bind` (port 0: any free port) as a PX4 or ArduPilot
+    /// vehicle. `home=(lat, lon, alt)` (altitude above mean sea level) makes
+    /// it report that HOME_POSITION, as a vehicle with a GNSS fix does, so
+    /// `upload` compares it with the plan's home; without it the vehicle
+    /// has no fix and reports none.
     #[new]
-    #[pyo3(signature = (bind = "127.0.0.1:0", autopilot = "px4"))]
-    fn new(bind: &str, autopilot: &str) -> PyResult<Self> {
+    #[pyo3(signature = (bind = "127.0.0.1:0", autopilot = "px4", home = None))]
+    fn new(bind: &str, autopilot: &str, home: Option<(f64, f64, f64)>) -> PyResult<Self> {
+        let default = VehicleConfig::default();
         let cfg = VehicleConfig {
             autopilot: self::autopilot(autopilot)?,
-            ..VehicleConfig::default()
+            home: home.map_or(default.home, |(lat_deg, lon_deg, alt_m)| GeodeticOrigin {
+                lat_deg,
+                lon_deg,
+                alt_m,
+            }),
+            reports_home: home.is_some(),
+            ..default
         };
         let v = spawn_udp_vehicle(bind, cfg).py()?;
         Ok(PyVehicle(std::sync::Mutex::new(Some(v))))

@@ -214,8 +214,20 @@ fn mesh_of(obj: &Bound<'_, PyAny>) -> PyResult<Mesh> {
     io::read_mesh(&path).py()
 }
 
-fn roi_of(obj: Option<&Bound<'_, PyAny>>) -> PyResult<RoiSpec> {
-    let Some(obj) = obj.filter(|o| !o.is_none()) else {
+/// `roi=` or `roi_polygon=` (with `roi_name=`, `roi_heights=`), as
+/// `--roi`/`--roi-box` or `--roi-polygon` (one library call for the file).
+fn roi_of(obj: Option<&Bound<'_, PyAny>>, area: &AreaArgs) -> PyResult<RoiSpec> {
+    let obj = obj.filter(|o| !o.is_none());
+    if let Some(path) = &area.file {
+        if obj.is_some() {
+            return Err(value_error("give roi or roi_polygon, not both"));
+        }
+        return RoiSpec::from_area_file(path, area.name.as_deref(), area.heights).py();
+    }
+    if area.name.is_some() || area.heights.is_some() {
+        return Err(value_error("roi_name and roi_heights need roi_polygon"));
+    }
+    let Some(obj) = obj else {
         return Ok(RoiSpec::All);
     };
     if let Ok(b) = obj.extract::<[f64; 6]>() {
@@ -223,6 +235,13 @@ fn roi_of(obj: Option<&Bound<'_, PyAny>>) -> PyResult<RoiSpec> {
     }
     let roi: Roi = convert::from_py_required(obj, "roi")?;
     Ok(RoiSpec::Region(roi))
+}
+
+/// The `roi_polygon=` keywords.
+struct AreaArgs {
+    file: Option<PathBuf>,
+    name: Option<String>,
+    heights: Option<(f64, f64)>,
 }
 
 fn origin_of(obj: Option<(f64, f64, f64)>) -> PyResult<Option<GeodeticOrigin>> {
@@ -320,7 +339,9 @@ fn datum_of(datum: Option<&str>) -> PyResult<Option<VerticalDatum>> {
 /// Mesh or file, `cameras` the acquired views, `confidence` their
 /// confidence images (folder, list, or None for no prediction), `config` a
 /// dict, TOML path or None, `roi` a box (xmin, ymin, zmin, xmax, ymax,
-/// zmax) or a dict as `--roi` JSON, `origin` (lat, lon, alt) with its
+/// zmax) or a dict as `--roi` JSON, or `roi_polygon` a .kml/.kmz/.geojson
+/// area in lon/lat (`roi_name` picks one of several, `roi_heights` (min,
+/// max) limits it) as `--roi-polygon`, `origin` (lat, lon, alt) with its
 /// `datum` ("egm96", "ellipsoid", "takeoff"), `home` (lat, lon, alt[,
 /// datum]) or "first_image" (as `--home-from-first-image`).
 ///
@@ -331,7 +352,7 @@ fn datum_of(datum: Option<&str>) -> PyResult<Option<VerticalDatum>> {
 /// they plan as `frame_unchecked` (a ColmapModel's tracks still carve the
 /// free space). The GIL is released while planning.
 #[pyfunction]
-#[pyo3(signature = (mesh, cameras, confidence = None, config = None, roi = None, origin = None, datum = None, home = None, frame_unchecked = false))]
+#[pyo3(signature = (mesh, cameras, confidence = None, config = None, roi = None, origin = None, datum = None, home = None, frame_unchecked = false, roi_polygon = None, roi_name = None, roi_heights = None))]
 #[allow(clippy::too_many_arguments)] // Python keywords, one per `vpctl plan` flag
 fn plan(
     py: Python<'_>,
@@ -344,10 +365,18 @@ fn plan(
     datum: Option<&str>,
     home: Option<&Bound<'_, PyAny>>,
     frame_unchecked: bool,
+    roi_polygon: Option<PathBuf>,
+    roi_name: Option<String>,
+    roi_heights: Option<(f64, f64)>,
 ) -> PyResult<PyPlanResult> {
     let cfg = self::config(config)?;
     let mesh = mesh_of(mesh)?;
-    let roi = roi_of(roi)?;
+    let area = AreaArgs {
+        file: roi_polygon,
+        name: roi_name,
+        heights: roi_heights,
+    };
+    let roi = roi_of(roi, &area)?;
     let origin = origin_of(origin)?;
     let datum = datum_of(datum)?;
     let home = home_spec(home)?;
@@ -409,9 +438,9 @@ fn plan(
 
 /// A lawnmower grid flight over the region of interest, as `vpctl plan grid`.
 #[pyfunction]
-#[pyo3(signature = (mesh, roi = None, height = 50.0, gsd = None, overlap = 0.8, side_overlap = None, pitch = -90.0, yaw = 0.0, initial = false, config = None, origin = None, datum = None, home = None),
+#[pyo3(signature = (mesh, roi = None, height = 50.0, gsd = None, overlap = 0.8, side_overlap = None, pitch = -90.0, yaw = 0.0, initial = false, config = None, origin = None, datum = None, home = None, roi_polygon = None, roi_name = None, roi_heights = None),
     // pyo3 writes a negative default as `...`: help() would show Ellipsis.
-    text_signature = "(mesh, roi=None, height=50.0, gsd=None, overlap=0.8, side_overlap=None, pitch=-90.0, yaw=0.0, initial=False, config=None, origin=None, datum=None, home=None)")]
+    text_signature = "(mesh, roi=None, height=50.0, gsd=None, overlap=0.8, side_overlap=None, pitch=-90.0, yaw=0.0, initial=False, config=None, origin=None, datum=None, home=None, roi_polygon=None, roi_name=None, roi_heights=None)")]
 fn plan_grid(
     py: Python<'_>,
     mesh: &Bound<'_, PyAny>,
@@ -427,10 +456,18 @@ fn plan_grid(
     origin: Option<(f64, f64, f64)>,
     datum: Option<&str>,
     home: Option<&Bound<'_, PyAny>>,
+    roi_polygon: Option<PathBuf>,
+    roi_name: Option<String>,
+    roi_heights: Option<(f64, f64)>,
 ) -> PyResult<PyPlan> {
     let cfg = self::config(config)?;
     let mesh = mesh_of(mesh)?;
-    let roi = roi_of(roi)?;
+    let area = AreaArgs {
+        file: roi_polygon,
+        name: roi_name,
+        heights: roi_heights,
+    };
+    let roi = roi_of(roi, &area)?;
     let origin = origin_of(origin)?;
     let datum = datum_of(datum)?;
     let home = home_spec(home)?;

@@ -88,6 +88,23 @@ def test_upload_download_round_trip_through_simulated_vehicle(plan_file):
         v.url
 
 
+def test_upload_compares_the_simulated_vehicles_home_with_the_plans(plan_file):
+    """A vehicle whose home lies 30 m from the plan's is refused (its
+    mission untouched) unless the offset is accepted; the same home passes."""
+    _, plan = plan_file
+    far = (46.0 + 30.0 / 111_195.0, 10.3, 400.0)
+    with vpctl.mission.SimulatedVehicle(home=far) as v:
+        with pytest.raises(ValueError, match="accept"):
+            vpctl.mission.upload(plan, v.url, heartbeat_timeout=3.0)
+        assert v.mission() == [] and v.upload_counts() == (0, 0)
+        report = vpctl.mission.upload(plan, v.url, heartbeat_timeout=3.0, accept_home_offset=True)
+        assert report["verified"] and "ACCEPTED" in report["home"], report["home"]
+    with vpctl.mission.SimulatedVehicle(home=(46.0, 10.3, 400.0)) as v:
+        report = vpctl.mission.upload(plan, v.url, heartbeat_timeout=3.0)
+        assert report["verified"] and report["home"] is not None
+        assert "ACCEPTED" not in report["home"], report["home"]
+
+
 def test_waiting_for_a_vehicle_releases_the_gil_and_times_out(plan_file):
     """A Python thread keeps running while upload waits for a heartbeat
     that never comes; the wait ends in TimeoutError."""
@@ -146,3 +163,45 @@ def test_bad_inputs(plan_file):
         vpctl.mission.SimulatedVehicle(autopilot="dji")
     with pytest.raises(OSError):
         vpctl.mission.SimulatedVehicle(bind="256.0.0.1:0")
+
+
+def _kmz_entries(data: bytes) -> dict:
+    """Entry name -> text of a .kmz, WPML's wall-clock createTime and
+    updateTime blanked (they differ between two runs)."""
+    import io
+    import re
+    import zipfile
+
+    with zipfile.ZipFile(io.BytesIO(data)) as z:
+        return {
+            n: re.sub(r"<wpml:(create|update)Time>\d+</wpml:\1Time>", r"<wpml:\1Time/>", z.read(n).decode())
+            for n in z.namelist()
+        }
+
+
+@pytest.mark.parametrize("heights", ["relative", "wgs84"])
+def test_export_kmz_equals_cli(site, tmp_path, heights):
+    # WGS84 heights are converted from the plan's datum: the plan says it.
+    plan = vpctl.planner.plan_grid(site.mesh, height=50, overlap=0.5, origin=(46.0, 10.3, 400.0),
+                                   datum="egm96", home=(46.0, 10.3, 400.0))
+    path = tmp_path / "plan.json"
+    plan.save(path)
+    cli = tmp_path / "cli.kmz"
+    run_cli("mission", "export", path, "--out", cli, "--drone", "m3e", "--dji-heights", heights)
+    py = tmp_path / "py.kmz"
+    data = vpctl.mission.export(plan, out=py, drone="m3e", dji_heights=heights)
+    assert isinstance(data, bytes) and data == py.read_bytes()
+    mine, theirs = _kmz_entries(data), _kmz_entries(cli.read_bytes())
+    assert [n for n in mine if not n.endswith("/")] == ["wpmz/template.kml", "wpmz/waylines.wpml"]
+    assert mine == theirs
+    assert "<wpml:createTime/>" in mine["wpmz/template.kml"]
+
+
+def test_export_kmz_needs_a_known_drone(plan_file, tmp_path):
+    _, plan = plan_file
+    out = tmp_path / "m.kmz"
+    with pytest.raises(ValueError, match="drone"):
+        vpctl.mission.export(plan, out=out)
+    with pytest.raises(ValueError, match="m99"):
+        vpctl.mission.export(plan, out=out, drone="m99")
+    assert not out.exists()

@@ -136,3 +136,45 @@ def test_config_defaults_and_bad_inputs(planning, site, tmp_path):
         vpctl.planner.plan(site.mesh, 42)
     with pytest.raises(ValueError):
         vpctl.planner.plan_grid(site.mesh, origin=(100.0, 0.0, 0.0))
+
+
+def _area_kml(path, lon0, lat0, half_m):
+    """A Google Earth polygon: a square of 2 half_m metres around (lon0, lat0)."""
+    import math
+
+    dlon = half_m / (111_320.0 * math.cos(math.radians(lat0)))
+    dlat = half_m / 110_540.0
+    ring = [(lon0 - dlon, lat0 - dlat), (lon0 + dlon, lat0 - dlat), (lon0 + dlon, lat0 + dlat),
+            (lon0 - dlon, lat0 + dlat), (lon0 - dlon, lat0 - dlat)]
+    coords = " ".join(f"{lon:.10f},{lat:.10f},0" for lon, lat in ring)
+    path.write_text(
+        '<?xml version="1.0" encoding="UTF-8"?>\n<kml xmlns="http://www.opengis.net/kml/2.2">'
+        f"<Document><Placemark><name>Area</name><Polygon><outerBoundaryIs><LinearRing>"
+        f"<coordinates>{coords}</coordinates></LinearRing></outerBoundaryIs></Polygon>"
+        "</Placemark></Document></kml>\n"
+    )
+
+
+def test_plan_grid_roi_polygon_equals_cli(site, tmp_path):
+    from conftest import run_cli
+
+    mesh_path = tmp_path / "site.ply"
+    site.save(mesh_path)
+    lo, hi = site.rock_bounds
+    cx, cy = (lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2
+    lat0 = 46.0 + cy / 110_540.0
+    lon0 = 10.3 + cx / (111_320.0 * np.cos(np.radians(46.0)))
+    area = tmp_path / "area.kml"
+    _area_kml(area, lon0, lat0, 12.0)
+    cli = tmp_path / "cli.json"
+    run_cli("plan", "grid", "--mesh", mesh_path, "--origin", "46.0,10.3,400", "--height", "30",
+            "--roi-polygon", area, "--out", cli)
+    plan = vpctl.planner.plan_grid(mesh_path, height=30, origin=(46.0, 10.3, 400.0), roi_polygon=area)
+    plan.save(tmp_path / "py.json")
+    assert (tmp_path / "py.json").read_bytes() == cli.read_bytes()
+    everything = vpctl.planner.plan_grid(mesh_path, height=30, origin=(46.0, 10.3, 400.0))
+    assert len(plan) < len(everything)
+    with pytest.raises(ValueError, match="area.kml"):
+        vpctl.planner.plan_grid(mesh_path, height=30, roi_polygon=area)
+    with pytest.raises(ValueError, match="not both"):
+        vpctl.planner.plan_grid(mesh_path, roi=(0, 0, 0, 1, 1, 1), roi_polygon=area, origin=(46.0, 10.3, 400.0))

@@ -371,6 +371,7 @@ fn fuzz_roi_json() {
         vp_scene::roi::Roi::from_box([0.0, 1.0, 2.0, 3.0, 4.0, 5.0]).unwrap(),
         vp_scene::roi::Roi::Polygon {
             polygon: vec![[0.0, 0.0], [10.0, 0.0], [5.0, 8.0]],
+            holes: vec![vec![[4.0, 1.0], [6.0, 1.0], [5.0, 3.0]]],
             z_min: -1.0,
             z_max: 30.0,
         },

@@ -10,6 +10,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod cmd;
+mod progress;
 
 /// Plan UAV image acquisition for dense multi-view stereo (MVS).
 ///

@@ -392,3 +392,138 @@ fn predict_never_deletes_what_it_did_not_write() {
         "in/images",
     );
 }
+
+/// `vpctl sim evaluate` on two quick training sites: one row per fold,
+/// material and angle bin whose pixels add up to the printed total; one
+/// site is refused with the config named and nothing written.
+#[test]
+fn sim_evaluate_scores_each_held_out_site_and_refuses_a_single_site() {
+    let dir = tempfile::tempdir().unwrap();
+    let quick = vpctl(&["sim", "config", "--preset", "quick"]);
+    assert!(quick.status.success(), "{}", text(&quick));
+    let toml = String::from_utf8(quick.stdout).unwrap();
+    let seeds = toml
+        .lines()
+        .find(|l| l.starts_with("site_seeds = "))
+        .expect("the quick preset lists its training sites")
+        .to_string();
+    let write = |name: &str, line: &str| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, toml.replace(&seeds, line)).unwrap();
+        p
+    };
+    let one = write("one.toml", "site_seeds = [101]");
+    let out = dir.path().join("eval-one");
+    let o = vpctl(&[
+        "sim",
+        "evaluate",
+        "--config",
+        one.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("one.toml") && text(&o).contains("at least 2"),
+        "{}",
+        text(&o)
+    );
+    assert!(!out.exists());
+
+    let two = write("two.toml", "site_seeds = [101, 102]");
+    let out = dir.path().join("eval");
+    let o = vpctl(&[
+        "sim",
+        "evaluate",
+        "--config",
+        two.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let printed = String::from_utf8_lossy(&o.stdout).into_owned();
+    let csv = std::fs::read_to_string(out.join("forest_eval.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next(),
+        Some(
+            "matcher,forest,fold,material,angle_bin,pixels,accuracy_labels,accuracy_truth,\
+             majority_rate,brier,brier_angle_only"
+        )
+    );
+    let mut folds = std::collections::BTreeSet::new();
+    let mut pixels = 0u64;
+    for l in lines {
+        let f: Vec<&str> = l.split(',').collect();
+        assert_eq!(f.len(), 11, "{l}");
+        assert_eq!(f[0], "patchmatch");
+        folds.insert(f[2].to_string());
+        pixels += f[5].parse::<u64>().unwrap();
+        let v: Vec<f64> = f[6..].iter().map(|x| x.parse().unwrap()).collect();
+        assert!(v.iter().all(|x| (0.0..=1.0).contains(x)), "{l}");
+        assert!(
+            v[2] >= 0.5,
+            "the majority label's share is at least half: {l}"
+        );
+    }
+    assert_eq!(folds.into_iter().collect::<Vec<_>>(), ["101", "102"]);
+    assert!(pixels > 0);
+    assert!(
+        printed.contains(&format!("over 2 folds, {pixels} labelled pixels")),
+        "{printed}"
+    );
+    let summary = std::fs::read_to_string(out.join("summary.txt")).unwrap();
+    assert!(printed.starts_with(&summary), "{printed}\n---\n{summary}");
+}
+
+/// Regression (issue 40): `predict` into a log wrote a line per image on
+/// stderr (two with previews); now timestamped summary lines, a few per
+/// stage, however many images.
+#[test]
+fn predict_in_a_log_writes_few_timestamped_lines_not_one_per_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (images, labels, _, _) = write_data(&d.join("in"), 3, 99);
+    let model = d.join("m.vpforest");
+    let o = train(&images, &labels, &model, &["--trees", "2"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let many = d.join("many");
+    std::fs::create_dir_all(&many).unwrap();
+    let n = 40;
+    for i in 0..n {
+        std::fs::copy(images.join("i0.png"), many.join(format!("p{i:02}.png"))).unwrap();
+    }
+    let t0 = std::time::Instant::now();
+    let o = vpctl(&[
+        "predict",
+        "--forest",
+        model.to_str().unwrap(),
+        "--out",
+        d.join("conf").to_str().unwrap(),
+        "--no-previews",
+        many.to_str().unwrap(),
+    ]);
+    let secs = t0.elapsed().as_secs();
+    assert!(o.status.success(), "{}", text(&o));
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    let lines: Vec<&str> = err.lines().collect();
+    // Start and end of the prediction, the writing stage, and at most one
+    // line per 5 s of a stage on a slow machine: never one per image.
+    let bound = 3 + 2 * (secs as usize / 5 + 1);
+    assert!(
+        lines.len() <= bound && lines.len() < n,
+        "{} lines for {n} images in {secs} s:\n{err}",
+        lines.len()
+    );
+    for l in &lines {
+        assert!(
+            l.starts_with('[') && l.contains(" s] "),
+            "no timestamp: {l}"
+        );
+    }
+    assert!(err.contains(&format!("predicted: {n}/{n}")), "{err}");
+    assert!(
+        !err.contains('\r') && !err.contains('\u{1b}'),
+        "no terminal codes in a log: {err:?}"
+    );
+}

@@ -64,6 +64,18 @@ pub fn predict_files(
     out_dir: &Path,
     options: &BatchOptions,
 ) -> Result<Vec<Predicted>> {
+    predict_files_with_progress(forest, images, out_dir, options, &mut |_| {})
+}
+
+/// [`predict_files`], calling `progress` with a message ending in `(i/n)`
+/// after each image is predicted, and once before the files are written.
+pub fn predict_files_with_progress(
+    forest: &Forest,
+    images: &[(PathBuf, String)],
+    out_dir: &Path,
+    options: &BatchOptions,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Vec<Predicted>> {
     if images.is_empty() {
         return Err(ForestError::InvalidInput(
             "no images to predict (folders are searched for .png, .jpg, .jpeg, .tif, .tiff, \
@@ -117,7 +129,13 @@ pub fn predict_files(
             },
             preview,
         ));
+        progress(&format!(
+            "predicted {name} ({}/{})",
+            predicted.len(),
+            images.len()
+        ));
     }
+    progress(&format!("writing {} confidence files", predicted.len()));
     for (p, preview) in &predicted {
         for file in std::iter::once(&p.confidence_file).chain(preview.iter().map(|(f, _)| f)) {
             if let Some(parent) = file.parent() {

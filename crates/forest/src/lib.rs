@@ -48,7 +48,7 @@ pub mod synthetic;
 mod train;
 pub mod tree;
 
-pub use batch::{predict_files, BatchOptions, Predicted};
+pub use batch::{predict_files, predict_files_with_progress, BatchOptions, Predicted};
 pub use dataset::TrainingSet;
 pub use error::{ForestError, Result};
 pub use lab::LabPlanes;

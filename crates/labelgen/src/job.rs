@@ -124,10 +124,23 @@ pub struct LabelOutput {
 /// The labelling run of `req` into `output` (see the module doc); returns
 /// the summary written to `summary.json`.
 pub fn run_labelling(req: &LabelRunRequest, output: &LabelOutput) -> Result<LabelSummary> {
+    run_labelling_with_progress(req, output, &mut |_| {})
+}
+
+/// [`run_labelling`], naming each stage through `progress` as it starts
+/// (loading, labelling, writing), so that a caller can say what runs.
+pub fn run_labelling_with_progress(
+    req: &LabelRunRequest,
+    output: &LabelOutput,
+    progress: &mut dyn FnMut(&str),
+) -> Result<LabelSummary> {
     let mut inputs = req.inputs();
     inputs.extend(output.inputs.iter().map(PathBuf::as_path));
     let target = OutDir::check(&output.out, "labelgen run", &inputs, output.force)?;
+    progress("loading the model, the triplets and the depth maps");
     let run = load_label_run(req)?;
+    progress("labelling (support, voting, missing parts)");
     let labels = run.label()?;
+    progress("writing the labels");
     target.write(|stage| io::write_labels(stage, &labels, false))
 }

@@ -34,7 +34,10 @@ use rayon::prelude::*;
 use vp_scene::raster::LabelImage;
 
 pub use error::{LabelgenError, Result};
-pub use job::{load_label_run, run_labelling, LabelOutput, LabelRun, LabelRunRequest};
+pub use job::{
+    load_label_run, run_labelling, run_labelling_with_progress, LabelOutput, LabelRun,
+    LabelRunRequest,
+};
 pub use measurement::{TripletReconstruction, View};
 pub use missing::MissingPartMeshes;
 pub use params::LabelParams;

@@ -176,7 +176,6 @@ mod tests {
                 distance_m: 1.0,
                 duration_s: 1.0,
                 from_home: true,
-                warning: None,
             });
             start = end;
         }

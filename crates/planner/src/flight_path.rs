@@ -22,7 +22,7 @@ pub const OVERLAP_GRID: (u32, u32) = (32, 24);
 /// Most bridging views inserted before one image.
 pub const MAX_BRIDGES: usize = 8;
 /// Height step of the climb-traverse-descend search, metres.
-const CLIMB_STEP_M: f64 = 2.0;
+pub(crate) const CLIMB_STEP_M: f64 = 2.0;
 
 /// Rays of `cam` through the centres of a `grid` (columns, rows) of
 /// equal cells over the image.
@@ -324,13 +324,7 @@ impl PathContext<'_> {
                         ),
                     })?;
                     for (p, from) in detour.into_iter().zip([&prev, w]) {
-                        let mut v = from.clone();
-                        v.position = p.into();
-                        v.role = Role::Bridge;
-                        v.triplet_id = None;
-                        v.expected_gain = None;
-                        v.angle_bin_deg = None;
-                        out.push(v);
+                        out.push(bridge_view(from, p));
                     }
                 }
             }
@@ -364,5 +358,18 @@ impl PathContext<'_> {
             h += CLIMB_STEP_M;
         }
         None
+    }
+}
+
+/// A bridging view at `p` that looks where `from` looks: a waypoint of a
+/// climb-traverse-descend route (it keeps the photo a bridging view takes).
+pub(crate) fn bridge_view(from: &PlannedView, p: Point3<f64>) -> PlannedView {
+    PlannedView {
+        position: p.into(),
+        role: Role::Bridge,
+        triplet_id: None,
+        expected_gain: None,
+        angle_bin_deg: None,
+        ..from.clone()
     }
 }

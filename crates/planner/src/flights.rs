@@ -16,6 +16,15 @@
 //! return-to-launch altitude (PX4 `RTL_RETURN_ALT`, ArduPilot `RTL_ALT`) is
 //! above the last waypoint's height climbs there first, off the checked path.
 //!
+//! When something blocks that level leg (a tree line or a building
+//! between home and the survey), the flight goes over it the way the
+//! planner's own detours do (climb-traverse-descend): a transit view above
+//! the first waypoint at the lowest clear height makes the mission climb
+//! there at home, cross level and descend; one above the last waypoint
+//! makes it climb before return-to-launch flies home level. Without a
+//! clear height below the altitude limit the plan is refused: a mission
+//! flying that leg would hit what blocks it.
+//!
 //! With a flight-time limit the split is greedy: each flight takes the
 //! longest run of waypoints that fits the limit and that can end there
 //! (the leg home is clear, and the next flight's leg out is clear). Greedy
@@ -28,6 +37,7 @@ use vp_scene::flight_time::FlightParams;
 use vp_scene::plan::{Flight, PlannedView};
 
 use crate::error::{PlannerError, Result};
+use crate::flight_path::{bridge_view, CLIMB_STEP_M};
 use crate::safety::Safety;
 
 /// Clearance of the take-off column from the mesh, metres: about the
@@ -41,22 +51,42 @@ pub const TAKEOFF_CLEARANCE_M: f64 = 0.5;
 /// map) may lie that far below the real ground.
 pub const COLUMN_CHECK_FROM_M: f64 = TAKEOFF_CLEARANCE_M + 3.0;
 
+/// The plan's waypoints with the transit views of each flight inserted,
+/// and its flights (indices into those waypoints).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Flights {
+    /// The planned views, with a [`Role::Bridge`] view at the transit height
+    /// before or after a flight whose way from or to home needs one.
+    pub waypoints: Vec<PlannedView>,
+    /// The flights, in order; each lists its waypoints (transit views included).
+    pub flights: Vec<Flight>,
+    /// Where each input waypoint stands in [`Self::waypoints`].
+    pub index: Vec<usize>,
+}
+
 /// The flights of `waypoints` (see the module doc). Without a home the plan
 /// is one flight whose figures leave out take-off, landing and the legs to
 /// and from home; a flight-time limit then is refused (a split needs a home).
+/// A way from or to home that neither the direct climb nor a transit
+/// height clears refuses the plan: a mission flying it would hit what
+/// blocks it.
 pub fn assign_flights(
     safety: &Safety,
     home: Option<&Point3<f64>>,
     waypoints: &[PlannedView],
     params: &FlightParams,
-) -> Result<Vec<Flight>> {
+) -> Result<Flights> {
     params
         .validate()
         .map_err(|e| PlannerError::Input(e.to_string()))?;
+    let mut out = Flights {
+        waypoints: Vec::with_capacity(waypoints.len() + 2),
+        flights: Vec::new(),
+        index: Vec::with_capacity(waypoints.len()),
+    };
     if waypoints.is_empty() {
-        return Ok(Vec::new());
+        return Ok(out);
     }
-    let points: Vec<Point3<f64>> = waypoints.iter().map(|v| Point3::from(v.position)).collect();
     let Some(home) = home else {
         if params.max_flight_time_s.is_some() {
             return Err(PlannerError::Input(
@@ -66,45 +96,47 @@ pub fn assign_flights(
                     .into(),
             ));
         }
-        return Ok(vec![flight(params, None, &points, 0, points.len() - 1)]);
+        let points: Vec<Point3<f64>> = waypoints.iter().map(|v| Point3::from(v.position)).collect();
+        let e = params.estimate(None, &points, points.len());
+        out.waypoints = waypoints.to_vec();
+        out.index = (0..points.len()).collect();
+        out.flights.push(Flight {
+            waypoints: (0..points.len()).collect(),
+            distance_m: e.distance_m,
+            duration_s: e.duration_s,
+            from_home: false,
+        });
+        return Ok(out);
     };
-    let legs = Legs::new(safety, home, &points);
+    let legs = Legs::new(safety, home, waypoints);
+    let n = waypoints.len();
     let Some(usable) = params.usable_s() else {
-        // One flight: the legs home are checked and a blocked one is
-        // reported in the plan (a split, below, refuses it instead). The
-        // planned path itself starts from the vehicle's last position and
-        // was checked from there; routing the legs from home around what
-        // blocks them is the planner's next step.
-        let last = points.len() - 1;
-        let mut f = flight(params, Some(home), &points, 0, last);
-        f.warning = legs
-            .check(0)
-            .and_then(|()| legs.check(last))
-            .err()
-            .map(|e| e.to_string());
-        return Ok(vec![f]);
+        // One flight, out to the first waypoint and back from the last.
+        legs.check(0)?;
+        legs.check(n - 1)?;
+        out.push(&legs, params, home, 0, n - 1);
+        return Ok(out);
     };
-    let mut flights = Vec::new();
     let mut start = 0;
-    while start < points.len() {
+    while start < n {
         legs.check(start)?;
         let mut end = None;
         let mut alone_s = None;
-        for e in start..points.len() {
-            let f = flight(params, Some(home), &points, start, e);
-            alone_s.get_or_insert(f.duration_s);
+        for e in start..n {
+            let run = legs.run(start, e);
+            let t = params.estimate(Some(home), &run, run.len()).duration_s;
+            alone_s.get_or_insert(t);
             // Without the way back the run alone already takes too long:
             // no later waypoint can end this flight.
-            let out_and_run = f.duration_s - params.leg_s(&points[e], home);
-            if out_and_run > usable {
+            if t - params.leg_s(&run[run.len() - 1], home) > usable {
                 break;
             }
-            let can_end = legs.ok(e) && (e + 1 == points.len() || legs.ok(e + 1));
-            if f.duration_s <= usable && can_end {
-                end = Some((e, f));
+            let can_end = legs.way(e).is_some() && (e + 1 == n || legs.way(e + 1).is_some());
+            if t <= usable && can_end {
+                end = Some(e);
             }
         }
-        let Some((e, f)) = end else {
+        let Some(e) = end else {
             return Err(PlannerError::Input(match alone_s {
                 Some(t) if t > usable => format!(
                     "waypoint {start} alone cannot be flown in one flight: from home and back \
@@ -119,66 +151,144 @@ pub fn assign_flights(
                 ),
             }));
         };
-        flights.push(f);
+        out.push(&legs, params, home, start, e);
         start = e + 1;
     }
-    Ok(flights)
+    Ok(out)
 }
 
-/// The flight through waypoints `first..=last`.
-fn flight(
-    params: &FlightParams,
-    home: Option<&Point3<f64>>,
-    points: &[Point3<f64>],
-    first: usize,
-    last: usize,
-) -> Flight {
-    let e = params.estimate(home, &points[first..=last], last + 1 - first);
-    Flight {
-        waypoints: (first..=last).collect(),
-        distance_m: e.distance_m,
-        duration_s: e.duration_s,
-        from_home: home.is_some(),
-        warning: None,
+impl Flights {
+    /// Appends the flight through planned waypoints `first..=last` from and
+    /// back to `home`, with its transit views.
+    fn push(
+        &mut self,
+        legs: &Legs<'_>,
+        params: &FlightParams,
+        home: &Point3<f64>,
+        first: usize,
+        last: usize,
+    ) {
+        let views = legs.views(first, last);
+        let lead = usize::from(matches!(legs.way(first), Some(Way::Transit(_))));
+        let from = self.waypoints.len();
+        self.index
+            .extend((0..=last - first).map(|i| from + lead + i));
+        let run: Vec<Point3<f64>> = views.iter().map(|v| Point3::from(v.position)).collect();
+        let e = params.estimate(Some(home), &run, run.len());
+        self.waypoints.extend(views);
+        self.flights.push(Flight {
+            waypoints: (from..self.waypoints.len()).collect(),
+            distance_m: e.distance_m,
+            duration_s: e.duration_s,
+            from_home: true,
+        });
     }
+}
+
+/// How the vehicle gets between home and a waypoint.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Way {
+    /// Straight up from home to the waypoint's height, then level to it.
+    Direct,
+    /// Straight up from home to this height (z), level to above the
+    /// waypoint, then straight down to it: a climb-traverse-descend route
+    /// over what blocks the direct way.
+    Transit(f64),
 }
 
 /// The ways between home and each waypoint (from the column's first checked point),
-/// checked once each on demand.
+/// found once each on demand. The way back is the way out reversed.
 struct Legs<'a> {
     safety: &'a Safety,
     column_base: Point3<f64>,
-    points: &'a [Point3<f64>],
-    clear: Vec<std::cell::OnceCell<bool>>,
+    views: &'a [PlannedView],
+    ways: Vec<std::cell::OnceCell<Option<Way>>>,
 }
 
 impl<'a> Legs<'a> {
-    fn new(safety: &'a Safety, home: &Point3<f64>, points: &'a [Point3<f64>]) -> Self {
+    fn new(safety: &'a Safety, home: &Point3<f64>, views: &'a [PlannedView]) -> Self {
         Legs {
             safety,
             column_base: home + Vector3::z() * COLUMN_CHECK_FROM_M,
-            points,
-            clear: vec![std::cell::OnceCell::new(); points.len()],
+            views,
+            ways: vec![std::cell::OnceCell::new(); views.len()],
         }
     }
 
-    /// The top of the climb above home for waypoint `w`: at its height.
-    fn above(&self, w: &Point3<f64>) -> Point3<f64> {
+    fn point(&self, i: usize) -> Point3<f64> {
+        Point3::from(self.views[i].position)
+    }
+
+    /// The top of the climb above home to height `z`.
+    fn above_home(&self, z: f64) -> Point3<f64> {
         let b = self.column_base;
-        Point3::new(b.x, b.y, w.z.max(b.z))
+        Point3::new(b.x, b.y, z.max(b.z))
     }
 
-    /// Straight up from home to the waypoint's height, then level to it.
-    fn ok(&self, i: usize) -> bool {
-        *self.clear[i].get_or_init(|| self.problem(i).is_none())
+    /// Whether the column above home is clear up to `top`.
+    fn column_ok(&self, top: &Point3<f64>) -> bool {
+        self.safety
+            .clearance()
+            .segment_is_clear(&self.column_base, top, TAKEOFF_CLEARANCE_M)
     }
 
-    /// What blocks the way between home and waypoint `i`, in words.
+    /// The way between home and waypoint `i`, if one is clear.
+    fn way(&self, i: usize) -> Option<Way> {
+        *self.ways[i].get_or_init(|| {
+            if self.problem(i).is_none() {
+                return Some(Way::Direct);
+            }
+            self.transit(&self.point(i)).map(Way::Transit)
+        })
+    }
+
+    /// The lowest transit height (every [`CLIMB_STEP_M`] up to the altitude
+    /// limit) whose climb, level leg and descent to `w` are all clear.
+    fn transit(&self, w: &Point3<f64>) -> Option<f64> {
+        let s = self.safety;
+        let top = s.altitude.max_m.min(s.volume.max.z);
+        let mut h = w.z.max(self.column_base.z) + CLIMB_STEP_M;
+        while h <= top {
+            let (up, over) = (self.above_home(h), Point3::new(w.x, w.y, h));
+            if self.column_ok(&up) && s.leg_ok(&up, &over) && s.segment_ok(&over, w) {
+                return Some(h);
+            }
+            h += CLIMB_STEP_M;
+        }
+        None
+    }
+
+    /// Waypoints `first..=last` with the transit views their ways from and
+    /// to home need.
+    fn views(&self, first: usize, last: usize) -> Vec<PlannedView> {
+        let transit = |i: usize| match self.way(i) {
+            Some(Way::Transit(h)) => {
+                let p = self.point(i);
+                Some(bridge_view(&self.views[i], Point3::new(p.x, p.y, h)))
+            }
+            _ => None,
+        };
+        let mut out = Vec::with_capacity(last + 3 - first);
+        out.extend(transit(first));
+        out.extend_from_slice(&self.views[first..=last]);
+        out.extend(transit(last));
+        out
+    }
+
+    /// The positions of [`Self::views`].
+    fn run(&self, first: usize, last: usize) -> Vec<Point3<f64>> {
+        self.views(first, last)
+            .iter()
+            .map(|v| Point3::from(v.position))
+            .collect()
+    }
+
+    /// What blocks the direct way between home and waypoint `i`, in words.
     fn problem(&self, i: usize) -> Option<String> {
-        let w = self.points[i];
-        let above = self.above(&w);
+        let w = self.point(i);
+        let above = self.above_home(w.z);
         let clearance = self.safety.clearance();
-        if !clearance.segment_is_clear(&self.column_base, &above, TAKEOFF_CLEARANCE_M) {
+        if !self.column_ok(&above) {
             return Some(format!(
                 "the climb straight up from home to {:.1} m comes {:.1} m from the mesh \
                  (it must keep {TAKEOFF_CLEARANCE_M} m from {COLUMN_CHECK_FROM_M} m above home up)",
@@ -200,13 +310,16 @@ impl<'a> Legs<'a> {
 
     /// Refuses a waypoint the vehicle cannot fly to from home (or back).
     fn check(&self, i: usize) -> Result<()> {
-        let Some(why) = self.problem(i) else {
+        if self.way(i).is_some() {
             return Ok(());
-        };
-        let (h, p) = (self.column_base, self.points[i]);
+        }
+        let why = self.problem(i).unwrap_or_default();
+        let (h, p) = (self.column_base, self.point(i));
+        let top = self.safety.altitude.max_m.min(self.safety.volume.max.z);
         Err(PlannerError::Input(format!(
             "the way between home ({:.1}, {:.1}, {:.1}) and waypoint {i} at ({:.1}, {:.1}, \
-             {:.1}) is not clear: {why}; take off from a clearer place (--home)",
+             {:.1}) is not clear: {why}, and no climb over it below the altitude limit \
+             {top:.1} m is clear either; take off from a clearer place (--home)",
             h.x,
             h.y,
             h.z - COLUMN_CHECK_FROM_M,
@@ -284,29 +397,46 @@ mod tests {
     }
 
     #[test]
-    fn a_wall_on_the_level_leg_or_a_roof_over_home_is_refused() {
+    fn a_wall_is_crossed_at_a_transit_height_and_a_roof_over_home_is_refused() {
         let w = views(&[[20.0, 0.0, 15.0], [25.0, 0.0, 15.0]]);
         let home = Point3::new(0.0, 0.0, 0.0);
         let p = FlightParams::default();
-        let open = scene(&[]);
-        let s = safety_for(&open, &cfg());
-        assert_eq!(assign_flights(&s, Some(&home), &w, &p).unwrap().len(), 1);
-        // A 30 m wall at x = 10 between home and the waypoints.
-        // A split refuses a blocked way; one flight carries the warning.
         let split = FlightParams {
             max_flight_time_s: Some(1000.0),
             ..p
         };
+        let open = scene(&[]);
+        let s = safety_for(&open, &cfg());
+        let direct = assign_flights(&s, Some(&home), &w, &p).unwrap();
+        assert_eq!(direct.waypoints, w, "nothing to cross: no transit view");
+        // A 30 m wall at x = 10 between home and the waypoints: out and
+        // back over it, one transit view above the first and the last
+        // waypoint, at least the safety distance above the wall's top.
         let wall = scene(&[[10.0, -40.0, 10.0, 40.0, 0.0, 30.0]]);
         let s = safety_for(&wall, &cfg());
-        let e = assign_flights(&s, Some(&home), &w, &split).unwrap_err();
-        assert!(
-            e.to_string().contains("waypoint 0") && e.is_input_error(),
-            "{e}"
-        );
-        let one = assign_flights(&s, Some(&home), &w, &p).unwrap();
-        let warning = one[0].warning.as_deref().unwrap_or("");
-        assert!(warning.contains("level leg"), "{warning}");
+        for params in [&p, &split] {
+            let f = assign_flights(&s, Some(&home), &w, params).unwrap();
+            assert_eq!(f.waypoints.len(), 4);
+            assert_eq!(f.index, vec![1, 2]);
+            assert_eq!(f.flights[0].waypoints, vec![0, 1, 2, 3]);
+            for t in [&f.waypoints[0], &f.waypoints[3]] {
+                assert_eq!(t.role, Role::Bridge);
+                assert!(t.position[2] >= 30.0 + s.distance, "{:?}", t.position);
+            }
+            assert_eq!(f.waypoints[0].position[..2], w[0].position[..2]);
+            assert_eq!(f.waypoints[3].position[..2], w[1].position[..2]);
+            // The estimate flies over the wall: longer than the direct way.
+            assert!(f.flights[0].duration_s > direct.flights[0].duration_s);
+        }
+        // A wall up to the ceiling cannot be crossed: refused, naming it.
+        let high = scene(&[[10.0, -40.0, 10.0, 40.0, 0.0, 60.0]]);
+        let s = safety_for(&high, &cfg());
+        for params in [&p, &split] {
+            let e = assign_flights(&s, Some(&home), &w, params).unwrap_err();
+            let m = e.to_string();
+            assert!(m.contains("waypoint 0") && m.contains("level leg"), "{m}");
+            assert!(e.is_input_error());
+        }
         // A roof 8 m over home: the climb hits it.
         let roof = scene(&[[-3.0, -3.0, 3.0, 3.0, 8.0, 8.0]]);
         let s = safety_for(&roof, &cfg());
@@ -347,7 +477,7 @@ mod tests {
                 max_flight_time_s: Some(max),
                 ..FlightParams::default()
             };
-            let Ok(flights) = assign_flights(&s, Some(&home), &w, &p) else {
+            let Ok(Flights { flights, .. }) = assign_flights(&s, Some(&home), &w, &p) else {
                 // Only a waypoint too far to reach alone may refuse.
                 let alone = (0..n).any(|i| {
                     p.estimate(Some(&home), &[Point3::from(pts[i])], 1)

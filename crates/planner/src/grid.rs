@@ -203,7 +203,7 @@ pub fn plan_grid(
         return Err(PlannerError::Input("the mesh has no faces".into()));
     }
     let caster = RayCaster::new(mesh);
-    let faces = roi.faces(mesh, &caster)?;
+    let faces = roi.faces(mesh, &caster, origin)?;
     let mut fp = Aabb::empty();
     for &f in &faces {
         for p in mesh.triangle(f as usize) {
@@ -221,8 +221,8 @@ pub fn plan_grid(
         min_overlap: cfg.min_overlap,
     };
     let mut plan = Plan::new(origin);
-    plan.waypoints = ctx.make_safe(&views)?;
-    plan.flights = assign_flights(&safety, home, &plan.waypoints, &cfg.mission)?;
+    let flights = assign_flights(&safety, home, &ctx.make_safe(&views)?, &cfg.mission)?;
+    (plan.waypoints, plan.flights) = (flights.waypoints, flights.flights);
     plan.geofence.clone_from(&safety.geofence);
     plan.altitude_limits = Some(safety.altitude);
     plan.safety_distance_m = Some(cfg.safety_distance_m);

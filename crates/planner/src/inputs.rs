@@ -8,6 +8,7 @@ use vp_scene::plan::{AltitudeLimits, GeodeticOrigin, IterationStatistics, Plan};
 use vp_scene::raster::ConfidenceImage;
 use vp_scene::raycast::RayCaster;
 use vp_scene::roi::Roi;
+use vp_scene::roi_file::GeoPolygon;
 use vp_scene::{Aabb, Camera, Mesh};
 
 use crate::config::PlannerConfig;
@@ -36,6 +37,16 @@ pub enum RoiSpec {
     Faces(Vec<u32>),
     /// A region (box, ground polygon, image polygon).
     Region(Roi),
+    /// An area drawn on a map in longitude/latitude (`--roi-polygon`),
+    /// placed in the plan's ENU frame through its geodetic origin when the
+    /// plan is made ([`RoiSpec::resolve`]).
+    Geographic {
+        /// The polygon, as read from its file.
+        polygon: GeoPolygon,
+        /// Height range of the prism over the polygon (ENU metres); `None`:
+        /// every height of the mesh, from the ground to the top.
+        heights: Option<(f64, f64)>,
+    },
 }
 
 /// Inputs of one planning call.
@@ -127,10 +138,87 @@ pub fn safety_for(mesh: &Mesh, cfg: &PlannerConfig) -> Safety {
 }
 
 impl RoiSpec {
-    /// The faces of `mesh` the region selects (`caster` built from `mesh`);
-    /// an empty selection or a face index out of range is an input error.
-    pub fn faces(&self, mesh: &Mesh, caster: &RayCaster) -> Result<Vec<u32>> {
+    /// The area drawn on a map in the file at `path` (`.kml`, `.kmz`,
+    /// `.geojson`, `.json`; [`GeoPolygon::load`]), the polygon named `name`
+    /// when the file holds several, as a prism over `heights` (ENU metres,
+    /// min <= max) or over every height of the mesh: what `vpctl plan
+    /// --roi-polygon` and Python's `roi_polygon=` both build.
+    pub fn from_area_file(
+        path: &std::path::Path,
+        name: Option<&str>,
+        heights: Option<(f64, f64)>,
+    ) -> Result<RoiSpec> {
+        if let Some((lo, hi)) = heights {
+            if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
+                return Err(PlannerError::Input(format!(
+                    "area heights {lo},{hi}: expected finite MIN,MAX (metres in the plan's \
+                     frame) with MIN <= MAX"
+                )));
+            }
+        }
+        Ok(RoiSpec::Geographic {
+            polygon: GeoPolygon::load(path, name)?,
+            heights,
+        })
+    }
+
+    /// The region in the mesh's frame: a [`RoiSpec::Geographic`] area placed
+    /// through the plan's geodetic `origin` (refused without one, or when it
+    /// misses the mesh's ground extent); any other region as it is.
+    pub fn resolve(&self, mesh: &Mesh, origin: Option<GeodeticOrigin>) -> Result<RoiSpec> {
+        let RoiSpec::Geographic { polygon, heights } = self else {
+            return Ok(self.clone());
+        };
+        let file = polygon.source.display();
+        let Some(origin) = origin else {
+            return Err(PlannerError::Input(format!(
+                "{file}: the area is in latitude/longitude, and the plan has no geodetic origin \
+                 to place it: plan on a model aligned by `vpctl colmap align --colmap DIR \
+                 --positions positions.csv --out DIR` (its frame.json), or pass --origin LAT,LON,ALT"
+            )));
+        };
+        let b = mesh.bounds();
+        let (z_min, z_max) = heights.unwrap_or((b.min.z - 1.0, b.max.z + 1.0));
+        let roi = polygon.to_roi(origin, z_min, z_max)?;
+        if let Roi::Polygon { polygon: xy, .. } = &roi {
+            let mut p = Aabb::empty();
+            for [x, y] in xy {
+                p.grow(&Point3::new(*x, *y, 0.0));
+            }
+            if p.max.x < b.min.x || p.min.x > b.max.x || p.max.y < b.min.y || p.min.y > b.max.y {
+                return Err(PlannerError::Input(format!(
+                    "{file}: the area (x {:.1}..{:.1}, y {:.1}..{:.1} m from the origin) does \
+                     not overlap the model (x {:.1}..{:.1}, y {:.1}..{:.1} m): draw it over the \
+                     site the model covers",
+                    p.min.x, p.max.x, p.min.y, p.max.y, b.min.x, b.max.x, b.min.y, b.max.y
+                )));
+            }
+        }
+        Ok(RoiSpec::Region(roi))
+    }
+
+    /// The faces of `mesh` the region selects (`caster` built from `mesh`,
+    /// `origin` the plan's, for a geographic area); an empty selection or a
+    /// face index out of range is an input error.
+    pub fn faces(
+        &self,
+        mesh: &Mesh,
+        caster: &RayCaster,
+        origin: Option<GeodeticOrigin>,
+    ) -> Result<Vec<u32>> {
         let faces = match self {
+            RoiSpec::Geographic { polygon, .. } => {
+                let resolved = self.resolve(mesh, origin)?;
+                return resolved.faces(mesh, caster, origin).map_err(|e| match e {
+                    PlannerError::Input(_) => PlannerError::Input(format!(
+                        "{}: the area holds no face of the mesh (no face centroid inside the \
+                         polygon and its height range): draw it over the part of the site the \
+                         model covers",
+                        polygon.source.display()
+                    )),
+                    e => e,
+                });
+            }
             RoiSpec::All => (0..mesh.n_faces() as u32).collect(),
             RoiSpec::Faces(f) => {
                 if let Some(bad) = f.iter().find(|&&f| f as usize >= mesh.n_faces()) {

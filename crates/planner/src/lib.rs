@@ -26,6 +26,7 @@ pub mod quality;
 pub mod request;
 pub mod safety;
 pub mod surrogate;
+pub mod top_view;
 pub mod triplet;
 
 mod inputs;

@@ -275,7 +275,7 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
     // BVH of the safety rules) are independent, single-threaded builds.
     let (caster, (safety, t_clear)) =
         rayon::join(|| RayCaster::new(mesh), || timed(|| safety_for(mesh, cfg)));
-    let roi = inputs.roi.faces(mesh, &caster)?;
+    let roi = inputs.roi.faces(mesh, &caster, inputs.origin)?;
     let (safety, t_free) = timed(|| with_free_space(safety, inputs, &caster));
     let safety = safety?;
     times.insert("free_space".into(), t_clear + t_free);
@@ -349,8 +349,9 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
     }
 
     let mut plan = Plan::new(inputs.origin);
-    (plan.waypoints, plan.unbridged) = (path.waypoints, path.unbridged.clone());
-    plan.flights = assign_flights(&safety, inputs.home.as_ref(), &plan.waypoints, &cfg.mission)?;
+    let flights = assign_flights(&safety, inputs.home.as_ref(), &path.waypoints, &cfg.mission)?;
+    (plan.waypoints, plan.flights) = (flights.waypoints, flights.flights);
+    plan.unbridged = path.unbridged.iter().map(|&i| flights.index[i]).collect();
     plan.geofence.clone_from(&safety.geofence);
     plan.altitude_limits = Some(safety.altitude);
     plan.safety_distance_m = Some(cfg.safety_distance_m);
@@ -359,6 +360,7 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
     plan.cut_short = cut.is_some();
     plan.cut_short_reason.clone_from(&cut);
     let sampled = sampled_results(&ful, &selected);
+    let unbridged = plan.unbridged.clone();
     Ok(PlanResult {
         plan,
         iterations,
@@ -367,7 +369,7 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
         sampled,
         triplet_gains: gains,
         visited,
-        unbridged: path.unbridged,
+        unbridged,
         dropped_triplets: path.dropped_triplets,
         dropped_reasons: path.dropped_reasons,
         cut_short: cut.is_some(),

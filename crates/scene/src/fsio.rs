@@ -17,6 +17,48 @@ pub fn check_overwrite(path: &Path, force: bool) -> Result<()> {
     Ok(())
 }
 
+/// A file the user named as an output: [`check_parent_exists`], then
+/// [`check_overwrite`]. (Library writers that create their own subfolders
+/// inside an output call [`check_overwrite`] alone.)
+pub fn check_output_file(path: &Path, force: bool) -> Result<()> {
+    check_parent_exists(path)?;
+    check_overwrite(path, force)
+}
+
+/// The one rule for outputs in missing folders, for every file and folder
+/// vpctl writes: refused before any work, naming the missing folder and the
+/// `mkdir -p` that fixes it. vpctl creates the output it is asked for but
+/// never the folders above it, as gdal and COLMAP do not: a typo in a
+/// parent (`/mnt/usbb/run1`) would otherwise write a new tree somewhere the
+/// operator does not look, or onto the wrong disk.
+pub fn check_parent_exists(path: &Path) -> Result<()> {
+    let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) else {
+        return Ok(());
+    };
+    if dir.is_dir() {
+        return Ok(());
+    }
+    let why = if dir.exists() {
+        format!("{} is a file, not a folder", dir.display())
+    } else {
+        format!("the folder {} does not exist", dir.display())
+    };
+    let fix = if dir.exists() {
+        "nothing was written; choose a path in a folder".to_string()
+    } else {
+        format!(
+            "nothing was written; vpctl does not create the folders above an output: \
+             create it first (`mkdir -p {}`) or choose another path",
+            dir.display()
+        )
+    };
+    Err(SceneError::OutputRefused {
+        path: path.to_path_buf(),
+        why,
+        fix,
+    })
+}
+
 /// Writes a file atomically: the content goes to a temporary file beside
 /// `path`, which is renamed over `path` only when `write` succeeded. A failed
 /// or interrupted write therefore never leaves a partial file behind.

@@ -39,6 +39,8 @@ pub mod procedural;
 pub mod raster;
 pub mod raycast;
 pub mod roi;
+pub mod roi_file;
+mod roi_kml;
 pub mod surface;
 pub mod triangulation;
 

@@ -162,6 +162,7 @@ fn roi_box_and_ground_polygon_select_by_centroid() {
     // Triangle polygon x + y < 10.5 (no centroid on its border).
     let p = Roi::Polygon {
         polygon: vec![[0.0, 0.0], [10.5, 0.0], [0.0, 10.5]],
+        holes: Vec::new(),
         z_min: -1.0,
         z_max: 1.0,
     };
@@ -172,15 +173,25 @@ fn roi_box_and_ground_polygon_select_by_centroid() {
         c.x + c.y < 10.5
     }));
     assert_eq!(sel.len(), 110);
+    // A hole over cells (0..2, 0..2) takes their 8 faces out.
+    let holed = Roi::Polygon {
+        polygon: vec![[0.0, 0.0], [10.5, 0.0], [0.0, 10.5]],
+        holes: vec![vec![[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]]],
+        z_min: -1.0,
+        z_max: 1.0,
+    };
+    assert_eq!(holed.select(&m, &caster).unwrap().len(), 102);
     // Height range excludes everything.
     let high = Roi::Polygon {
         polygon: vec![[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]],
+        holes: Vec::new(),
         z_min: 1.0,
         z_max: 2.0,
     };
     assert!(high.select(&m, &caster).unwrap().is_empty());
     let bad = Roi::Polygon {
         polygon: vec![[0.0, 0.0], [1.0, 0.0]],
+        holes: Vec::new(),
         z_min: 0.0,
         z_max: 1.0,
     };

@@ -8,7 +8,9 @@
 //! - an existing file;
 //! - a non-empty folder without vpctl's manifest ([`MANIFEST_FILE`]): vpctl
 //!   never writes into a folder it did not write, even with `--force`;
-//! - vpctl's own earlier output, unless `force`.
+//! - vpctl's own earlier output, unless `force`;
+//! - a folder whose parent does not exist ([`crate::fsio::check_parent_exists`]:
+//!   vpctl creates the output folder, never the folders above it).
 //!
 //! [`OutDir::write`] then builds the output in a fresh sibling folder and
 //! swaps it in: the files of the earlier output that its manifest does not
@@ -111,6 +113,7 @@ impl OutDir {
     /// skipped) before any work: see the module docs for what is refused.
     /// `force` allows replacing vpctl's own earlier output.
     pub fn check(path: &Path, command: &str, inputs: &[&Path], force: bool) -> Result<OutDir> {
+        crate::fsio::check_parent_exists(path)?;
         let abs = resolve(path)?;
         let out = OutDir {
             path: path.to_path_buf(),

@@ -265,11 +265,6 @@ pub struct Flight {
     /// Whether the figures include taking off from home and returning to it
     /// (false when the plan has no home).
     pub from_home: bool,
-    /// What blocks the way between home and the flight's first or last
-    /// waypoint, when something does (a plan of one flight records it; a
-    /// split plan is refused instead).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub warning: Option<String>,
 }
 
 impl Plan {

@@ -6,11 +6,13 @@
 //! ```json
 //! {"kind": "box", "min": [x, y, z], "max": [x, y, z]}
 //! {"kind": "polygon", "polygon": [[x, y], ...], "z_min": z, "z_max": z}
+//! {"kind": "polygon", "polygon": [...], "holes": [[[x, y], ...]], "z_min": z, "z_max": z}
 //! {"kind": "image_polygon", "camera": {...}, "polygon": [[u, v], ...]}
 //! ```
 //!
 //! Coordinates are the mesh's (local ENU metres); image polygons are in
-//! pixels of the camera given.
+//! pixels of the camera given. Areas drawn on a map (KML, KMZ, GeoJSON in
+//! longitude/latitude) are read by [`crate::roi_file`] into a polygon.
 
 use std::path::Path;
 
@@ -35,10 +37,14 @@ pub enum Roi {
         max: [f64; 3],
     },
     /// Faces whose centroid lies inside a ground polygon (x, y; even-odd
-    /// rule) and within a height range.
+    /// rule), outside its holes, and within a height range.
     Polygon {
         /// Polygon corners (x, y) in metres, in order; closed implicitly.
         polygon: Vec<[f64; 2]>,
+        /// Holes cut out of the polygon (x, y corners each), e.g. the inner
+        /// boundaries of a KML polygon; none by default.
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        holes: Vec<Vec<[f64; 2]>>,
         /// Lowest centroid height.
         z_min: f64,
         /// Highest centroid height.
@@ -111,16 +117,22 @@ impl Roi {
             }
             Roi::Polygon {
                 polygon,
+                holes,
                 z_min,
                 z_max,
             } => {
                 check_polygon(polygon)?;
+                for h in holes {
+                    check_polygon(h)?;
+                }
                 (0..mesh.n_faces())
                     .map(|f| {
                         let c = mesh.face_centroid(f);
+                        let p = Point2::new(c.x, c.y);
                         c.z >= *z_min
                             && c.z <= *z_max
-                            && point_in_polygon(&Point2::new(c.x, c.y), polygon)
+                            && point_in_polygon(&p, polygon)
+                            && !holes.iter().any(|h| point_in_polygon(&p, h))
                     })
                     .collect()
             }

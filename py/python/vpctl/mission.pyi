@@ -21,7 +21,12 @@ class Mission:
     def __len__(self) -> int: ...
 
 class SimulatedVehicle:
-    def __init__(self, bind: str = "127.0.0.1:0", autopilot: str = "px4") -> None: ...
+    def __init__(
+        self,
+        bind: str = "127.0.0.1:0",
+        autopilot: str = "px4",
+        home: tuple[float, float, float] | None = None,
+    ) -> None: ...
     @property
     def url(self) -> str: ...
     def mission(self) -> list[dict[str, Any]]: ...
@@ -59,6 +64,9 @@ def export(
     home: Optional[_Home] = None,
     ceiling: float = 120.0,
     min_height: float = 2.0,
+    drone: Optional[str] = None,
+    dji_heights: str = "relative",
+    split: bool = False,
 ) -> Union[str, bytes, list[str], list[bytes]]: ...
 def upload(
     plan: Plan,

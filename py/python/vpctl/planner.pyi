@@ -59,6 +59,9 @@ def plan(
     datum: Optional[str] = None,
     home: Union[tuple[float, float, float], tuple[float, float, float, str], str, None] = None,
     frame_unchecked: bool = False,
+    roi_polygon: Optional[_Path] = None,
+    roi_name: Optional[str] = None,
+    roi_heights: Optional[tuple[float, float]] = None,
 ) -> PlanResult: ...
 def plan_grid(
     mesh: Union[Mesh, _Path],
@@ -74,6 +77,9 @@ def plan_grid(
     origin: Optional[tuple[float, float, float]] = None,
     datum: Optional[str] = None,
     home: Union[tuple[float, float, float], tuple[float, float, float, str], None] = None,
+    roi_polygon: Optional[_Path] = None,
+    roi_name: Optional[str] = None,
+    roi_heights: Optional[tuple[float, float]] = None,
 ) -> Plan: ...
 def default_config() -> dict[str, Any]: ...
 def default_config_toml() -> str: ...

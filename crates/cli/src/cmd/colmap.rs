@@ -111,6 +111,12 @@ pub struct UndistortArgs {
     /// default); 1: keep every input pixel (black corners).
     #[arg(long, allow_negative_numbers = true, default_value_t = 0.0)]
     pub blank_pixels: f64,
+    /// Longest side of the undistorted images, pixels, as COLMAP's
+    /// `--max_image_size` (cameras and features scaled with them): e.g. 2000
+    /// runs dense stereo, prediction and planning on a 4000-pixel drone photo
+    /// at half resolution. Default: full size
+    #[arg(long, value_name = "PIXELS")]
+    pub max_image_size: Option<u32>,
 }
 
 pub fn run(cmd: ColmapCommand, out: &mut dyn Write) -> Result<()> {
@@ -157,8 +163,15 @@ fn undistort(a: &UndistortArgs, out: &mut dyn Write) -> Result<()> {
         ))
         .into());
     }
+    if a.max_image_size == Some(0) {
+        return Err(crate::cmd::UsageError(
+            "--max-image-size must be at least 1 pixel (leave it out for full size)".into(),
+        )
+        .into());
+    }
     let opts = colmap::UndistortOptions {
         blank_pixels: a.blank_pixels,
+        max_image_size: a.max_image_size,
         ..colmap::UndistortOptions::default()
     };
     let report = colmap::undistort_workspace(&a.model, &a.images, &a.out, &opts, a.force)?;

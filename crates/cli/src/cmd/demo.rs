@@ -56,12 +56,11 @@ pub fn run_config(
     inputs.extend(args.model.as_deref());
     let report_dir = OutDir::check(&args.out, command, &inputs, args.force)?;
     if let Some(p) = &args.save_model {
-        vp_scene::fsio::check_overwrite(p, args.force)?;
+        vp_scene::fsio::check_output_file(p, args.force)?;
     }
     let t0 = Instant::now();
-    let mut say = |m: &str| {
-        eprintln!("[{:6.1} s] {m}", t0.elapsed().as_secs_f64());
-    };
+    let progress = super::Progress::new();
+    let mut say = |m: &str| progress.message(m);
     let loaded = match &args.model {
         Some(p) => {
             say(&format!("loading the forest {}", p.display()));
@@ -77,6 +76,7 @@ pub fn run_config(
         say(&format!("forest saved to {}", p.display()));
     }
     write_report(&report, &report_dir)?;
+    progress.finish();
     if cfg.held_out_seeds.len() == 1 {
         writeln!(
             out,
@@ -91,6 +91,9 @@ pub fn run_config(
         )?;
     }
     write!(out, "{}", report.table_markdown())?;
+    for c in vp_sim::campaign::f_vs_np::comparisons(&report) {
+        writeln!(out, "\n{}", c.line())?;
+    }
     writeln!(
         out,
         "\nLearned confidence vs vp-mvs's measured success (rank correlation over angle bins):"

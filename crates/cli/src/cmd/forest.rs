@@ -8,8 +8,8 @@ use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use vp_forest::{
-    load_label_dir, predict_files, sparsification, train_with_progress, BatchOptions, Forest,
-    Scored, TrainParams, TrainingSet,
+    load_label_dir, predict_files_with_progress, sparsification, train_with_progress, BatchOptions,
+    Forest, Scored, TrainParams, TrainingSet,
 };
 use vp_scene::fsio;
 
@@ -108,7 +108,7 @@ pub enum ForestCommand {
 
 /// Runs `vpctl train`.
 pub fn train(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
-    fsio::check_overwrite(&a.out, a.force)?;
+    fsio::check_output_file(&a.out, a.force)?;
     let mut params = match &a.config {
         Some(path) => read_params(path)?,
         None => TrainParams::default(),
@@ -179,8 +179,12 @@ pub fn predict(a: &PredictArgs, out: &mut dyn Write) -> Result<()> {
         force: false,
     };
     let b = forest.bins().len();
+    let progress = super::Progress::new();
     let predicted = target.write(|stage| -> Result<_> {
-        let mut predicted = predict_files(&forest, &images, stage, &options)?;
+        let mut predicted =
+            predict_files_with_progress(&forest, &images, stage, &options, &mut |m| {
+                progress.message(m);
+            })?;
         // Named where they will be, not where they are staged.
         let moved = |f: &Path| {
             f.strip_prefix(stage)
@@ -192,6 +196,7 @@ pub fn predict(a: &PredictArgs, out: &mut dyn Write) -> Result<()> {
         }
         Ok(predicted)
     })?;
+    progress.finish();
     for p in predicted {
         let (gw, gh) = p.confidence.grid_size();
         writeln!(

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::Result;
 use clap::{Args, Subcommand};
 use vp_labelgen::triplets::{self, TripletParams};
-use vp_labelgen::{run_labelling, LabelOutput, LabelParams, LabelRunRequest};
+use vp_labelgen::{LabelOutput, LabelParams, LabelRunRequest};
 use vp_scene::{colmap, fsio};
 
 /// Label-generation subcommands.
@@ -110,7 +110,7 @@ pub fn run(cmd: LabelgenCommand, out: &mut dyn Write) -> Result<()> {
 }
 
 fn sample(a: &TripletsArgs, out: &mut dyn Write) -> Result<()> {
-    fsio::check_overwrite(&a.out, a.force)?;
+    fsio::check_output_file(&a.out, a.force)?;
     let model = colmap::read_model(&a.model)?;
     let params = TripletParams {
         per_bin: a.per_bin,
@@ -161,7 +161,9 @@ fn label(a: &RunArgs, out: &mut dyn Write) -> Result<()> {
     if let Some(path) = &a.config {
         req.params = LabelParams::load(path)?;
     }
-    let s = run_labelling(&req, &output)?;
+    let progress = super::Progress::new();
+    let s = vp_labelgen::run_labelling_with_progress(&req, &output, &mut |m| progress.message(m))?;
+    progress.finish();
     writeln!(out, "reconstructions: {}", s.reconstructions)?;
     writeln!(out, "measured pixels: {}", s.measured)?;
     writeln!(out, "positive: {}", s.positive)?;

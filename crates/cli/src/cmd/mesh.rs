@@ -139,6 +139,7 @@ pub fn run(cmd: MeshCommand, out: &mut dyn Write) -> Result<()> {
             max_edge,
             force,
         } => {
+            vp_scene::fsio::check_output_file(&path, force)?;
             let mut req = SurfaceRequest::new(match method {
                 Method::Imls => SurfaceMethod::Imls,
                 Method::Poisson => SurfaceMethod::Poisson,

@@ -256,7 +256,7 @@ pub fn run(cmd: MissionCommand, out: &mut dyn Write) -> Result<()> {
         } => {
             let format = export_format(path.as_deref(), format)?;
             if let Some(p) = &path {
-                fsio::check_overwrite(p, force)?;
+                fsio::check_output_file(p, force)?;
             }
             let plan_path = plan;
             let plan = load_plan(&plan_path)?;
@@ -435,10 +435,12 @@ fn vehicle(
 
 /// One progress report: redrawn in place on a terminal, a line otherwise.
 fn progress(bar: &super::Progress, p: &Progress) {
-    bar.line(&format!(
-        "{:?}: {}/{} items (attempt {})",
-        p.phase, p.done, p.total, p.attempt
-    ));
+    let stage = if p.attempt > 1 {
+        format!("{:?} items, attempt {}", p.phase, p.attempt)
+    } else {
+        format!("{:?} items", p.phase)
+    };
+    bar.message(&format!("{stage} ({}/{})", p.done, p.total));
 }
 
 fn print_item(seq: usize, item: &MissionItem, out: &mut dyn Write) -> Result<()> {

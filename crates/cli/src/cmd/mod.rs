@@ -12,9 +12,7 @@ pub mod plan;
 pub mod scene;
 pub mod sim;
 
-use std::cell::Cell;
 use std::error::Error;
-use std::io::IsTerminal;
 
 use vp_forest::ForestError;
 use vp_labelgen::LabelgenError;
@@ -124,13 +122,8 @@ pub fn check_output_writable(path: &std::path::Path, flag: &str) -> anyhow::Resu
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => std::path::Path::new("."),
     };
-    if !dir.is_dir() {
-        return Err(UsageError(format!(
-            "{flag} {}: the folder {} does not exist",
-            path.display(),
-            dir.display()
-        ))
-        .into());
+    if let Err(e) = vp_scene::fsio::check_parent_exists(path) {
+        return Err(UsageError(format!("{flag} {e}")).into());
     }
     let name = path
         .file_name()
@@ -150,49 +143,4 @@ pub fn check_output_writable(path: &std::path::Path, flag: &str) -> anyhow::Resu
     }
 }
 
-/// Progress on stderr: one line redrawn in place (carriage return) when
-/// stderr is a terminal, plain lines otherwise, so that a log file or a CI
-/// log gets one readable line per step instead of one long line.
-pub struct Progress {
-    tty: bool,
-    dirty: Cell<bool>,
-}
-
-impl Progress {
-    /// Progress on this process's stderr.
-    pub fn new() -> Self {
-        Progress {
-            tty: std::io::stderr().is_terminal(),
-            dirty: Cell::new(false),
-        }
-    }
-
-    /// Reports `message` (redrawn in place on a terminal).
-    pub fn line(&self, message: &str) {
-        if self.tty {
-            eprint!("\r\x1b[2K{message}");
-            self.dirty.set(true);
-        } else {
-            eprintln!("{message}");
-        }
-    }
-
-    /// Ends a line redrawn in place (nothing on a non-terminal).
-    pub fn finish(&self) {
-        if self.dirty.replace(false) {
-            eprintln!();
-        }
-    }
-}
-
-impl Default for Progress {
-    fn default() -> Self {
-        Progress::new()
-    }
-}
-
-impl Drop for Progress {
-    fn drop(&mut self) {
-        self.finish();
-    }
-}
+pub use crate::progress::Progress;

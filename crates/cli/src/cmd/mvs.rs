@@ -119,7 +119,10 @@ pub fn run(cmd: MvsCommand, out: &mut dyn Write) -> Result<()> {
             };
             req.force = args.force;
             let start = std::time::Instant::now();
-            let summary = reconstruct_workspace(&req, &mut |line| eprintln!("mvs: {line}"))?;
+            let summary = {
+                let progress = super::Progress::new();
+                reconstruct_workspace(&req, &mut |line| progress.message(line))?
+            };
             for (name, share) in summary
                 .reconstructed
                 .iter()
@@ -165,7 +168,10 @@ fn run_triplets(
     req.inputs.extend(args.config.clone());
     req.force = args.force;
     let start = std::time::Instant::now();
-    let shares = reconstruct_image_sets(&req, &mut |line| eprintln!("mvs: {line}"))?;
+    let shares = {
+        let progress = super::Progress::new();
+        reconstruct_image_sets(&req, &mut |line| progress.message(line))?
+    };
     for set in &req.sets {
         for level in &req.levels {
             let Some(s) = shares.get(&set.id).and_then(|m| m.get(level)) else {

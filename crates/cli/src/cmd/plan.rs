@@ -72,6 +72,21 @@ struct Common {
     /// Region of interest box: xmin,ymin,zmin,xmax,ymax,zmax (metres).
     #[arg(long, allow_hyphen_values = true, value_parser = floats::<6>)]
     roi_box: Option<[f64; 6]>,
+    /// Region of interest drawn on a map: a polygon in longitude/latitude
+    /// (WGS84) from a .kml or .kmz (Google Earth) or .geojson/.json file
+    /// (QGIS), placed through the plan's origin (the model's frame.json or
+    /// --origin). Holes are cut out; faces at every height count unless
+    /// --roi-heights (docs/formats.md, "ROI files").
+    #[arg(long, conflicts_with_all = ["roi", "roi_box"], value_name = "FILE")]
+    roi_polygon: Option<PathBuf>,
+    /// Which polygon of a --roi-polygon file holding several: its
+    /// Placemark name (KML) or feature property "name" (GeoJSON).
+    #[arg(long, requires = "roi_polygon", value_name = "NAME")]
+    roi_name: Option<String>,
+    /// Height range of the --roi-polygon area: MIN,MAX (metres in the
+    /// plan's local frame, as --roi-box). Default: every height.
+    #[arg(long, requires = "roi_polygon", allow_hyphen_values = true, value_parser = floats::<2>, value_name = "MIN,MAX")]
+    roi_heights: Option<[f64; 2]>,
     /// Planner configuration (TOML; `vpctl config --defaults` prints one),
     /// or a campaign config (`vpctl sim config`), whose `[planner]` section is used.
     #[arg(long)]
@@ -239,6 +254,13 @@ impl Common {
         if let Some(b) = &self.roi_box {
             return Ok(RoiSpec::Region(Roi::from_box(*b)?));
         }
+        if let Some(p) = &self.roi_polygon {
+            return Ok(RoiSpec::from_area_file(
+                p,
+                self.roi_name.as_deref(),
+                self.roi_heights.map(|[lo, hi]| (lo, hi)),
+            )?);
+        }
         Ok(match &self.roi {
             Some(arg) => RoiSpec::Region(parse_roi(arg)?),
             None => RoiSpec::All,
@@ -283,8 +305,10 @@ impl Common {
             (self.glb.as_deref(), "--glb"),
         ] {
             if let Some(p) = p {
-                fsio::check_overwrite(p, self.force)?;
+                // The flag-naming check first: it names which option the
+                // missing folder belongs to.
                 super::check_output_writable(p, flag)?;
+                fsio::check_output_file(p, self.force)?;
             }
         }
         Ok(PlanOutputs {
@@ -401,7 +425,10 @@ fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
         vp_planner::strip_timings(&mut plan);
     }
     let f: Vec<(Point3<f64>, f64)> = r.sampled.iter().map(|s| (s.centroid, s.f)).collect();
-    let roi_outline = outline(&roi, r.sampled.iter().map(|s| s.centroid));
+    let roi_outline = outline(
+        &roi.resolve(&mesh, plan.origin)?,
+        r.sampled.iter().map(|s| s.centroid),
+    );
     let acquired: Vec<Camera> = job.acquired.iter().map(|v| v.camera).collect();
     write_outputs(&outputs, &plan, &mesh, &cfg, &f, &roi_outline, &acquired)?;
     let members = plan
@@ -496,7 +523,10 @@ fn grid(g: &GridArgs, out: &mut dyn Write) -> Result<()> {
         origin: c.origin()?.map(|o| (o, c.datum)),
         home: c.home(false),
     })?;
-    let roi_outline = outline(&roi, mesh.vertices.iter().copied());
+    let roi_outline = outline(
+        &roi.resolve(&mesh, plan.origin)?,
+        mesh.vertices.iter().copied(),
+    );
     write_outputs(&outputs, &plan, &mesh, &cfg, &[], &roi_outline, &[])?;
     writeln!(out, "plan: {}", outputs.plan.display())?;
     writeln!(out, "waypoints: {}", plan.waypoints.len())?;

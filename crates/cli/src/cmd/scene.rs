@@ -84,7 +84,7 @@ pub fn run(cmd: SceneCommand, out: &mut dyn Write) -> Result<()> {
             force,
         } => {
             let format = output_mesh_format(&path, format)?;
-            fsio::check_overwrite(&path, force)?;
+            fsio::check_output_file(&path, force)?;
             let mut params = match &config {
                 Some(c) => vp_sim::campaign::CampaignConfig::load(c)?.site,
                 None => SiteParams {

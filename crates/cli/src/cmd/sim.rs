@@ -118,6 +118,31 @@ pub enum SimCommand {
         #[arg(long)]
         force: bool,
     },
+    /// Leave-one-site-out evaluation of the confidence forest: flies and
+    /// labels every training site of the config as `sim train` does, then
+    /// for each site trains on the others and scores the site's labelled
+    /// pixels at their own angle. Writes DIR/forest_eval.csv (one row per
+    /// fold, material and angle bin: accuracy against the labels and the
+    /// truth, Brier score and the angle-only baseline's) and
+    /// DIR/summary.txt, and prints the summary.
+    #[command(after_help = "Example: vpctl sim config --preset quick > q.toml && \
+                            vpctl sim evaluate --config q.toml --out eval")]
+    Evaluate {
+        /// Campaign configuration (TOML); `[training] site_seeds` are the folds.
+        #[arg(long)]
+        config: PathBuf,
+        /// Forest sizes to compare on the same labels and folds, TREESxDEPTH
+        /// (e.g. 20x20,10x16,4x14); default: the config's `[training.forest]`.
+        #[arg(long, value_delimiter = ',', value_parser = parse_size)]
+        sizes: Vec<(usize, usize)>,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+        /// Replace an earlier `sim evaluate` output in --out (only the
+        /// files vpctl wrote there).
+        #[arg(long)]
+        force: bool,
+    },
     /// Print a complete campaign configuration (TOML, every key written out).
     Config {
         /// Which preset: demo (what `vpctl demo` runs), quick (seconds) or
@@ -128,6 +153,14 @@ pub enum SimCommand {
         #[arg(long, conflicts_with = "preset")]
         paper: bool,
     },
+}
+
+/// Parses a forest size "TREESxDEPTH" ("20x20").
+fn parse_size(s: &str) -> Result<(usize, usize), String> {
+    s.split_once(['x', 'X'])
+        .and_then(|(t, d)| Some((t.trim().parse().ok()?, d.trim().parse().ok()?)))
+        .filter(|&(t, d)| t > 0 && d > 0)
+        .ok_or_else(|| format!("{s:?}: expected TREESxDEPTH with both > 0, e.g. 20x20"))
 }
 
 /// Parses "x,y,z" into three finite numbers.
@@ -173,6 +206,19 @@ pub fn run(cmd: SimCommand, out: &mut dyn Write) -> Result<()> {
             let cfg = vp_sim::campaign::CampaignConfig::load(&config)?;
             super::demo::run_config(&cfg, &common, "sim run", &[&config], out)
         }
+        SimCommand::Evaluate {
+            config,
+            sizes,
+            out: dir,
+            force,
+        } => {
+            let t0 = std::time::Instant::now();
+            let mut say = |m: &str| eprintln!("[{:6.1} s] {m}", t0.elapsed().as_secs_f64());
+            let eval = vp_sim::campaign::evaluate_to_dir(&config, &sizes, &dir, force, &mut say)?;
+            writeln!(out, "{}", eval.summary())?;
+            writeln!(out, "wrote {}", dir.join("forest_eval.csv").display())?;
+            Ok(())
+        }
         SimCommand::Config { preset, paper } => {
             let name = if paper { "paper" } else { preset.as_str() };
             let cfg = vp_sim::campaign::CampaignConfig::preset(name)?;
@@ -192,9 +238,9 @@ pub fn run(cmd: SimCommand, out: &mut dyn Write) -> Result<()> {
             depth,
             force,
         } => {
-            fsio::check_overwrite(&path, force)?;
+            fsio::check_output_file(&path, force)?;
             if let Some(d) = &depth {
-                fsio::check_overwrite(d, force)?;
+                fsio::check_output_file(d, force)?;
             }
             let k = Intrinsics::from_hfov(width, height, hfov)?;
             let cam = look_at_camera(k, Point3::from(from), Point3::from(at))?;
@@ -233,7 +279,8 @@ pub fn run(cmd: SimCommand, out: &mut dyn Write) -> Result<()> {
 /// `vpctl sim fly`.
 fn fly(req: &FlightRequest, out: &mut dyn Write) -> Result<()> {
     let progress = super::Progress::new();
-    let s = write_flight(req, &mut |m| progress.line(m))?;
+    let s = write_flight(req, &mut |m| progress.message(m))?;
+    progress.finish();
     writeln!(
         out,
         "wrote {} images to {}",
@@ -260,13 +307,15 @@ fn fly(req: &FlightRequest, out: &mut dyn Write) -> Result<()> {
 
 /// `vpctl sim train`.
 fn train(config: &Path, path: &Path, force: bool, out: &mut dyn Write) -> Result<()> {
-    fsio::check_overwrite(path, force)?;
+    fsio::check_output_file(path, force)?;
     let cfg = vp_sim::campaign::CampaignConfig::load(config)?;
-    let t0 = std::time::Instant::now();
     let mut curves =
         vp_sim::campaign::curves::CurveAccumulator::new(cfg.training.forest.bins.clone());
-    let mut say = |m: &str| eprintln!("[{:6.1} s] {m}", t0.elapsed().as_secs_f64());
-    let (forest, stats) = vp_sim::campaign::train_forest_with_stats(&cfg, &mut curves, &mut say)?;
+    let progress = super::Progress::new();
+    let (forest, stats) = vp_sim::campaign::train_forest_with_stats(&cfg, &mut curves, &mut |m| {
+        progress.message(m);
+    })?;
+    progress.finish();
     forest
         .save(path)
         .with_context(|| format!("saving the forest to {}", path.display()))?;

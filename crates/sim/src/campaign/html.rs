@@ -10,6 +10,7 @@ use std::path::Path;
 
 use base64::Engine as _;
 
+use super::f_vs_np;
 use super::report::CampaignReport;
 use super::svg::{escape, LinePlot, Series};
 use crate::error::Result;
@@ -26,7 +27,8 @@ th,td{border:1px solid #bbb;padding:4px 8px;text-align:right}th{background:#eef}
 td:first-child,th:first-child{text-align:left;font-weight:600}tbody tr:nth-child(even){background:#f7f7f7}\
 .plots{display:flex;flex-wrap:wrap;gap:12px}svg{border:1px solid #ddd;background:#fff;font-size:11px}\
 svg .title{font-size:13px;font-weight:600}figure{margin:0}figcaption{font-size:13px;color:#555}\
-img{max-width:100%;border:1px solid #ddd}pre{background:#f5f5f5;padding:8px;overflow-x:auto}";
+img{max-width:100%;border:1px solid #ddd}pre{background:#f5f5f5;padding:8px;overflow-x:auto}\
+dl{font-size:14px;max-width:900px}dt{float:left;clear:left;width:4em;font-weight:600}dd{margin:0 0 4px 4.5em}";
 
 /// A PNG written beside the report, embedded as a data URI, with its caption.
 pub struct Figure {
@@ -53,6 +55,14 @@ pub fn report_html(report: &CampaignReport, figures: &[Figure]) -> String {
         escape(report.table_caption())
     );
     table(&mut h, report);
+    glossary(&mut h);
+    if let Some(p) = f_vs_np::paragraph(report) {
+        let _ = writeln!(
+            h,
+            "<h2>F against NP on this run</h2>\n<p id=\"f-vs-np\">{}</p>",
+            escape(&p)
+        );
+    }
     planning_curves(&mut h, report);
     confidence_curves(&mut h, report);
     if !figures.is_empty() {
@@ -73,10 +83,14 @@ pub fn report_html(report: &CampaignReport, figures: &[Figure]) -> String {
         h.push_str("</div>\n");
     }
     if let Some(t) = &report.training {
-        let _ = writeln!(
-            h,
-            "<h2>Label quality (labelgen against the renderer's truth)</h2>\n<pre>{}</pre>",
-            escape(&t.label_quality.markdown())
+        h.push_str("<h2>Label quality (labelgen against the renderer's truth)</h2>\n");
+        let (header, rows) = t.label_quality.cells();
+        cell_table(
+            &mut h,
+            "label-quality",
+            None,
+            &header,
+            rows.iter().map(<[String; 5]>::as_slice),
         );
     }
     h.push_str(
@@ -90,7 +104,28 @@ pub fn report_html(report: &CampaignReport, figures: &[Figure]) -> String {
 
 fn table(h: &mut String, report: &CampaignReport) {
     let (header, rows) = report.table_cells();
-    h.push_str("<table id=\"table1\"><caption>Table 1</caption><thead><tr>");
+    cell_table(
+        h,
+        "table1",
+        Some("Table 1"),
+        &header,
+        rows.iter().map(Vec::as_slice),
+    );
+}
+
+/// An HTML table with a header row; the first column names the row.
+fn cell_table<'a>(
+    h: &mut String,
+    id: &str,
+    caption: Option<&str>,
+    header: &[&str],
+    rows: impl Iterator<Item = &'a [String]>,
+) {
+    let _ = write!(h, "<table id=\"{id}\">");
+    if let Some(c) = caption {
+        let _ = write!(h, "<caption>{}</caption>", escape(c));
+    }
+    h.push_str("<thead><tr>");
     for c in header {
         let _ = write!(h, "<th>{}</th>", escape(c));
     }
@@ -98,11 +133,49 @@ fn table(h: &mut String, report: &CampaignReport) {
     for r in rows {
         h.push_str("<tr>");
         for c in r {
-            let _ = write!(h, "<td>{}</td>", escape(&c));
+            let _ = write!(h, "<td>{}</td>", escape(c));
         }
         h.push_str("</tr>\n");
     }
     h.push_str("</tbody></table>\n");
+}
+
+/// The table's columns in the paper's terms (Mostegel et al. 2016, M1;
+/// docs/design.md): what a reader needs before the numbers mean anything.
+const GLOSSARY: [(&str, &str); 4] = [
+    (
+        "cov",
+        "coverage: the share of the ROI's faces on the true mesh measured by at least c = 3 \
+         cameras of reconstructions that worked, a camera measuring a face when its MVS depth \
+         there lies within 24 cm of the face.",
+    ),
+    (
+        "f_res",
+        "resolution fulfillment, min(1, r / r_d): the pixels per square metre of the coarsest camera \
+         of the best triplet seeing the face, against the desired ground sampling distance \
+         (r_d = 1 / gsd_d²); mean over the ROI's faces, 0 where uncovered.",
+    ),
+    (
+        "f_unc",
+        "uncertainty fulfillment, min(1, a_d / √u): u the largest eigenvalue of the covariance of the \
+         face's centre triangulated by that triplet from 1 px image noise, against the desired \
+         accuracy a_d; mean over the ROI's faces, 0 where uncovered.",
+    ),
+    (
+        "f",
+        "quality fulfillment, (½ f_res + ½ f_unc) · f_cov per face, mean over the ROI's faces: \
+         100 % means every face is covered at the desired resolution and accuracy. While planning, \
+         the paper also multiplies by f_conf, the predicted MVS confidence; here the MVS has run, \
+         so only faces it actually reconstructed count.",
+    ),
+];
+
+fn glossary(h: &mut String) {
+    h.push_str("<dl id=\"glossary\">\n");
+    for (term, def) in GLOSSARY {
+        let _ = writeln!(h, "<dt><code>{term}</code></dt><dd>{}</dd>", escape(def));
+    }
+    h.push_str("</dl>\n");
 }
 
 /// Per strategy, the planner's own estimate after each planned triplet
@@ -308,5 +381,59 @@ mod tests {
         let no_ns = html.replace("xmlns=\"http://www.w3.org/2000/svg\"", "");
         assert!(!no_ns.contains("http") && !no_ns.contains("<script"));
         assert_eq!(html, report_html(&r, &[figure]), "same report, same bytes");
+    }
+
+    #[test]
+    fn the_page_explains_its_columns_and_its_own_f_against_np_and_tabulates_label_quality() {
+        let mut r = report();
+        let mut f = r.rows[0].clone();
+        f.strategy = "F1x2".into();
+        f.f_mean = 37.8;
+        f.triplet_success_mean = 60.0;
+        let mut np = f.clone();
+        np.strategy = "NP1x2".into();
+        np.f_mean = 43.4;
+        np.triplet_success_mean = 50.0;
+        r.rows.extend([f, np]);
+        let mut training = crate::campaign::TrainingStats::default();
+        training.label_quality.materials = vec![(
+            "rock".into(),
+            crate::campaign::label_quality::MaterialCounts {
+                surface: 100,
+                labelled: 40,
+                correct: 38,
+                positive: 30,
+                correct_positive: 29,
+            },
+        )];
+        r.training = Some(training);
+        let html = report_html(&r, &[]);
+        for term in [
+            "<dt><code>cov</code></dt>",
+            "<dt><code>f_res</code></dt>",
+            "<dt><code>f_unc</code></dt>",
+            "<dt><code>f</code></dt>",
+        ] {
+            assert!(html.contains(term), "{term} missing from the glossary");
+        }
+        // The paragraph is made from this run's numbers and points to the findings.
+        assert!(
+            html.contains("F1x2 reached f 37.8 % against NP1x2&#39;s 43.4 %"),
+            "{html}"
+        );
+        assert!(
+            html.contains("NP ahead by 5.6 points on one site"),
+            "{html}"
+        );
+        assert!(html.contains("docs/campaign-findings.md"), "{html}");
+        // Label quality is a table, not preformatted Markdown.
+        assert!(html.contains("<table id=\"label-quality\">"), "{html}");
+        assert!(
+            html.contains(
+                "<tr><td>rock</td><td>95.0</td><td>96.7</td><td>40.0</td><td>40</td></tr>"
+            ),
+            "{html}"
+        );
+        assert!(!html.contains("| material |"), "{html}");
     }
 }

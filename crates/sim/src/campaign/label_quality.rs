@@ -73,28 +73,43 @@ impl LabelQuality {
         }
     }
 
-    /// A Markdown table: per material and in total, the share of labels
-    /// that are correct, of positives that are correct, and of surface
-    /// pixels labelled.
-    pub fn markdown(&self) -> String {
-        let mut t = String::from(
-            "| material | correct % | positives correct % | labelled % of surface | labelled px |\n|---|---|---|---|---|\n",
-        );
+    /// The table's header and rows: per material and in total, the share
+    /// of labels that are correct, of positives that are correct, and of
+    /// surface pixels labelled, with the labelled pixel count.
+    pub fn cells(&self) -> ([&'static str; 5], Vec<[String; 5]>) {
+        let header = [
+            "material",
+            "correct %",
+            "positives correct %",
+            "labelled % of surface",
+            "labelled px",
+        ];
         let rows = self
             .materials
             .iter()
             .filter(|(_, c)| c.surface > 0)
             .map(|(n, c)| (n.as_str(), *c))
-            .chain(std::iter::once(("all", self.total())));
-        for (name, c) in rows {
-            let pos = 100.0 * c.correct_positive as f64 / c.positive.max(1) as f64;
-            let _ = writeln!(
-                t,
-                "| {name} | {:.1} | {pos:.1} | {:.1} | {} |",
-                c.correct_pct(),
-                c.labelled_pct(),
-                c.labelled
-            );
+            .chain(std::iter::once(("all", self.total())))
+            .map(|(name, c)| {
+                let pos = 100.0 * c.correct_positive as f64 / c.positive.max(1) as f64;
+                [
+                    name.to_string(),
+                    format!("{:.1}", c.correct_pct()),
+                    format!("{pos:.1}"),
+                    format!("{:.1}", c.labelled_pct()),
+                    c.labelled.to_string(),
+                ]
+            })
+            .collect();
+        (header, rows)
+    }
+
+    /// [`LabelQuality::cells`] as a Markdown table.
+    pub fn markdown(&self) -> String {
+        let (header, rows) = self.cells();
+        let mut t = format!("| {} |\n|---|---|---|---|---|\n", header.join(" | "));
+        for r in rows {
+            let _ = writeln!(t, "| {} |", r.join(" | "));
         }
         t
     }

@@ -29,6 +29,8 @@ pub mod crash;
 pub mod curves;
 mod depth_maps;
 pub mod eval;
+pub mod evaluate;
+pub mod f_vs_np;
 pub mod features;
 pub mod fly;
 mod gate;
@@ -51,6 +53,7 @@ pub use config::{
 };
 pub use curves::ConfidenceCurve;
 pub use eval::Scores;
+pub use evaluate::{evaluate_forest, evaluate_to_dir, ForestEvaluation};
 pub use fly::MvsKind;
 pub use label_quality::LabelQuality;
 pub use presets::PRESETS;

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use image::Rgb;
 use vp_planner::output::{render_top_view, TopView};
-use vp_scene::plan::Plan;
+use vp_scene::plan::{Flight, Plan};
 use vp_scene::raster::{draw_text, save_rgb, text_width, RgbImage, GLYPH_PX as GLYPH};
 
 use super::curves::ConfidenceCurve;
@@ -157,9 +157,25 @@ pub fn write_site_plots(a: &SiteArtifacts, dir: &Path) -> Result<()> {
     for s in &a.strategies {
         let file = file_stem(&s.name);
         let empty = Plan::new(None);
-        let mut all = Plan::new(None);
+        // Every iteration's plan in one picture: each keeps its own
+        // flights (from and to home), numbered on from the previous ones.
+        let mut all = Plan::new(s.plans.first().and_then(|p| p.origin));
+        all.home = s.plans.first().and_then(|p| p.home.clone());
         for p in &s.plans {
+            let base = all.waypoints.len();
             all.waypoints.extend(p.waypoints.iter().cloned());
+            if p.flights.is_empty() && !p.waypoints.is_empty() {
+                all.flights.push(Flight {
+                    waypoints: (base..all.waypoints.len()).collect(),
+                    distance_m: 0.0,
+                    duration_s: 0.0,
+                    from_home: p.home.is_some(),
+                });
+            }
+            all.flights.extend(p.flights.iter().map(|f| Flight {
+                waypoints: f.waypoints.iter().map(|i| base + i).collect(),
+                ..f.clone()
+            }));
         }
         if !s.plans.is_empty() {
             let view = TopView {
@@ -174,7 +190,7 @@ pub fn write_site_plots(a: &SiteArtifacts, dir: &Path) -> Result<()> {
             caption(
                 &mut img,
                 &format!(
-                    "{}: flight path; orange triplet views, cyan bridges, magenta grid",
+                    "{}: every iteration's flights, numbered in flight order",
                     s.name
                 ),
             );

@@ -420,6 +420,11 @@ fn fill(report: &CampaignReport, dir: &Path) -> Result<()> {
         report.table_caption()
     );
     md.push_str(&report.table_markdown());
+    if let Some(p) = super::f_vs_np::paragraph(report) {
+        md.push_str("\n## F against NP on this run\n\n");
+        md.push_str(&p);
+        md.push('\n');
+    }
     md.push_str("\n## Learned confidence against the MVS's measured success\n\n```\n");
     md.push_str(&report.curves_summary());
     md.push_str("```\n");

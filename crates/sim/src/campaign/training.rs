@@ -15,7 +15,7 @@ use vp_forest::{Forest, TrainingSet};
 use vp_labelgen::{generate_labels, MissingPartMeshes, TripletReconstruction, View};
 use vp_scene::colmap::DepthMap;
 use vp_scene::procedural::{generate_site, Site};
-use vp_scene::raster::{Label, RgbImage};
+use vp_scene::raster::{Label, LabelImage, RgbImage};
 use vp_scene::raycast::RayCaster;
 use vp_scene::surface::{reconstruct_surface, SurfaceSample};
 use vp_scene::{Camera, Intrinsics};
@@ -116,16 +116,28 @@ fn add_sparse_points(
     }
 }
 
-/// Flies the training triplets of one site and labels them; adds the
-/// labelled images to `set`.
-fn train_site(
+/// One labelled image of a training site, with the renderer's truth under
+/// each pixel (for scoring the labels and the forest, never for training).
+pub struct LabelledView {
+    /// The rendered image at the reconstruction's level.
+    pub image: RgbImage,
+    /// labelgen's labels, with each pixel's triangulation angle.
+    pub label: LabelImage,
+    /// The renderer's truth per pixel (row-major).
+    pub truth: Vec<PixelTruth>,
+    /// The depth the matcher wrote per pixel, in the truth's frame.
+    pub depth: Vec<f32>,
+}
+
+/// Flies the training triplets of one site and labels them, as the
+/// training campaign does: the labelled images, in a fixed order.
+pub(crate) fn label_site(
     cfg: &CampaignConfig,
     seed: u64,
-    set: &mut TrainingSet,
     stats: &mut TrainingStats,
     curves: &mut CurveAccumulator,
     progress: &mut dyn FnMut(&str),
-) -> Result<()> {
+) -> Result<Vec<LabelledView>> {
     let t = &cfg.training;
     let mut params = t.site.clone();
     params.seed = seed;
@@ -147,7 +159,8 @@ fn train_site(
     let mut points = BTreeMap::new();
     let mut attempts = 0;
     let mut n = 0;
-    while n < t.triplets_per_site && attempts < 20 * t.triplets_per_site {
+    let per_site = t.triplets_per_site;
+    while n < per_site && attempts < 20 * per_site {
         attempts += 1;
         let Some(cams) = random_triplet(&site, &caster, k, cfg, &mut rng) else {
             continue;
@@ -187,6 +200,7 @@ fn train_site(
             runs.insert(id, (run.images, run.truth, run.depth_in_truth));
         }
         n += 1;
+        progress(&format!("training site {seed}: triplets ({n}/{per_site})"));
     }
     progress(&format!(
         "training site {seed}: {n} triplets reconstructed, {} with output; labelling",
@@ -208,25 +222,59 @@ fn train_site(
         }
     };
     let labels = generate_labels(&recs, meshes.as_ref(), &t.labels)?;
-    let k_sigma = t.labels.k_sigma as f32;
-    for rl in &labels {
-        let Some((images, truth, depth)) = runs.get(&rl.id) else {
+    let out = labelled_views(labels, runs, stats, t.labels.k_sigma as f32)?;
+    stats.sites += 1;
+    Ok(out)
+}
+
+/// labelgen's labels joined with the images and the truth of their
+/// reconstructions, counted into `stats`.
+fn labelled_views(
+    labels: Vec<vp_labelgen::ReconLabels>,
+    mut runs: BTreeMap<String, LevelRun>,
+    stats: &mut TrainingStats,
+    k_sigma: f32,
+) -> Result<Vec<LabelledView>> {
+    let mut out = Vec::with_capacity(3 * labels.len());
+    for rl in labels {
+        let Some((images, truth, depth)) = runs.remove(&rl.id) else {
             return Err(SimError::Campaign(format!(
                 "training: labels for unknown reconstruction {}",
                 rl.id
             )));
         };
-        for v in 0..3 {
-            let label = &rl.labels[v];
+        for (((image, label), truth), depth) in
+            images.into_iter().zip(rl.labels).zip(truth).zip(depth)
+        {
             stats
                 .label_quality
-                .add(label, &truth[v], &depth[v].data, k_sigma);
+                .add(&label, &truth, &depth.data, k_sigma);
             stats.positives += label.count(Label::Positive);
             stats.negatives += label.count(Label::Negative);
-            set.add_image(&images[v], std::slice::from_ref(label))?;
+            out.push(LabelledView {
+                image,
+                label,
+                truth,
+                depth: depth.data,
+            });
         }
     }
-    stats.sites += 1;
+    Ok(out)
+}
+
+/// Flies and labels the training triplets of one site; adds the labelled
+/// images to `set`.
+fn train_site(
+    cfg: &CampaignConfig,
+    seed: u64,
+    set: &mut TrainingSet,
+    stats: &mut TrainingStats,
+    curves: &mut CurveAccumulator,
+    progress: &mut dyn FnMut(&str),
+) -> Result<()> {
+    for v in label_site(cfg, seed, stats, curves, progress)? {
+        set.add_image(&v.image, std::slice::from_ref(&v.label))?;
+    }
     Ok(())
 }
 
@@ -243,6 +291,8 @@ pub fn train_forest_with_stats(
         TrainingSet::with_cap_per_label_image(t.max_per_label_image, mix64(cfg.seed ^ 0x0063_6170));
     let mut stats = TrainingStats::default();
     for &seed in &t.site_seeds {
+        // Said first: the site and the first MVS runs were the demo's silent 18 s.
+        progress(&format!("training site {seed}: generating the site"));
         train_site(cfg, seed, &mut set, &mut stats, curves, progress)?;
     }
     progress(&format!(

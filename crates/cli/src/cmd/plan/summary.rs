@@ -65,9 +65,6 @@ pub(super) fn print_flights(plan: &Plan, params: &FlightParams, out: &mut dyn Wr
             f.distance_m,
             duration(f.duration_s)
         )?;
-        if let Some(w) = &f.warning {
-            writeln!(out, "  WARNING, flight {}: {w}", i + 1)?;
-        }
     }
     let legs = if first.from_home {
         "take-off, landing and the legs to and from home included"
