@@ -88,3 +88,56 @@ impl GnssClass {
         }
     }
 }
+
+impl std::str::FromStr for GnssClass {
+    type Err = String;
+
+    /// `rtk`, `standard`, or `H,V` (horizontal RMS and vertical 1-sigma in
+    /// metres), as a command line gives it.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.trim() {
+            "rtk" => return Ok(GnssClass::Rtk),
+            "standard" => return Ok(GnssClass::Standard),
+            _ => {}
+        }
+        let bad = || {
+            format!(
+                "invalid GNSS class {s:?}: expected rtk, standard or H,V (horizontal RMS and \
+                 vertical 1-sigma in metres, e.g. 0.5,1.0)"
+            )
+        };
+        let (h, v) = s.split_once(',').ok_or_else(bad)?;
+        let num = |t: &str| {
+            t.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite() && *x >= 0.0)
+        };
+        match (num(h), num(v)) {
+            (Some(horizontal_m), Some(vertical_m)) => Ok(GnssClass::Custom(GnssSigmas {
+                horizontal_m,
+                vertical_m,
+            })),
+            _ => Err(bad()),
+        }
+    }
+}
+
+#[cfg(test)]
+mod parse_tests {
+    use super::*;
+
+    #[test]
+    fn a_command_line_names_a_class_or_gives_its_numbers() {
+        assert_eq!("rtk".parse::<GnssClass>(), Ok(GnssClass::Rtk));
+        assert_eq!("standard".parse::<GnssClass>(), Ok(GnssClass::Standard));
+        assert_eq!(
+            "0.5, 1".parse::<GnssClass>().map(|g| g.sigmas_m()),
+            Ok((0.5, 1.0))
+        );
+        for bad in ["", "RTK-ish", "0.5", "a,b", "-1,2", "nan,1"] {
+            let e = bad.parse::<GnssClass>().unwrap_err();
+            assert!(e.contains("expected rtk, standard or H,V"), "{bad}: {e}");
+        }
+    }
+}
