@@ -1,0 +1,156 @@
+//! `vpctl plan --opensfm DIR`: an OpenDroneMap project plans as its
+//! COLMAP twin does, and bad OpenSfM input exits 2 with nothing written.
+
+mod common;
+
+use std::path::Path;
+
+use common::{plan_fixture, stderr, vpctl};
+use serde_json::json;
+use vp_scene::colmap;
+use vp_scene::plan::{GeodeticOrigin, Plan};
+
+/// The fixture's COLMAP model written as OpenSfM would write it, in an
+/// OpenDroneMap project layout (`odm/opensfm/reconstruction.json`):
+/// `perspective` camera with focal / larger side, principal point at the
+/// centre; shots with the world-to-camera rotation as an axis-angle
+/// vector and the translation; the model's origin as `reference_lla`.
+fn as_opensfm(model: &Path, project: &Path) {
+    let rec = colmap::read_model(model).unwrap();
+    let cam = &rec.cameras[&1];
+    assert_eq!(cam.model, colmap::CameraModel::Pinhole);
+    let size = cam.width.max(cam.height) as f64;
+    // OpenSfM's `perspective`: one focal, principal point at the centre.
+    let centre = [cam.width as f64 / 2.0, cam.height as f64 / 2.0];
+    assert!((cam.params[0] - cam.params[1]).abs() < 1e-12);
+    assert!((cam.params[2] - centre[0]).abs() + (cam.params[3] - centre[1]).abs() < 1e-12);
+    let mut shots = serde_json::Map::new();
+    for im in rec.images.values() {
+        let r = im.cam_from_world.rotation.scaled_axis();
+        let t = im.cam_from_world.translation.vector;
+        shots.insert(
+            im.name.clone(),
+            json!({"camera": "cam", "rotation": [r.x, r.y, r.z], "translation": [t.x, t.y, t.z]}),
+        );
+    }
+    let o = GeodeticOrigin::default();
+    let doc = json!([{
+        "cameras": {"cam": {"projection_type": "perspective", "width": cam.width,
+                            "height": cam.height, "focal": cam.params[0] / size,
+                            "k1": 0.0, "k2": 0.0}},
+        "shots": shots,
+        "points": {},
+        "reference_lla": {"latitude": o.lat_deg, "longitude": o.lon_deg, "altitude": o.alt_m},
+    }]);
+    std::fs::create_dir_all(project.join("opensfm")).unwrap();
+    std::fs::write(project.join("opensfm/reconstruction.json"), doc.to_string()).unwrap();
+}
+
+fn plan_args(dir: &Path, flag: &str, model: &str, out: &str) -> Vec<String> {
+    let p = |f: &str| dir.join(f).to_str().unwrap().to_string();
+    vec![
+        "plan".into(),
+        "--mesh".into(),
+        p("site.ply"),
+        flag.into(),
+        p(model),
+        "--config".into(),
+        p("plan.toml"),
+        "--out".into(),
+        p(out),
+        "--no-timings".into(),
+    ]
+}
+
+fn run(v: &[String]) -> std::process::Output {
+    vpctl(&v.iter().map(String::as_str).collect::<Vec<_>>())
+}
+
+#[test]
+fn an_odm_project_plans_as_its_colmap_twin() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    plan_fixture(d);
+    as_opensfm(&d.join("model"), &d.join("odm"));
+    let o = run(&plan_args(d, "--colmap", "model", "colmap.json"));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(&plan_args(d, "--opensfm", "odm", "odm.json"));
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("frame: "), "{}", stderr(&o));
+    assert!(stderr(&o).contains("reconstruction.json"), "{}", stderr(&o));
+    let a = Plan::load(&d.join("colmap.json")).unwrap();
+    let b = Plan::load(&d.join("odm.json")).unwrap();
+    assert_eq!(a.origin, b.origin);
+    assert_eq!(a.waypoints.len(), b.waypoints.len());
+    // The reconstructions differ by the rounding of a quaternion through an
+    // axis-angle vector and back: the plans by no more than that.
+    let mut worst = 0.0f64;
+    for (x, y) in a.waypoints.iter().zip(&b.waypoints) {
+        let d: f64 = (0..3)
+            .map(|k| (x.position[k] - y.position[k]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        worst = worst.max(d);
+        assert!((x.yaw_deg - y.yaw_deg).abs() < 1e-6);
+        assert!((x.pitch_deg - y.pitch_deg).abs() < 1e-6);
+        assert_eq!(x.role, y.role);
+    }
+    eprintln!("largest waypoint difference, COLMAP vs OpenSfM input: {worst:e} m");
+    assert!(worst < 1e-6, "{worst} m");
+    // What the two frames say differently: OpenSfM's heights are the photos'
+    // GPS altitudes (EGM96 on most drones); this frame.json says nothing.
+    assert_eq!(a.vertical_datum, None);
+    assert_eq!(
+        b.vertical_datum,
+        Some(vp_scene::datum::VerticalDatum::Egm96)
+    );
+}
+
+#[test]
+fn bad_opensfm_input_exits_2_naming_the_file_with_nothing_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    plan_fixture(d);
+    as_opensfm(&d.join("model"), &d.join("odm"));
+    let file = d.join("odm/opensfm/reconstruction.json");
+    let good = std::fs::read_to_string(&file).unwrap();
+    let cases = [
+        (
+            good.replace("\"perspective\"", "\"dual\""),
+            vec![
+                "reconstruction 0",
+                "\"dual\" is not supported",
+                "--camera-lens brown",
+            ],
+        ),
+        (
+            good.replace("\"k1\":0.0", "\"k1\":-0.1"),
+            vec!["lens distortion", "vpctl colmap undistort --opensfm"],
+        ),
+        (
+            good[..good.len() / 2].to_string(),
+            vec!["not valid JSON", "line 1"],
+        ),
+    ];
+    for (text, expect) in cases {
+        assert_ne!(text, good);
+        std::fs::write(&file, &text).unwrap();
+        let o = run(&plan_args(d, "--opensfm", "odm", "x.json"));
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        let err = stderr(&o);
+        assert!(err.contains("reconstruction.json"), "{err}");
+        for e in expect {
+            assert!(err.contains(e), "{e:?} in {err}");
+        }
+        assert!(!d.join("x.json").exists());
+    }
+    let o = run(&plan_args(d, "--opensfm", "nowhere", "x.json"));
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("nowhere"), "{}", stderr(&o));
+    // Both kinds at once is a usage error.
+    let mut both = plan_args(d, "--opensfm", "odm", "x.json");
+    both.extend(["--colmap".into(), d.join("model").to_str().unwrap().into()]);
+    let o = run(&both);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(!d.join("x.json").exists());
+}
