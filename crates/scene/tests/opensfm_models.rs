@@ -261,6 +261,21 @@ fn bad_input_names_the_file_the_place_and_the_next_step() {
     );
     let e = error_of(d, "{\"cameras\": {}}");
     assert!(e.contains("expected a list of reconstructions"), "{e}");
+    // tracks.csv beside it: read, and a bad line named.
+    write(d, &scene(&cam, true));
+    let tracks = "OPENSFM_TRACKS_VERSION_v2\nIMG_0.png\t100\t7\t0.01\t-0.02\t0.001\n\
+                  IMG_1.png\t101\t8\tx\t0.1\n";
+    std::fs::write(d.join("tracks.csv"), tracks).unwrap();
+    let e = read_opensfm(d).unwrap_err().to_string();
+    assert!(
+        e.contains("tracks.csv") && e.contains("line 3") && e.contains("not numbers"),
+        "{e}"
+    );
+    std::fs::write(d.join("tracks.csv"), tracks.replace("\tx\t", "\t0.2\t")).unwrap();
+    let m = read_opensfm(d).unwrap();
+    assert_eq!(m.observations, 2);
+    m.reconstruction.validate().unwrap();
+    std::fs::remove_file(d.join("tracks.csv")).unwrap();
     // Missing: a folder without a reconstruction, a path that is not there.
     let empty = d.join("empty");
     std::fs::create_dir_all(&empty).unwrap();

@@ -185,3 +185,24 @@ fn a_distorted_opensfm_camera_is_refused_for_planning_with_the_undistort_step() 
     assert!(src.read().unwrap().cameras[&1].is_distorted());
     assert_eq!(ModelSource::detect(&berlin()), src);
 }
+
+#[test]
+fn berlin_tracks_become_observations_of_the_points() {
+    let m = read_opensfm(&berlin()).unwrap();
+    assert_eq!(m.observations, 120);
+    let rec = &m.reconstruction;
+    rec.validate().unwrap();
+    assert!(rec.points.values().all(|p| p.track.len() == 3));
+    let tracks = std::fs::read_to_string(berlin().join("tracks.csv")).unwrap();
+    for line in tracks.lines().skip(1) {
+        let f: Vec<&str> = line.split('\t').collect();
+        let point = &rec.points[&f[1].parse::<u64>().unwrap()];
+        let im = rec.images.values().find(|i| i.name == f[0]).unwrap();
+        let &(_, idx) = point.track.iter().find(|(id, _)| *id == im.id).unwrap();
+        let xy = im.points2d[idx as usize].xy;
+        // Normalised (i + 0.5 - w/2) / size is COLMAP's i + 0.5.
+        let x = f[3].parse::<f64>().unwrap() * 3264.0 + 1632.0;
+        let y = f[4].parse::<f64>().unwrap() * 3264.0 + 1224.0;
+        assert!((xy.x - x).abs() < 1e-9 && (xy.y - y).abs() < 1e-9);
+    }
+}

@@ -29,6 +29,8 @@ pub(crate) struct Parsed {
     pub index: usize,
     /// Shot counts of the file's other (partial) reconstructions.
     pub others: Vec<usize>,
+    /// Point ids by OpenSfM track id.
+    pub point_ids: BTreeMap<String, u64>,
 }
 
 /// A value's place: the reconstruction's index and a JSON path.
@@ -238,9 +240,10 @@ fn parse_one(v: &Value, at: &At) -> Result<Parsed> {
             },
         );
     }
-    if let Some(points) = obj.get("points") {
-        read_points(at.object(points, "points")?, at, &mut rec)?;
-    }
+    let point_ids = match obj.get("points") {
+        Some(points) => read_points(at.object(points, "points")?, at, &mut rec)?,
+        None => BTreeMap::new(),
+    };
     let reference = match obj.get("reference_lla") {
         Some(r) => Some(reference_of(
             r,
@@ -261,6 +264,7 @@ fn parse_one(v: &Value, at: &At) -> Result<Parsed> {
         gps,
         index: at.index,
         others: Vec::new(),
+        point_ids,
     })
 }
 
@@ -318,7 +322,12 @@ fn camera_of(key: &str, c: &Value, at: &At, place: &str) -> Result<OpenSfmCamera
 
 /// Points keep OpenSfM's track id as their id when every id is a number
 /// (OpenSfM's own are), else they are numbered in key order.
-fn read_points(points: &Map<String, Value>, at: &At, rec: &mut Reconstruction) -> Result<()> {
+fn read_points(
+    points: &Map<String, Value>,
+    at: &At,
+    rec: &mut Reconstruction,
+) -> Result<BTreeMap<String, u64>> {
+    let mut ids = BTreeMap::new();
     let numeric: Option<Vec<u64>> = sorted(points).map(|(k, _)| k.parse::<u64>().ok()).collect();
     for (i, (key, p)) in sorted(points).enumerate() {
         let place = format!("points.{key:?}");
@@ -334,7 +343,8 @@ fn read_points(points: &Map<String, Value>, at: &At, rec: &mut Reconstruction) -
                 .map(|x| x.round().clamp(0.0, 255.0) as u8),
             None => [128; 3],
         };
-        let id = numeric.as_ref().map_or(i as u64 + 1, |ids| ids[i]);
+        let id = numeric.as_ref().map_or(i as u64 + 1, |n| n[i]);
+        ids.insert(key.clone(), id);
         rec.points.insert(
             id,
             Point3D {
@@ -347,5 +357,5 @@ fn read_points(points: &Map<String, Value>, at: &At, rec: &mut Reconstruction) -
             },
         );
     }
-    Ok(())
+    Ok(ids)
 }

@@ -8,7 +8,7 @@
 //!   cameras with the COLMAP model of the same projection
 //!   ([`OpenSfmCamera::to_colmap`], distortion kept, never a silent
 //!   pinhole), shots as images with OpenSfM's world-to-camera pose, points
-//!   (without tracks: `reconstruction.json` keeps none).
+//!   with their tracks from `tracks.csv` beside it, where it is.
 //! - The geodetic reference (`reference_lla` in the reconstruction, else
 //!   `reference_lla.json` beside it or one folder up) becomes the
 //!   [`ModelFrame`] `vpctl colmap align` would have written: OpenSfM's
@@ -27,6 +27,7 @@
 mod camera;
 mod json;
 mod source;
+mod tracks;
 mod undistort;
 
 use std::collections::BTreeMap;
@@ -34,6 +35,7 @@ use std::path::{Path, PathBuf};
 
 pub use camera::{OpenSfmCamera, SUPPORTED};
 pub use source::{ModelSource, PosedModel};
+pub use tracks::TRACKS_FILE;
 pub use undistort::undistort_opensfm_workspace;
 
 use crate::colmap::{
@@ -65,6 +67,8 @@ pub struct OpenSfmModel {
     pub index: usize,
     /// Shot counts of the file's other (partial) reconstructions, not read.
     pub others: Vec<usize>,
+    /// Observations read from `tracks.csv` (0 without the file).
+    pub observations: usize,
 }
 
 /// `reconstruction.json` for `path`: the file itself, `path/reconstruction.json`
@@ -106,7 +110,13 @@ pub fn read_opensfm(path: &Path) -> Result<OpenSfmModel> {
     let file = find_reconstruction(path)?;
     let text = crate::fsio::read_text(&file)?;
     let root = json::parse_json(&text, &file)?;
-    let parsed = json::parse_reconstructions(&root, &file)?;
+    let mut parsed = json::parse_reconstructions(&root, &file)?;
+    let tracks = file.with_file_name(TRACKS_FILE);
+    let observations = if tracks.is_file() {
+        tracks::add_tracks(&tracks, &mut parsed.rec, &parsed.point_ids)?
+    } else {
+        0
+    };
     let (reference, reference_file) = match parsed.reference {
         Some(r) => (Some(r), Some(file.clone())),
         None => match reference_beside(&file)? {
@@ -123,6 +133,7 @@ pub fn read_opensfm(path: &Path) -> Result<OpenSfmModel> {
         reference_file,
         index: parsed.index,
         others: parsed.others,
+        observations,
     })
 }
 
