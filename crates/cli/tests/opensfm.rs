@@ -10,11 +10,35 @@ use serde_json::json;
 use vp_scene::colmap;
 use vp_scene::plan::{GeodeticOrigin, Plan};
 
+/// Gives the fixture's model the sparse points SfM would have found: every
+/// 40th mesh vertex seen unoccluded from two images or more, with exact
+/// observations in its track (the frame.json stays).
+fn add_points(dir: &Path, mesh: &vp_scene::Mesh) {
+    let model = dir.join("model");
+    let rec = colmap::read_model(&model).unwrap();
+    let cams: Vec<(String, vp_scene::Camera)> = rec
+        .images
+        .values()
+        .map(|im| (im.name.clone(), rec.camera_of(im.id).unwrap()))
+        .collect();
+    let pts: Vec<_> = mesh.vertices.iter().step_by(40).copied().collect();
+    let caster = vp_scene::raycast::RayCaster::new(mesh);
+    let with_points = vp_labelgen::synthetic::sparse_model(&cams, &caster, &pts);
+    assert!(
+        with_points.points.len() > 100,
+        "{}",
+        with_points.points.len()
+    );
+    colmap::write_text(&model, &with_points).unwrap();
+}
+
 /// The fixture's COLMAP model written as OpenSfM would write it, in an
-/// OpenDroneMap project layout (`odm/opensfm/reconstruction.json`):
-/// `perspective` camera with focal / larger side, principal point at the
-/// centre; shots with the world-to-camera rotation as an axis-angle
-/// vector and the translation; the model's origin as `reference_lla`.
+/// OpenDroneMap project layout (`odm/opensfm/reconstruction.json` and
+/// `tracks.csv`): `perspective` camera with focal / larger side, principal
+/// point at the centre; shots with the world-to-camera rotation as an
+/// axis-angle vector and the translation; points by track id; each
+/// observation in normalised coordinates (pixel minus half the size, over
+/// the larger side); the model's origin as `reference_lla`.
 fn as_opensfm(model: &Path, project: &Path) {
     let rec = colmap::read_model(model).unwrap();
     let cam = &rec.cameras[&1];
@@ -33,17 +57,36 @@ fn as_opensfm(model: &Path, project: &Path) {
             json!({"camera": "cam", "rotation": [r.x, r.y, r.z], "translation": [t.x, t.y, t.z]}),
         );
     }
+    let mut points = serde_json::Map::new();
+    let mut tracks = String::from("OPENSFM_TRACKS_VERSION_v2\n");
+    for p in rec.points.values() {
+        points.insert(
+            p.id.to_string(),
+            json!({"coordinates": [p.xyz.x, p.xyz.y, p.xyz.z], "color": p.rgb}),
+        );
+        for &(image, idx) in &p.track {
+            let im = &rec.images[&image];
+            let xy = im.points2d[idx as usize].xy;
+            let x = (xy.x - cam.width as f64 / 2.0) / size;
+            let y = (xy.y - cam.height as f64 / 2.0) / size;
+            tracks += &format!(
+                "{}\t{}\t{idx}\t{x}\t{y}\t0.001\t0\t0\t0\t-1\t-1\n",
+                im.name, p.id
+            );
+        }
+    }
     let o = GeodeticOrigin::default();
     let doc = json!([{
         "cameras": {"cam": {"projection_type": "perspective", "width": cam.width,
                             "height": cam.height, "focal": cam.params[0] / size,
                             "k1": 0.0, "k2": 0.0}},
         "shots": shots,
-        "points": {},
+        "points": points,
         "reference_lla": {"latitude": o.lat_deg, "longitude": o.lon_deg, "altitude": o.alt_m},
     }]);
     std::fs::create_dir_all(project.join("opensfm")).unwrap();
     std::fs::write(project.join("opensfm/reconstruction.json"), doc.to_string()).unwrap();
+    std::fs::write(project.join("opensfm/tracks.csv"), tracks).unwrap();
 }
 
 fn plan_args(dir: &Path, flag: &str, model: &str, out: &str) -> Vec<String> {
@@ -70,8 +113,16 @@ fn run(v: &[String]) -> std::process::Output {
 fn an_odm_project_plans_as_its_colmap_twin() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    plan_fixture(d);
+    let site = plan_fixture(d);
+    add_points(d, &site.mesh);
     as_opensfm(&d.join("model"), &d.join("odm"));
+    // The same cameras, points and tracks read back from either.
+    let a = colmap::read_model(&d.join("model")).unwrap();
+    let b = vp_scene::opensfm::read_opensfm(&d.join("odm")).unwrap();
+    let n_obs: usize = a.points.values().map(|p| p.track.len()).sum();
+    assert_eq!(b.observations, n_obs);
+    assert_eq!(a.points.len(), b.reconstruction.points.len());
+    eprintln!("twin: {} points, {n_obs} observations", a.points.len());
     let o = run(&plan_args(d, "--colmap", "model", "colmap.json"));
     assert!(o.status.success(), "{}", stderr(&o));
     let o = run(&plan_args(d, "--opensfm", "odm", "odm.json"));
@@ -83,7 +134,8 @@ fn an_odm_project_plans_as_its_colmap_twin() {
     assert_eq!(a.origin, b.origin);
     assert_eq!(a.waypoints.len(), b.waypoints.len());
     // The reconstructions differ by the rounding of a quaternion through an
-    // axis-angle vector and back: the plans by no more than that.
+    // axis-angle vector and back, and of pixels through normalised
+    // coordinates: the plans by no more than that.
     let mut worst = 0.0f64;
     for (x, y) in a.waypoints.iter().zip(&b.waypoints) {
         let d: f64 = (0..3)
