@@ -3,6 +3,7 @@
 
 mod common;
 
+use std::fmt::Write as _;
 use std::path::Path;
 
 use common::{plan_fixture, stderr, vpctl};
@@ -69,10 +70,12 @@ fn as_opensfm(model: &Path, project: &Path) {
             let xy = im.points2d[idx as usize].xy;
             let x = (xy.x - cam.width as f64 / 2.0) / size;
             let y = (xy.y - cam.height as f64 / 2.0) / size;
-            tracks += &format!(
-                "{}\t{}\t{idx}\t{x}\t{y}\t0.001\t0\t0\t0\t-1\t-1\n",
+            writeln!(
+                tracks,
+                "{}\t{}\t{idx}\t{x}\t{y}\t0.001\t0\t0\t0\t-1\t-1",
                 im.name, p.id
-            );
+            )
+            .unwrap();
         }
     }
     let o = GeodeticOrigin::default();
