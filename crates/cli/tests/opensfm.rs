@@ -209,3 +209,53 @@ fn bad_opensfm_input_exits_2_naming_the_file_with_nothing_written() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(!d.join("x.json").exists());
 }
+
+#[test]
+fn colmap_undistort_takes_an_odm_project_and_keeps_its_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Two nadir shots 40 m up, a brown lens with distortion.
+    let shot = |x: f64| {
+        json!({"camera": "c", "rotation": [std::f64::consts::PI, 0.0, 0.0],
+                               "translation": [-x, 0.0, 40.0]})
+    };
+    let doc = json!([{
+        "cameras": {"c": {"projection_type": "brown", "width": 64, "height": 48,
+                          "focal_x": 0.8, "focal_y": 0.8, "k1": -0.1, "p2": 0.001}},
+        "shots": {"a.png": shot(0.0), "b.png": shot(8.0)},
+        "points": {"1": {"coordinates": [4.0, 0.0, 0.0], "color": [9, 9, 9]}},
+        "reference_lla": {"latitude": 50.8, "longitude": -0.14, "altitude": 0.0},
+    }]);
+    std::fs::create_dir_all(d.join("odm/opensfm")).unwrap();
+    std::fs::create_dir_all(d.join("odm/images")).unwrap();
+    std::fs::write(d.join("odm/opensfm/reconstruction.json"), doc.to_string()).unwrap();
+    for n in ["a.png", "b.png"] {
+        image::RgbImage::from_pixel(64, 48, image::Rgb([120, 80, 40]))
+            .save(d.join("odm/images").join(n))
+            .unwrap();
+    }
+    let s = |p: &str| d.join(p).to_str().unwrap().to_string();
+    let mut args: Vec<String> = ["colmap", "undistort", "--opensfm"]
+        .map(String::from)
+        .to_vec();
+    args.extend([
+        s("odm"),
+        "--images".into(),
+        s("odm/images"),
+        "--out".into(),
+        s("ws"),
+    ]);
+    let o = run(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let frame = colmap::ModelFrame::load(&d.join("ws/sparse")).unwrap();
+    assert!((frame.origin.lat_deg - 50.8).abs() < 1e-12);
+    let rec = colmap::read_model(&d.join("ws/sparse")).unwrap();
+    assert_eq!(rec.cameras[&1].model, colmap::CameraModel::Pinhole);
+    // A missing photo: exit 2, naming it, nothing written.
+    std::fs::remove_file(d.join("odm/images/b.png")).unwrap();
+    args[7] = s("ws2");
+    let o = run(&args);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("b.png"), "{}", stderr(&o));
+    assert!(!d.join("ws2").exists());
+}
