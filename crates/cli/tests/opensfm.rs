@@ -152,6 +152,34 @@ fn an_odm_project_plans_as_its_colmap_twin() {
     }
     eprintln!("largest waypoint difference, COLMAP vs OpenSfM input: {worst:e} m");
     assert!(worst < 1e-6, "{worst} m");
+    // The surface from the sparse points, from either input.
+    for (flag, model, out) in [
+        ("--colmap", "model", "a.ply"),
+        ("--opensfm", "odm", "b.ply"),
+    ] {
+        let o = vpctl(&[
+            "mesh",
+            "build",
+            flag,
+            d.join(model).to_str().unwrap(),
+            "--method",
+            "height-field",
+            "--out",
+            d.join(out).to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let ma = vp_scene::io::read_mesh(&d.join("a.ply")).unwrap();
+    let mb = vp_scene::io::read_mesh(&d.join("b.ply")).unwrap();
+    assert!(ma.faces.len() > 100, "{}", ma.faces.len());
+    assert_eq!(ma.faces, mb.faces);
+    let far = ma
+        .vertices
+        .iter()
+        .zip(&mb.vertices)
+        .map(|(p, q)| (p - q).norm())
+        .fold(0.0, f64::max);
+    assert!(far < 1e-6, "{far} m");
     // What the two frames say differently: OpenSfM's heights are the photos'
     // GPS altitudes (EGM96 on most drones); this frame.json says nothing.
     assert_eq!(a.vertical_datum, None);
