@@ -15,8 +15,10 @@
 //!   world *is* the local ENU tangent frame at that reference (its
 //!   `TopocentricConverter`, vpctl's [`LocalFrame`](crate::geodesy::LocalFrame)),
 //!   so the transform is the identity and no alignment is needed.
-//! - [`ModelSource`] is the one door the planner, labelgen and Python go
-//!   through for a model folder of either kind.
+//! - [`ModelSource`] is the one door `vpctl plan` and Python's `plan`
+//!   (through vp-planner's `plan_from_model`) go through for a model of
+//!   either kind. `labelgen` takes the undistorted COLMAP workspace (its
+//!   depth maps come from `mvs run` on it), so it stays COLMAP-only.
 //!
 //! OpenSfM invents its reference at altitude 0 and takes the photos' GPS
 //! altitudes as they are (`invent_reference_from_gps_and_gcp`), so world
