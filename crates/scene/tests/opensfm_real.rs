@@ -164,6 +164,10 @@ fn berlin_points_project_where_opensfm_projects_them_and_where_it_found_them() {
     assert_eq!(errors_px.len(), 120, "40 points in 3 photos");
     errors_px.sort_by(f64::total_cmp);
     let median = errors_px[errors_px.len() / 2];
+    eprintln!(
+        "Berlin: reprojection to OpenSfM's features, median {median:.3} px, max {:.3} px",
+        errors_px[errors_px.len() - 1]
+    );
     // OpenSfM's bundle adjustment left its reprojection errors at about a
     // pixel of the 3264-pixel photo; a wrong convention (principal point,
     // focal normalisation, rotation direction) puts them far off.
