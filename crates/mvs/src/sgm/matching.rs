@@ -27,56 +27,102 @@ const BIG: u16 = 0x4000;
 /// Census transform: bit k of a pixel is set when the k-th pixel of its
 /// window (row-major, centre skipped, coordinates clamped to the image)
 /// is darker than the centre.
+///
+/// # Performance
+/// One window offset at a time over a whole row: the interior of the row
+/// (no clamping) is a straight compare-and-or loop that LLVM vectorises;
+/// only the `cw / 2` pixels at each end take the clamped index.
 pub(crate) fn census(img: &[f32], w: usize, h: usize, cw: usize, ch: usize) -> Vec<u64> {
     let (rx, ry) = ((cw / 2) as isize, (ch / 2) as isize);
     let mut out = vec![0u64; w * h];
     out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        for (x, c) in row.iter_mut().enumerate() {
-            let centre = img[y * w + x];
-            let mut bits = 0u64;
-            let mut k = 0;
-            for dy in -ry..=ry {
-                let yy = (y as isize + dy).clamp(0, h as isize - 1) as usize;
-                for dx in -rx..=rx {
-                    if dx == 0 && dy == 0 {
-                        continue;
-                    }
-                    let xx = (x as isize + dx).clamp(0, w as isize - 1) as usize;
-                    bits |= u64::from(img[yy * w + xx] < centre) << k;
-                    k += 1;
+        let centre = &img[y * w..(y + 1) * w];
+        let mut k = 0;
+        for dy in -ry..=ry {
+            let yy = (y as isize + dy).clamp(0, h as isize - 1) as usize;
+            let src = &img[yy * w..(yy + 1) * w];
+            for dx in -rx..=rx {
+                if dx == 0 && dy == 0 {
+                    continue;
                 }
+                // Pixels x whose neighbour x + dx lies inside the row.
+                let lo = (-dx).clamp(0, w as isize) as usize;
+                let hi = (w as isize - dx).clamp(lo as isize, w as isize) as usize;
+                let shifted = &src[(lo as isize + dx) as usize..(hi as isize + dx) as usize];
+                for ((c, &m), &s) in row[lo..hi].iter_mut().zip(&centre[lo..hi]).zip(shifted) {
+                    *c |= u64::from(s < m) << k;
+                }
+                for x in (0..lo).chain(hi..w) {
+                    let xx = (x as isize + dx).clamp(0, w as isize - 1) as usize;
+                    row[x] |= u64::from(src[xx] < centre[x]) << k;
+                }
+                k += 1;
             }
-            *c = bits;
         }
     });
     out
 }
 
-/// The cost volume `cost[(y * w + x) * n_disp + k]`: Hamming distance
-/// between the census codes of left pixel x and right pixel x - k; the
-/// largest cost (`n_bits`) where either pixel lies outside its original
-/// image.
-pub(crate) fn cost_volume(pair: &RectifiedPair, cw: usize, ch: usize) -> Vec<u8> {
+/// One row of the cost volume: `out[x * nd + k]` is the Hamming distance
+/// between the census codes of left pixel x and right pixel x - k, or
+/// `n_bits` (the largest cost) where either pixel lies outside its
+/// original image.
+// Always inlined: the copy inside simd.rs's `#[target_feature(enable =
+// "avx2,popcnt")]` function then counts bits with `popcnt`.
+#[allow(clippy::inline_always)]
+#[inline(always)]
+pub(crate) fn cost_row(
+    cl: &[u64],
+    cr: &[u64],
+    left_valid: &[bool],
+    right_valid: &[bool],
+    n_bits: u8,
+    out: &mut [u8],
+) {
+    let nd = out.len() / cl.len().max(1);
+    for (x, cell) in out.chunks_exact_mut(nd).enumerate() {
+        if !left_valid[x] {
+            cell.fill(n_bits);
+            continue;
+        }
+        let reach = nd.min(x + 1);
+        let (inside, outside) = cell.split_at_mut(reach);
+        outside.fill(n_bits);
+        for (k, c) in inside.iter_mut().enumerate() {
+            let j = x - k;
+            *c = if right_valid[j] {
+                (cl[x] ^ cr[j]).count_ones() as u8
+            } else {
+                n_bits
+            };
+        }
+    }
+}
+
+/// The cost volume `cost[(y * w + x) * n_disp + k]` of [`cost_row`], rows
+/// in parallel.
+pub(crate) fn cost_volume(
+    pair: &RectifiedPair,
+    cw: usize,
+    ch: usize,
+    avx2: Option<Avx2>,
+) -> Vec<u8> {
     let (w, h, nd) = (pair.width, pair.height, pair.n_disp);
     let n_bits = (cw * ch - 1) as u8;
-    let cl = census(&pair.left, w, h, cw, ch);
-    let cr = census(&pair.right, w, h, cw, ch);
-    let mut cost = vec![n_bits; w * h * nd];
+    let (cl, cr) = rayon::join(
+        || census(&pair.left, w, h, cw, ch),
+        || census(&pair.right, w, h, cw, ch),
+    );
+    let mut cost = vec![0u8; w * h * nd];
     cost.par_chunks_mut(w * nd)
         .enumerate()
         .for_each(|(y, row)| {
-            for x in 0..w {
-                let i = y * w + x;
-                if !pair.left_valid[i] {
-                    continue;
-                }
-                let cell = &mut row[x * nd..(x + 1) * nd];
-                for (k, c) in cell.iter_mut().enumerate().take(x + 1) {
-                    let j = i - k;
-                    if pair.right_valid[j] {
-                        *c = (cl[i] ^ cr[j]).count_ones() as u8;
-                    }
-                }
+            let r = y * w..(y + 1) * w;
+            let (l, rr) = (&cl[r.clone()], &cr[r.clone()]);
+            let (lv, rv) = (&pair.left_valid[r.clone()], &pair.right_valid[r]);
+            match avx2 {
+                Some(a) => a.sgm_cost_row(l, rr, lv, rv, n_bits, row),
+                None => cost_row(l, rr, lv, rv, n_bits, row),
             }
         });
     cost
@@ -87,8 +133,6 @@ pub(crate) fn cost_volume(pair: &RectifiedPair, cw: usize, ch: usize) -> Vec<u8>
 /// `prev_min`, Hirschmüller's recursion `L(p, d) = C(p, d) + min(L(p-r, d),
 /// L(p-r, d±1) + P1, min L(p-r) + P2) - min L(p-r)`. Returns the minimum of
 /// `cur`, which the next step needs.
-// Always inlined: the copy inside simd.rs's `#[target_feature(enable =
-// "avx2")]` function is then compiled for AVX2; a call would run this one.
 #[allow(clippy::inline_always)]
 #[inline(always)]
 pub(crate) fn step(
@@ -116,7 +160,8 @@ pub(crate) fn step(
 
 /// A path's first pixel: its aggregated cost is its matching cost. Returns
 /// the minimum.
-#[inline]
+#[allow(clippy::inline_always)]
+#[inline(always)]
 fn start(cost: &[u8], cur: &mut [u16]) -> u16 {
     let mut min = u16::MAX;
     for (c, &v) in cur[1..=cost.len()].iter_mut().zip(cost) {
@@ -126,23 +171,137 @@ fn start(cost: &[u8], cur: &mut [u16]) -> u16 {
     min
 }
 
-#[inline]
-fn accumulate(sum: &mut [u16], cur: &[u16]) {
-    // At most 8 paths x (64 + 8000) < 65536: never wraps.
-    for (s, &v) in sum.iter_mut().zip(&cur[1..]) {
-        *s = s.wrapping_add(v);
+/// One row of a pass over the rows ([`aggregate`]): the fixed inputs.
+pub(crate) struct RowPass<'a> {
+    /// The row's matching costs, `w * nd`.
+    pub cost: &'a [u8],
+    pub nd: usize,
+    /// The first row of the pass: every row-to-row path starts here.
+    pub first: bool,
+    pub p1: u16,
+    pub p2: u16,
+    /// The in-row path's direction: +1 left to right, -1 right to left.
+    pub hdx: isize,
+    /// The row-to-row paths: pixel x continues the previous row's x - dx.
+    pub vdx: &'a [isize],
+}
+
+/// The per-path scanline buffers of a pass: the previous and current
+/// rows' aggregated costs of each row-to-row path (`nd + 2` per pixel,
+/// `BIG` at both ends) and their minima, and the in-row path's last two
+/// pixels.
+pub(crate) struct PassState {
+    pub prev: Vec<u16>,
+    pub cur: Vec<u16>,
+    pub prev_min: Vec<u16>,
+    pub cur_min: Vec<u16>,
+    pub row: Vec<u16>,
+}
+
+/// The sum over a pass's paths of one row's aggregated costs, into `out`
+/// (`w * nd`); the current buffers of `st` are filled (the caller swaps).
+// Always inlined: simd.rs compiles a copy with AVX2 enabled, 16 u16 lanes
+// wide instead of the baseline's 8; the operations are the same.
+#[allow(clippy::inline_always)]
+#[inline(always)]
+pub(crate) fn pass_row(job: &RowPass, st: &mut PassState, out: &mut [u16]) {
+    let (nd, pad) = (job.nd, job.nd + 2);
+    let w = out.len() / nd;
+    let (p1, p2) = (job.p1, job.p2);
+    let (mut hprev, mut hcur) = st.row.split_at_mut(pad);
+    let mut hmin = 0;
+    for n in 0..w {
+        let x = if job.hdx > 0 { n } else { w - 1 - n };
+        let c = &job.cost[x * nd..(x + 1) * nd];
+        let o = &mut out[x * nd..(x + 1) * nd];
+        hmin = if n == 0 {
+            start(c, hcur)
+        } else {
+            step(c, hprev, hmin, p1, p2, hcur)
+        };
+        o.copy_from_slice(&hcur[1..=nd]);
+        std::mem::swap(&mut hprev, &mut hcur);
+        for (j, &dx) in job.vdx.iter().enumerate() {
+            let at = j * w + x;
+            let cell = &mut st.cur[at * pad..(at + 1) * pad];
+            let px = x as isize - dx;
+            st.cur_min[at] = if job.first || px < 0 || px >= w as isize {
+                start(c, cell)
+            } else {
+                let p = j * w + px as usize;
+                step(
+                    c,
+                    &st.prev[p * pad..(p + 1) * pad],
+                    st.prev_min[p],
+                    p1,
+                    p2,
+                    cell,
+                )
+            };
+            // At most 8 paths x (64 + 8000) < 65536: never wraps.
+            for (s, &v) in o.iter_mut().zip(&cell[1..]) {
+                *s = s.wrapping_add(v);
+            }
+        }
     }
 }
 
-/// Sum over the scanline directions of the aggregated costs, laid out like
-/// the cost volume.
+/// One pass over the rows, top to bottom (`forward`) or bottom to top: the
+/// sum of its paths' aggregated costs, laid out like the cost volume. The
+/// forward pass holds the paths going right, down, down-right and
+/// down-left (right and down with 4 paths), the backward one their
+/// opposites, so the two passes together are Hirschmüller's 8 (or 4).
+pub(crate) fn aggregate_pass(
+    cost: &[u8],
+    w: usize,
+    h: usize,
+    nd: usize,
+    params: &SgmParams,
+    forward: bool,
+    avx2: Option<Avx2>,
+) -> Vec<u16> {
+    let vdx: &[isize] = if params.paths == 4 { &[0] } else { &[0, 1, -1] };
+    let pad = nd + 2;
+    let cells = vdx.len() * w * pad;
+    let mut st = PassState {
+        prev: vec![BIG; cells],
+        cur: vec![BIG; cells],
+        prev_min: vec![0; vdx.len() * w],
+        cur_min: vec![0; vdx.len() * w],
+        row: vec![BIG; 2 * pad],
+    };
+    let mut sum = vec![0u16; w * h * nd];
+    for n in 0..h {
+        let y = if forward { n } else { h - 1 - n };
+        let job = RowPass {
+            cost: &cost[y * w * nd..(y + 1) * w * nd],
+            nd,
+            first: n == 0,
+            p1: params.p1,
+            p2: params.p2,
+            hdx: if forward { 1 } else { -1 },
+            vdx,
+        };
+        let out = &mut sum[y * w * nd..(y + 1) * w * nd];
+        match avx2 {
+            Some(a) => a.sgm_pass_row(&job, &mut st, out),
+            None => pass_row(&job, &mut st, out),
+        }
+        std::mem::swap(&mut st.prev, &mut st.cur);
+        std::mem::swap(&mut st.prev_min, &mut st.cur_min);
+    }
+    sum
+}
+
+/// The two passes of [`aggregate_pass`], each a sweep that depends on its
+/// previous row, run side by side (two threads); their sums add up to
+/// Hirschmüller's sum over the paths.
 ///
 /// # Performance
-/// Each direction touches every cell once with a handful of u16 min/add
-/// operations that LLVM vectorises. Horizontal paths run rows in
-/// parallel; the others sweep rows in order with the pixels of a row in
-/// parallel (each depends only on the previous row). AVX2 (detected at
-/// run time) only changes the code generation of the step, not its result.
+/// Each cell's cost is read once per pass and each pass writes its sum
+/// once: the paths of a pass share the sweep, and their scanline buffers
+/// (two rows) stay in cache. AVX2 (detected at run time) only changes the
+/// code generation of the row, not its result.
 pub(crate) fn aggregate(
     cost: &[u8],
     w: usize,
@@ -150,93 +309,36 @@ pub(crate) fn aggregate(
     nd: usize,
     params: &SgmParams,
     avx2: Option<Avx2>,
-) -> Vec<u16> {
-    let (p1, p2) = (params.p1, params.p2);
-    let advance = |c: &[u8], prev: &[u16], prev_min: u16, cur: &mut [u16]| match avx2 {
-        Some(a) => a.sgm_step(c, prev, prev_min, p1, p2, cur),
-        None => step(c, prev, prev_min, p1, p2, cur),
-    };
-    let mut sum = vec![0u16; w * h * nd];
-    let dirs: &[(isize, isize)] = if params.paths == 4 {
-        &[(1, 0), (-1, 0), (0, 1), (0, -1)]
-    } else {
-        &[
-            (1, 0),
-            (-1, 0),
-            (0, 1),
-            (0, -1),
-            (1, 1),
-            (-1, 1),
-            (1, -1),
-            (-1, -1),
-        ]
-    };
-    let pad = nd + 2;
-    for &(dx, dy) in dirs {
-        if dy == 0 {
-            sum.par_chunks_mut(w * nd)
-                .zip(cost.par_chunks(w * nd))
-                .for_each(|(srow, crow)| {
-                    let mut prev = vec![BIG; pad];
-                    let mut cur = vec![BIG; pad];
-                    let mut min = 0;
-                    for n in 0..w {
-                        let x = if dx > 0 { n } else { w - 1 - n };
-                        let c = &crow[x * nd..(x + 1) * nd];
-                        min = if n == 0 {
-                            start(c, &mut cur)
-                        } else {
-                            advance(c, &prev, min, &mut cur)
-                        };
-                        accumulate(&mut srow[x * nd..(x + 1) * nd], &cur);
-                        std::mem::swap(&mut prev, &mut cur);
-                    }
-                });
-            continue;
-        }
-        let mut prev = vec![BIG; w * pad];
-        let mut cur = vec![BIG; w * pad];
-        let mut prev_mins = vec![0u16; w];
-        let mut cur_mins = vec![0u16; w];
-        for n in 0..h {
-            let y = if dy > 0 { n } else { h - 1 - n };
-            let crow = &cost[y * w * nd..(y + 1) * w * nd];
-            let srow = &mut sum[y * w * nd..(y + 1) * w * nd];
-            let (prev_row, mins) = (&prev, &prev_mins);
-            cur.par_chunks_mut(pad)
-                .zip(srow.par_chunks_mut(nd))
-                .zip(cur_mins.par_iter_mut())
-                .enumerate()
-                .with_min_len(64)
-                .for_each(|(x, ((cell, s), min))| {
-                    let c = &crow[x * nd..(x + 1) * nd];
-                    let px = x as isize - dx;
-                    *min = if n == 0 || px < 0 || px >= w as isize {
-                        start(c, cell)
-                    } else {
-                        let p = px as usize;
-                        advance(c, &prev_row[p * pad..(p + 1) * pad], mins[p], cell)
-                    };
-                    accumulate(s, cell);
-                });
-            std::mem::swap(&mut prev, &mut cur);
-            std::mem::swap(&mut prev_mins, &mut cur_mins);
-        }
-    }
-    sum
+) -> (Vec<u16>, Vec<u16>) {
+    rayon::join(
+        || aggregate_pass(cost, w, h, nd, params, true, avx2),
+        || aggregate_pass(cost, w, h, nd, params, false, avx2),
+    )
 }
 
-/// Winner-take-all over the aggregated sums with Hirschmüller's checks:
-/// uniqueness (the best sum at most `uniqueness` times every sum two or
-/// more disparities away), parabola sub-pixel fit, and left-right
-/// consistency against the right image's winners taken from the same sums
-/// (as OpenCV's StereoSGBM does). Returns the disparity index (fractional)
-/// per left pixel, NaN where rejected.
-pub(crate) fn winners(sum: &[u16], pair: &RectifiedPair, params: &SgmParams) -> Vec<f32> {
+/// Winner-take-all over the aggregated sums (the two passes' `fwd` and
+/// `bwd` added) with Hirschmüller's checks: uniqueness (the best sum at
+/// most `uniqueness` times every sum two or more disparities away),
+/// parabola sub-pixel fit, and left-right consistency against the right
+/// image's winners taken from the same sums (as OpenCV's StereoSGBM does).
+/// Returns the disparity index (fractional) per left pixel, NaN where
+/// rejected.
+pub(crate) fn winners(
+    fwd: &[u16],
+    bwd: &[u16],
+    pair: &RectifiedPair,
+    params: &SgmParams,
+) -> Vec<f32> {
     let (w, nd) = (pair.width, pair.n_disp);
     let mut disp = vec![f32::NAN; w * pair.height];
     disp.par_chunks_mut(w).enumerate().for_each(|(y, out)| {
-        let row = &sum[y * w * nd..(y + 1) * w * nd];
+        let r = y * w * nd..(y + 1) * w * nd;
+        // At most 8 paths x (64 + 8000) < 65536: never wraps.
+        let row: Vec<u16> = fwd[r.clone()]
+            .iter()
+            .zip(&bwd[r])
+            .map(|(&a, &b)| a.wrapping_add(b))
+            .collect();
         // Right pixel xr's best disparity: left pixel xr + k at index k.
         let right: Vec<usize> = (0..w)
             .map(|xr| {
@@ -265,10 +367,15 @@ pub(crate) fn winners(sum: &[u16], pair: &RectifiedPair, params: &SgmParams) -> 
                 continue;
             }
             let min = f32::from(s[best]);
-            let unique = s
+            // Every sum two or more disparities away passes the ratio test
+            // exactly when the smallest of them does (f32 products are
+            // monotone).
+            let rival = s[..best.saturating_sub(1)]
                 .iter()
-                .enumerate()
-                .all(|(k, &v)| k.abs_diff(best) <= 1 || min <= params.uniqueness * f32::from(v));
+                .chain(s.get(best + 2..).unwrap_or(&[]))
+                .min()
+                .map_or(f32::INFINITY, |&v| f32::from(v));
+            let unique = min <= params.uniqueness * rival;
             if !unique || right[x - best].abs_diff(best) > params.lr_max_diff as usize {
                 continue;
             }
@@ -346,17 +453,11 @@ pub(crate) fn filter_speckles(
 /// The whole matcher: disparity indices of the left image (NaN where none).
 pub(crate) fn match_pair(pair: &RectifiedPair, params: &SgmParams) -> Vec<f32> {
     let (cw, ch) = (params.census_width as usize, params.census_height as usize);
-    let cost = cost_volume(pair, cw, ch);
-    let sum = aggregate(
-        &cost,
-        pair.width,
-        pair.height,
-        pair.n_disp,
-        params,
-        Avx2::detect(),
-    );
+    let avx2 = Avx2::detect();
+    let cost = cost_volume(pair, cw, ch, avx2);
+    let (fwd, bwd) = aggregate(&cost, pair.width, pair.height, pair.n_disp, params, avx2);
     drop(cost);
-    let mut disp = winners(&sum, pair, params);
+    let mut disp = winners(&fwd, &bwd, pair, params);
     filter_speckles(
         &mut disp,
         pair.width,
