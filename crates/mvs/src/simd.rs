@@ -18,9 +18,10 @@
 //! - no FMA: every lane does the scalar loop's operations in the same order,
 //!   so the sums are bit for bit the scalar ones (tested in `cost.rs`).
 //!
-//! The semi-global matcher's row of a scanline pass ([`Avx2::sgm_pass_row`])
-//! and row of census costs ([`Avx2::sgm_cost_row`]) are the safe scalar
-//! `sgm::matching::pass_row` and `cost_row` compiled a second time with
+//! The semi-global matcher's row of a scanline pass ([`Avx2::sgm_pass_row`]),
+//! row of winners ([`Avx2::sgm_winner_row`]) and row of census costs
+//! ([`Avx2::sgm_cost_row`]) are the safe scalar `sgm::matching::pass_row`,
+//! `winner_row` and `cost_row` compiled a second time with
 //! AVX2 (and `popcnt` for the costs) enabled, so that LLVM vectorises the
 //! aggregation 16 u16 lanes wide instead of the baseline's 8 and counts
 //! bits in one instruction: the only `unsafe` is the call into the
@@ -124,6 +125,30 @@ impl Avx2 {
         }
     }
 
+    /// `sgm::matching::winner_row` with AVX2 code generation: the same result.
+    #[allow(clippy::unused_self)] // `self` is the proof that AVX2 is there
+    pub fn sgm_winner_row(
+        self,
+        row: &[u16],
+        y: usize,
+        pair: &crate::sgm::matching::RectifiedPair,
+        params: &crate::sgm::SgmParams,
+        out: &mut [f32],
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: `self` exists only if `detect` found AVX2 on this CPU,
+            // the one feature `x86::sgm_winner_row` is compiled for; its
+            // body is safe code.
+            unsafe { x86::sgm_winner_row(row, y, pair, params, out) }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let _ = self;
+            crate::sgm::matching::winner_row(row, y, pair, params, out);
+        }
+    }
+
     /// `sgm::matching::cost_row` with AVX2 and, when the CPU has it,
     /// `popcnt` code generation: the same result.
     #[allow(clippy::unused_self)] // `self` is the proof that AVX2 is there
@@ -209,6 +234,19 @@ mod x86 {
         out: &mut [u16],
     ) {
         crate::sgm::matching::pass_row(job, st, out);
+    }
+
+    /// The safe scalar winners of a row, inlined here and so compiled for
+    /// AVX2.
+    #[target_feature(enable = "avx2")]
+    pub(super) fn sgm_winner_row(
+        row: &[u16],
+        y: usize,
+        pair: &crate::sgm::matching::RectifiedPair,
+        params: &crate::sgm::SgmParams,
+        out: &mut [f32],
+    ) {
+        crate::sgm::matching::winner_row(row, y, pair, params, out);
     }
 
     /// The safe scalar cost row, inlined here and so compiled for AVX2 and

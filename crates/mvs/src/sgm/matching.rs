@@ -4,6 +4,8 @@
 //! steps. All sums are integers, so the result does not depend on the
 //! order rows are processed in (rows run in parallel).
 
+use std::sync::{Mutex, PoisonError};
+
 use rayon::prelude::*;
 
 use super::SgmParams;
@@ -37,6 +39,10 @@ pub(crate) fn census(img: &[f32], w: usize, h: usize, cw: usize, ch: usize) -> V
     let mut out = vec![0u64; w * h];
     out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
         let centre = &img[y * w..(y + 1) * w];
+        // Bits 0..32 and 32..64 in two u32 words: a float comparison is a
+        // 32-bit mask, so eight pixels fit one AVX2 register (four as u64).
+        let mut lo_bits = vec![0u32; w];
+        let mut hi_bits = vec![0u32; w];
         let mut k = 0;
         for dy in -ry..=ry {
             let yy = (y as isize + dy).clamp(0, h as isize - 1) as usize;
@@ -45,19 +51,24 @@ pub(crate) fn census(img: &[f32], w: usize, h: usize, cw: usize, ch: usize) -> V
                 if dx == 0 && dy == 0 {
                     continue;
                 }
+                let bits = if k < 32 { &mut lo_bits } else { &mut hi_bits };
+                let bit = 1u32 << (k % 32);
                 // Pixels x whose neighbour x + dx lies inside the row.
                 let lo = (-dx).clamp(0, w as isize) as usize;
                 let hi = (w as isize - dx).clamp(lo as isize, w as isize) as usize;
                 let shifted = &src[(lo as isize + dx) as usize..(hi as isize + dx) as usize];
-                for ((c, &m), &s) in row[lo..hi].iter_mut().zip(&centre[lo..hi]).zip(shifted) {
-                    *c |= u64::from(s < m) << k;
+                for ((c, &m), &s) in bits[lo..hi].iter_mut().zip(&centre[lo..hi]).zip(shifted) {
+                    *c |= if s < m { bit } else { 0 };
                 }
                 for x in (0..lo).chain(hi..w) {
                     let xx = (x as isize + dx).clamp(0, w as isize - 1) as usize;
-                    row[x] |= u64::from(src[xx] < centre[x]) << k;
+                    bits[x] |= if src[xx] < centre[x] { bit } else { 0 };
                 }
                 k += 1;
             }
+        }
+        for ((c, &l), &h) in row.iter_mut().zip(&lo_bits).zip(&hi_bits) {
+            *c = u64::from(h) << 32 | u64::from(l);
         }
     });
     out
@@ -88,13 +99,16 @@ pub(crate) fn cost_row(
         let reach = nd.min(x + 1);
         let (inside, outside) = cell.split_at_mut(reach);
         outside.fill(n_bits);
-        for (k, c) in inside.iter_mut().enumerate() {
-            let j = x - k;
-            *c = if right_valid[j] {
-                (cl[x] ^ cr[j]).count_ones() as u8
-            } else {
-                n_bits
-            };
+        // Index k is right pixel x - k: the right row read backwards from x.
+        let first = x + 1 - reach;
+        let code = cl[x];
+        let right = cr[first..=x]
+            .iter()
+            .rev()
+            .zip(right_valid[first..=x].iter().rev());
+        for (c, (&r, &ok)) in inside.iter_mut().zip(right) {
+            let n = (code ^ r).count_ones() as u8;
+            *c = if ok { n } else { n_bits };
         }
     }
 }
@@ -246,12 +260,15 @@ pub(crate) fn pass_row(job: &RowPass, st: &mut PassState, out: &mut [u16]) {
     }
 }
 
-/// One pass over the rows, top to bottom (`forward`) or bottom to top: the
-/// sum of its paths' aggregated costs, laid out like the cost volume. The
-/// forward pass holds the paths going right, down, down-right and
-/// down-left (right and down with 4 paths), the backward one their
-/// opposites, so the two passes together are Hirschmüller's 8 (or 4).
-pub(crate) fn aggregate_pass(
+/// One pass over the rows, top to bottom (`forward`) or bottom to top:
+/// hands `row_done(y, sums)` the sum of its paths' aggregated costs of
+/// each row y (`w * nd`, laid out like the cost volume), which the sink
+/// may keep (swapping in another buffer of the same length). The forward
+/// pass holds the paths going right, down, down-right and down-left
+/// (right and down with 4 paths), the backward one their opposites, so
+/// the two passes together are Hirschmüller's 8 (or 4).
+#[allow(clippy::too_many_arguments)]
+fn sweep(
     cost: &[u8],
     w: usize,
     h: usize,
@@ -259,7 +276,8 @@ pub(crate) fn aggregate_pass(
     params: &SgmParams,
     forward: bool,
     avx2: Option<Avx2>,
-) -> Vec<u16> {
+    row_done: &mut dyn FnMut(usize, &mut Vec<u16>),
+) {
     let vdx: &[isize] = if params.paths == 4 { &[0] } else { &[0, 1, -1] };
     let pad = nd + 2;
     let cells = vdx.len() * w * pad;
@@ -270,7 +288,7 @@ pub(crate) fn aggregate_pass(
         cur_min: vec![0; vdx.len() * w],
         row: vec![BIG; 2 * pad],
     };
-    let mut sum = vec![0u16; w * h * nd];
+    let mut out = vec![0u16; w * nd];
     for n in 0..h {
         let y = if forward { n } else { h - 1 - n };
         let job = RowPass {
@@ -282,26 +300,20 @@ pub(crate) fn aggregate_pass(
             hdx: if forward { 1 } else { -1 },
             vdx,
         };
-        let out = &mut sum[y * w * nd..(y + 1) * w * nd];
         match avx2 {
-            Some(a) => a.sgm_pass_row(&job, &mut st, out),
-            None => pass_row(&job, &mut st, out),
+            Some(a) => a.sgm_pass_row(&job, &mut st, &mut out),
+            None => pass_row(&job, &mut st, &mut out),
         }
         std::mem::swap(&mut st.prev, &mut st.cur);
         std::mem::swap(&mut st.prev_min, &mut st.cur_min);
+        row_done(y, &mut out);
     }
-    sum
 }
 
-/// The two passes of [`aggregate_pass`], each a sweep that depends on its
-/// previous row, run side by side (two threads); their sums add up to
-/// Hirschmüller's sum over the paths.
-///
-/// # Performance
-/// Each cell's cost is read once per pass and each pass writes its sum
-/// once: the paths of a pass share the sweep, and their scanline buffers
-/// (two rows) stay in cache. AVX2 (detected at run time) only changes the
-/// code generation of the row, not its result.
+/// The two passes' sums, each as a volume laid out like the cost volume
+/// (their sum is Hirschmüller's sum over the paths): the reference the
+/// fused [`aggregate_and_pick`] is tested against.
+#[cfg(test)]
 pub(crate) fn aggregate(
     cost: &[u8],
     w: usize,
@@ -310,87 +322,153 @@ pub(crate) fn aggregate(
     params: &SgmParams,
     avx2: Option<Avx2>,
 ) -> (Vec<u16>, Vec<u16>) {
-    rayon::join(
-        || aggregate_pass(cost, w, h, nd, params, true, avx2),
-        || aggregate_pass(cost, w, h, nd, params, false, avx2),
-    )
+    let pass = |forward: bool| {
+        let mut sum = vec![0u16; w * h * nd];
+        sweep(cost, w, h, nd, params, forward, avx2, &mut |y, row| {
+            sum[y * w * nd..(y + 1) * w * nd].copy_from_slice(row);
+        });
+        sum
+    };
+    (pass(true), pass(false))
 }
 
-/// Winner-take-all over the aggregated sums (the two passes' `fwd` and
-/// `bwd` added) with Hirschmüller's checks: uniqueness (the best sum at
-/// most `uniqueness` times every sum two or more disparities away),
-/// parabola sub-pixel fit, and left-right consistency against the right
-/// image's winners taken from the same sums (as OpenCV's StereoSGBM does).
-/// Returns the disparity index (fractional) per left pixel, NaN where
-/// rejected.
-pub(crate) fn winners(
-    fwd: &[u16],
-    bwd: &[u16],
+/// Aggregation and winner-take-all in one go: the forward and backward
+/// passes run side by side (two threads, each a sweep that depends on its
+/// previous row) and meet in the middle. The first pass to finish a row
+/// leaves its sums there; the second adds its own and picks the row's
+/// winners ([`winner_row`]) while the row is in cache. Integer sums: the
+/// result does not depend on which pass came first, nor on the threads.
+///
+/// # Performance
+/// Each cell's cost is read once per pass; only the rows one pass has
+/// finished and the other has not reached are kept (about half the image
+/// when both run at once), instead of a sum volume per path or per pass.
+/// AVX2 (detected at run time) only changes the code generation of the
+/// row, not its result.
+pub(crate) fn aggregate_and_pick(
+    cost: &[u8],
     pair: &RectifiedPair,
     params: &SgmParams,
+    avx2: Option<Avx2>,
 ) -> Vec<f32> {
-    let (w, nd) = (pair.width, pair.n_disp);
-    let mut disp = vec![f32::NAN; w * pair.height];
-    disp.par_chunks_mut(w).enumerate().for_each(|(y, out)| {
-        let r = y * w * nd..(y + 1) * w * nd;
-        // At most 8 paths x (64 + 8000) < 65536: never wraps.
-        let row: Vec<u16> = fwd[r.clone()]
-            .iter()
-            .zip(&bwd[r])
-            .map(|(&a, &b)| a.wrapping_add(b))
-            .collect();
-        // Right pixel xr's best disparity: left pixel xr + k at index k.
-        let right: Vec<usize> = (0..w)
-            .map(|xr| {
-                let mut best = (u16::MAX, 0);
-                for k in 0..nd.min(w - xr) {
-                    let s = row[(xr + k) * nd + k];
-                    if s < best.0 {
-                        best = (s, k);
+    let (w, h, nd) = (pair.width, pair.height, pair.n_disp);
+    let meet: Vec<Mutex<Option<Vec<u16>>>> = (0..h).map(|_| Mutex::new(None)).collect();
+    let disp = Mutex::new(vec![f32::NAN; w * h]);
+    let pass = |forward: bool| {
+        let mut picked = vec![f32::NAN; w];
+        sweep(cost, w, h, nd, params, forward, avx2, &mut |y, row| {
+            let other = {
+                let mut slot = lock(&meet[y]);
+                match slot.take() {
+                    Some(o) => Some(o),
+                    None => {
+                        *slot = Some(std::mem::replace(row, vec![0u16; w * nd]));
+                        None
                     }
                 }
-                best.1
-            })
-            .collect();
-        for (x, o) in out.iter_mut().enumerate() {
-            if !pair.left_valid[y * w + x] {
-                continue;
-            }
-            let s = &row[x * nd..(x + 1) * nd];
-            let mut best = 0;
-            for k in 1..nd {
-                if s[k] < s[best] {
-                    best = k;
+            };
+            if let Some(other) = other {
+                // At most 8 paths x (64 + 8000) < 65536: never wraps.
+                for (s, &v) in row.iter_mut().zip(&other) {
+                    *s = s.wrapping_add(v);
                 }
-            }
-            if best > x || !pair.right_valid[y * w + x - best] {
-                continue;
-            }
-            let min = f32::from(s[best]);
-            // Every sum two or more disparities away passes the ratio test
-            // exactly when the smallest of them does (f32 products are
-            // monotone).
-            let rival = s[..best.saturating_sub(1)]
-                .iter()
-                .chain(s.get(best + 2..).unwrap_or(&[]))
-                .min()
-                .map_or(f32::INFINITY, |&v| f32::from(v));
-            let unique = min <= params.uniqueness * rival;
-            if !unique || right[x - best].abs_diff(best) > params.lr_max_diff as usize {
-                continue;
-            }
-            let mut d = best as f32;
-            if best > 0 && best + 1 < nd {
-                let (a, b, c) = (f32::from(s[best - 1]), min, f32::from(s[best + 1]));
-                let denom = a + c - 2.0 * b;
-                if denom > 0.0 {
-                    d += (a - c) / (2.0 * denom);
+                match avx2 {
+                    Some(a) => a.sgm_winner_row(row, y, pair, params, &mut picked),
+                    None => winner_row(row, y, pair, params, &mut picked),
                 }
+                lock(&disp)[y * w..(y + 1) * w].copy_from_slice(&picked);
             }
-            *o = d;
+        });
+    };
+    rayon::join(|| pass(true), || pass(false));
+    disp.into_inner().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// The lock of `m`, also after a panic elsewhere (the data are plain
+/// sums, whole after any panic).
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// Winner-take-all over one row's aggregated sums (`w * nd`) with
+/// Hirschmüller's checks: uniqueness (the best sum at most `uniqueness`
+/// times every sum two or more disparities away), parabola sub-pixel fit,
+/// and left-right consistency against the right image's winners taken
+/// from the same sums (as OpenCV's StereoSGBM does). Writes the disparity
+/// index (fractional) of each left pixel of row y into `out`, NaN where
+/// rejected.
+// Always inlined: simd.rs compiles a copy with AVX2 enabled.
+#[allow(clippy::inline_always)]
+#[inline(always)]
+pub(crate) fn winner_row(
+    row: &[u16],
+    y: usize,
+    pair: &RectifiedPair,
+    params: &SgmParams,
+    out: &mut [f32],
+) {
+    let (w, nd) = (pair.width, pair.n_disp);
+    // Right pixel xr's best disparity, the first smallest of left pixel
+    // xr + k's sum at index k over k. Each right pixel holds (sum << 16 |
+    // k), whose minimum is the smallest sum with the smallest k; left
+    // pixels in order offer their sums to the right pixels x - k. Right
+    // pixels are stored from the right end (slot w - 1 - xr), so that left
+    // pixel x's offers go to consecutive slots: a u32 minimum that
+    // vectorises.
+    let ks: Vec<u32> = (0..nd as u32).collect();
+    let mut held = vec![u32::MAX; w];
+    for x in 0..w {
+        let reach = nd.min(x + 1);
+        let at = w - 1 - x;
+        let offers = row[x * nd..x * nd + reach].iter().zip(&ks[..reach]);
+        for (h, (&v, &k)) in held[at..at + reach].iter_mut().zip(offers) {
+            *h = (*h).min(u32::from(v) << 16 | k);
         }
-    });
-    disp
+    }
+    for (x, o) in out.iter_mut().enumerate() {
+        *o = f32::NAN;
+        if !pair.left_valid[y * w + x] {
+            continue;
+        }
+        let s = &row[x * nd..(x + 1) * nd];
+        // The first smallest sum: the minimum of (sum << 16 | k), one
+        // vectorised pass.
+        let key = s
+            .iter()
+            .zip(&ks)
+            .map(|(&v, &k)| u32::from(v) << 16 | k)
+            .min()
+            .unwrap_or(0);
+        let best = (key & 0xFFFF) as usize;
+        if best > x || !pair.right_valid[y * w + x - best] {
+            continue;
+        }
+        let min = f32::from(s[best]);
+        // Every sum two or more disparities away passes the ratio test
+        // exactly when the smallest of them does (f32 products are
+        // monotone).
+        let below = s[..best.saturating_sub(1)].iter().copied().min();
+        let above = s.get(best + 2..).and_then(|a| a.iter().copied().min());
+        let rival = match (below, above) {
+            (Some(a), Some(b)) => f32::from(a.min(b)),
+            (Some(a), None) | (None, Some(a)) => f32::from(a),
+            (None, None) => f32::INFINITY,
+        };
+        let unique = min <= params.uniqueness * rival;
+        let right_best = (held[w - 1 - (x - best)] & 0xFFFF) as usize;
+        if !unique || right_best.abs_diff(best) > params.lr_max_diff as usize {
+            continue;
+        }
+        let mut d = best as f32;
+        if best > 0 && best + 1 < nd {
+            let (a, b, c) = (f32::from(s[best - 1]), min, f32::from(s[best + 1]));
+            let denom = a + c - 2.0 * b;
+            if denom > 0.0 {
+                d += (a - c) / (2.0 * denom);
+            }
+        }
+        *o = d;
+    }
 }
 
 /// OpenCV's `filterSpeckles`: 4-connected regions whose neighbours differ
@@ -455,9 +533,8 @@ pub(crate) fn match_pair(pair: &RectifiedPair, params: &SgmParams) -> Vec<f32> {
     let (cw, ch) = (params.census_width as usize, params.census_height as usize);
     let avx2 = Avx2::detect();
     let cost = cost_volume(pair, cw, ch, avx2);
-    let (fwd, bwd) = aggregate(&cost, pair.width, pair.height, pair.n_disp, params, avx2);
+    let mut disp = aggregate_and_pick(&cost, pair, params, avx2);
     drop(cost);
-    let mut disp = winners(&fwd, &bwd, pair, params);
     filter_speckles(
         &mut disp,
         pair.width,

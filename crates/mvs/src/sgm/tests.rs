@@ -341,7 +341,7 @@ fn fast_matcher_equals_the_reference_bit_for_bit() {
                         "{w}x{h}x{nd}, {paths} paths, AVX2 {}",
                         simd.is_some()
                     );
-                    let disp = matching::winners(&f, &b, &pair, &params);
+                    let disp = matching::aggregate_and_pick(&cost, &pair, &params, simd);
                     let bits = |d: &[f32]| d.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
                     assert_eq!(
                         bits(&disp),
