@@ -2,7 +2,9 @@
 //! census cost volume, aggregation along 4 or 8 scanlines, then
 //! winner-take-all with the uniqueness, sub-pixel, left-right and speckle
 //! steps. All sums are integers, so the result does not depend on the
-//! order rows are processed in (rows run in parallel).
+//! order rows are processed in, nor on which of the two sweeps
+//! ([`aggregate_and_pick`]) reaches a row first. `sgm/reference.rs` is the
+//! same matcher written plainly; the tests hold this one to it bit for bit.
 
 use std::sync::{Mutex, PoisonError};
 
@@ -359,13 +361,11 @@ pub(crate) fn aggregate_and_pick(
         sweep(cost, w, h, nd, params, forward, avx2, &mut |y, row| {
             let other = {
                 let mut slot = lock(&meet[y]);
-                match slot.take() {
-                    Some(o) => Some(o),
-                    None => {
-                        *slot = Some(std::mem::replace(row, vec![0u16; w * nd]));
-                        None
-                    }
+                let other = slot.take();
+                if other.is_none() {
+                    *slot = Some(std::mem::replace(row, vec![0u16; w * nd]));
                 }
+                other
             };
             if let Some(other) = other {
                 // At most 8 paths x (64 + 8000) < 65536: never wraps.

@@ -275,7 +275,7 @@ fn a_shifted_texture_gives_its_shift() {
 /// along the borders and a few inside, and textureless patches (ties).
 fn odd_pair(w: usize, h: usize, nd: usize) -> RectifiedPair {
     let tex = |x: usize, y: usize| {
-        if (x / 7 + y / 5) % 6 == 0 {
+        if (x / 7 + y / 5).is_multiple_of(6) {
             0.5 // flat: census ties
         } else {
             noise(&Point3::new(x as f64, y as f64, 0.0), 1.7, 11) as f32
@@ -288,7 +288,7 @@ fn odd_pair(w: usize, h: usize, nd: usize) -> RectifiedPair {
             tex(x + if x < w / 2 { 3 } else { 9 }, y)
         })
         .collect();
-    let hole = |i: usize| (i * 2_654_435_761) % 97 == 0;
+    let hole = |i: usize| (i * 2_654_435_761).is_multiple_of(97);
     RectifiedPair {
         width: w,
         height: h,
