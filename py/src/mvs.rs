@@ -11,7 +11,7 @@ use numpy::{PyArray2, PyArray3, PyReadonlyArray3};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use vp_mvs::{
-    DepthNormalMap, ImageSet, ImageSetsRequest, MvsParams, RunOptions, SetShares, View,
+    Algorithm, DepthNormalMap, ImageSet, ImageSetsRequest, MvsParams, RunOptions, SetShares, View,
     WorkspaceRequest,
 };
 
@@ -19,19 +19,37 @@ use crate::convert::{self, image2, image3, rgb};
 use crate::errors::{value_error, IntoPy};
 use crate::scene::PyCamera;
 
-fn params_with_seed(params: Option<&Bound<'_, PyAny>>, seed: Option<u64>) -> PyResult<MvsParams> {
+/// The parameters of a run: `params` (any subset of `vpctl mvs defaults`),
+/// with `seed` and `algorithm` (`vpctl mvs run --seed --algorithm`) over
+/// them when given.
+fn params_with(
+    params: Option<&Bound<'_, PyAny>>,
+    seed: Option<u64>,
+    algorithm: Option<&str>,
+) -> PyResult<MvsParams> {
     let mut p: MvsParams = convert::from_py(params, "params")?;
     if let Some(seed) = seed {
         p.seed = seed;
     }
+    if let Some(a) = algorithm {
+        p.algorithm = match a {
+            "patchmatch" => Algorithm::PatchMatch,
+            "sgm" => Algorithm::Sgm,
+            _ => {
+                return Err(value_error(format!(
+                    "algorithm: '{a}' is not a matcher (patchmatch, sgm)"
+                )))
+            }
+        };
+    }
     Ok(p)
 }
 
-/// `vpctl mvs run --workspace W [--images --depth-range --seed --force]`:
+/// `vpctl mvs run --workspace W [--images --depth-range --seed --algorithm --force]`:
 /// writes `stereo/depth_maps`, `stereo/normal_maps` and `fused.ply` into the
 /// workspace; returns the summary as a dict.
 #[pyfunction]
-#[pyo3(signature = (workspace, images = None, depth_range = None, params = None, seed = None, force = false))]
+#[pyo3(signature = (workspace, images = None, depth_range = None, params = None, seed = None, force = false, algorithm = None))]
 fn run_workspace<'py>(
     py: Python<'py>,
     workspace: PathBuf,
@@ -40,12 +58,13 @@ fn run_workspace<'py>(
     params: Option<&Bound<'py, PyAny>>,
     seed: Option<u64>,
     force: bool,
+    algorithm: Option<String>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let mut req = WorkspaceRequest::new(workspace);
     req.options = RunOptions {
         images,
         depth_range,
-        params: params_with_seed(params, seed)?,
+        params: params_with(params, seed, algorithm.as_deref())?,
     };
     req.force = force;
     let summary = py
@@ -64,7 +83,7 @@ fn run_workspace<'py>(
 /// Every triplet is checked before the first reconstruction. Returns
 /// `{triplet id: {level: [share of pixels with a geometric depth per image]}}`.
 #[pyfunction]
-#[pyo3(signature = (workspace, triplets, out, levels = vec![1], depth_range = None, params = None, seed = None, force = false))]
+#[pyo3(signature = (workspace, triplets, out, levels = vec![1], depth_range = None, params = None, seed = None, force = false, algorithm = None))]
 fn run_triplets(
     py: Python<'_>,
     workspace: PathBuf,
@@ -75,8 +94,9 @@ fn run_triplets(
     params: Option<&Bound<'_, PyAny>>,
     seed: Option<u64>,
     force: bool,
+    algorithm: Option<String>,
 ) -> PyResult<SetShares> {
-    let params = params_with_seed(params, seed)?;
+    let params = params_with(params, seed, algorithm.as_deref())?;
     let sets = py
         .detach(|| vp_labelgen::triplets::read_image_sets(&triplets))
         .py()?;
@@ -118,7 +138,7 @@ fn map_arrays(py: Python<'_>, m: DepthNormalMap) -> PyResult<MapArrays<'_>> {
 /// arrays, geometrically filtered (`filtered`) or photometric, or `None`
 /// for an image without sources.
 #[pyfunction]
-#[pyo3(signature = (images, cameras, depth_ranges, sources = None, params = None, seed = None, filtered = true))]
+#[pyo3(signature = (images, cameras, depth_ranges, sources = None, params = None, seed = None, filtered = true, algorithm = None))]
 #[allow(clippy::too_many_arguments)]
 fn patch_match<'py>(
     py: Python<'py>,
@@ -129,8 +149,9 @@ fn patch_match<'py>(
     params: Option<&Bound<'py, PyAny>>,
     seed: Option<u64>,
     filtered: bool,
+    algorithm: Option<String>,
 ) -> PyResult<Vec<Option<MapArrays<'py>>>> {
-    let p = params_with_seed(params, seed)?;
+    let p = params_with(params, seed, algorithm.as_deref())?;
     let n = images.len();
     if cameras.len() != n {
         return Err(value_error(format!(

@@ -57,6 +57,27 @@ def test_workspace_run_writes_the_cli_files_byte_for_byte(tmp_path):
     assert files_under(ws_py)["fused.ply"] != want["fused.ply"], "the seed is not used"
 
 
+def test_sgm_workspace_run_writes_the_cli_files_byte_for_byte(tmp_path):
+    # algorithm="sgm" is `vpctl mvs run --algorithm sgm`: the same library
+    # entry, so the same bytes; and not PatchMatch's bytes.
+    ws_py, ws_cli, ws_pm = (workspace(tmp_path, n) for n in ("py", "cli", "pm"))
+    summary = vpctl.mvs.reconstruct(ws_py, images=IMAGES, seed=SEED, algorithm="sgm")
+    run_cli("mvs", "run", "--workspace", ws_cli, "--images", ",".join(IMAGES),
+            "--algorithm", "sgm", "--seed", SEED)
+    got, want = files_under(ws_py), files_under(ws_cli)
+    assert sorted(got) == sorted(want)
+    for rel in want:
+        assert got[rel] == want[rel], rel
+    assert summary["reconstructed"] == IMAGES
+    assert all(s > 0.2 for s in summary["geometric_valid_share"]), summary
+    assert summary["fused_points"] > 1000
+    vpctl.mvs.reconstruct(ws_pm, images=IMAGES, params=PARAMS, seed=SEED, algorithm="patchmatch")
+    name = f"stereo/depth_maps/{IMAGES[0]}.photometric.bin"
+    assert files_under(ws_pm)[name] != got[name], "algorithm is not used"
+    with pytest.raises(ValueError, match="algorithm"):
+        vpctl.mvs.reconstruct(ws_py, images=IMAGES, algorithm="census", force=True)
+
+
 def test_triplet_run_writes_the_cli_depth_folder_byte_for_byte(tmp_path):
     ws = workspace(tmp_path, "ws")
     t = tmp_path / "t.txt"

@@ -18,12 +18,16 @@
 //! - no FMA: every lane does the scalar loop's operations in the same order,
 //!   so the sums are bit for bit the scalar ones (tested in `cost.rs`).
 //!
-//! The semi-global matcher's scanline step ([`Avx2::sgm_step`]) is the
-//! safe scalar `sgm::matching::step` compiled a second time with AVX2
-//! enabled, so that LLVM vectorises it 16 u16 lanes wide instead of the
-//! baseline's 8: the only `unsafe` is the call into the `#[target_feature]`
-//! function, under the same detected token; the operations are integer and
-//! identical, so the sums are the scalar ones (tested in `sgm/tests.rs`).
+//! The semi-global matcher's row of a scanline pass ([`Avx2::sgm_pass_row`]),
+//! row of winners ([`Avx2::sgm_winner_row`]) and row of census costs
+//! ([`Avx2::sgm_cost_row`]) are the safe scalar `sgm::matching::pass_row`,
+//! `winner_row` and `cost_row` compiled a second time with
+//! AVX2 (and `popcnt` for the costs) enabled, so that LLVM vectorises the
+//! aggregation 16 u16 lanes wide instead of the baseline's 8 and counts
+//! bits in one instruction: the only `unsafe` is the call into the
+//! `#[target_feature]` function, under the same detected token (and a
+//! detected `popcnt`); the operations are integer and identical, so the
+//! results are the scalar ones (tested in `sgm/tests.rs`).
 #![allow(unsafe_code)]
 // Off x86-64 the token is never made and the window's fields never read.
 #![cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
@@ -99,29 +103,74 @@ impl Avx2 {
 }
 
 impl Avx2 {
-    /// `sgm::matching::step` with AVX2 code generation: the same result.
+    /// `sgm::matching::pass_row` with AVX2 code generation: the same result.
     #[allow(clippy::unused_self)] // `self` is the proof that AVX2 is there
-    pub fn sgm_step(
+    pub fn sgm_pass_row(
         self,
-        cost: &[u8],
-        prev: &[u16],
-        prev_min: u16,
-        p1: u16,
-        p2: u16,
-        cur: &mut [u16],
-    ) -> u16 {
+        job: &crate::sgm::matching::RowPass,
+        st: &mut crate::sgm::matching::PassState,
+        out: &mut [u16],
+    ) {
         #[cfg(target_arch = "x86_64")]
         {
             // SAFETY: `self` exists only if `detect` found AVX2 on this CPU,
-            // the one feature `x86::sgm_step` is compiled for; its body is
-            // safe code.
-            unsafe { x86::sgm_step(cost, prev, prev_min, p1, p2, cur) }
+            // the one feature `x86::sgm_pass_row` is compiled for; its body
+            // is safe code.
+            unsafe { x86::sgm_pass_row(job, st, out) }
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
             let _ = self;
-            crate::sgm::matching::step(cost, prev, prev_min, p1, p2, cur)
+            crate::sgm::matching::pass_row(job, st, out);
         }
+    }
+
+    /// `sgm::matching::winner_row` with AVX2 code generation: the same result.
+    #[allow(clippy::unused_self)] // `self` is the proof that AVX2 is there
+    pub fn sgm_winner_row(
+        self,
+        row: &[u16],
+        y: usize,
+        pair: &crate::sgm::matching::RectifiedPair,
+        params: &crate::sgm::SgmParams,
+        out: &mut [f32],
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: `self` exists only if `detect` found AVX2 on this CPU,
+            // the one feature `x86::sgm_winner_row` is compiled for; its
+            // body is safe code.
+            unsafe { x86::sgm_winner_row(row, y, pair, params, out) }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let _ = self;
+            crate::sgm::matching::winner_row(row, y, pair, params, out);
+        }
+    }
+
+    /// `sgm::matching::cost_row` with AVX2 and, when the CPU has it,
+    /// `popcnt` code generation: the same result.
+    #[allow(clippy::unused_self)] // `self` is the proof that AVX2 is there
+    pub fn sgm_cost_row(
+        self,
+        cl: &[u64],
+        cr: &[u64],
+        left_valid: &[bool],
+        right_valid: &[bool],
+        n_bits: u8,
+        out: &mut [u8],
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("popcnt") {
+            // SAFETY: `self` proves AVX2 and the line above `popcnt`, the
+            // two features `x86::sgm_cost_row` is compiled for; its body is
+            // safe code.
+            unsafe { x86::sgm_cost_row(cl, cr, left_valid, right_valid, n_bits, out) };
+            return;
+        }
+        let _ = self;
+        crate::sgm::matching::cost_row(cl, cr, left_valid, right_valid, n_bits, out);
     }
 }
 
@@ -177,17 +226,41 @@ mod x86 {
         (f, i)
     }
 
-    /// The safe scalar step, inlined here and so compiled for AVX2.
+    /// The safe scalar row of a pass, inlined here and so compiled for AVX2.
     #[target_feature(enable = "avx2")]
-    pub(super) fn sgm_step(
-        cost: &[u8],
-        prev: &[u16],
-        prev_min: u16,
-        p1: u16,
-        p2: u16,
-        cur: &mut [u16],
-    ) -> u16 {
-        crate::sgm::matching::step(cost, prev, prev_min, p1, p2, cur)
+    pub(super) fn sgm_pass_row(
+        job: &crate::sgm::matching::RowPass,
+        st: &mut crate::sgm::matching::PassState,
+        out: &mut [u16],
+    ) {
+        crate::sgm::matching::pass_row(job, st, out);
+    }
+
+    /// The safe scalar winners of a row, inlined here and so compiled for
+    /// AVX2.
+    #[target_feature(enable = "avx2")]
+    pub(super) fn sgm_winner_row(
+        row: &[u16],
+        y: usize,
+        pair: &crate::sgm::matching::RectifiedPair,
+        params: &crate::sgm::SgmParams,
+        out: &mut [f32],
+    ) {
+        crate::sgm::matching::winner_row(row, y, pair, params, out);
+    }
+
+    /// The safe scalar cost row, inlined here and so compiled for AVX2 and
+    /// `popcnt`.
+    #[target_feature(enable = "avx2,popcnt")]
+    pub(super) fn sgm_cost_row(
+        cl: &[u64],
+        cr: &[u64],
+        left_valid: &[bool],
+        right_valid: &[bool],
+        n_bits: u8,
+        out: &mut [u8],
+    ) {
+        crate::sgm::matching::cost_row(cl, cr, left_valid, right_valid, n_bits, out);
     }
 
     /// See [`super::Avx2::sums_full`]; the caller checked the shapes.

@@ -16,9 +16,19 @@ def _existing(value, name, kind):
     return path
 
 
+_ALGORITHMS = ("patchmatch", "sgm")
+
+
+def _algorithm(value):
+    if value is not None and value not in _ALGORITHMS:
+        raise ValueError(f"algorithm: expected one of {', '.join(_ALGORITHMS)}, got {value!r}")
+    return value
+
+
 def reconstruct(workspace, *, images=None, triplets=None, levels=(1,), out=None,
-                depth_range=None, params=None, seed=None, force=False):
-    """Dense multi-view stereo (vp-mvs, CPU PatchMatch) on a COLMAP dense
+                depth_range=None, params=None, seed=None, force=False, algorithm=None):
+    """Dense multi-view stereo (vp-mvs on the CPU: PatchMatch, or
+    semi-global matching with ``algorithm="sgm"``) on a COLMAP dense
     workspace, writing exactly the files ``vpctl mvs run`` writes for the
     same arguments (same inputs and seed, same bytes).
 
@@ -37,6 +47,9 @@ def reconstruct(workspace, *, images=None, triplets=None, levels=(1,), out=None,
     ``depth_range``: ``(min, max)`` along the optical axis for every image
     (needed when the model has no 3D points). ``params``: a dict with any
     subset of ``vpctl mvs defaults``; ``seed`` overrides its seed.
+    ``algorithm``: ``"patchmatch"`` or ``"sgm"`` (``vpctl mvs run
+    --algorithm``), over ``params``'s ``algorithm``; the semi-global
+    matcher's parameters are ``params["sgm"]`` (the ``[sgm]`` table).
     ``force``: overwrite ``fused.ply``, or replace an earlier output in
     ``out`` (only the files vpctl wrote there, as ``vpctl mvs run``; a
     non-empty folder vpctl did not write is refused with ``ValueError``).
@@ -47,6 +60,7 @@ def reconstruct(workspace, *, images=None, triplets=None, levels=(1,), out=None,
     image size not its camera's, a triplet naming unknown images, ...);
     the message names the argument or file.
     """
+    algorithm = _algorithm(algorithm)
     ws = _existing(workspace, "workspace", "folder")
     if depth_range is not None:
         try:
@@ -61,7 +75,7 @@ def reconstruct(workspace, *, images=None, triplets=None, levels=(1,), out=None,
             if isinstance(images, (str, bytes)):
                 raise ValueError(f"images: expected a list of image names, got {images!r}")
             images = [str(n) for n in images]
-        return _native_mvs.run_workspace(ws, images, depth_range, params, seed, force)
+        return _native_mvs.run_workspace(ws, images, depth_range, params, seed, force, algorithm)
     if images is not None:
         raise ValueError("images: not used with triplets (each triplet names its images)")
     if out is None:
@@ -72,11 +86,12 @@ def reconstruct(workspace, *, images=None, triplets=None, levels=(1,), out=None,
     if not levels or any(not isinstance(v, int) or isinstance(v, bool) or v < 1 for v in levels):
         raise ValueError(f"levels: expected pyramid levels >= 1 (1 = full size), got {levels!r}")
     tri = _existing(triplets, "triplets", "file")
-    return _native_mvs.run_triplets(ws, tri, _os.fspath(out), levels, depth_range, params, seed, force)
+    return _native_mvs.run_triplets(ws, tri, _os.fspath(out), levels, depth_range, params, seed, force,
+                                    algorithm)
 
 
 def patch_match(images, cameras, depth_ranges, *, sources=None, params=None, seed=None,
-                filtered=True):
+                filtered=True, algorithm=None):
     """PatchMatch multi-view stereo on images in memory (vp-mvs's
     ``reconstruct``: PatchMatch per image, the geometric pass and filter).
 
@@ -86,7 +101,9 @@ def patch_match(images, cameras, depth_ranges, *, sources=None, params=None, see
     one for all; ``sources``: ``sources[i]`` lists the source images of image
     ``i`` (default: the cameras whose frusta overlap most, at least
     ``min_triangulation_angle_deg`` apart). ``params``: any subset of
-    ``vpctl mvs defaults``; ``seed`` overrides its seed.
+    ``vpctl mvs defaults``; ``seed`` overrides its seed; ``algorithm="sgm"``
+    runs the semi-global matcher instead of PatchMatch (cost 0 everywhere:
+    it has no NCC to report).
 
     Returns, per image, ``(depth, normal, cost)``: float32 arrays (H, W),
     (H, W, 3) (unit normals in the camera frame) and (H, W) (1 - NCC of the
@@ -108,4 +125,5 @@ def patch_match(images, cameras, depth_ranges, *, sources=None, params=None, see
         raise ValueError(f"depth_ranges: expected (min, max) or a list of them, got {depth_ranges!r}") from None
     if sources is not None:
         sources = [[int(s) for s in src] for src in sources]
-    return _native_mvs.patch_match(images, cameras, depth_ranges, sources, params, seed, bool(filtered))
+    return _native_mvs.patch_match(images, cameras, depth_ranges, sources, params, seed, bool(filtered),
+                                   _algorithm(algorithm))

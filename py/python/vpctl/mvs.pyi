@@ -1,7 +1,7 @@
-"""Dense multi-view stereo on the CPU (vp-mvs, PatchMatch) on a COLMAP dense workspace."""
+"""Dense multi-view stereo on the CPU (vp-mvs: PatchMatch or semi-global matching) on a COLMAP dense workspace."""
 
 from os import PathLike
-from typing import Any, Mapping, Optional, Sequence, Union
+from typing import Any, Literal, Mapping, Optional, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -21,10 +21,12 @@ def reconstruct(
     params: Optional[Mapping[str, Any]] = None,
     seed: Optional[int] = None,
     force: bool = False,
+    algorithm: Optional[Literal["patchmatch", "sgm"]] = None,
 ) -> dict[str, Any]:
     """Runs ``vpctl mvs run`` on `workspace` (with `triplets` and `out`:
-    ``--triplets --levels --out``) and returns its summary; writes the same
-    files, byte for byte, for the same inputs and seed."""
+    ``--triplets --levels --out``; `algorithm`: ``--algorithm``) and returns
+    its summary; writes the same files, byte for byte, for the same inputs
+    and seed."""
     ...
 
 def patch_match(
@@ -36,6 +38,7 @@ def patch_match(
     params: Optional[Mapping[str, Any]] = None,
     seed: Optional[int] = None,
     filtered: bool = True,
+    algorithm: Optional[Literal["patchmatch", "sgm"]] = None,
 ) -> list[Optional[tuple[npt.NDArray[np.float32], npt.NDArray[np.float32], npt.NDArray[np.float32]]]]:
     """PatchMatch on images in memory: per image (depth (H, W), normal
     (H, W, 3), cost (H, W)) float32 arrays, geometrically filtered when

@@ -2,7 +2,11 @@
 //! census cost volume, aggregation along 4 or 8 scanlines, then
 //! winner-take-all with the uniqueness, sub-pixel, left-right and speckle
 //! steps. All sums are integers, so the result does not depend on the
-//! order rows are processed in (rows run in parallel).
+//! order rows are processed in, nor on which of the two sweeps
+//! ([`aggregate_and_pick`]) reaches a row first. `sgm/reference.rs` is the
+//! same matcher written plainly; the tests hold this one to it bit for bit.
+
+use std::sync::{Mutex, PoisonError};
 
 use rayon::prelude::*;
 
@@ -27,56 +31,114 @@ const BIG: u16 = 0x4000;
 /// Census transform: bit k of a pixel is set when the k-th pixel of its
 /// window (row-major, centre skipped, coordinates clamped to the image)
 /// is darker than the centre.
+///
+/// # Performance
+/// One window offset at a time over a whole row: the interior of the row
+/// (no clamping) is a straight compare-and-or loop that LLVM vectorises;
+/// only the `cw / 2` pixels at each end take the clamped index.
 pub(crate) fn census(img: &[f32], w: usize, h: usize, cw: usize, ch: usize) -> Vec<u64> {
     let (rx, ry) = ((cw / 2) as isize, (ch / 2) as isize);
     let mut out = vec![0u64; w * h];
     out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        for (x, c) in row.iter_mut().enumerate() {
-            let centre = img[y * w + x];
-            let mut bits = 0u64;
-            let mut k = 0;
-            for dy in -ry..=ry {
-                let yy = (y as isize + dy).clamp(0, h as isize - 1) as usize;
-                for dx in -rx..=rx {
-                    if dx == 0 && dy == 0 {
-                        continue;
-                    }
-                    let xx = (x as isize + dx).clamp(0, w as isize - 1) as usize;
-                    bits |= u64::from(img[yy * w + xx] < centre) << k;
-                    k += 1;
+        let centre = &img[y * w..(y + 1) * w];
+        // Bits 0..32 and 32..64 in two u32 words: a float comparison is a
+        // 32-bit mask, so eight pixels fit one AVX2 register (four as u64).
+        let mut lo_bits = vec![0u32; w];
+        let mut hi_bits = vec![0u32; w];
+        let mut k = 0;
+        for dy in -ry..=ry {
+            let yy = (y as isize + dy).clamp(0, h as isize - 1) as usize;
+            let src = &img[yy * w..(yy + 1) * w];
+            for dx in -rx..=rx {
+                if dx == 0 && dy == 0 {
+                    continue;
                 }
+                let bits = if k < 32 { &mut lo_bits } else { &mut hi_bits };
+                let bit = 1u32 << (k % 32);
+                // Pixels x whose neighbour x + dx lies inside the row.
+                let lo = (-dx).clamp(0, w as isize) as usize;
+                let hi = (w as isize - dx).clamp(lo as isize, w as isize) as usize;
+                let shifted = &src[(lo as isize + dx) as usize..(hi as isize + dx) as usize];
+                for ((c, &m), &s) in bits[lo..hi].iter_mut().zip(&centre[lo..hi]).zip(shifted) {
+                    *c |= if s < m { bit } else { 0 };
+                }
+                for x in (0..lo).chain(hi..w) {
+                    let xx = (x as isize + dx).clamp(0, w as isize - 1) as usize;
+                    bits[x] |= if src[xx] < centre[x] { bit } else { 0 };
+                }
+                k += 1;
             }
-            *c = bits;
+        }
+        for ((c, &l), &h) in row.iter_mut().zip(&lo_bits).zip(&hi_bits) {
+            *c = u64::from(h) << 32 | u64::from(l);
         }
     });
     out
 }
 
-/// The cost volume `cost[(y * w + x) * n_disp + k]`: Hamming distance
-/// between the census codes of left pixel x and right pixel x - k; the
-/// largest cost (`n_bits`) where either pixel lies outside its original
-/// image.
-pub(crate) fn cost_volume(pair: &RectifiedPair, cw: usize, ch: usize) -> Vec<u8> {
+/// One row of the cost volume: `out[x * nd + k]` is the Hamming distance
+/// between the census codes of left pixel x and right pixel x - k, or
+/// `n_bits` (the largest cost) where either pixel lies outside its
+/// original image.
+// Always inlined: the copy inside simd.rs's `#[target_feature(enable =
+// "avx2,popcnt")]` function then counts bits with `popcnt`.
+#[allow(clippy::inline_always)]
+#[inline(always)]
+pub(crate) fn cost_row(
+    cl: &[u64],
+    cr: &[u64],
+    left_valid: &[bool],
+    right_valid: &[bool],
+    n_bits: u8,
+    out: &mut [u8],
+) {
+    let nd = out.len() / cl.len().max(1);
+    for (x, cell) in out.chunks_exact_mut(nd).enumerate() {
+        if !left_valid[x] {
+            cell.fill(n_bits);
+            continue;
+        }
+        let reach = nd.min(x + 1);
+        let (inside, outside) = cell.split_at_mut(reach);
+        outside.fill(n_bits);
+        // Index k is right pixel x - k: the right row read backwards from x.
+        let first = x + 1 - reach;
+        let code = cl[x];
+        let right = cr[first..=x]
+            .iter()
+            .rev()
+            .zip(right_valid[first..=x].iter().rev());
+        for (c, (&r, &ok)) in inside.iter_mut().zip(right) {
+            let n = (code ^ r).count_ones() as u8;
+            *c = if ok { n } else { n_bits };
+        }
+    }
+}
+
+/// The cost volume `cost[(y * w + x) * n_disp + k]` of [`cost_row`], rows
+/// in parallel.
+pub(crate) fn cost_volume(
+    pair: &RectifiedPair,
+    cw: usize,
+    ch: usize,
+    avx2: Option<Avx2>,
+) -> Vec<u8> {
     let (w, h, nd) = (pair.width, pair.height, pair.n_disp);
     let n_bits = (cw * ch - 1) as u8;
-    let cl = census(&pair.left, w, h, cw, ch);
-    let cr = census(&pair.right, w, h, cw, ch);
-    let mut cost = vec![n_bits; w * h * nd];
+    let (cl, cr) = rayon::join(
+        || census(&pair.left, w, h, cw, ch),
+        || census(&pair.right, w, h, cw, ch),
+    );
+    let mut cost = vec![0u8; w * h * nd];
     cost.par_chunks_mut(w * nd)
         .enumerate()
         .for_each(|(y, row)| {
-            for x in 0..w {
-                let i = y * w + x;
-                if !pair.left_valid[i] {
-                    continue;
-                }
-                let cell = &mut row[x * nd..(x + 1) * nd];
-                for (k, c) in cell.iter_mut().enumerate().take(x + 1) {
-                    let j = i - k;
-                    if pair.right_valid[j] {
-                        *c = (cl[i] ^ cr[j]).count_ones() as u8;
-                    }
-                }
+            let r = y * w..(y + 1) * w;
+            let (l, rr) = (&cl[r.clone()], &cr[r.clone()]);
+            let (lv, rv) = (&pair.left_valid[r.clone()], &pair.right_valid[r]);
+            match avx2 {
+                Some(a) => a.sgm_cost_row(l, rr, lv, rv, n_bits, row),
+                None => cost_row(l, rr, lv, rv, n_bits, row),
             }
         });
     cost
@@ -87,8 +149,6 @@ pub(crate) fn cost_volume(pair: &RectifiedPair, cw: usize, ch: usize) -> Vec<u8>
 /// `prev_min`, Hirschmüller's recursion `L(p, d) = C(p, d) + min(L(p-r, d),
 /// L(p-r, d±1) + P1, min L(p-r) + P2) - min L(p-r)`. Returns the minimum of
 /// `cur`, which the next step needs.
-// Always inlined: the copy inside simd.rs's `#[target_feature(enable =
-// "avx2")]` function is then compiled for AVX2; a call would run this one.
 #[allow(clippy::inline_always)]
 #[inline(always)]
 pub(crate) fn step(
@@ -116,7 +176,8 @@ pub(crate) fn step(
 
 /// A path's first pixel: its aggregated cost is its matching cost. Returns
 /// the minimum.
-#[inline]
+#[allow(clippy::inline_always)]
+#[inline(always)]
 fn start(cost: &[u8], cur: &mut [u16]) -> u16 {
     let mut min = u16::MAX;
     for (c, &v) in cur[1..=cost.len()].iter_mut().zip(cost) {
@@ -126,23 +187,135 @@ fn start(cost: &[u8], cur: &mut [u16]) -> u16 {
     min
 }
 
-#[inline]
-fn accumulate(sum: &mut [u16], cur: &[u16]) {
-    // At most 8 paths x (64 + 8000) < 65536: never wraps.
-    for (s, &v) in sum.iter_mut().zip(&cur[1..]) {
-        *s = s.wrapping_add(v);
+/// One row of a pass over the rows ([`aggregate`]): the fixed inputs.
+pub(crate) struct RowPass<'a> {
+    /// The row's matching costs, `w * nd`.
+    pub cost: &'a [u8],
+    pub nd: usize,
+    /// The first row of the pass: every row-to-row path starts here.
+    pub first: bool,
+    pub p1: u16,
+    pub p2: u16,
+    /// The in-row path's direction: +1 left to right, -1 right to left.
+    pub hdx: isize,
+    /// The row-to-row paths: pixel x continues the previous row's x - dx.
+    pub vdx: &'a [isize],
+}
+
+/// The per-path scanline buffers of a pass: the previous and current
+/// rows' aggregated costs of each row-to-row path (`nd + 2` per pixel,
+/// `BIG` at both ends) and their minima, and the in-row path's last two
+/// pixels.
+pub(crate) struct PassState {
+    pub prev: Vec<u16>,
+    pub cur: Vec<u16>,
+    pub prev_min: Vec<u16>,
+    pub cur_min: Vec<u16>,
+    pub row: Vec<u16>,
+}
+
+/// The sum over a pass's paths of one row's aggregated costs, into `out`
+/// (`w * nd`); the current buffers of `st` are filled (the caller swaps).
+// Always inlined: simd.rs compiles a copy with AVX2 enabled, 16 u16 lanes
+// wide instead of the baseline's 8; the operations are the same.
+#[allow(clippy::inline_always)]
+#[inline(always)]
+pub(crate) fn pass_row(job: &RowPass, st: &mut PassState, out: &mut [u16]) {
+    let (nd, pad) = (job.nd, job.nd + 2);
+    let w = out.len() / nd;
+    let (p1, p2) = (job.p1, job.p2);
+    let (mut hprev, mut hcur) = st.row.split_at_mut(pad);
+    let mut hmin = 0;
+    for n in 0..w {
+        let x = if job.hdx > 0 { n } else { w - 1 - n };
+        let c = &job.cost[x * nd..(x + 1) * nd];
+        let o = &mut out[x * nd..(x + 1) * nd];
+        hmin = if n == 0 {
+            start(c, hcur)
+        } else {
+            step(c, hprev, hmin, p1, p2, hcur)
+        };
+        o.copy_from_slice(&hcur[1..=nd]);
+        std::mem::swap(&mut hprev, &mut hcur);
+        for (j, &dx) in job.vdx.iter().enumerate() {
+            let at = j * w + x;
+            let cell = &mut st.cur[at * pad..(at + 1) * pad];
+            let px = x as isize - dx;
+            st.cur_min[at] = if job.first || px < 0 || px >= w as isize {
+                start(c, cell)
+            } else {
+                let p = j * w + px as usize;
+                step(
+                    c,
+                    &st.prev[p * pad..(p + 1) * pad],
+                    st.prev_min[p],
+                    p1,
+                    p2,
+                    cell,
+                )
+            };
+            // At most 8 paths x (64 + 8000) < 65536: never wraps.
+            for (s, &v) in o.iter_mut().zip(&cell[1..]) {
+                *s = s.wrapping_add(v);
+            }
+        }
     }
 }
 
-/// Sum over the scanline directions of the aggregated costs, laid out like
-/// the cost volume.
-///
-/// # Performance
-/// Each direction touches every cell once with a handful of u16 min/add
-/// operations that LLVM vectorises. Horizontal paths run rows in
-/// parallel; the others sweep rows in order with the pixels of a row in
-/// parallel (each depends only on the previous row). AVX2 (detected at
-/// run time) only changes the code generation of the step, not its result.
+/// One pass over the rows, top to bottom (`forward`) or bottom to top:
+/// hands `row_done(y, sums)` the sum of its paths' aggregated costs of
+/// each row y (`w * nd`, laid out like the cost volume), which the sink
+/// may keep (swapping in another buffer of the same length). The forward
+/// pass holds the paths going right, down, down-right and down-left
+/// (right and down with 4 paths), the backward one their opposites, so
+/// the two passes together are Hirschmüller's 8 (or 4).
+#[allow(clippy::too_many_arguments)]
+fn sweep(
+    cost: &[u8],
+    w: usize,
+    h: usize,
+    nd: usize,
+    params: &SgmParams,
+    forward: bool,
+    avx2: Option<Avx2>,
+    row_done: &mut dyn FnMut(usize, &mut Vec<u16>),
+) {
+    let vdx: &[isize] = if params.paths == 4 { &[0] } else { &[0, 1, -1] };
+    let pad = nd + 2;
+    let cells = vdx.len() * w * pad;
+    let mut st = PassState {
+        prev: vec![BIG; cells],
+        cur: vec![BIG; cells],
+        prev_min: vec![0; vdx.len() * w],
+        cur_min: vec![0; vdx.len() * w],
+        row: vec![BIG; 2 * pad],
+    };
+    let mut out = vec![0u16; w * nd];
+    for n in 0..h {
+        let y = if forward { n } else { h - 1 - n };
+        let job = RowPass {
+            cost: &cost[y * w * nd..(y + 1) * w * nd],
+            nd,
+            first: n == 0,
+            p1: params.p1,
+            p2: params.p2,
+            hdx: if forward { 1 } else { -1 },
+            vdx,
+        };
+        match avx2 {
+            Some(a) => a.sgm_pass_row(&job, &mut st, &mut out),
+            None => pass_row(&job, &mut st, &mut out),
+        }
+        std::mem::swap(&mut st.prev, &mut st.cur);
+        std::mem::swap(&mut st.prev_min, &mut st.cur_min);
+        row_done(y, &mut out);
+    }
+}
+
+/// The two passes' sums, each as a volume laid out like the cost volume
+/// (their sum is Hirschmüller's sum over the paths): the reference the
+/// fused [`aggregate_and_pick`] is tested against.
+#[cfg(test)]
 pub(crate) fn aggregate(
     cost: &[u8],
     w: usize,
@@ -150,140 +323,152 @@ pub(crate) fn aggregate(
     nd: usize,
     params: &SgmParams,
     avx2: Option<Avx2>,
-) -> Vec<u16> {
-    let (p1, p2) = (params.p1, params.p2);
-    let advance = |c: &[u8], prev: &[u16], prev_min: u16, cur: &mut [u16]| match avx2 {
-        Some(a) => a.sgm_step(c, prev, prev_min, p1, p2, cur),
-        None => step(c, prev, prev_min, p1, p2, cur),
+) -> (Vec<u16>, Vec<u16>) {
+    let pass = |forward: bool| {
+        let mut sum = vec![0u16; w * h * nd];
+        sweep(cost, w, h, nd, params, forward, avx2, &mut |y, row| {
+            sum[y * w * nd..(y + 1) * w * nd].copy_from_slice(row);
+        });
+        sum
     };
-    let mut sum = vec![0u16; w * h * nd];
-    let dirs: &[(isize, isize)] = if params.paths == 4 {
-        &[(1, 0), (-1, 0), (0, 1), (0, -1)]
-    } else {
-        &[
-            (1, 0),
-            (-1, 0),
-            (0, 1),
-            (0, -1),
-            (1, 1),
-            (-1, 1),
-            (1, -1),
-            (-1, -1),
-        ]
-    };
-    let pad = nd + 2;
-    for &(dx, dy) in dirs {
-        if dy == 0 {
-            sum.par_chunks_mut(w * nd)
-                .zip(cost.par_chunks(w * nd))
-                .for_each(|(srow, crow)| {
-                    let mut prev = vec![BIG; pad];
-                    let mut cur = vec![BIG; pad];
-                    let mut min = 0;
-                    for n in 0..w {
-                        let x = if dx > 0 { n } else { w - 1 - n };
-                        let c = &crow[x * nd..(x + 1) * nd];
-                        min = if n == 0 {
-                            start(c, &mut cur)
-                        } else {
-                            advance(c, &prev, min, &mut cur)
-                        };
-                        accumulate(&mut srow[x * nd..(x + 1) * nd], &cur);
-                        std::mem::swap(&mut prev, &mut cur);
-                    }
-                });
-            continue;
-        }
-        let mut prev = vec![BIG; w * pad];
-        let mut cur = vec![BIG; w * pad];
-        let mut prev_mins = vec![0u16; w];
-        let mut cur_mins = vec![0u16; w];
-        for n in 0..h {
-            let y = if dy > 0 { n } else { h - 1 - n };
-            let crow = &cost[y * w * nd..(y + 1) * w * nd];
-            let srow = &mut sum[y * w * nd..(y + 1) * w * nd];
-            let (prev_row, mins) = (&prev, &prev_mins);
-            cur.par_chunks_mut(pad)
-                .zip(srow.par_chunks_mut(nd))
-                .zip(cur_mins.par_iter_mut())
-                .enumerate()
-                .with_min_len(64)
-                .for_each(|(x, ((cell, s), min))| {
-                    let c = &crow[x * nd..(x + 1) * nd];
-                    let px = x as isize - dx;
-                    *min = if n == 0 || px < 0 || px >= w as isize {
-                        start(c, cell)
-                    } else {
-                        let p = px as usize;
-                        advance(c, &prev_row[p * pad..(p + 1) * pad], mins[p], cell)
-                    };
-                    accumulate(s, cell);
-                });
-            std::mem::swap(&mut prev, &mut cur);
-            std::mem::swap(&mut prev_mins, &mut cur_mins);
-        }
-    }
-    sum
+    (pass(true), pass(false))
 }
 
-/// Winner-take-all over the aggregated sums with Hirschmüller's checks:
-/// uniqueness (the best sum at most `uniqueness` times every sum two or
-/// more disparities away), parabola sub-pixel fit, and left-right
-/// consistency against the right image's winners taken from the same sums
-/// (as OpenCV's StereoSGBM does). Returns the disparity index (fractional)
-/// per left pixel, NaN where rejected.
-pub(crate) fn winners(sum: &[u16], pair: &RectifiedPair, params: &SgmParams) -> Vec<f32> {
+/// Aggregation and winner-take-all in one go: the forward and backward
+/// passes run side by side (two threads, each a sweep that depends on its
+/// previous row) and meet in the middle. The first pass to finish a row
+/// leaves its sums there; the second adds its own and picks the row's
+/// winners ([`winner_row`]) while the row is in cache. Integer sums: the
+/// result does not depend on which pass came first, nor on the threads.
+///
+/// # Performance
+/// Each cell's cost is read once per pass; only the rows one pass has
+/// finished and the other has not reached are kept (about half the image
+/// when both run at once), instead of a sum volume per path or per pass.
+/// AVX2 (detected at run time) only changes the code generation of the
+/// row, not its result.
+pub(crate) fn aggregate_and_pick(
+    cost: &[u8],
+    pair: &RectifiedPair,
+    params: &SgmParams,
+    avx2: Option<Avx2>,
+) -> Vec<f32> {
+    let (w, h, nd) = (pair.width, pair.height, pair.n_disp);
+    let meet: Vec<Mutex<Option<Vec<u16>>>> = (0..h).map(|_| Mutex::new(None)).collect();
+    let disp = Mutex::new(vec![f32::NAN; w * h]);
+    let pass = |forward: bool| {
+        let mut picked = vec![f32::NAN; w];
+        sweep(cost, w, h, nd, params, forward, avx2, &mut |y, row| {
+            let other = {
+                let mut slot = lock(&meet[y]);
+                let other = slot.take();
+                if other.is_none() {
+                    *slot = Some(std::mem::replace(row, vec![0u16; w * nd]));
+                }
+                other
+            };
+            if let Some(other) = other {
+                // At most 8 paths x (64 + 8000) < 65536: never wraps.
+                for (s, &v) in row.iter_mut().zip(&other) {
+                    *s = s.wrapping_add(v);
+                }
+                match avx2 {
+                    Some(a) => a.sgm_winner_row(row, y, pair, params, &mut picked),
+                    None => winner_row(row, y, pair, params, &mut picked),
+                }
+                lock(&disp)[y * w..(y + 1) * w].copy_from_slice(&picked);
+            }
+        });
+    };
+    rayon::join(|| pass(true), || pass(false));
+    disp.into_inner().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// The lock of `m`, also after a panic elsewhere (the data are plain
+/// sums, whole after any panic).
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// Winner-take-all over one row's aggregated sums (`w * nd`) with
+/// Hirschmüller's checks: uniqueness (the best sum at most `uniqueness`
+/// times every sum two or more disparities away), parabola sub-pixel fit,
+/// and left-right consistency against the right image's winners taken
+/// from the same sums (as OpenCV's StereoSGBM does). Writes the disparity
+/// index (fractional) of each left pixel of row y into `out`, NaN where
+/// rejected.
+// Always inlined: simd.rs compiles a copy with AVX2 enabled.
+#[allow(clippy::inline_always)]
+#[inline(always)]
+pub(crate) fn winner_row(
+    row: &[u16],
+    y: usize,
+    pair: &RectifiedPair,
+    params: &SgmParams,
+    out: &mut [f32],
+) {
     let (w, nd) = (pair.width, pair.n_disp);
-    let mut disp = vec![f32::NAN; w * pair.height];
-    disp.par_chunks_mut(w).enumerate().for_each(|(y, out)| {
-        let row = &sum[y * w * nd..(y + 1) * w * nd];
-        // Right pixel xr's best disparity: left pixel xr + k at index k.
-        let right: Vec<usize> = (0..w)
-            .map(|xr| {
-                let mut best = (u16::MAX, 0);
-                for k in 0..nd.min(w - xr) {
-                    let s = row[(xr + k) * nd + k];
-                    if s < best.0 {
-                        best = (s, k);
-                    }
-                }
-                best.1
-            })
-            .collect();
-        for (x, o) in out.iter_mut().enumerate() {
-            if !pair.left_valid[y * w + x] {
-                continue;
-            }
-            let s = &row[x * nd..(x + 1) * nd];
-            let mut best = 0;
-            for k in 1..nd {
-                if s[k] < s[best] {
-                    best = k;
-                }
-            }
-            if best > x || !pair.right_valid[y * w + x - best] {
-                continue;
-            }
-            let min = f32::from(s[best]);
-            let unique = s
-                .iter()
-                .enumerate()
-                .all(|(k, &v)| k.abs_diff(best) <= 1 || min <= params.uniqueness * f32::from(v));
-            if !unique || right[x - best].abs_diff(best) > params.lr_max_diff as usize {
-                continue;
-            }
-            let mut d = best as f32;
-            if best > 0 && best + 1 < nd {
-                let (a, b, c) = (f32::from(s[best - 1]), min, f32::from(s[best + 1]));
-                let denom = a + c - 2.0 * b;
-                if denom > 0.0 {
-                    d += (a - c) / (2.0 * denom);
-                }
-            }
-            *o = d;
+    // Right pixel xr's best disparity, the first smallest of left pixel
+    // xr + k's sum at index k over k. Each right pixel holds (sum << 16 |
+    // k), whose minimum is the smallest sum with the smallest k; left
+    // pixels in order offer their sums to the right pixels x - k. Right
+    // pixels are stored from the right end (slot w - 1 - xr), so that left
+    // pixel x's offers go to consecutive slots: a u32 minimum that
+    // vectorises.
+    let ks: Vec<u32> = (0..nd as u32).collect();
+    let mut held = vec![u32::MAX; w];
+    for x in 0..w {
+        let reach = nd.min(x + 1);
+        let at = w - 1 - x;
+        let offers = row[x * nd..x * nd + reach].iter().zip(&ks[..reach]);
+        for (h, (&v, &k)) in held[at..at + reach].iter_mut().zip(offers) {
+            *h = (*h).min(u32::from(v) << 16 | k);
         }
-    });
-    disp
+    }
+    for (x, o) in out.iter_mut().enumerate() {
+        *o = f32::NAN;
+        if !pair.left_valid[y * w + x] {
+            continue;
+        }
+        let s = &row[x * nd..(x + 1) * nd];
+        // The first smallest sum: the minimum of (sum << 16 | k), one
+        // vectorised pass.
+        let key = s
+            .iter()
+            .zip(&ks)
+            .map(|(&v, &k)| u32::from(v) << 16 | k)
+            .min()
+            .unwrap_or(0);
+        let best = (key & 0xFFFF) as usize;
+        if best > x || !pair.right_valid[y * w + x - best] {
+            continue;
+        }
+        let min = f32::from(s[best]);
+        // Every sum two or more disparities away passes the ratio test
+        // exactly when the smallest of them does (f32 products are
+        // monotone).
+        let below = s[..best.saturating_sub(1)].iter().copied().min();
+        let above = s.get(best + 2..).and_then(|a| a.iter().copied().min());
+        let rival = match (below, above) {
+            (Some(a), Some(b)) => f32::from(a.min(b)),
+            (Some(a), None) | (None, Some(a)) => f32::from(a),
+            (None, None) => f32::INFINITY,
+        };
+        let unique = min <= params.uniqueness * rival;
+        let right_best = (held[w - 1 - (x - best)] & 0xFFFF) as usize;
+        if !unique || right_best.abs_diff(best) > params.lr_max_diff as usize {
+            continue;
+        }
+        let mut d = best as f32;
+        if best > 0 && best + 1 < nd {
+            let (a, b, c) = (f32::from(s[best - 1]), min, f32::from(s[best + 1]));
+            let denom = a + c - 2.0 * b;
+            if denom > 0.0 {
+                d += (a - c) / (2.0 * denom);
+            }
+        }
+        *o = d;
+    }
 }
 
 /// OpenCV's `filterSpeckles`: 4-connected regions whose neighbours differ
@@ -346,17 +531,10 @@ pub(crate) fn filter_speckles(
 /// The whole matcher: disparity indices of the left image (NaN where none).
 pub(crate) fn match_pair(pair: &RectifiedPair, params: &SgmParams) -> Vec<f32> {
     let (cw, ch) = (params.census_width as usize, params.census_height as usize);
-    let cost = cost_volume(pair, cw, ch);
-    let sum = aggregate(
-        &cost,
-        pair.width,
-        pair.height,
-        pair.n_disp,
-        params,
-        Avx2::detect(),
-    );
+    let avx2 = Avx2::detect();
+    let cost = cost_volume(pair, cw, ch, avx2);
+    let mut disp = aggregate_and_pick(&cost, pair, params, avx2);
     drop(cost);
-    let mut disp = winners(&sum, pair, params);
     filter_speckles(
         &mut disp,
         pair.width,

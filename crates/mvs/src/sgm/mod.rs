@@ -20,6 +20,8 @@
 pub(crate) mod matching;
 pub(crate) mod rectify;
 #[cfg(test)]
+mod reference;
+#[cfg(test)]
 mod tests;
 
 use std::fmt::Write as _;
@@ -236,6 +238,76 @@ impl SgmParams {
         }
         s
     }
+}
+
+/// Semi-global matching of a pair that is already rectified (epipolar
+/// lines are rows, the same size): the disparity `x_left - x_right` of each
+/// left pixel, searched over `min_disparity .. min_disparity +
+/// num_disparities`, NaN where the checks reject it. The matcher of
+/// [`semi_global`] without the rectification and back-projection, for
+/// rectified data sets (Middlebury, KITTI) and for timing the matcher on
+/// its own against other stereo matchers (`benches/sgm.rs`).
+pub fn rectified_disparity(
+    left: &crate::GreyImage,
+    right: &crate::GreyImage,
+    min_disparity: i32,
+    num_disparities: usize,
+    params: &SgmParams,
+) -> Result<Vec<f32>> {
+    params.validate()?;
+    if (left.width, left.height) != (right.width, right.height) {
+        return Err(MvsError::InvalidArgument(format!(
+            "a rectified pair has two images of one size: the left one is {}x{}, the right one {}x{}",
+            left.width, left.height, right.width, right.height
+        )));
+    }
+    let n = left.width as usize * left.height as usize;
+    if left.data.len() != n || right.data.len() != n {
+        return Err(MvsError::InvalidArgument(format!(
+            "a {}x{} image needs {n} intensities; the pair has {} and {}",
+            left.width,
+            left.height,
+            left.data.len(),
+            right.data.len()
+        )));
+    }
+    if num_disparities == 0 || num_disparities > params.max_disparities as usize {
+        return Err(MvsError::InvalidArgument(format!(
+            "{num_disparities} disparities: search between 1 and sgm.max_disparities = {}",
+            params.max_disparities
+        )));
+    }
+    let (w, h) = (left.width as usize, left.height as usize);
+    // Index k compares left x with right x - k - min_disparity: shift the
+    // right image by min_disparity, so the matcher searches 0..n.
+    let shift = i64::from(min_disparity);
+    let mut right_shifted = vec![0.0f32; w * h];
+    let mut right_valid = vec![false; w * h];
+    for (i, (v, ok)) in right_shifted
+        .iter_mut()
+        .zip(right_valid.iter_mut())
+        .enumerate()
+    {
+        let x = (i % w) as i64 - shift;
+        if x >= 0 && x < w as i64 {
+            *v = right.data[i - (i % w) + x as usize];
+            *ok = true;
+        }
+    }
+    let pair = RectifiedPair {
+        width: w,
+        height: h,
+        left: left.data.clone(),
+        left_valid: vec![true; w * h],
+        right: right_shifted,
+        right_valid,
+        n_disp: num_disparities,
+    };
+    let mut disp = matching::match_pair(&pair, params);
+    for d in &mut disp {
+        *d += min_disparity as f32;
+    }
+    Ok(disp)
 }
 
 /// The depth of one pair on the reference's grid (0: none).

@@ -271,25 +271,85 @@ fn a_shifted_texture_gives_its_shift() {
     );
 }
 
-#[test]
-fn avx2_aggregation_equals_the_scalar_one_bit_for_bit() {
-    let Some(avx2) = crate::simd::Avx2::detect() else {
-        return;
+/// A textured rectified pair with a step in disparity, invalid pixels
+/// along the borders and a few inside, and textureless patches (ties).
+fn odd_pair(w: usize, h: usize, nd: usize) -> RectifiedPair {
+    let tex = |x: usize, y: usize| {
+        if (x / 7 + y / 5).is_multiple_of(6) {
+            0.5 // flat: census ties
+        } else {
+            noise(&Point3::new(x as f64, y as f64, 0.0), 1.7, 11) as f32
+        }
     };
-    let (w, h) = (37, 23);
-    for nd in [1, 5, 16, 61] {
-        // Hashed costs over the census range, and a few path edges.
-        let cost: Vec<u8> = (0..w * h * nd)
-            .map(|i| ((i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 58) as u8)
-            .collect();
-        for paths in [4, 8] {
-            let params = SgmParams {
-                paths,
-                ..SgmParams::default()
-            };
-            let scalar = matching::aggregate(&cost, w, h, nd, &params, None);
-            let simd = matching::aggregate(&cost, w, h, nd, &params, Some(avx2));
-            assert_eq!(scalar, simd, "nd {nd}, {paths} paths");
+    let left: Vec<f32> = (0..w * h).map(|i| tex(i % w, i / w)).collect();
+    let right: Vec<f32> = (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            tex(x + if x < w / 2 { 3 } else { 9 }, y)
+        })
+        .collect();
+    let hole = |i: usize| (i * 2_654_435_761).is_multiple_of(97);
+    RectifiedPair {
+        width: w,
+        height: h,
+        left,
+        left_valid: (0..w * h).map(|i| i % w > 1 && !hole(i)).collect(),
+        right,
+        right_valid: (0..w * h).map(|i| i % w + 2 < w && !hole(i + 5)).collect(),
+        n_disp: nd,
+    }
+}
+
+#[test]
+fn fast_matcher_equals_the_reference_bit_for_bit() {
+    // The fused passes, the vectorised census, the row costs and the
+    // shortened uniqueness test against the straightforward matcher, with
+    // and without AVX2 code generation, for 4 and 8 paths.
+    let avx2 = crate::simd::Avx2::detect();
+    for (w, h, nd) in [(37, 23, 1), (37, 23, 5), (41, 19, 16), (53, 17, 61)] {
+        let pair = odd_pair(w, h, nd);
+        for (cw, ch) in [(9, 7), (3, 3)] {
+            let slow = super::reference::census(&pair.left, w, h, cw, ch);
+            assert_eq!(
+                matching::census(&pair.left, w, h, cw, ch),
+                slow,
+                "census {cw}x{ch}"
+            );
+            let cost = super::reference::cost_volume(&pair, cw, ch);
+            for simd in [None, avx2] {
+                assert_eq!(
+                    matching::cost_volume(&pair, cw, ch, simd),
+                    cost,
+                    "costs {w}x{h}x{nd}"
+                );
+            }
+            for paths in [4, 8] {
+                let params = SgmParams {
+                    paths,
+                    census_width: cw as u32,
+                    census_height: ch as u32,
+                    ..SgmParams::default()
+                };
+                let sum = super::reference::aggregate(&cost, w, h, nd, &params);
+                let want = super::reference::winners(&sum, &pair, &params);
+                for simd in [None, avx2] {
+                    let (f, b) = matching::aggregate(&cost, w, h, nd, &params, simd);
+                    let got: Vec<u16> = f.iter().zip(&b).map(|(a, b)| a + b).collect();
+                    assert_eq!(
+                        got,
+                        sum,
+                        "{w}x{h}x{nd}, {paths} paths, AVX2 {}",
+                        simd.is_some()
+                    );
+                    let disp = matching::aggregate_and_pick(&cost, &pair, &params, simd);
+                    let bits = |d: &[f32]| d.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(
+                        bits(&disp),
+                        bits(&want),
+                        "winners {w}x{h}x{nd}, {paths} paths"
+                    );
+                }
+            }
         }
     }
 }
