@@ -39,8 +39,9 @@ pub struct CampaignConfig {
     pub roi_margin_m: f64,
     /// The multi-view stereo that reconstructs every flown and training
     /// image set: `"patchmatch"` (vp-mvs on the rendered images, the
-    /// default) or `"virtual"` (success drawn from `profile` and `gate`: a
-    /// fast stand-in for unit tests, whose outcome was written in advance).
+    /// default), `"sgm"` (vp-mvs's semi-global matcher, `[patchmatch.sgm]`)
+    /// or `"virtual"` (success drawn from `profile` and `gate`: a fast
+    /// stand-in for unit tests, whose outcome was written in advance).
     pub mvs: MvsKind,
     /// vp-mvs parameters (`seed` is set per reconstruction; `max_sources`
     /// bounds the neighbours each Grid image is matched against).

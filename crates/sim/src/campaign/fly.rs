@@ -43,6 +43,10 @@ pub enum MvsKind {
     /// vp-mvs (PatchMatch) on the rendered images: the experiment.
     #[default]
     Patchmatch,
+    /// vp-mvs's semi-global matcher (`[patchmatch.sgm]` parameters) on the
+    /// rendered images: the second matcher of the paper's claim that
+    /// confidence depends on the matcher (SURE-like, narrow angles best).
+    Sgm,
     /// The virtual MVS of `profile` and `gate`: success drawn from planted
     /// curves. A fast stand-in for unit tests only.
     Virtual,
@@ -158,7 +162,7 @@ impl<'a> Matcher<'a> {
     pub fn new(cfg: &'a CampaignConfig) -> Result<Self> {
         let virtual_mvs = match cfg.mvs {
             MvsKind::Virtual => Some(VirtualMvs::new(cfg.profile.clone())?),
-            MvsKind::Patchmatch => None,
+            MvsKind::Patchmatch | MvsKind::Sgm => None,
         };
         Ok(Matcher { cfg, virtual_mvs })
     }
@@ -172,10 +176,14 @@ impl<'a> Matcher<'a> {
     }
 
     fn params(&self, seed: u64) -> MvsParams {
-        MvsParams {
+        let mut p = MvsParams {
             seed,
             ..self.cfg.patchmatch.clone()
+        };
+        if self.cfg.mvs == MvsKind::Sgm {
+            p.algorithm = vp_mvs::Algorithm::Sgm;
         }
+        p
     }
 
     fn render_params(&self, scene: &Scene<'_>) -> RenderParams {

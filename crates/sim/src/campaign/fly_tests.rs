@@ -186,3 +186,24 @@ fn the_depth_range_comes_from_sparse_points_not_the_renderer() {
     assert_eq!(output[0], (0, 0, 0), "{output:?}");
     assert!(output[1].0 > 0 && output[1].2 > 1000, "{output:?}");
 }
+
+#[test]
+fn mvs_sgm_in_a_campaign_config_reconstructs_with_the_semi_global_matcher() {
+    let path = std::path::Path::new("campaign.toml");
+    let c = CampaignConfig::from_toml("mvs = \"sgm\"\n", path).unwrap();
+    assert_eq!(c.mvs, MvsKind::Sgm);
+    let m = Matcher::new(&c).unwrap();
+    assert!(m.virtual_mvs.is_none());
+    assert_eq!(m.params(7).algorithm, vp_mvs::Algorithm::Sgm);
+    assert_eq!(m.params(7).seed, 7);
+    // PatchMatch stays the default, whatever [patchmatch] says otherwise.
+    let c = CampaignConfig::from_toml("", path).unwrap();
+    assert_eq!(
+        Matcher::new(&c).unwrap().params(7).algorithm,
+        vp_mvs::Algorithm::PatchMatch
+    );
+    let e = CampaignConfig::from_toml("mvs = \"sgbm\"\n", path)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("sgm"), "{e}");
+}

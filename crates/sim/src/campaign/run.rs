@@ -61,7 +61,8 @@ fn fly_flight(
     check_path(&mut check, world, cfg, (None, &path), &label, progress);
     let scene = world.scene();
     let ids: Vec<u64> = (0..cams.len()).map(|i| image_id(source, i)).collect();
-    let flown = if cfg.mvs == MvsKind::Patchmatch {
+    // Real matchers reconstruct the whole image set, as a user's would.
+    let flown = if cfg.mvs != MvsKind::Virtual {
         matcher.image_set(&scene, (cams, sfm), &ids, &world.roi, mix64(seed ^ source))?
     } else {
         (0..cams.len().saturating_sub(2))
