@@ -9,7 +9,7 @@
 //! ([`height_field`], [`surface`]), triangulation angle and uncertainty ([`triangulation`]),
 //! raster types ([`raster`]), the plan file ([`plan`]) and
 //! deterministic procedural scenes ([`procedural`]) that feed every crate's
-//! tests and the simulator.
+//! tests and the simulator, and the one seeded hash ([`hash`], SplitMix64).
 //!
 //! World frame: local ENU, metres, z up. Poses are named by what they map
 //! (`world_from_cam`).
@@ -25,6 +25,7 @@ pub mod error;
 pub mod flight_time;
 pub mod fsio;
 pub mod geodesy;
+pub mod hash;
 pub mod height_field;
 pub mod image_files;
 pub mod io;

@@ -40,6 +40,7 @@ use nalgebra::Point3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
+use crate::hash::mix64;
 use crate::mesh::{Material, Mesh};
 
 pub use crate::plan::GeodeticOrigin;
@@ -52,14 +53,6 @@ pub(crate) mod part {
     pub const TREES_AT_ROCK: u64 = 0x726f_636b_7472_6565;
     pub const GRASS: u64 = 0x6772_6173_7300_0000;
     pub const MARKERS: u64 = 0x6d61_726b_6572_7300;
-}
-
-/// SplitMix64 finaliser: spreads nearby seeds over the whole u64 range.
-fn mix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
 }
 
 /// The seed of stream `index` of `part` for a site seed. Hashing (rather than
