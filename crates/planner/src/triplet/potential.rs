@@ -136,7 +136,11 @@ impl Search<'_> {
 
     /// Potential gains per surrogate (aligned with `links`), from the best
     /// hypothetical fulfillment of each link ([`Search::run`]'s arguments).
-    pub(super) fn potential_gains(&self, links: &[Vec<u32>], potential: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    pub(super) fn potential_gains(
+        &self,
+        links: &[Vec<u32>],
+        potential: &[Vec<f64>],
+    ) -> Vec<Vec<f64>> {
         potential
             .par_iter()
             .zip(links)
