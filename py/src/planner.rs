@@ -16,7 +16,7 @@ use vp_planner::{
 use vp_scene::colmap;
 use vp_scene::plan::{GeodeticOrigin, Plan, Role, VerticalDatum};
 use vp_scene::roi::Roi;
-use vp_scene::{io, Mesh};
+use vp_scene::Mesh;
 
 use crate::convert::{self, points_array};
 use crate::errors::{value_error, IntoPy};
@@ -211,7 +211,7 @@ fn mesh_of(obj: &Bound<'_, PyAny>) -> PyResult<Mesh> {
     let path: PathBuf = obj
         .extract()
         .map_err(|_| value_error("mesh: expected a Mesh or a file path"))?;
-    io::read_mesh(&path).py()
+    crate::errors::read_mesh(obj.py(), &path)
 }
 
 /// `roi=` or `roi_polygon=` (with `roi_name=`, `roi_heights=`), as

@@ -32,6 +32,9 @@
 //! leaf's overall positive ratio (over all its samples, gamma_max or not) and k = [`TrainParams::pseudo_count`]
 //! (default 2): an empty bin reads p. Prediction averages the trees.
 #![warn(missing_docs)]
+// A library tells its caller (returned warnings, reports, progress callbacks);
+// only the CLI and the Python bindings print (docs/design.md).
+#![deny(clippy::print_stderr, clippy::print_stdout)]
 
 pub mod batch;
 mod dataset;

@@ -15,6 +15,9 @@
 //! [`LabelImage`](vp_scene::raster::LabelImage) per view out. Every triplet at
 //! every pyramid level is an independent [`TripletReconstruction`].
 #![warn(missing_docs)]
+// A library tells its caller (returned warnings, reports, progress callbacks);
+// only the CLI and the Python bindings print (docs/design.md).
+#![deny(clippy::print_stderr, clippy::print_stdout)]
 
 pub mod error;
 pub mod io;

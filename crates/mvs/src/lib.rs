@@ -26,6 +26,9 @@
 //! Every random choice comes from a hash of (seed, view, pixel, step): the
 //! same inputs and seed give the same bytes whatever the thread count.
 #![warn(missing_docs)]
+// A library tells its caller (returned warnings, reports, progress callbacks);
+// only the CLI and the Python bindings print (docs/design.md).
+#![deny(clippy::print_stderr, clippy::print_stdout)]
 
 mod cost;
 pub mod error;

@@ -13,7 +13,7 @@ use vp_planner::{
 use vp_scene::datum::VerticalDatum;
 use vp_scene::plan::{GeodeticOrigin, Plan, Role};
 use vp_scene::roi::Roi;
-use vp_scene::{colmap, fsio, io, Camera, Mesh};
+use vp_scene::{colmap, fsio, Camera, Mesh};
 
 mod summary;
 
@@ -380,7 +380,7 @@ fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
     let c = &args.common;
     let outputs = c.check_outputs()?;
     let cfg = c.config()?;
-    let mesh = io::read_mesh(required(args.mesh.as_ref(), "--mesh")?)?;
+    let mesh = super::read_mesh(required(args.mesh.as_ref(), "--mesh")?)?;
     let model = required(args.cameras.as_ref(), "--colmap")?;
     let roi = c.roi()?;
     let job = vp_planner::plan_from_model(&ModelPlanRequest {
@@ -503,7 +503,7 @@ fn grid(g: &GridArgs, out: &mut dyn Write) -> Result<()> {
     let c = &g.common;
     let outputs = c.check_outputs()?;
     let cfg = c.config()?;
-    let mesh = io::read_mesh(&g.mesh)?;
+    let mesh = super::read_mesh(&g.mesh)?;
     let roi = c.roi()?;
     let params = GridParams {
         height_m: g.height,
