@@ -317,17 +317,10 @@ fn home_spec(home: Option<&Bound<'_, PyAny>>) -> PyResult<HomeSpec> {
             )))
         };
     }
-    let (lat, lon, alt, datum) = if let Ok((lat, lon, alt)) = home.extract::<(f64, f64, f64)>() {
-        (lat, lon, alt, None)
-    } else {
-        let (lat, lon, alt, d) = home.extract::<(f64, f64, f64, String)>().map_err(|_| {
-            value_error("home: expected (lat, lon, alt), (lat, lon, alt, datum) or \"first_image\"")
-        })?;
-        (lat, lon, alt, Some(d.parse::<VerticalDatum>().py()?))
-    };
-    Ok(HomeSpec::At {
-        position: GeodeticOrigin::new(lat, lon, alt).py()?,
-        datum,
+    let expected = "(lat, lon, alt), (lat, lon, alt, datum) or \"first_image\"";
+    Ok(match crate::mission::home_of(Some(home), expected)? {
+        Some((position, datum)) => HomeSpec::At { position, datum },
+        None => HomeSpec::Unset,
     })
 }
 
