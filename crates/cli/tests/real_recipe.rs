@@ -32,8 +32,9 @@ use std::process::{Command, Stdio};
 use std::time::Instant;
 
 use nalgebra::{Point3, UnitQuaternion, Vector3};
-use vp_scene::colmap::{self, ModelFrame, Sim3};
+use vp_scene::colmap::{self, ModelFrame};
 use vp_scene::plan::GeodeticOrigin;
+use vp_scene::sim3::Sim3;
 
 mod common;
 

@@ -44,6 +44,7 @@ pub mod raycast;
 pub mod roi;
 pub mod roi_file;
 mod roi_kml;
+pub mod sim3;
 pub mod surface;
 pub mod triangulation;
 
