@@ -104,7 +104,9 @@ pub(crate) fn sfm_positions(offsets: &[[f64; 3]; 4]) -> String {
 }
 
 /// The positions of [`sfm_positions`], as image names and WGS84 positions.
-pub(crate) fn sfm_geodetic(offsets: &[[f64; 3]; 4]) -> Vec<(String, vp_scene::plan::GeodeticOrigin)> {
+pub(crate) fn sfm_geodetic(
+    offsets: &[[f64; 3]; 4],
+) -> Vec<(String, vp_scene::plan::GeodeticOrigin)> {
     let frame = vp_mission::geodesy::LocalFrame::new(vp_scene::plan::GeodeticOrigin {
         lat_deg: 47.07,
         lon_deg: 15.44,
