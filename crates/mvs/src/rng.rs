@@ -11,7 +11,7 @@ pub(crate) struct PixelRng(SplitMix64);
 impl PixelRng {
     /// The generator of `pixel` of view `view` at `step` under `seed`.
     #[inline]
-    pub fn new(seed: u64, view: u64, pixel: u64, step: u64) -> Self {
+    pub(crate) fn new(seed: u64, view: u64, pixel: u64, step: u64) -> Self {
         let mut s = mix(seed ^ GOLDEN_GAMMA);
         s = mix(s ^ view.wrapping_mul(0xd1b5_4a32_d192_ed03));
         s = mix(s ^ pixel.wrapping_mul(0x8cb9_2ba7_2f3d_8dd7));
@@ -22,13 +22,13 @@ impl PixelRng {
 
     /// Uniform in [0, 1).
     #[inline]
-    pub fn next_f32(&mut self) -> f32 {
+    pub(crate) fn next_f32(&mut self) -> f32 {
         (self.0.next_u64() >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
     }
 
     /// Uniform in [-1, 1).
     #[inline]
-    pub fn symmetric(&mut self) -> f32 {
+    pub(crate) fn symmetric(&mut self) -> f32 {
         2.0 * self.next_f32() - 1.0
     }
 }

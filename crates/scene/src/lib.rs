@@ -13,7 +13,7 @@
 //!
 //! World frame: local ENU, metres, z up. Poses are named by what they map
 //! (`world_from_cam`).
-#![warn(missing_docs)]
+#![warn(missing_docs, unreachable_pub)]
 // A library tells its caller (returned warnings, reports, progress callbacks);
 // only the CLI and the Python bindings print (docs/design.md).
 #![deny(clippy::print_stderr, clippy::print_stdout)]

@@ -6,7 +6,7 @@
 //! - [`plans`]: small mission plans of triplet photos (mission tests).
 //! - [`python`]: finding a Python that imports a peer library (MAVSDK,
 //!   pymavlink, litchi_wp) for the tests that check against one.
-#![warn(missing_docs)]
+#![warn(missing_docs, unreachable_pub)]
 // Test support: its "skipped: ..." lines are test output, like a test's own.
 #![allow(clippy::print_stdout, clippy::missing_panics_doc)]
 
