@@ -134,7 +134,10 @@ def test_metrics_exact_values():
     assert perfect["relative_ausc"] == pytest.approx(1.0)
     with pytest.raises(ValueError):
         vpctl.forest.accuracy(c, pos[:2])
-    assert vpctl.forest.default_params()["n_trees"] == 20
+    assert (vpctl.forest.default_params()["n_trees"], vpctl.forest.default_params()["max_depth"]) == (10, 16)
+    assert vpctl.forest.default_params("paper")["n_trees"] == 20
+    with pytest.raises(ValueError, match="paper"):
+        vpctl.forest.default_params("papr")
 
 
 def test_train_and_predict_equal_cli(tmp_path):

@@ -51,6 +51,9 @@ fn an_airborne_origin_from_align_flies_every_waypoint_at_its_true_height() {
             "pos.csv",
             "--datum",
             "egm96",
+            // The positions written below are exact: RTK is their class.
+            "--gnss",
+            "rtk",
             "--out",
             "a",
         ],
@@ -91,6 +94,11 @@ fn an_airborne_origin_from_align_flies_every_waypoint_at_its_true_height() {
         ],
     ));
     assert!(out.contains("first image"), "{out}");
+    // The class recorded by align sets the position part of the clearance.
+    assert!(
+        out.contains("RTK GNSS 0.02/0.03 m (from frame.json)"),
+        "{out}"
+    );
     let plan = Plan::load(&d.join("p.json")).unwrap();
     assert!(!plan.waypoints.is_empty(), "{out}");
     ok(&vpctl(

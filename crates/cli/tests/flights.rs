@@ -36,6 +36,7 @@ const RESERVE_S: f64 = 120.0;
 /// corner) and a home on its ground 3 m in from that corner, as
 /// `LAT,LON,ALT`, with the home's ENU position.
 fn site(dir: &Path) -> (Mesh, String, Point3<f64>) {
+    std::fs::write(dir.join("rtk.toml"), "[safety]\ngnss = \"rtk\"\n").unwrap();
     std::fs::write(
         dir.join("site.toml"),
         "[site]\nseed = 7\ntarget_faces = 6000\nsize = 40.0\n",
@@ -76,6 +77,10 @@ fn grid(dir: &Path, home: &str, out: &str, extra: &[&str]) -> Output {
         "46.03,10.35,400",
         "--home",
         home,
+        // Exact geometry: these tests are about flight time and the legs
+        // home, not about the position margin (standard GNSS by default).
+        "--config",
+        "rtk.toml",
         "--out",
         out,
     ];

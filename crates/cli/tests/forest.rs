@@ -304,13 +304,26 @@ fn bad_inputs_exit_2_and_write_nothing() {
 }
 
 #[test]
-fn defaults_are_the_papers_and_round_trip() {
+fn defaults_are_the_measured_size_the_paper_is_one_flag_away_and_both_round_trip() {
     let o = vpctl(&["forest", "defaults"]);
     assert!(o.status.success(), "{}", text(&o));
-    let t = String::from_utf8_lossy(&o.stdout);
+    let t = String::from_utf8_lossy(&o.stdout).into_owned();
     assert!(
-        t.contains("n_trees = 20") && t.contains("max_depth = 20"),
+        t.contains("n_trees = 10") && t.contains("max_depth = 16") && t.contains("n_tests = 5000"),
         "{t}"
+    );
+    let o = vpctl(&["forest", "defaults", "--preset", "paper"]);
+    let paper = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        paper.contains("n_trees = 20") && paper.contains("max_depth = 20"),
+        "{paper}"
+    );
+    let o = vpctl(&["forest", "defaults", "--preset", "papr"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("expected \"default\" or \"paper\""),
+        "{}",
+        text(&o)
     );
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("d.toml");

@@ -57,7 +57,7 @@ pub use error::{ForestError, Result};
 pub use lab::LabPlanes;
 pub use label_dir::{load_label_dir, LabelledImage};
 pub use metrics::{accuracy, sparsification, Scored, Sparsification};
-pub use params::{TrainParams, TrainingSummary};
+pub use params::{Preset, TrainParams, TrainingSummary};
 pub use train::{assemble, train, train_tree, train_with_progress, TrainedTree, TrainingPlan};
 pub use tree::Tree;
 pub use vp_scene::raster::{AngleBins, ConfidenceImage, RgbImage};

@@ -15,6 +15,7 @@ use vp_scene::{Aabb, Intrinsics};
 
 use crate::error::{PlannerError, Result};
 use crate::free_space::UnknownSpace;
+use crate::position::SafetyConfig;
 
 /// Camera of the new views.
 ///
@@ -93,6 +94,10 @@ pub struct PlannerConfig {
     /// decimetres (`vpctl mesh build`'s cell is 0.5 m), and the safety
     /// distance is owed to the real surface. 0 trusts the mesh exactly.
     pub geometry_margin_m: f64,
+    /// Position uncertainty (`[safety]`): the GNSS class, the tracking
+    /// error and, from the model, the alignment residual; its margin is
+    /// added to the clearance ([`crate::position`]).
+    pub safety: SafetyConfig,
     /// Lowest gimbal pitch (elevation of the optical axis), degrees; -90 is nadir.
     pub gimbal_pitch_min_deg: f64,
     /// Highest gimbal pitch, degrees.
@@ -147,6 +152,7 @@ impl Default for PlannerConfig {
             min_overlap: 0.5,
             safety_distance_m: 5.0,
             geometry_margin_m: 0.0,
+            safety: SafetyConfig::default(),
             gimbal_pitch_min_deg: -90.0,
             gimbal_pitch_max_deg: 0.0,
             camera: CameraConfig::default(),
@@ -200,6 +206,16 @@ seed = 0
 # flight_volume = [[-30, -30, 0], [30, 30, 60]] # default: from the mesh
 # geofence = [[-30, -30], [30, -30], [30, 30], [-30, 30]]
 # altitude_limits = { min_m = 5.0, max_m = 60.0 }
+
+# Position uncertainty: the clearance to the mesh is safety_distance_m +
+# geometry_margin_m + 2 sigma of the vehicle's position error relative to the
+# model (two independent GNSS errors: the model's georeference and the flight;
+# the larger of horizontal and vertical; the model's alignment residual from
+# frame.json; the path tracking). `vpctl plan` prints the sum.
+[safety]
+# gnss = "standard"      # "rtk" (2/3 cm), "standard" (1.5/3 m) or { horizontal_m = 0.5, vertical_m = 1.0 };
+                         # default: the class the model's frame.json records, else "standard"
+tracking_m = 0.3         # the autopilot's path-tracking error, 1 sigma
 
 # Camera of the new views: DJI Phantom 4 Pro class (1" sensor, 8.8 mm lens).
 [camera]
@@ -318,9 +334,22 @@ impl PlannerConfig {
     }
 
     /// The distance every waypoint and path segment keeps to the mesh and
-    /// to unobserved space: the safety distance plus the geometry margin.
+    /// to unobserved space: the safety distance plus the geometry margin
+    /// plus the position margin ([`SafetyConfig::position_margin_m`]).
     pub fn clearance_m(&self) -> f64 {
-        self.safety_distance_m + self.geometry_margin_m
+        self.safety_distance_m + self.geometry_margin_m + self.safety.position_margin_m()
+    }
+
+    /// The clearance and where it comes from, in one line.
+    pub fn clearance_line(&self) -> String {
+        format!(
+            "clearance {:.2} m = safety {:.2} + margin {:.2} + position {:.2} ({})",
+            self.clearance_m(),
+            self.safety_distance_m,
+            self.geometry_margin_m,
+            self.safety.position_margin_m(),
+            self.safety.describe()
+        )
     }
 
     /// The safety, camera and flight-limit part of [`PlannerConfig::validate`].
@@ -343,6 +372,7 @@ impl PlannerConfig {
                 "must be finite and >= 0",
             );
         }
+        self.safety.validate().map_err(PlannerError::Config)?;
         if !pos(self.free_space_voxel_m) {
             return bad(
                 "free_space_voxel_m",

@@ -390,6 +390,8 @@ mod tests {
     fn cfg() -> PlannerConfig {
         PlannerConfig {
             flight_volume: Some([[-50.0, -50.0, 0.0], [50.0, 50.0, 60.0]]),
+            // Exact geometry: the safety distance alone.
+            safety: crate::SafetyConfig::exact(),
             ..PlannerConfig::default()
         }
     }

@@ -24,6 +24,7 @@ pub mod free_space;
 pub mod fulfillment;
 pub mod grid;
 pub mod output;
+pub mod position;
 pub mod quality;
 pub mod request;
 pub mod safety;
@@ -41,6 +42,7 @@ pub use free_space::{Observation, UnknownSpace};
 pub use grid::plan_grid;
 pub use inputs::{safety_for, AcquiredView, PlanInputs, PlanResult, RoiSpec, SampledFulfillment};
 pub use pipeline::{plan, strip_timings};
+pub use position::{GnssClass, GnssSigmas, SafetyConfig};
 pub use request::{
     plan_from_model, plan_grid_job, resolve_home, GridRequest, HomeSpec, ModelPlan,
     ModelPlanRequest, PlanContext, PlanOutputs,

@@ -75,6 +75,10 @@ pub struct ModelPlan {
     pub acquired: Vec<AcquiredView>,
     /// The frame check, when it ran.
     pub frame: Option<FrameCheck>,
+    /// The clearance planned with and where it comes from
+    /// ([`PlannerConfig::clearance_line`]), the alignment residual of the
+    /// model's frame included.
+    pub clearance: String,
 }
 
 /// Plans the next triplets from an acquired model (see the module doc).
@@ -117,23 +121,56 @@ pub fn plan_from_model(req: &ModelPlanRequest) -> Result<ModelPlan> {
             first_center.as_ref().map(|(n, c)| (n.as_str(), *c)),
         )?,
     };
-    let mut result = crate::plan(&PlanInputs {
+    // The model's alignment residual joins the position margin.
+    let mut config = req.config.clone();
+    config.safety.alignment_rms_m = frame.as_ref().map(|f| f.frame.rms_m);
+    config.safety.model_gnss = frame.as_ref().and_then(|f| f.frame.gnss);
+    let clearance = config.clearance_line();
+    let result = crate::plan(&PlanInputs {
         mesh: req.mesh,
         acquired: &acquired,
         roi: req.roi.clone(),
-        config: req.config,
+        config: &config,
         origin,
         // A model without tracks: the planner carves from rays to the mesh.
         observations: (!observations.is_empty()).then_some(&observations[..]),
         home: home_enu(origin, home.as_ref())?,
-    })?;
+    });
+    let mut result = refuse_if_uncertain(result, &config)?;
     result.plan.vertical_datum = datum;
     result.plan.home = home;
     Ok(ModelPlan {
         result,
         acquired,
         frame,
+        clearance,
     })
+}
+
+/// A refusal, or a plan whose every triplet was dropped as unsafe or
+/// unreachable, while the position margin is part of the clearance: an
+/// input error (exit 2) that gives the numbers and what would lower them.
+fn refuse_if_uncertain(result: Result<PlanResult>, config: &PlannerConfig) -> Result<PlanResult> {
+    let position = config.safety.position_margin_m();
+    let why = match &result {
+        Err(PlannerError::Refused(m)) => m.clone(),
+        Ok(r) if r.plan.waypoints.is_empty() && !r.dropped_triplets.is_empty() => format!(
+            "all {} triplets were dropped: {}",
+            r.dropped_triplets.len(),
+            r.dropped_reasons.join("; ")
+        ),
+        _ => return result,
+    };
+    if position <= 0.0 {
+        return result;
+    }
+    Err(PlannerError::Input(format!(
+        "no safe plan with the position uncertainty: {}, of which {position:.2} m is the \
+         position margin; {why}. A more precise position (`[safety] gnss = \"rtk\"` in the \
+         planner config, with a model aligned to RTK positions) or a smaller safety_distance_m \
+         lowers it",
+        config.clearance_line()
+    )))
 }
 
 /// A grid flight job, as `vpctl plan grid` takes it.
@@ -363,5 +400,39 @@ impl PlanOutputs {
             }
         }
         result
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_refusal_under_position_uncertainty_is_an_input_error_with_the_numbers() {
+        let mut cfg = PlannerConfig::default();
+        cfg.safety.alignment_rms_m = Some(0.4);
+        let e = refuse_if_uncertain(
+            Err(PlannerError::Refused("segment 1 -> 2 blocked".into())),
+            &cfg,
+        )
+        .err()
+        .unwrap();
+        let m = e.to_string();
+        assert!(e.is_input_error(), "{m}");
+        assert!(
+            m.contains("clearance 13.")
+                && m.contains("safety 5.00")
+                && m.contains("standard GNSS 1.5/3 m")
+                && m.contains("alignment residual 0.40 m")
+                && m.contains("segment 1 -> 2 blocked")
+                && m.contains("gnss = \"rtk\""),
+            "{m}"
+        );
+        // Without a position term the refusal stays what it was.
+        cfg.safety = crate::SafetyConfig::exact();
+        let e = refuse_if_uncertain(Err(PlannerError::Refused("x".into())), &cfg)
+            .err()
+            .unwrap();
+        assert!(matches!(e, PlannerError::Refused(_)));
     }
 }

@@ -91,8 +91,9 @@ impl Safety {
             Some("is outside the geofence (`geofence` in the planner config)".into())
         } else if !self.clearance.point_is_clear(p, d + CLEARANCE_MARGIN_M) {
             Some(format!(
-                "is {:.2} m from the mesh, closer than the safety distance {d} m \
-                 (`safety_distance_m` in the planner config; for a grid: a larger --height)",
+                "is {:.2} m from the mesh, closer than the clearance {d:.2} m (`safety_distance_m` \
+                 + `geometry_margin_m` + the position margin of `[safety] gnss` in the planner \
+                 config, which `vpctl plan` prints; for a grid: a larger --height)",
                 self.clearance.distance(p)
             ))
         } else if !self
@@ -101,7 +102,7 @@ impl Safety {
             .is_none_or(|f| f.point_is_clear(p, d))
         {
             Some(format!(
-                "is closer than the safety distance {d} m to space no camera has observed \
+                "is closer than the clearance {d:.2} m to space no camera has observed \
                  (`unknown_space = \"occupied\"` in the planner config: fly where the cameras \
                  have looked, or \"free\" to accept the risk)"
             ))

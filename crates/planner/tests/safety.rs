@@ -177,6 +177,7 @@ fn wall_scene() -> (vp_scene::Mesh, PlannerConfig) {
     ));
     let cfg = PlannerConfig {
         flight_volume: Some([[-50.0, -50.0, 0.0], [50.0, 50.0, 60.0]]),
+        safety: vp_planner::SafetyConfig::exact(),
         ..PlannerConfig::default()
     };
     (mesh, cfg)

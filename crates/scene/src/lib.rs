@@ -28,6 +28,7 @@ pub mod error;
 pub mod flight_time;
 pub mod fsio;
 pub mod geodesy;
+pub mod gnss;
 pub mod hash;
 pub mod height_field;
 pub mod image_files;

@@ -16,6 +16,7 @@ use std::path::{Path, PathBuf};
 use nalgebra::Point3;
 use vp_labelgen::synthetic::sparse_model;
 use vp_scene::colmap::{self, ModelFrame, Reconstruction};
+use vp_scene::gnss::GnssClass;
 use vp_scene::outdir::OutDir;
 use vp_scene::plan::Plan;
 use vp_scene::raster::{save_rgb, RgbImage};
@@ -82,9 +83,29 @@ pub fn fly(
     rp.texture_seed = world.site.params.seed;
     let mut named: Vec<(String, Camera)> = Vec::with_capacity(n_views);
     let mut images = Vec::with_capacity(n_views);
-    for (label, plan) in plans {
-        for (i, w) in plan.waypoints.iter().enumerate() {
-            let cam = w.to_camera(k);
+    // Each plan is a flight with the vehicle's position error (`[flight_error]`,
+    // unless --exact): the images are taken where the vehicle really was.
+    let mut tags = Vec::with_capacity(n_views);
+    for (p, (label, plan)) in plans.iter().enumerate() {
+        let planned: Vec<Camera> = plan.waypoints.iter().map(|w| w.to_camera(k)).collect();
+        let centres: Vec<Point3<f64>> = planned.iter().map(Camera::center).collect();
+        let m = &cfg.planner.mission;
+        let flown = if opts.exact {
+            crate::gnss::FlownPath {
+                truth: centres.clone(),
+                tagged: centres,
+            }
+        } else {
+            cfg.flight_error.fly(
+                &centres,
+                m.cruise_speed_m_s,
+                m.hover_per_photo_s,
+                mix64(cfg.seed ^ 0x666c_7900 ^ p as u64),
+            )
+        };
+        tags.extend(flown.tagged);
+        for (i, (planned, truth)) in planned.iter().zip(&flown.truth).enumerate() {
+            let cam = crate::gnss::moved_to(planned, truth);
             let name = format!("{label}_{i:04}.png");
             let r = render(&world.site.mesh, &world.caster, &cam, &rp)?;
             progress(&format!("rendered {name} ({}/{n_views})", images.len() + 1));
@@ -123,16 +144,60 @@ pub fn fly(
             }
         }
     }
-    let frame = ModelFrame {
+    let mut frame = ModelFrame {
         home: Some(world.home()),
+        // The simulated vehicle's class (exact poses: as good as RTK).
+        gnss: Some(if opts.exact || !cfg.flight_error.enabled {
+            GnssClass::Rtk
+        } else {
+            cfg.flight_error.gnss
+        }),
         ..ModelFrame::identity(world.site.origin)
     };
+    if !opts.exact && cfg.flight_error.enabled {
+        let truth: Vec<Camera> = named.iter().map(|(_, c)| *c).collect();
+        let names: Vec<&String> = named.iter().map(|(n, _)| n).collect();
+        model = georeferenced(&model, &mut frame, (&truth, &names), &tags, cfg.seed)?;
+    }
     Ok(Flight {
         images,
         model,
         frame,
         candidate_points: points.len(),
     })
+}
+
+/// `model` (in the true world) georeferenced as `colmap align
+/// --positions` would from the photos' GNSS `tags`; `frame` records the
+/// transform and the residuals by image name.
+fn georeferenced(
+    model: &Reconstruction,
+    frame: &mut ModelFrame,
+    (truth, names): (&[Camera], &[&String]),
+    tags: &[Point3<f64>],
+    seed: u64,
+) -> Result<Reconstruction> {
+    let al = crate::gnss::georeference(truth, tags, seed)?;
+    frame.sim3 = al.sim3;
+    frame.rms_m = al.rms_m;
+    frame.residuals = al
+        .residuals
+        .into_iter()
+        .map(|mut r| {
+            // The alignment names images img_<index>; the model by their flight names.
+            if let Some(n) = r
+                .name
+                .strip_prefix("img_")
+                .and_then(|x| x.strip_suffix(".png"))
+                .and_then(|x| x.parse::<usize>().ok())
+                .and_then(|i| names.get(i))
+            {
+                r.name.clone_from(n);
+            }
+            r
+        })
+        .collect();
+    Ok(colmap::transform_reconstruction(model, &frame.sim3))
 }
 
 /// A `vpctl sim fly` job: plans flown in order over a campaign config's

@@ -16,6 +16,8 @@
 //!
 //! - [`flight::fly`]: a plan flown in the simulated world: its images and
 //!   the COLMAP model SfM would give (`vpctl sim fly`).
+//! - [`gnss`]: the position error of a flight (GNSS bias and noise,
+//!   path tracking) and the georeference of a model aligned to it.
 //! - [`campaign`]: closed-loop acquisition campaigns (training, flights with
 //!   every strategy of the paper, Table-1 evaluation, report).
 //!
@@ -26,6 +28,7 @@
 pub mod campaign;
 pub mod error;
 pub mod flight;
+pub mod gnss;
 pub mod mvs;
 pub mod noise;
 pub mod render;

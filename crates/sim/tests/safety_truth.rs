@@ -16,6 +16,11 @@ fn config(seed: u64, unknown: UnknownSpace) -> CampaignConfig {
     c.held_out_seeds = vec![seed];
     c.strategies = vec!["NP3x2".into()];
     c.planner.unknown_space = unknown;
+    // Issue 16's question is unseen geometry: the vehicle flies exactly
+    // and the planner keeps no position margin. Position error is
+    // tests/position_error.rs's (issue 39).
+    c.flight_error.enabled = false;
+    c.planner.safety = vp_planner::SafetyConfig::exact();
     c
 }
 

@@ -88,6 +88,13 @@ pub struct AlignArgs {
     /// unstated with --positions.
     #[arg(long, value_name = "DATUM")]
     pub datum: Option<vp_scene::datum::VerticalDatum>,
+    /// How precise the positions are: `rtk`, `standard` (a consumer drone's
+    /// GNSS without corrections) or `H,V` (horizontal RMS and vertical
+    /// 1-sigma, metres). Recorded in frame.json: `vpctl plan` adds the
+    /// position uncertainty of this class to its clearance. Default:
+    /// unrecorded, and the planner assumes standard GNSS.
+    #[arg(long, value_name = "CLASS")]
+    pub gnss: Option<vp_scene::gnss::GnssClass>,
 }
 
 /// Arguments of `vpctl colmap undistort`.
@@ -295,6 +302,7 @@ fn align(a: &AlignArgs, out: &mut dyn Write) -> Result<()> {
         vertical_datum: datum,
         takeoff_alt_m,
         home: None,
+        gnss: a.gnss,
     };
     // Built beside --out and swapped in when complete: nothing partial.
     out_dir.write(|dir| -> vp_scene::Result<()> {

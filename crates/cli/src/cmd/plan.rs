@@ -343,7 +343,19 @@ pub fn load_planner_config(path: &Path) -> Result<PlannerConfig> {
     let text = fsio::read_text(path)?;
     let table: toml::Table = vp_scene::config_file::parse_toml(&text, path)?;
     if table.contains_key("planner") || table.contains_key("site") {
-        return Ok(vp_sim::campaign::CampaignConfig::from_toml(&text, path)?.planner);
+        let mut planner = vp_sim::campaign::CampaignConfig::from_toml(&text, path)?.planner;
+        // The campaign presets' simulated drone flies RTK; a real mission
+        // planned with such a file takes its GNSS class from the file itself
+        // or from the model's frame.json, never from the simulator's preset.
+        let stated = table
+            .get("planner")
+            .and_then(|p| p.get("safety"))
+            .and_then(|s| s.get("gnss"))
+            .is_some();
+        if !stated {
+            planner.safety.gnss = None;
+        }
+        return Ok(planner);
     }
     Ok(PlannerConfig::from_toml(&text, path)?)
 }
@@ -437,6 +449,7 @@ fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
         .filter(|w| w.role == Role::TripletMember)
         .count();
     writeln!(out, "plan: {}", outputs.plan.display())?;
+    writeln!(out, "{}", job.clearance)?;
     writeln!(
         out,
         "waypoints: {} ({members} triplet members, {} bridging)",
@@ -529,6 +542,7 @@ fn grid(g: &GridArgs, out: &mut dyn Write) -> Result<()> {
     write_outputs(&outputs, &plan, &mesh, &cfg, &[], &roi_outline, &[])?;
     writeln!(out, "plan: {}", outputs.plan.display())?;
     writeln!(out, "waypoints: {}", plan.waypoints.len())?;
+    writeln!(out, "{}", cfg.clearance_line())?;
     summary::print_grid_figures(&params.figures(cfg.camera.intrinsics()), out)?;
     summary::print_home(&plan, out)?;
     summary::print_flights(&plan, &cfg.mission, out)?;

@@ -24,6 +24,10 @@ pub fn test_config(site: &Site) -> PlannerConfig {
         n_selected: 60,
         n_triplets: 2,
         flight_volume: Some([v.min.into(), v.max.into()]),
+        // The tests check exact geometry at the safety distance; the
+        // position margin is vp_planner::position's (and vp-sim's
+        // position_error test's).
+        safety: vp_planner::SafetyConfig::exact(),
         ..PlannerConfig::default()
     }
 }

@@ -49,6 +49,11 @@ pub struct ModelFrame {
     /// `vpctl plan` uses it when no home is given.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub home: Option<Home>,
+    /// The GNSS class of the positions the model was aligned to, where it
+    /// is known (`vpctl sim fly` records its simulated vehicle's): the
+    /// planner's position margin uses it unless its config names a class.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gnss: Option<crate::gnss::GnssClass>,
 }
 
 impl ModelFrame {
@@ -68,6 +73,7 @@ impl ModelFrame {
             vertical_datum: None,
             takeoff_alt_m: None,
             home: None,
+            gnss: None,
         }
     }
 

@@ -60,6 +60,10 @@ pub struct CampaignConfig {
     pub grid: GridBaseline,
     /// Simulated SfM: pose and point noise, views needed per point.
     pub sfm: SfmConfig,
+    /// The vehicle's position error (GNSS class, bias, tracking) and the
+    /// georeference error of the model aligned to its photos' positions;
+    /// whether the planner keeps the position margin.
+    pub flight_error: crate::gnss::FlightError,
     /// The 3D mesher that turns what was seen into the planning mesh.
     pub surface: SurfaceParams,
     /// Planner parameters (the camera of every flight is `planner.camera`;
@@ -404,6 +408,7 @@ impl CampaignConfig {
         self.surface
             .validate()
             .map_err(|e| SimError::InvalidArgument(format!("surface: {e}")))?;
+        self.flight_error.validate()?;
         self.sfm.validate()
     }
 }

@@ -43,6 +43,7 @@ mod run;
 pub mod scene;
 pub mod sfm;
 pub mod strategies;
+mod strategy_run;
 mod svg;
 pub mod training;
 pub mod world;

@@ -3,7 +3,7 @@
 
 use vp_forest::TrainParams;
 use vp_labelgen::LabelParams;
-use vp_planner::{CameraConfig, PlannerConfig};
+use vp_planner::{CameraConfig, GnssClass, PlannerConfig, SafetyConfig};
 use vp_scene::procedural::SiteParams;
 use vp_scene::surface::SurfaceParams;
 
@@ -138,6 +138,14 @@ impl CampaignConfig {
                 dense_min_points: 4,
             },
             surface: SurfaceParams::default(),
+            // The simulated drone flies RTK: with standard GNSS the
+            // clearance is 13.1 m, and no position of the demo's sites
+            // keeps it from the space their initial flight left
+            // unobserved (docs/campaign-findings.md, issue 39).
+            flight_error: crate::gnss::FlightError {
+                gnss: GnssClass::Rtk,
+                ..crate::gnss::FlightError::default()
+            },
             planner: PlannerConfig {
                 gsd_m: 0.04,
                 accuracy_m: 0.04,
@@ -154,6 +162,11 @@ impl CampaignConfig {
                 // F1x20 pass 3.39 m from unseen leaves on the paper site
                 // (docs/campaign-findings.md).
                 free_space_voxel_m: 0.5,
+                // As the simulated drone (`flight_error`).
+                safety: SafetyConfig {
+                    gnss: Some(GnssClass::Rtk),
+                    ..SafetyConfig::default()
+                },
                 camera,
                 ..PlannerConfig::default()
             },

@@ -1,6 +1,7 @@
 //! Tests of the campaign runner (`run.rs`).
 
 use super::*;
+use crate::campaign::strategy_run::strategy_seed;
 
 /// Issue 34, fair comparisons: the planner seed differed by strategy name,
 /// so F5x4 and NP5x4 planned from different random draws and a difference
