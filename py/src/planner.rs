@@ -13,7 +13,7 @@ use vp_planner::{
     AcquiredView, GridRequest, HomeSpec, ModelPlanRequest, Observation, PlanInputs, PlanResult,
     PlannerConfig, RoiSpec,
 };
-use vp_scene::colmap;
+use vp_scene::opensfm::ModelSource;
 use vp_scene::plan::{GeodeticOrigin, Plan, Role, VerticalDatum};
 use vp_scene::roi::Roi;
 use vp_scene::Mesh;
@@ -289,7 +289,7 @@ fn acquired_of(
         let path: PathBuf = cameras.extract().map_err(|_| {
             value_error("cameras: expected a ColmapModel, a model folder or a list of Camera")
         })?;
-        colmap::read_model(&path).py()?
+        ModelSource::detect(&path).read().py()?
     };
     let dir: Option<PathBuf> = confidence
         .map(|c| {
@@ -339,7 +339,10 @@ fn datum_of(datum: Option<&str>) -> PyResult<Option<VerticalDatum>> {
 /// datum]) or "first_image" (as `--home-from-first-image`).
 ///
 /// With a model folder as `cameras` this is the very call `vpctl plan`
-/// makes (vp-planner's `plan_from_model`): the frame check (unless
+/// makes (vp-planner's `plan_from_model`), with a COLMAP model (`--colmap`)
+/// or an OpenSfM reconstruction (`--opensfm`: an OpenDroneMap project, its
+/// `opensfm` folder or `reconstruction.json`, told apart by their files):
+/// the frame check (unless
 /// `frame_unchecked`), the free space from the model's tracks, the home.
 /// A ColmapModel object or a list of Cameras has no frame.json to check:
 /// they plan as `frame_unchecked` (a ColmapModel's tracks still carve the
@@ -391,7 +394,7 @@ fn plan(
             .detach(|| {
                 vp_planner::plan_from_model(&ModelPlanRequest {
                     mesh: &mesh,
-                    model: &model,
+                    model: &ModelSource::detect(&model),
                     confidence_dir: conf_dir.as_deref(),
                     config: &cfg,
                     roi,

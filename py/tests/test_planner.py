@@ -178,3 +178,60 @@ def test_plan_grid_roi_polygon_equals_cli(site, tmp_path):
         vpctl.planner.plan_grid(mesh_path, height=30, roi_polygon=area)
     with pytest.raises(ValueError, match="not both"):
         vpctl.planner.plan_grid(mesh_path, roi=(0, 0, 0, 1, 1, 1), roi_polygon=area, origin=(46.0, 10.3, 400.0))
+
+
+def _axis_angle(r):
+    """The axis-angle vector of rotation matrix r, through its quaternion
+    (stable at the half turns of nadir views)."""
+    w = np.sqrt(max(0.0, 1.0 + np.trace(r))) / 2
+    v = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
+    if w > 1e-3:
+        v = v / (4 * w)
+    else:
+        i = int(np.argmax(np.diag(r)))
+        j, k = (i + 1) % 3, (i + 2) % 3
+        s = np.sqrt(max(0.0, 1.0 + r[i, i] - r[j, j] - r[k, k])) * 2
+        q = np.zeros(3)
+        q[i] = s / 4
+        q[j] = (r[j, i] + r[i, j]) / s
+        q[k] = (r[k, i] + r[i, k]) / s
+        w = (r[k, j] - r[j, k]) / s
+        v = q if w >= 0 else -q
+        w = abs(w)
+    n = np.linalg.norm(v)
+    return (2 * np.arctan2(n, w) * v / n).tolist() if n > 0 else [0.0, 0.0, 0.0]
+
+
+def test_plan_on_an_opensfm_reconstruction_equals_cli_and_colmap(planning, tmp_path):
+    """An OpenDroneMap project folder plans from Python as `vpctl plan
+    --opensfm` does, and as the same cameras in a COLMAP model do."""
+    root, _, _, roi, cams = planning
+    shots = {}
+    for i, cam in enumerate(cams):
+        wfc = np.asarray(cam.world_from_cam)
+        r_cw = wfc[:3, :3].T
+        t = -r_cw @ wfc[:3, 3]
+        shots[f"img_{i + 1:03}.jpg"] = {"camera": "cam", "rotation": _axis_angle(r_cw),
+                                        "translation": t.tolist()}
+    w, h = CAMERA["width"], CAMERA["height"]
+    rec = [{"cameras": {"cam": {"projection_type": "perspective", "width": w, "height": h,
+                                "focal": CAMERA["focal_px"] / max(w, h), "k1": 0.0, "k2": 0.0}},
+            "shots": shots, "points": {}}]
+    (tmp_path / "odm" / "opensfm").mkdir(parents=True)
+    (tmp_path / "odm" / "opensfm" / "reconstruction.json").write_text(json.dumps(rec))
+    roi_arg = ",".join(str(x) for x in roi)
+    run_cli("plan", "--mesh", root / "site.ply", "--opensfm", tmp_path / "odm", "--config",
+            root / "plan.toml", "--roi-box", roi_arg, "--out", tmp_path / "cli.json", "--no-timings",
+            "--frame-unchecked")
+    r = vpctl.planner.plan(root / "site.ply", tmp_path / "odm", config=root / "plan.toml", roi=roi,
+                           frame_unchecked=True)
+    assert r.plan.to_json(no_timings=True) + "\n" == (tmp_path / "cli.json").read_text()
+    c = vpctl.planner.plan(root / "site.ply", root / "model", config=root / "plan.toml", roi=roi,
+                           frame_unchecked=True)
+    a = np.array([wp["position"] for wp in json.loads(r.plan.to_json())["waypoints"]])
+    b = np.array([wp["position"] for wp in json.loads(c.plan.to_json())["waypoints"]])
+    assert a.shape == b.shape
+    assert np.abs(a - b).max() < 1e-6
+    # Without a reference the frame check says how to get one.
+    with pytest.raises(ValueError, match="no geodetic reference"):
+        vpctl.planner.plan(root / "site.ply", tmp_path / "odm", config=root / "plan.toml", roi=roi)

@@ -4,8 +4,10 @@
 //! command line (the frame check, the free space carved by the model's
 //! tracks, the take-off point).
 //!
-//! [`plan_from_model`] reads the model folder, checks its `frame.json`
-//! (unless told the model is already metric, gravity-aligned ENU), reads the
+//! [`plan_from_model`] reads the model (a COLMAP folder or an OpenSfM
+//! reconstruction, [`ModelSource`]), checks its frame (COLMAP's
+//! `frame.json`, OpenSfM's geodetic reference; unless told the model is
+//! already metric, gravity-aligned ENU), reads the
 //! confidence images, turns the tracks into observation rays, plans (M1-M4)
 //! and records the vertical datum and the home in the plan. [`resolve_home`]
 //! is the take-off rule shared with `plan grid`. [`PlanOutputs::write`]
@@ -14,8 +16,9 @@
 use std::path::{Path, PathBuf};
 
 use nalgebra::{Point3, Vector3};
-use vp_scene::colmap::{self, FrameCheck};
+use vp_scene::colmap::FrameCheck;
 use vp_scene::geodesy::LocalFrame;
+use vp_scene::opensfm::ModelSource;
 use vp_scene::plan::{GeodeticOrigin, Home, Plan, VerticalDatum};
 use vp_scene::raycast::RayCaster;
 use vp_scene::{Camera, Mesh};
@@ -50,8 +53,9 @@ pub enum HomeSpec {
 pub struct ModelPlanRequest<'a> {
     /// The planning mesh, in the model's frame.
     pub mesh: &'a Mesh,
-    /// The COLMAP model folder (text or binary), with `frame.json`.
-    pub model: &'a Path,
+    /// The model: a COLMAP folder (text or binary) with `frame.json`, or
+    /// an OpenSfM reconstruction with its geodetic reference.
+    pub model: &'a ModelSource,
     /// Confidence images (`<image>.vpconf`); `None` plans without prediction (NP).
     pub confidence_dir: Option<&'a Path>,
     /// Planner parameters.
@@ -79,17 +83,18 @@ pub struct ModelPlan {
     /// ([`PlannerConfig::clearance_line`]), the alignment residual of the
     /// model's frame included.
     pub clearance: String,
+    /// The file the frame came from (`frame.json`, `reconstruction.json`,
+    /// `reference_lla.json`).
+    pub frame_file: PathBuf,
+    /// What the model's reader wants the user to know.
+    pub notes: Vec<String>,
 }
 
 /// Plans the next triplets from an acquired model (see the module doc).
 /// Errors name the model, the frame file or the confidence file at fault.
 pub fn plan_from_model(req: &ModelPlanRequest) -> Result<ModelPlan> {
-    let rec = colmap::read_model(req.model)?;
-    let frame = if req.frame_unchecked {
-        None
-    } else {
-        Some(colmap::check_frame(req.model, &rec)?)
-    };
+    let posed = req.model.read_posed(req.frame_unchecked)?;
+    let (rec, frame) = (posed.reconstruction, posed.frame);
     if let Some(dir) = req.confidence_dir {
         check_confidence_dir(dir)?;
     }
@@ -144,6 +149,8 @@ pub fn plan_from_model(req: &ModelPlanRequest) -> Result<ModelPlan> {
         acquired,
         frame,
         clearance,
+        frame_file: posed.frame_file,
+        notes: posed.notes,
     })
 }
 

@@ -37,6 +37,7 @@ pub mod mesh;
 pub mod mesh_inspect;
 pub mod mesh_ops;
 pub mod occupancy;
+pub mod opensfm;
 pub mod outdir;
 pub mod plan;
 pub mod procedural;

@@ -101,8 +101,18 @@ pub struct AlignArgs {
 #[derive(Debug, clap::Args)]
 pub struct UndistortArgs {
     /// The sparse model (e.g. `sparse/0`), with distorted cameras.
-    #[arg(long = "colmap", alias = "model", value_name = "DIR")]
-    pub model: PathBuf,
+    #[arg(
+        long = "colmap",
+        alias = "model",
+        value_name = "DIR",
+        required_unless_present = "opensfm"
+    )]
+    pub model: Option<PathBuf>,
+    /// Or an OpenSfM reconstruction (an OpenDroneMap project, its `opensfm`
+    /// folder or `reconstruction.json`); its geodetic reference becomes
+    /// `sparse/frame.json`.
+    #[arg(long, value_name = "DIR", conflicts_with = "model")]
+    pub opensfm: Option<PathBuf>,
     /// The folder of the photos the model names.
     #[arg(long)]
     pub images: PathBuf,
@@ -181,7 +191,13 @@ fn undistort(a: &UndistortArgs, out: &mut dyn Write) -> Result<()> {
         max_image_size: a.max_image_size,
         ..colmap::UndistortOptions::default()
     };
-    let report = colmap::undistort_workspace(&a.model, &a.images, &a.out, &opts, a.force)?;
+    let report = match (&a.model, &a.opensfm) {
+        (_, Some(p)) => {
+            vp_scene::opensfm::undistort_opensfm_workspace(p, &a.images, &a.out, &opts, a.force)?
+        }
+        (Some(dir), None) => colmap::undistort_workspace(dir, &a.images, &a.out, &opts, a.force)?,
+        (None, None) => anyhow::bail!("--colmap or --opensfm is required"),
+    };
     for (d, u) in &report.cameras {
         writeln!(
             out,

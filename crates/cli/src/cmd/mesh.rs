@@ -50,8 +50,12 @@ pub enum MeshCommand {
     /// `colmap model_orientation_aligner` or georegistration).
     Build {
         /// A COLMAP sparse model directory (text or binary).
-        #[arg(long, required_unless_present = "points")]
+        #[arg(long, required_unless_present_any = ["points", "opensfm"])]
         colmap: Option<PathBuf>,
+        /// Or an OpenSfM reconstruction (an OpenDroneMap project, its
+        /// `opensfm` folder or `reconstruction.json`), already in ENU.
+        #[arg(long, value_name = "DIR", conflicts_with = "colmap")]
+        opensfm: Option<PathBuf>,
         /// A point file (.ply or .obj; only its vertices, and a PLY's vertex
         /// normals, are used).
         #[arg(long)]
@@ -131,6 +135,7 @@ pub fn run(cmd: MeshCommand, out: &mut dyn Write) -> Result<()> {
         MeshCommand::Info { file } => info(&file, out),
         MeshCommand::Build {
             colmap,
+            opensfm,
             points,
             out: path,
             method,
@@ -146,6 +151,7 @@ pub fn run(cmd: MeshCommand, out: &mut dyn Write) -> Result<()> {
                 Method::HeightField => SurfaceMethod::HeightField,
             });
             req.colmap = colmap;
+            req.opensfm = opensfm;
             req.points = points;
             req.surface.cell_size = cell_size;
             req.surface.trim_distance = trim_distance;

@@ -11,9 +11,10 @@ use vp_planner::{
     GridRequest, HomeSpec, ModelPlanRequest, PlanContext, PlanOutputs, PlannerConfig, RoiSpec,
 };
 use vp_scene::datum::VerticalDatum;
+use vp_scene::opensfm::ModelSource;
 use vp_scene::plan::{GeodeticOrigin, Plan, Role};
 use vp_scene::roi::Roi;
-use vp_scene::{colmap, fsio, Camera, Mesh};
+use vp_scene::{fsio, Camera, Mesh};
 
 mod summary;
 
@@ -33,10 +34,15 @@ pub struct PlanArgs {
     #[arg(
         long = "colmap",
         alias = "cameras",
-        required = true,
+        required_unless_present = "opensfm",
         value_name = "DIR"
     )]
     cameras: Option<PathBuf>,
+    /// Or an OpenSfM reconstruction: an OpenDroneMap project folder, its
+    /// `opensfm` folder or `reconstruction.json`; georeferenced by its
+    /// `reference_lla`, so no `colmap align` (docs/formats.md).
+    #[arg(long, value_name = "DIR", conflicts_with = "cameras")]
+    opensfm: Option<PathBuf>,
     /// Directory of confidence images: `<image name>.vpconf` (extension
     /// replaced) per image of the model. Without it: no prediction (NP).
     #[arg(long)]
@@ -388,16 +394,26 @@ fn outline(roi: &RoiSpec, pts: impl Iterator<Item = Point3<f64>>) -> Vec<[f64; 2
     }
 }
 
+impl PlanArgs {
+    /// `--colmap DIR` or `--opensfm DIR`.
+    fn model(&self) -> Result<ModelSource> {
+        Ok(match (&self.cameras, &self.opensfm) {
+            (_, Some(dir)) => ModelSource::OpenSfm(dir.clone()),
+            (dir, None) => ModelSource::Colmap(required(dir.as_ref(), "--colmap")?.to_path_buf()),
+        })
+    }
+}
+
 fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
     let c = &args.common;
     let outputs = c.check_outputs()?;
     let cfg = c.config()?;
     let mesh = super::read_mesh(required(args.mesh.as_ref(), "--mesh")?)?;
-    let model = required(args.cameras.as_ref(), "--colmap")?;
+    let model = args.model()?;
     let roi = c.roi()?;
     let job = vp_planner::plan_from_model(&ModelPlanRequest {
         mesh: &mesh,
-        model,
+        model: &model,
         confidence_dir: args.confidence_dir.as_deref(),
         config: &cfg,
         roi: roi.clone(),
@@ -406,10 +422,13 @@ fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
         home: c.home(args.home_from_first_image),
         frame_unchecked: args.frame_unchecked,
     })?;
+    for note in &job.notes {
+        eprintln!("note: {note}");
+    }
     if let Some(check) = &job.frame {
         eprintln!(
             "frame: {} (origin {:.7},{:.7},{:.2}; cameras {:.2} m apart, median)",
-            model.join(colmap::FRAME_FILE).display(),
+            job.frame_file.display(),
             check.frame.origin.lat_deg,
             check.frame.origin.lon_deg,
             check.frame.origin.alt_m,

@@ -125,8 +125,20 @@ pub fn check_frame(dir: &Path, rec: &Reconstruction) -> Result<FrameCheck> {
         ));
     }
     let frame = ModelFrame::load(dir)?;
+    check_frame_of(frame, &frame_path, rec, fix)
+}
+
+/// The checks of [`check_frame`] on a frame from elsewhere (an OpenSfM
+/// reconstruction's geodetic reference): errors name `source` and end with
+/// `fix`, the next step.
+pub fn check_frame_of(
+    frame: ModelFrame,
+    source: &Path,
+    rec: &Reconstruction,
+    fix: &str,
+) -> Result<FrameCheck> {
     frame.origin.validate()?;
-    let bad = |m: String| SceneError::parse(&frame_path, Location::Header, format!("{m}; {fix}"));
+    let bad = |m: String| SceneError::parse(source, Location::Header, format!("{m}; {fix}"));
     let centers: Vec<Point3<f64>> = rec.images.values().map(ColmapImage::center).collect();
     let mut spacing: Vec<f64> = centers
         .iter()

@@ -48,7 +48,9 @@ pub use depth::{
     write_normal_map, DepthMap, DepthStats, NormalMap,
 };
 pub use exif_positions::{read_positions_exif, ExifPositions};
-pub use frame::{check_frame, read_positions_csv, FrameCheck, ModelFrame, FRAME_FILE};
+pub use frame::{
+    check_frame, check_frame_of, read_positions_csv, FrameCheck, ModelFrame, FRAME_FILE,
+};
 pub use model::{CameraModel, ColmapCamera, ColmapImage, Point2D, Point3D};
 pub use reconstruction::Reconstruction;
 pub use text::{
@@ -62,6 +64,7 @@ pub use undistort::{
 
 use crate::error::{Location, Result, SceneError};
 use reconstruction::ModelFile;
+pub(crate) use undistort::undistort_into;
 
 /// The two on-disk forms of a sparse model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -136,6 +139,12 @@ pub fn detect_format(dir: &Path) -> Result<ModelFormat> {
     let sub = dir.join("0");
     if complete(ModelFormat::Binary, &sub) || complete(ModelFormat::Text, &sub) {
         message = format!("{message} (a model exists in {})", sub.display());
+    }
+    if crate::opensfm::find_reconstruction(dir).is_ok() {
+        message = format!(
+            "{message}; the folder holds an OpenSfM reconstruction (OpenDroneMap): pass it with              --opensfm {} instead",
+            dir.display()
+        );
     }
     Err(SceneError::parse(dir, Location::Header, message))
 }

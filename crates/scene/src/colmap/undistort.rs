@@ -389,11 +389,41 @@ pub fn undistort_workspace(
     let format = detect_format(model_dir)?;
     let cameras_file = format.files(model_dir)[0].clone();
     let rec = read_model_as(model_dir, format)?;
-    let undistorted = match undistort_reconstruction(&rec, opts) {
+    // Undistortion keeps poses and points: an aligned model's frame
+    // (`vpctl colmap align`) holds for the workspace too.
+    let frame = model_dir.join(super::FRAME_FILE);
+    let frame = if frame.is_file() {
+        Some(crate::fsio::read_file(&frame)?)
+    } else {
+        None
+    };
+    undistort_into(
+        &rec,
+        &cameras_file,
+        frame.as_deref(),
+        images_dir,
+        &out_dir,
+        opts,
+    )
+}
+
+/// The work of [`undistort_workspace`] on a model already read (from
+/// COLMAP's files or OpenSfM's `reconstruction.json`, named by
+/// `cameras_file` in errors), with the bytes of the `frame.json` to write
+/// into `sparse/`, if any.
+pub(crate) fn undistort_into(
+    rec: &Reconstruction,
+    cameras_file: &Path,
+    frame: Option<&[u8]>,
+    images_dir: &Path,
+    out_dir: &OutDir,
+    opts: &UndistortOptions,
+) -> Result<UndistortReport> {
+    let undistorted = match undistort_reconstruction(rec, opts) {
         Ok(u) => u,
         Err(SceneError::InvalidArgument(m)) => {
             return Err(SceneError::parse(
-                &cameras_file,
+                cameras_file,
                 Location::Header,
                 format!("{m} (vpctl colmap undistort handles every COLMAP camera model but EQUIRECTANGULAR)"),
             ))
@@ -420,14 +450,11 @@ pub fn undistort_workspace(
             ));
         }
     }
+    let out = out_dir.path().to_path_buf();
     out_dir.write(|tmp| {
-        write_workspace(tmp, images_dir, &rec, &undistorted)?;
-        // Undistortion keeps poses and points: an aligned model's frame
-        // (`vpctl colmap align`) holds for the workspace too.
-        let frame = model_dir.join(super::FRAME_FILE);
-        if frame.is_file() {
-            let bytes = crate::fsio::read_file(&frame)?;
-            crate::fsio::write_file_atomic(&tmp.join("sparse").join(super::FRAME_FILE), &bytes)?;
+        write_workspace(tmp, images_dir, rec, &undistorted)?;
+        if let Some(bytes) = frame {
+            crate::fsio::write_file_atomic(&tmp.join("sparse").join(super::FRAME_FILE), bytes)?;
         }
         Ok::<_, SceneError>(())
     })?;
@@ -437,7 +464,7 @@ pub fn undistort_workspace(
         .filter_map(|(id, c)| undistorted.cameras.get(id).map(|u| (c.clone(), u.clone())))
         .collect();
     Ok(UndistortReport {
-        out: out.to_path_buf(),
+        out,
         cameras,
         n_images: rec.images.len(),
     })

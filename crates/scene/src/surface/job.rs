@@ -35,6 +35,9 @@ pub enum SurfaceMethod {
 pub struct SurfaceRequest {
     /// A COLMAP model: its 3D points, seen from their tracks' cameras.
     pub colmap: Option<PathBuf>,
+    /// An OpenSfM reconstruction (OpenDroneMap project): the same, its
+    /// tracks from `tracks.csv`.
+    pub opensfm: Option<PathBuf>,
     /// A point cloud (PLY, with normals if it has `nx ny nz`).
     pub points: Option<PathBuf>,
     /// The method.
@@ -51,6 +54,7 @@ impl SurfaceRequest {
     pub fn new(method: SurfaceMethod) -> Self {
         SurfaceRequest {
             colmap: None,
+            opensfm: None,
             points: None,
             method,
             surface: SurfaceParams::default(),
@@ -86,6 +90,11 @@ pub fn load_samples(req: &SurfaceRequest) -> Result<(Vec<SurfaceSample>, Vec<Rea
     let mut warnings = Vec::new();
     if let Some(dir) = &req.colmap {
         samples.extend(samples_from_model(&colmap::read_model(dir)?));
+    }
+    if let Some(p) = &req.opensfm {
+        samples.extend(samples_from_model(
+            &crate::opensfm::read_opensfm(p)?.reconstruction,
+        ));
     }
     if let Some(file) = &req.points {
         let cloud = io::load_points_with_normals(file)?;
