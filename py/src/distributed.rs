@@ -156,6 +156,7 @@ impl PyLabelData {
         req.params = convert::from_py(params, "params")?;
         req.frame_unchecked = frame_unchecked;
         let run = py.detach(|| vp_labelgen::load_label_run(&req)).py()?;
+        crate::errors::warn_all(py, &run.warnings)?;
         Ok(PyLabelData {
             recs: run.reconstructions,
             meshes: run.meshes,

@@ -170,3 +170,27 @@ pub fn mvs(e: &MvsError) -> PyErr {
 pub fn value_error(msg: impl Into<String>) -> PyErr {
     PyValueError::new_err(msg.into())
 }
+
+/// Issues each reader warning as a Python `UserWarning` (the library
+/// returns them; Python's `warnings` module decides whether to show them).
+pub fn warn_all(
+    py: pyo3::Python<'_>,
+    warnings: &[vp_scene::io::ReadWarning],
+) -> pyo3::PyResult<()> {
+    let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
+    for w in warnings {
+        let text = std::ffi::CString::new(w.to_string().replace('\0', " ")).unwrap_or_default();
+        PyErr::warn(py, category.as_any(), &text, 1)?;
+    }
+    Ok(())
+}
+
+/// [`vp_scene::io::read_mesh`] with its warnings issued as Python warnings.
+pub fn read_mesh(py: pyo3::Python<'_>, path: &std::path::Path) -> pyo3::PyResult<vp_scene::Mesh> {
+    use self::IntoPy as _;
+    let (mesh, warnings) = py
+        .detach(|| vp_scene::io::read_mesh_with_warnings(path))
+        .py()?;
+    warn_all(py, &warnings)?;
+    Ok(mesh)
+}

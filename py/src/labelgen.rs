@@ -275,9 +275,10 @@ fn run<'py>(
         inputs: Vec::new(),
         force,
     };
-    let s = py
+    let (s, warnings) = py
         .detach(|| vp_labelgen::run_labelling(&req, &output))
         .py()?;
+    crate::errors::warn_all(py, &warnings)?;
     convert::to_py(py, &s)
 }
 

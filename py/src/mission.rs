@@ -40,9 +40,12 @@ struct Keywords {
     rtl: bool,
 }
 
-/// `home=(lat, lon, alt)` or `(lat, lon, alt, "egm96" | "ellipsoid" | "takeoff")`.
-fn home_of(
+/// `home=(lat, lon, alt)` or `(lat, lon, alt, "egm96" | "ellipsoid" | "takeoff")`;
+/// any other shape is a `ValueError` "home: expected {expected}" (the
+/// planner's `home=` also takes "first_image" and says so).
+pub(crate) fn home_of(
     home: Option<&Bound<'_, PyAny>>,
+    expected: &str,
 ) -> PyResult<Option<(GeodeticOrigin, Option<VerticalDatum>)>> {
     let Some(home) = home.filter(|h| !h.is_none()) else {
         return Ok(None);
@@ -52,7 +55,7 @@ fn home_of(
     } else {
         let (lat, lon, alt, d) = home
             .extract::<(f64, f64, f64, String)>()
-            .map_err(|_| value_error("home: expected (lat, lon, alt) or (lat, lon, alt, datum)"))?;
+            .map_err(|_| value_error(format!("home: expected {expected}")))?;
         (lat, lon, alt, Some(d.parse::<VerticalDatum>().py()?))
     };
     Ok(Some((GeodeticOrigin::new(lat, lon, alt).py()?, datum)))
@@ -74,7 +77,7 @@ fn options(
         speed_m_s: k.speed,
         takeoff_m: k.takeoff,
         return_to_launch: k.rtl,
-        home: home_of(home)?,
+        home: home_of(home, "(lat, lon, alt) or (lat, lon, alt, datum)")?,
         limits: HeightLimits {
             min_height_m: min_height,
             ceiling_m: ceiling,

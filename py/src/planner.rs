@@ -16,7 +16,7 @@ use vp_planner::{
 use vp_scene::opensfm::ModelSource;
 use vp_scene::plan::{GeodeticOrigin, Plan, Role, VerticalDatum};
 use vp_scene::roi::Roi;
-use vp_scene::{io, Mesh};
+use vp_scene::Mesh;
 
 use crate::convert::{self, points_array};
 use crate::errors::{value_error, IntoPy};
@@ -211,7 +211,7 @@ fn mesh_of(obj: &Bound<'_, PyAny>) -> PyResult<Mesh> {
     let path: PathBuf = obj
         .extract()
         .map_err(|_| value_error("mesh: expected a Mesh or a file path"))?;
-    io::read_mesh(&path).py()
+    crate::errors::read_mesh(obj.py(), &path)
 }
 
 /// `roi=` or `roi_polygon=` (with `roi_name=`, `roi_heights=`), as
@@ -317,17 +317,10 @@ fn home_spec(home: Option<&Bound<'_, PyAny>>) -> PyResult<HomeSpec> {
             )))
         };
     }
-    let (lat, lon, alt, datum) = if let Ok((lat, lon, alt)) = home.extract::<(f64, f64, f64)>() {
-        (lat, lon, alt, None)
-    } else {
-        let (lat, lon, alt, d) = home.extract::<(f64, f64, f64, String)>().map_err(|_| {
-            value_error("home: expected (lat, lon, alt), (lat, lon, alt, datum) or \"first_image\"")
-        })?;
-        (lat, lon, alt, Some(d.parse::<VerticalDatum>().py()?))
-    };
-    Ok(HomeSpec::At {
-        position: GeodeticOrigin::new(lat, lon, alt).py()?,
-        datum,
+    let expected = "(lat, lon, alt), (lat, lon, alt, datum) or \"first_image\"";
+    Ok(match crate::mission::home_of(Some(home), expected)? {
+        Some((position, datum)) => HomeSpec::At { position, datum },
+        None => HomeSpec::Unset,
     })
 }
 

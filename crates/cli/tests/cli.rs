@@ -101,6 +101,35 @@ fn mesh_info_reports_problems_with_their_own_exit_code() {
     assert!(stderr(&o).contains("bad.obj"));
 }
 
+/// The PLY reader returns its warnings and the CLI prints them: a header
+/// line without a keyword (old Blender exporters) reads as a comment, and
+/// `mesh info` says so on standard error, naming the file and the line,
+/// while its report on standard output stays clean.
+#[test]
+fn a_ply_read_with_a_warning_is_read_and_the_warning_printed() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = dir.path().join("blender.ply");
+    std::fs::write(
+        &mesh,
+        "ply\nformat ascii 1.0\nCreated by Blender3D 2.49\nelement vertex 3\nproperty float x\n\
+         property float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+         end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+    )
+    .unwrap();
+    let o = vpctl(&["mesh", "info", mesh.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("faces: 1"), "{}", stdout(&o));
+    assert!(!stdout(&o).contains("warning"), "{}", stdout(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("warning: ")
+            && err.contains(
+                "blender.ply: line 3: header line without a PLY keyword read as a comment"
+            ),
+        "{err}"
+    );
+}
+
 #[test]
 fn bad_and_missing_files_name_the_file_and_place() {
     let dir = tempfile::tempdir().unwrap();

@@ -4,9 +4,10 @@
 //! written. The README's "fly it" commands are the ones run here.
 
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Output};
 
 use vp_scene::plan::{GeodeticOrigin, Home, Plan, PlannedView, Role, VerticalDatum};
+use vp_test_support::python::litchi_python;
 
 fn vpctl(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_vpctl"))
@@ -181,27 +182,6 @@ fn bad_dji_input_exits_2_and_writes_nothing() {
         }
         assert_eq!(files_in(dir.path()), before, "{full:?} wrote something");
     }
-}
-
-/// `VP_LITCHI_PYTHON` (default `python3`) if it imports `litchi_wp`; else
-/// `None` after one line saying why (a panic when `VP_REQUIRE_LITCHI` is
-/// set, as in CI, where scripts/test.sh installs it).
-fn litchi_python() -> Option<String> {
-    let py = std::env::var("VP_LITCHI_PYTHON").unwrap_or_else(|_| "python3".into());
-    let ok = Command::new(&py)
-        .args(["-c", "import litchi_wp"])
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success());
-    if ok {
-        return Some(py);
-    }
-    assert!(
-        std::env::var_os("VP_REQUIRE_LITCHI").is_none(),
-        "VP_REQUIRE_LITCHI is set but {py} cannot import litchi_wp"
-    );
-    println!("skipped: {py} cannot import litchi_wp (set VP_LITCHI_PYTHON)");
-    None
 }
 
 const READ_WITH_LITCHI_WP: &str = r#"

@@ -297,7 +297,7 @@ fn plan_refuses_a_model_without_frame_unless_told() {
     let model = colmap::read_model(&dir.path().join("model")).unwrap();
     let far = colmap::transform_reconstruction(
         &model,
-        &colmap::Sim3 {
+        &vp_scene::sim3::Sim3 {
             scale: 1000.0,
             rotation_wxyz: [1.0, 0.0, 0.0, 0.0],
             translation: [0.0; 3],

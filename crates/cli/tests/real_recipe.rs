@@ -32,14 +32,14 @@ use std::process::{Command, Stdio};
 use std::time::Instant;
 
 use nalgebra::{Point3, UnitQuaternion, Vector3};
-use vp_scene::colmap::{self, ModelFrame, Sim3};
+use vp_scene::colmap::{self, ModelFrame};
 use vp_scene::plan::GeodeticOrigin;
+use vp_scene::sim3::Sim3;
 
 mod common;
-#[path = "../../mission/tests/mavsdk/python.rs"]
-mod mavsdk;
 
 use common::{stderr, stdout, vpctl};
+use vp_test_support::python::mavsdk_python;
 
 /// Runs `vpctl` on a command line split at whitespace (the temporary paths
 /// have none), asserts exit 0 and returns stdout.
@@ -87,7 +87,7 @@ const ORIGIN: GeodeticOrigin = GeodeticOrigin {
 fn readme_real_photo_recipe_runs_end_to_end_on_the_visp_cube_photos() {
     let start = Instant::now();
     // Before the work: a required but missing MAVSDK fails at once.
-    let mavsdk = mavsdk::mavsdk_python();
+    let mavsdk = mavsdk_python();
     let data = data();
     let tmp = tempfile::tempdir().unwrap();
     let t = tmp.path().to_str().unwrap();

@@ -31,7 +31,10 @@
 //! `(pos_i + k p) / (pos_i + neg_i + k)` with class-weighted counts, p the
 //! leaf's overall positive ratio (over all its samples, gamma_max or not) and k = [`TrainParams::pseudo_count`]
 //! (default 2): an empty bin reads p. Prediction averages the trees.
-#![warn(missing_docs)]
+#![warn(missing_docs, unreachable_pub)]
+// A library tells its caller (returned warnings, reports, progress callbacks);
+// only the CLI and the Python bindings print (docs/design.md).
+#![deny(clippy::print_stderr, clippy::print_stdout)]
 
 pub mod batch;
 mod dataset;

@@ -118,7 +118,7 @@ impl TrainParams {
 }
 
 /// Deepest tree vpctl trains or loads; far beyond the paper's 20.
-pub const MAX_DEPTH_LIMIT: usize = 40;
+pub(crate) const MAX_DEPTH_LIMIT: usize = 40;
 
 impl TrainParams {
     /// Checks every parameter, naming the first one out of range.

@@ -3,6 +3,7 @@
 //! histogram (responses are small integers) instead of by sorting.
 
 use rayon::prelude::*;
+use vp_scene::hash::SplitMix64;
 
 use crate::patch::{SplitTest, TestOp, RESPONSE_MIN, RESPONSE_RANGE};
 
@@ -84,16 +85,6 @@ impl Entropy {
         };
         total - self.class_term[0][n] - self.class_term[1][p]
     }
-}
-
-/// SplitMix64: a tiny seeded generator for threshold jitter; seeding a
-/// ChaCha stream per test would cost more than scoring the test.
-fn splitmix(state: &mut u64) -> u64 {
-    *state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    let mut z = *state;
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
 }
 
 /// Histogram slots per class: a power of two above [`RESPONSE_RANGE`], so
@@ -211,9 +202,11 @@ fn score_test(
     if count <= n_thresholds {
         (0..count).for_each(&mut consider);
     } else {
-        let mut state = seed;
+        // SplitMix64 for the jitter: seeding a ChaCha stream per test would
+        // cost more than scoring the test.
+        let mut jitter = SplitMix64::new(seed);
         for i in 0..n_thresholds {
-            let u = (splitmix(&mut state) >> 11) as f64 / (1u64 << 53) as f64;
+            let u = jitter.next_f64();
             let k = (((i as f64 + u) * count as f64 / n_thresholds as f64) as usize).min(count - 1);
             consider(k);
         }

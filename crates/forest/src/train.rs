@@ -13,6 +13,7 @@ use rand::{Rng, RngCore, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use vp_scene::hash::{finalise, GOLDEN_GAMMA};
 
 use crate::dataset::{Sample, TrainingSet};
 use crate::error::{ForestError, Result};
@@ -22,14 +23,14 @@ use crate::split::{best_split, NodeData};
 use crate::tree::{Node, Tree};
 use crate::Forest;
 
-/// Mixes two numbers into a seed (SplitMix64 finaliser).
+/// Mixes two numbers into a seed (the SplitMix64 finaliser of `a` and an
+/// odd multiple of `b`'s SplitMix64 state).
 pub(crate) fn mix(a: u64, b: u64) -> u64 {
-    let mut z = a ^ b
-        .wrapping_add(0x9e37_79b9_7f4a_7c15)
-        .wrapping_mul(0xd6e8_feb8_6659_fd93);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
+    finalise(
+        a ^ b
+            .wrapping_add(GOLDEN_GAMMA)
+            .wrapping_mul(0xd6e8_feb8_6659_fd93),
+    )
 }
 
 /// Below this many response evaluations per node the tests run on one thread.

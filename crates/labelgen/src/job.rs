@@ -15,6 +15,7 @@
 use std::path::{Path, PathBuf};
 
 use vp_scene::colmap;
+use vp_scene::io::ReadWarning;
 use vp_scene::outdir::OutDir;
 
 use crate::error::Result;
@@ -76,6 +77,8 @@ pub struct LabelRun {
     pub meshes: Option<MissingPartMeshes>,
     /// The parameters (validated).
     pub params: LabelParams,
+    /// What the mesh was read with a warning, for the caller to tell.
+    pub warnings: Vec<ReadWarning>,
 }
 
 /// Loads the run of `req`: the model (frame-checked unless told not to),
@@ -88,17 +91,20 @@ pub fn load_label_run(req: &LabelRunRequest) -> Result<LabelRun> {
     }
     let list = triplets::read_triplet_list(&req.triplets)?;
     let reconstructions = io::load_reconstructions(&model, &list, &req.depth_dir)?;
+    let mut warnings = Vec::new();
     let meshes = match &req.mesh {
-        Some(p) => Some(MissingPartMeshes::new(
-            &vp_scene::io::read_mesh(p)?,
-            req.params.mesh_iterations,
-        )),
+        Some(p) => {
+            let (mesh, read) = vp_scene::io::read_mesh_with_warnings(p)?;
+            warnings = read;
+            Some(MissingPartMeshes::new(&mesh, req.params.mesh_iterations))
+        }
         None => None,
     };
     Ok(LabelRun {
         reconstructions,
         meshes,
         params: req.params.clone(),
+        warnings,
     })
 }
 
@@ -122,8 +128,12 @@ pub struct LabelOutput {
 }
 
 /// The labelling run of `req` into `output` (see the module doc); returns
-/// the summary written to `summary.json`.
-pub fn run_labelling(req: &LabelRunRequest, output: &LabelOutput) -> Result<LabelSummary> {
+/// the summary written to `summary.json` and what the inputs were read
+/// with a warning (for the caller to tell).
+pub fn run_labelling(
+    req: &LabelRunRequest,
+    output: &LabelOutput,
+) -> Result<(LabelSummary, Vec<ReadWarning>)> {
     run_labelling_with_progress(req, output, &mut |_| {})
 }
 
@@ -133,7 +143,7 @@ pub fn run_labelling_with_progress(
     req: &LabelRunRequest,
     output: &LabelOutput,
     progress: &mut dyn FnMut(&str),
-) -> Result<LabelSummary> {
+) -> Result<(LabelSummary, Vec<ReadWarning>)> {
     let mut inputs = req.inputs();
     inputs.extend(output.inputs.iter().map(PathBuf::as_path));
     let target = OutDir::check(&output.out, "labelgen run", &inputs, output.force)?;
@@ -142,5 +152,6 @@ pub fn run_labelling_with_progress(
     progress("labelling (support, voting, missing parts)");
     let labels = run.label()?;
     progress("writing the labels");
-    target.write(|stage| io::write_labels(stage, &labels, false))
+    let summary = target.write(|stage| io::write_labels(stage, &labels, false))?;
+    Ok((summary, run.warnings))
 }

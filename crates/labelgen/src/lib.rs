@@ -14,7 +14,10 @@
 //! The entry point is [`generate_labels`]: reconstructions in, one
 //! [`LabelImage`](vp_scene::raster::LabelImage) per view out. Every triplet at
 //! every pyramid level is an independent [`TripletReconstruction`].
-#![warn(missing_docs)]
+#![warn(missing_docs, unreachable_pub)]
+// A library tells its caller (returned warnings, reports, progress callbacks);
+// only the CLI and the Python bindings print (docs/design.md).
+#![deny(clippy::print_stderr, clippy::print_stdout)]
 
 pub mod error;
 pub mod io;

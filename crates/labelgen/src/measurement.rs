@@ -136,7 +136,7 @@ pub(crate) struct Prepared<'a> {
 }
 
 impl<'a> Prepared<'a> {
-    pub fn new(rec: &'a TripletReconstruction, params: &LabelParams) -> Self {
+    pub(crate) fn new(rec: &'a TripletReconstruction, params: &LabelParams) -> Self {
         let cameras = rec.views.clone().map(|v| v.camera);
         let centres = cameras.map(|c| c.center());
         let mean_centre =
@@ -177,7 +177,7 @@ impl<'a> Prepared<'a> {
 
     /// Whether the two reconstructions' measurements can overlap in space,
     /// with a margin for their uncertainty.
-    pub fn may_overlap(&self, other: &Prepared<'_>, margin: f64) -> bool {
+    pub(crate) fn may_overlap(&self, other: &Prepared<'_>, margin: f64) -> bool {
         (0..3).all(|k| {
             self.bounds.min[k] - margin <= other.bounds.max[k]
                 && other.bounds.min[k] - margin <= self.bounds.max[k]
@@ -185,13 +185,13 @@ impl<'a> Prepared<'a> {
     }
 
     /// Resolution of this triplet at `p`: mean focal over distance from the mean centre.
-    pub fn resolution_at(&self, p: &Point3<f64>) -> f64 {
+    pub(crate) fn resolution_at(&self, p: &Point3<f64>) -> f64 {
         self.mean_focal / (self.mean_centre - p).norm()
     }
 
     /// The measurement of view `v` at linear pixel index `idx`, if any.
     #[inline]
-    pub fn point(&self, v: usize, idx: usize) -> Option<Point3<f64>> {
+    pub(crate) fn point(&self, v: usize, idx: usize) -> Option<Point3<f64>> {
         if self.data[v].sigma[idx] <= 0.0 {
             return None;
         }
@@ -222,7 +222,7 @@ pub(crate) struct ZBuffer {
 impl ZBuffer {
     /// Depth at `idx`, if a measurement landed there.
     #[inline]
-    pub fn get(&self, idx: usize) -> Option<(f32, f32)> {
+    pub(crate) fn get(&self, idx: usize) -> Option<(f32, f32)> {
         let d = self.depth[idx];
         d.is_finite().then(|| (d, self.weight[idx]))
     }

@@ -18,7 +18,10 @@
 //!
 //! Entry points for a command line: [`export_qgc`], [`export_wpl`],
 //! [`upload`], [`download`], [`clear`].
-#![warn(missing_docs)]
+#![warn(missing_docs, unreachable_pub)]
+// A library tells its caller (returned warnings, reports, progress callbacks);
+// only the CLI and the Python bindings print (docs/design.md).
+#![deny(clippy::print_stderr, clippy::print_stdout)]
 
 mod aftermath;
 pub mod error;

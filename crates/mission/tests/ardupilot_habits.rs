@@ -14,7 +14,8 @@ use vp_mission::{
     build_mission, compare_items, upload_over, Autopilot, CameraTrigger, GimbalCommand, Link,
     Mission, MissionError, MissionItem, MissionOptions,
 };
-use vp_scene::plan::{GeodeticOrigin, Plan, PlannedView, Role};
+use vp_scene::plan::Plan;
+use vp_test_support::plans;
 
 const TARGET: Target = Target {
     system: 1,
@@ -22,29 +23,20 @@ const TARGET: Target = Target {
 };
 
 fn plan(n_views: usize, seed: u64) -> Plan {
-    let mut p = Plan::new(Some(GeodeticOrigin {
-        lat_deg: 46.05,
-        lon_deg: 10.32,
-        alt_m: 450.0,
-    }));
-    p.home = p.origin.map(vp_scene::plan::Home::origin_on_ground);
+    let mut p = plans::plan_at(plans::ALPS);
     for i in 0..n_views {
         let k = (i as u64 * 7 + seed) as f64;
-        p.waypoints.push(PlannedView {
-            position: [
+        p.waypoints.push(plans::photo(
+            [
                 k * 7.3 % 400.0 - 200.0,
                 k * 13.1 % 300.0 - 150.0,
                 // Heights on the centimetre grid and off it.
                 8.0 + (k * 0.37) % 30.0,
             ],
-            yaw_deg: k * 37.0 % 360.0,
-            pitch_deg: -(k * 11.0 % 90.0),
-            roll_deg: 0.0,
-            role: Role::TripletMember,
-            triplet_id: None,
-            expected_gain: None,
-            angle_bin_deg: None,
-        });
+            k * 37.0 % 360.0,
+            -(k * 11.0 % 90.0),
+            None,
+        ));
     }
     p
 }

@@ -22,7 +22,7 @@ use vp_mission::{
     build_mission, connect, upload_over, Autopilot, ConnectOptions, Link, Mission, MissionError,
     MissionOptions,
 };
-use vp_scene::plan::{GeodeticOrigin, Plan, PlannedView, Role};
+use vp_test_support::plans;
 
 const TARGET: Target = Target {
     system: 1,
@@ -30,29 +30,7 @@ const TARGET: Target = Target {
 };
 
 fn mission(n_views: usize, autopilot: Autopilot, seed: u64) -> Mission {
-    let mut p = Plan::new(Some(GeodeticOrigin {
-        lat_deg: 46.05,
-        lon_deg: 10.32,
-        alt_m: 450.0,
-    }));
-    p.home = p.origin.map(vp_scene::plan::Home::origin_on_ground);
-    for i in 0..n_views {
-        let k = (i as u64 * 7 + seed) as f64;
-        p.waypoints.push(PlannedView {
-            position: [
-                k * 7.3 % 400.0 - 200.0,
-                k * 13.1 % 300.0 - 150.0,
-                30.0 + k % 20.0,
-            ],
-            yaw_deg: k * 37.0 % 360.0,
-            pitch_deg: -(k * 11.0 % 90.0),
-            roll_deg: 0.0,
-            role: Role::TripletMember,
-            triplet_id: None,
-            expected_gain: None,
-            angle_bin_deg: None,
-        });
-    }
+    let p = plans::scattered_plan(n_views, seed, 7, false);
     build_mission(&p, &MissionOptions::for_autopilot(autopilot)).unwrap()
 }
 

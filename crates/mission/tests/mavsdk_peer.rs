@@ -16,34 +16,24 @@ use vp_mission::{
     build_mission, connect, qgc, upload_over, Autopilot, ConnectOptions, Mission, MissionItem,
     MissionOptions, ProtocolConfig,
 };
-use vp_scene::plan::{GeodeticOrigin, Plan, PlannedView, Role};
-
-#[path = "mavsdk/python.rs"]
-mod mavsdk;
+use vp_scene::plan::Plan;
+use vp_test_support::plans;
+use vp_test_support::python::mavsdk_python;
 
 fn script() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/mavsdk/mavsdk_peer.py")
 }
 
 fn plan() -> Plan {
-    let mut p = Plan::new(Some(GeodeticOrigin {
-        lat_deg: 47.397_742,
-        lon_deg: 8.545_594,
-        alt_m: 488.0,
-    }));
-    p.home = p.origin.map(vp_scene::plan::Home::origin_on_ground);
+    let mut p = plans::plan_at(plans::ZURICH);
     for i in 0..5 {
         let k = f64::from(i);
-        p.waypoints.push(PlannedView {
-            position: [k * 15.0, 10.0 - k * 3.0, 35.0 + k],
-            yaw_deg: k * 70.0,
-            pitch_deg: -20.0 - k * 10.0,
-            roll_deg: 0.0,
-            role: Role::TripletMember,
-            triplet_id: Some(i as u32 / 3),
-            expected_gain: None,
-            angle_bin_deg: None,
-        });
+        p.waypoints.push(plans::photo(
+            [k * 15.0, 10.0 - k * 3.0, 35.0 + k],
+            k * 70.0,
+            -20.0 - k * 10.0,
+            Some(i as u32 / 3),
+        ));
     }
     p.geofence = Some(vec![[-200.0, -200.0], [200.0, -200.0], [200.0, 200.0]]);
     p
@@ -95,7 +85,7 @@ impl Drop for Peer {
 
 #[test]
 fn upload_to_mavsdk_mission_raw_server() {
-    let Some(py) = mavsdk::mavsdk_python() else {
+    let Some(py) = mavsdk_python() else {
         return;
     };
     let port = std::net::UdpSocket::bind("127.0.0.1:0")
@@ -142,7 +132,7 @@ fn upload_to_mavsdk_mission_raw_server() {
 
 #[test]
 fn mavsdk_imports_the_qgc_plan() {
-    let Some(py) = mavsdk::mavsdk_python() else {
+    let Some(py) = mavsdk_python() else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();

@@ -19,33 +19,13 @@ use vp_mission::{
     build_mission, upload, Autopilot, ConnectOptions, Mission, MissionError, MissionItem,
     MissionOptions, ProtocolConfig, SigningKey,
 };
-use vp_scene::plan::{GeodeticOrigin, Plan, PlannedView, Role};
+use vp_test_support::plans;
 
 const KEY: &str = "5f0c1e7a9b3d2c4e6f8a1b3c5d7e9f0a2b4c6d8e0f1a3b5c7d9e1f2a4b6c8d0e";
 const OTHER_KEY: &str = "0000000000000000000000000000000000000000000000000000000000000001";
 
 fn python() -> String {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let venv = root.join(".venv/bin/python");
-    let py = std::env::var("VP_PYMAVLINK_PYTHON").unwrap_or_else(|_| {
-        if venv.exists() {
-            venv.to_string_lossy().into_owned()
-        } else {
-            "python3".into()
-        }
-    });
-    let ok = Command::new(&py)
-        .args(["-c", "import pymavlink"])
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success());
-    assert!(
-        ok,
-        "{py} cannot import pymavlink: run `python3 -m venv .venv && .venv/bin/pip install -r \
-         crates/mission/tests/pymavlink/requirements.txt` (scripts/test.sh does) or set \
-         VP_PYMAVLINK_PYTHON"
-    );
-    py
+    vp_test_support::python::pymavlink_python()
 }
 
 fn script() -> PathBuf {
@@ -67,24 +47,15 @@ fn free_port() -> u16 {
 }
 
 fn mission() -> Mission {
-    let mut p = Plan::new(Some(GeodeticOrigin {
-        lat_deg: 47.397_742,
-        lon_deg: 8.545_594,
-        alt_m: 488.0,
-    }));
-    p.home = p.origin.map(vp_scene::plan::Home::origin_on_ground);
+    let mut p = plans::plan_at(plans::ZURICH);
     for i in 0..3 {
         let k = f64::from(i);
-        p.waypoints.push(PlannedView {
-            position: [k * 12.0, 4.0 - k, 30.0 + k],
-            yaw_deg: k * 50.0,
-            pitch_deg: -25.0,
-            roll_deg: 0.0,
-            role: Role::TripletMember,
-            triplet_id: Some(0),
-            expected_gain: None,
-            angle_bin_deg: None,
-        });
+        p.waypoints.push(plans::photo(
+            [k * 12.0, 4.0 - k, 30.0 + k],
+            k * 50.0,
+            -25.0,
+            Some(0),
+        ));
     }
     build_mission(&p, &MissionOptions::for_autopilot(Autopilot::Px4)).unwrap()
 }

@@ -14,7 +14,8 @@ use vp_mission::{
     build_mission, connect, download, upload, upload_over, Autopilot, ConnectOptions, Mission,
     MissionError, MissionOptions, ProtocolConfig, SigningKey,
 };
-use vp_scene::plan::{GeodeticOrigin, Plan, PlannedView, Role};
+use vp_scene::plan::GeodeticOrigin;
+use vp_test_support::plans;
 
 const SCALE: f64 = 0.02;
 
@@ -23,20 +24,15 @@ fn key(byte: u8) -> SigningKey {
 }
 
 fn mission() -> Mission {
-    let mut p = Plan::new(Some(GeodeticOrigin::default()));
-    p.home = p.origin.map(vp_scene::plan::Home::origin_on_ground);
+    let mut p = plans::plan_at(GeodeticOrigin::default());
     for i in 0..4 {
         let k = f64::from(i);
-        p.waypoints.push(PlannedView {
-            position: [k * 10.0, 5.0 - k, 30.0 + k],
-            yaw_deg: k * 40.0,
-            pitch_deg: -30.0,
-            roll_deg: 0.0,
-            role: Role::TripletMember,
-            triplet_id: None,
-            expected_gain: None,
-            angle_bin_deg: None,
-        });
+        p.waypoints.push(plans::photo(
+            [k * 10.0, 5.0 - k, 30.0 + k],
+            k * 40.0,
+            -30.0,
+            None,
+        ));
     }
     build_mission(&p, &MissionOptions::for_autopilot(Autopilot::Px4)).unwrap()
 }

@@ -45,7 +45,7 @@ pub(crate) struct Window {
 }
 
 impl Window {
-    pub fn new(params: &MvsParams) -> Self {
+    pub(crate) fn new(params: &MvsParams) -> Self {
         let offsets = params.window_offsets();
         let inv_s = 1.0 / (2.0 * params.sigma_spatial * params.sigma_spatial);
         let spatial = offsets
@@ -69,14 +69,14 @@ impl Window {
 
     /// Samples along one axis.
     #[inline]
-    pub fn n(&self) -> usize {
+    pub(crate) fn n(&self) -> usize {
         self.offsets.len()
     }
 
     /// Samples stored per window row in a full patch: the row padded to
     /// whole chunks of [`CHUNK`] with zero weights.
     #[inline]
-    pub fn stride(&self) -> usize {
+    pub(crate) fn stride(&self) -> usize {
         self.n().div_ceil(CHUNK) * CHUNK
     }
 
@@ -121,7 +121,7 @@ pub(crate) struct RefPatch {
 
 impl RefPatch {
     /// Fills the patch of pixel (x, y) of `image`.
-    pub fn build(&mut self, image: &GreyImage, x: usize, y: usize, win: &Window) {
+    pub(crate) fn build(&mut self, image: &GreyImage, x: usize, y: usize, win: &Window) {
         self.dx.clear();
         self.dy.clear();
         self.w.clear();
@@ -193,7 +193,7 @@ impl RefPatch {
     }
 
     /// Whether the patch has texture enough to score anything.
-    pub fn textured(&self) -> bool {
+    pub(crate) fn textured(&self) -> bool {
         self.var > MIN_VARIANCE * self.sum_w
     }
 }

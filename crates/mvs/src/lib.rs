@@ -25,7 +25,10 @@
 //!
 //! Every random choice comes from a hash of (seed, view, pixel, step): the
 //! same inputs and seed give the same bytes whatever the thread count.
-#![warn(missing_docs)]
+#![warn(missing_docs, unreachable_pub)]
+// A library tells its caller (returned warnings, reports, progress callbacks);
+// only the CLI and the Python bindings print (docs/design.md).
+#![deny(clippy::print_stderr, clippy::print_stdout)]
 
 mod cost;
 pub mod error;
@@ -36,6 +39,8 @@ pub mod params;
 pub mod patchmatch;
 mod pyramid;
 mod rng;
+// Left to the SGM work under way in sgm/ (its visibility is tightened there).
+#[allow(unreachable_pub)]
 pub mod sgm;
 mod simd;
 mod sources;

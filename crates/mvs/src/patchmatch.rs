@@ -187,7 +187,7 @@ pub(crate) fn patch_match_raw(
 impl RawState {
     /// The map of the winning hypotheses, with the photometric filter
     /// (`min_ncc`) applied.
-    pub fn to_map(&self, params: &MvsParams) -> DepthNormalMap {
+    pub(crate) fn to_map(&self, params: &MvsParams) -> DepthNormalMap {
         let n = self.hyps.len();
         let max_cost = 1.0 - params.min_ncc;
         let mut out = DepthNormalMap {

@@ -2,38 +2,33 @@
 //! pixel, step), so every pixel draws the same numbers whichever thread
 //! runs it and in whatever order.
 
-/// SplitMix64 finaliser: a bijective 64-bit mixer.
-#[inline]
-fn mix(mut z: u64) -> u64 {
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
-}
+use vp_scene::hash::{finalise as mix, SplitMix64, GOLDEN_GAMMA};
 
 /// A small generator for one pixel and one step.
 #[derive(Debug, Clone)]
-pub(crate) struct PixelRng(u64);
+pub(crate) struct PixelRng(SplitMix64);
 
 impl PixelRng {
     /// The generator of `pixel` of view `view` at `step` under `seed`.
     #[inline]
-    pub fn new(seed: u64, view: u64, pixel: u64, step: u64) -> Self {
-        let mut s = mix(seed ^ 0x9e37_79b9_7f4a_7c15);
+    pub(crate) fn new(seed: u64, view: u64, pixel: u64, step: u64) -> Self {
+        let mut s = mix(seed ^ GOLDEN_GAMMA);
         s = mix(s ^ view.wrapping_mul(0xd1b5_4a32_d192_ed03));
         s = mix(s ^ pixel.wrapping_mul(0x8cb9_2ba7_2f3d_8dd7));
-        PixelRng(mix(s ^ step.wrapping_mul(0xa076_1d64_78bd_642f)))
+        PixelRng(SplitMix64::new(mix(
+            s ^ step.wrapping_mul(0xa076_1d64_78bd_642f)
+        )))
     }
 
     /// Uniform in [0, 1).
     #[inline]
-    pub fn next_f32(&mut self) -> f32 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        (mix(self.0) >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
+    pub(crate) fn next_f32(&mut self) -> f32 {
+        (self.0.next_u64() >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
     }
 
     /// Uniform in [-1, 1).
     #[inline]
-    pub fn symmetric(&mut self) -> f32 {
+    pub(crate) fn symmetric(&mut self) -> f32 {
         2.0 * self.next_f32() - 1.0
     }
 }

@@ -64,7 +64,7 @@ pub(crate) struct FullWindow<'a> {
 
 impl Avx2 {
     /// `Some` when the running CPU has AVX2.
-    pub fn detect() -> Option<Self> {
+    pub(crate) fn detect() -> Option<Self> {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             return Some(Avx2 { _private: () });
@@ -76,7 +76,7 @@ impl Avx2 {
     /// bits; `None` for shapes the vector code does not take (then the
     /// caller runs the scalar loop).
     #[allow(clippy::unused_self)] // `self` is the proof that AVX2 is there
-    pub fn sums_full(self, win: &FullWindow) -> Option<[[f32; CHUNK]; 3]> {
+    pub(crate) fn sums_full(self, win: &FullWindow) -> Option<[[f32; CHUNK]; 3]> {
         let ok = CHUNK == 8
             && win.stride.is_multiple_of(CHUNK)
             && win.n <= win.stride
@@ -105,7 +105,7 @@ impl Avx2 {
 impl Avx2 {
     /// `sgm::matching::pass_row` with AVX2 code generation: the same result.
     #[allow(clippy::unused_self)] // `self` is the proof that AVX2 is there
-    pub fn sgm_pass_row(
+    pub(crate) fn sgm_pass_row(
         self,
         job: &crate::sgm::matching::RowPass,
         st: &mut crate::sgm::matching::PassState,

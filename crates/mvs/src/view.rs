@@ -144,7 +144,7 @@ pub(crate) struct Relative {
 }
 
 impl Relative {
-    pub fn new(reference: &Camera, source: &Camera) -> Self {
+    pub(crate) fn new(reference: &Camera, source: &Camera) -> Self {
         let src_from_ref = source.cam_from_world() * reference.world_from_cam;
         let r: Matrix3<f64> = src_from_ref.rotation.to_rotation_matrix().into_inner();
         let t: Vector3<f64> = src_from_ref.translation.vector;

@@ -9,12 +9,10 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use vp_planner::grid::{grid_views, GridParams};
 use vp_planner::{plan, AcquiredView, PlanInputs, PlannerConfig, RoiSpec};
-use vp_scene::plan::Role;
 use vp_scene::procedural::{generate_site, SiteParams};
 use vp_scene::roi::Roi;
-use vp_scene::{Aabb, Intrinsics};
+use vp_test_support::rock::initial_views;
 
 fn bench(c: &mut Criterion) {
     let site = generate_site(&SiteParams {
@@ -23,33 +21,7 @@ fn bench(c: &mut Criterion) {
         ..SiteParams::default()
     })
     .expect("site");
-    let k = Intrinsics {
-        width: 1200,
-        height: 800,
-        fx: 1800.0,
-        fy: 1800.0,
-        cx: 600.0,
-        cy: 400.0,
-    };
-    let b = site.rock_bounds;
-    let mid = nalgebra::center(&b.min, &b.max);
-    let fp = Aabb {
-        min: nalgebra::Point3::new(mid.x - 22.0, mid.y - 22.0, b.min.z),
-        max: nalgebra::Point3::new(mid.x + 22.0, mid.y + 22.0, b.max.z),
-    };
-    let params = GridParams {
-        height_m: 50.0,
-        role: Role::Initial,
-        ..GridParams::default()
-    };
-    let acquired: Vec<AcquiredView> = grid_views(&fp, &params, k)
-        .expect("grid")
-        .iter()
-        .map(|v| AcquiredView {
-            camera: v.to_camera(k),
-            confidence: None,
-        })
-        .collect();
+    let acquired: Vec<AcquiredView> = initial_views(&site);
     let v = site.flight_volume;
     let cfg = PlannerConfig {
         flight_volume: Some([v.min.into(), v.max.into()]),

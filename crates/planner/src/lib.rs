@@ -10,7 +10,10 @@
 //!
 //! Confidence arrives as one `ConfidenceImage` per acquired image (or none:
 //! the paper's NP variant, confidence 1); the planner never sees the forest.
-#![warn(missing_docs)]
+#![warn(missing_docs, unreachable_pub)]
+// A library tells its caller (returned warnings, reports, progress callbacks);
+// only the CLI and the Python bindings print (docs/design.md).
+#![deny(clippy::print_stderr, clippy::print_stdout)]
 
 pub mod acquired;
 pub mod config;

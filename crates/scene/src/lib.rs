@@ -9,11 +9,14 @@
 //! ([`height_field`], [`surface`]), triangulation angle and uncertainty ([`triangulation`]),
 //! raster types ([`raster`]), the plan file ([`plan`]) and
 //! deterministic procedural scenes ([`procedural`]) that feed every crate's
-//! tests and the simulator.
+//! tests and the simulator, and the one seeded hash ([`hash`], SplitMix64).
 //!
 //! World frame: local ENU, metres, z up. Poses are named by what they map
 //! (`world_from_cam`).
-#![warn(missing_docs)]
+#![warn(missing_docs, unreachable_pub)]
+// A library tells its caller (returned warnings, reports, progress callbacks);
+// only the CLI and the Python bindings print (docs/design.md).
+#![deny(clippy::print_stderr, clippy::print_stdout)]
 
 pub mod binfile;
 pub mod camera;
@@ -26,6 +29,7 @@ pub mod flight_time;
 pub mod fsio;
 pub mod geodesy;
 pub mod gnss;
+pub mod hash;
 pub mod height_field;
 pub mod image_files;
 pub mod io;
@@ -42,6 +46,7 @@ pub mod raycast;
 pub mod roi;
 pub mod roi_file;
 mod roi_kml;
+pub mod sim3;
 pub mod surface;
 pub mod triangulation;
 

@@ -25,8 +25,8 @@ use vp_scene::{Camera, SceneError};
 use crate::campaign::world::{point_noise, sfm_camera, World};
 use crate::campaign::CampaignConfig;
 use crate::error::{Result, SimError};
-use crate::noise::mix64;
 use crate::render::render;
+use vp_scene::hash::mix64;
 
 /// Options of [`fly`].
 #[derive(Debug, Clone, Copy, PartialEq)]

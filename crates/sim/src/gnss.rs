@@ -29,13 +29,15 @@ use std::path::Path;
 use nalgebra::{Isometry3, Point3, Translation3, Vector3};
 use serde::{Deserialize, Serialize};
 use vp_scene::colmap::{
-    align_to_positions, AlignParams, Alignment, PositionResidual, Reconstruction, Sim3,
+    align_to_positions, AlignParams, Alignment, PositionResidual, Reconstruction,
 };
 use vp_scene::gnss::GnssClass;
+use vp_scene::sim3::Sim3;
 use vp_scene::{Camera, Mesh};
 
 use crate::error::{Result, SimError};
-use crate::noise::{gaussian, mix64};
+use crate::noise::gaussian;
+use vp_scene::hash::mix64;
 
 /// The simulated vehicle's position error (`[flight_error]` of a campaign).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

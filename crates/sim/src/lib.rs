@@ -23,7 +23,10 @@
 //!
 //! Every random choice is a pure hash of (seed, coordinates) ([`noise`]), so
 //! the output is bit-identical for a seed on any thread count.
-#![warn(missing_docs)]
+#![warn(missing_docs, unreachable_pub)]
+// A library tells its caller (returned warnings, reports, progress callbacks);
+// only the CLI and the Python bindings print (docs/design.md).
+#![deny(clippy::print_stderr, clippy::print_stdout)]
 
 pub mod campaign;
 pub mod error;

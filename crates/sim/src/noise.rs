@@ -9,14 +9,7 @@
 
 use std::sync::OnceLock;
 
-/// SplitMix64 finaliser: a bijective avalanche of 64 bits.
-#[inline]
-pub fn mix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
-}
+use vp_scene::hash::mix64;
 
 /// Hash of a seed and three integer coordinates: odd-constant products
 /// folded together, then one avalanche (the texture hot path calls this eight

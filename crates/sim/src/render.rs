@@ -10,8 +10,9 @@ use vp_scene::raycast::RayCaster;
 use vp_scene::{Camera, Intrinsics, Material, Mesh};
 
 use crate::error::{Result, SimError};
-use crate::noise::{gaussian, mix64};
+use crate::noise::gaussian;
 use crate::texture::albedo;
+use vp_scene::hash::mix64;
 
 /// Offset of a shadow ray's origin from the surface, metres.
 const SHADOW_EPSILON: f64 = 2e-3;

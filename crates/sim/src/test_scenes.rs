@@ -7,7 +7,7 @@ use vp_scene::{Camera, Intrinsics, Material, Mesh};
 
 /// A flat `size` x `size` m plane at z = 0 in square tiles of `tile` m that
 /// cycle through all five materials (faces are 1 m cells).
-pub fn tiled_plane(size: f64, tile: f64) -> Mesh {
+pub(crate) fn tiled_plane(size: f64, tile: f64) -> Mesh {
     let n = size.round() as usize;
     let mut mesh = plane(size, size, n, n);
     let materials = (0..mesh.n_faces())
@@ -22,7 +22,7 @@ pub fn tiled_plane(size: f64, tile: f64) -> Mesh {
 }
 
 /// A flat plane of one material.
-pub fn uniform_plane(size: f64, material: Material) -> Mesh {
+pub(crate) fn uniform_plane(size: f64, material: Material) -> Mesh {
     let n = size.round() as usize;
     let mut mesh = plane(size, size, n, n);
     mesh.materials = Some(vec![material; mesh.n_faces()]);
@@ -30,14 +30,14 @@ pub fn uniform_plane(size: f64, material: Material) -> Mesh {
 }
 
 /// Intrinsics of the test cameras: `w` x `h` pixels, 60 deg horizontal field of view.
-pub fn intrinsics(w: u32, h: u32) -> Intrinsics {
+pub(crate) fn intrinsics(w: u32, h: u32) -> Intrinsics {
     Intrinsics::from_hfov(w, h, 60.0).unwrap()
 }
 
 /// Three cameras at height `height` above the origin, on a circle at
 /// azimuths 90/210/330 deg, all looking at the origin, with triangulation
 /// angle `angle_deg` at the origin.
-pub fn triplet(k: Intrinsics, height: f64, angle_deg: f64) -> [Camera; 3] {
+pub(crate) fn triplet(k: Intrinsics, height: f64, angle_deg: f64) -> [Camera; 3] {
     let r = 2.0 * height * (0.5 * angle_deg.to_radians()).tan() / 3f64.sqrt();
     // A tiny offset keeps look_at away from the vertical at angle 0.
     let r = r.max(0.05);

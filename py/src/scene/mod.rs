@@ -80,7 +80,7 @@ impl PyMesh {
     /// Reads a PLY or OBJ file.
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
-        py.detach(|| io::read_mesh(&path)).py().map(PyMesh)
+        crate::errors::read_mesh(py, &path).map(PyMesh)
     }
 
     /// Writes the mesh; `format` is ply-binary-le (default for .ply),

@@ -162,8 +162,10 @@ fn label(a: &RunArgs, out: &mut dyn Write) -> Result<()> {
         req.params = LabelParams::load(path)?;
     }
     let progress = super::Progress::new();
-    let s = vp_labelgen::run_labelling_with_progress(&req, &output, &mut |m| progress.message(m))?;
+    let (s, warnings) =
+        vp_labelgen::run_labelling_with_progress(&req, &output, &mut |m| progress.message(m))?;
     progress.finish();
+    super::print_warnings(&warnings);
     writeln!(out, "reconstructions: {}", s.reconstructions)?;
     writeln!(out, "measured pixels: {}", s.measured)?;
     writeln!(out, "positive: {}", s.positive)?;

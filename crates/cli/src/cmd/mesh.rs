@@ -156,8 +156,9 @@ pub fn run(cmd: MeshCommand, out: &mut dyn Write) -> Result<()> {
             req.surface.cell_size = cell_size;
             req.surface.trim_distance = trim_distance;
             req.height_field.max_edge = max_edge;
-            let (mesh, report) = write_surface(&req, &path, force)?;
-            print_report(&report, &mesh, max_edge, out)?;
+            let built = write_surface(&req, &path, force)?;
+            super::print_warnings(&built.warnings);
+            print_report(&built.report, &built.mesh, max_edge, out)?;
             writeln!(out, "wrote {}", path.display())?;
             Ok(())
         }
@@ -165,7 +166,9 @@ pub fn run(cmd: MeshCommand, out: &mut dyn Write) -> Result<()> {
 }
 
 fn info(file: &std::path::Path, out: &mut dyn Write) -> Result<()> {
-    let i = io::load_mesh_raw(file)?.inspect();
+    let (mesh, warnings) = io::load_mesh_raw_with_warnings(file)?;
+    super::print_warnings(&warnings);
+    let i = mesh.inspect();
     writeln!(out, "file: {}", file.display())?;
     writeln!(out, "vertices: {}", i.vertices)?;
     writeln!(out, "faces: {}", i.faces)?;

@@ -144,3 +144,18 @@ pub fn check_output_writable(path: &std::path::Path, flag: &str) -> anyhow::Resu
 }
 
 pub use crate::progress::Progress;
+
+/// Prints what a reader accepted with a warning to standard error: the
+/// library returns these, the CLI tells the user.
+pub fn print_warnings(warnings: &[vp_scene::io::ReadWarning]) {
+    for w in warnings {
+        eprintln!("warning: {w}");
+    }
+}
+
+/// [`vp_scene::io::read_mesh`], its warnings printed.
+pub fn read_mesh(path: &std::path::Path) -> vp_scene::Result<vp_scene::Mesh> {
+    let (mesh, warnings) = vp_scene::io::read_mesh_with_warnings(path)?;
+    print_warnings(&warnings);
+    Ok(mesh)
+}

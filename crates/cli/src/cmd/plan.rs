@@ -14,7 +14,7 @@ use vp_scene::datum::VerticalDatum;
 use vp_scene::opensfm::ModelSource;
 use vp_scene::plan::{GeodeticOrigin, Plan, Role};
 use vp_scene::roi::Roi;
-use vp_scene::{fsio, io, Camera, Mesh};
+use vp_scene::{fsio, Camera, Mesh};
 
 mod summary;
 
@@ -408,7 +408,7 @@ fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
     let c = &args.common;
     let outputs = c.check_outputs()?;
     let cfg = c.config()?;
-    let mesh = io::read_mesh(required(args.mesh.as_ref(), "--mesh")?)?;
+    let mesh = super::read_mesh(required(args.mesh.as_ref(), "--mesh")?)?;
     let model = args.model()?;
     let roi = c.roi()?;
     let job = vp_planner::plan_from_model(&ModelPlanRequest {
@@ -535,7 +535,7 @@ fn grid(g: &GridArgs, out: &mut dyn Write) -> Result<()> {
     let c = &g.common;
     let outputs = c.check_outputs()?;
     let cfg = c.config()?;
-    let mesh = io::read_mesh(&g.mesh)?;
+    let mesh = super::read_mesh(&g.mesh)?;
     let roi = c.roi()?;
     let params = GridParams {
         height_m: g.height,

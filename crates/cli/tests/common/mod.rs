@@ -4,12 +4,10 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use vp_planner::grid::{grid_views, GridParams};
 use vp_scene::colmap::{self, CameraModel, ColmapCamera, ColmapImage, Reconstruction};
 use vp_scene::io::{write_mesh, MeshFormat};
-use vp_scene::plan::Role;
 use vp_scene::procedural::{generate_site, Site, SiteParams};
-use vp_scene::{Aabb, Intrinsics};
+use vp_test_support::rock::{initial_cameras, initial_intrinsics};
 
 /// Runs the `vpctl` binary with `args`.
 pub fn vpctl(args: &[&str]) -> Output {
@@ -50,37 +48,19 @@ pub fn plan_fixture(dir: &Path) -> Site {
         MeshFormat::PlyBinaryLittleEndian,
     )
     .unwrap();
-    let k = Intrinsics {
-        width: 1200,
-        height: 800,
-        fx: 1800.0,
-        fy: 1800.0,
-        cx: 600.0,
-        cy: 400.0,
-    };
-    let b = site.rock_bounds;
-    let c = nalgebra::center(&b.min, &b.max);
-    let fp = Aabb {
-        min: nalgebra::Point3::new(c.x - 22.0, c.y - 22.0, b.min.z),
-        max: nalgebra::Point3::new(c.x + 22.0, c.y + 22.0, b.max.z),
-    };
-    let params = GridParams {
-        height_m: 50.0,
-        role: Role::Initial,
-        ..GridParams::default()
-    };
+    let k = initial_intrinsics();
     let mut rec = Reconstruction::default();
     rec.cameras.insert(
         1,
         ColmapCamera {
             id: 1,
             model: CameraModel::Pinhole,
-            width: 1200,
-            height: 800,
-            params: vec![1800.0, 1800.0, 600.0, 400.0],
+            width: u64::from(k.width),
+            height: u64::from(k.height),
+            params: vec![k.fx, k.fy, k.cx, k.cy],
         },
     );
-    for (i, v) in grid_views(&fp, &params, k).unwrap().iter().enumerate() {
+    for (i, camera) in initial_cameras(&site).iter().enumerate() {
         let id = i as u32 + 1;
         rec.images.insert(
             id,
@@ -88,7 +68,7 @@ pub fn plan_fixture(dir: &Path) -> Site {
                 id,
                 camera_id: 1,
                 name: format!("img_{id:03}.jpg"),
-                cam_from_world: v.to_camera(k).cam_from_world(),
+                cam_from_world: camera.cam_from_world(),
                 points2d: Vec::new(),
             },
         );

@@ -19,25 +19,25 @@ pub(super) struct Canvas {
 }
 
 impl Canvas {
-    pub fn px(&self, x: f64, y: f64) -> (f64, f64) {
+    pub(super) fn px(&self, x: f64, y: f64) -> (f64, f64) {
         (
             (x - self.x0) * self.scale + self.margin,
             (self.y1 - y) * self.scale + self.margin,
         )
     }
 
-    pub fn put(&mut self, x: i64, y: i64, c: Rgb<u8>) {
+    pub(super) fn put(&mut self, x: i64, y: i64, c: Rgb<u8>) {
         if x >= 0 && y >= 0 && x < i64::from(self.img.width()) && y < i64::from(self.img.height()) {
             self.img.put_pixel(x as u32, y as u32, c);
         }
     }
 
-    pub fn line(&mut self, a: (f64, f64), b: (f64, f64), c: Rgb<u8>) {
+    pub(super) fn line(&mut self, a: (f64, f64), b: (f64, f64), c: Rgb<u8>) {
         self.dashed(a, b, c, 0);
     }
 
     /// A line; with `dash > 0` pixels, drawn `dash` on, `dash` off.
-    pub fn dashed(&mut self, a: (f64, f64), b: (f64, f64), c: Rgb<u8>, dash: usize) {
+    pub(super) fn dashed(&mut self, a: (f64, f64), b: (f64, f64), c: Rgb<u8>, dash: usize) {
         let n = (b.0 - a.0).abs().max((b.1 - a.1).abs()).ceil().max(1.0) as usize;
         for i in 0..=n {
             if dash > 0 && (i / dash) % 2 == 1 {
@@ -53,7 +53,7 @@ impl Canvas {
     }
 
     /// A line `width` pixels wide (parallel copies), for the flight path.
-    pub fn thick(&mut self, a: (f64, f64), b: (f64, f64), c: Rgb<u8>, width: i64) {
+    pub(super) fn thick(&mut self, a: (f64, f64), b: (f64, f64), c: Rgb<u8>, width: i64) {
         let (dx, dy) = (b.0 - a.0, b.1 - a.1);
         let len = dx.hypot(dy).max(1e-9);
         let (nx, ny) = (-dy / len, dx / len);
@@ -67,7 +67,7 @@ impl Canvas {
         }
     }
 
-    pub fn dot(&mut self, p: (f64, f64), r: i64, c: Rgb<u8>) {
+    pub(super) fn dot(&mut self, p: (f64, f64), r: i64, c: Rgb<u8>) {
         for dy in -r..=r {
             for dx in -r..=r {
                 if dx * dx + dy * dy <= r * r {
@@ -79,7 +79,7 @@ impl Canvas {
 
     /// A filled arrow head with its tip at `tip`, pointing along `heading`
     /// (radians, image axes: x right, y down), `size` pixels long.
-    pub fn arrow_head(&mut self, tip: (f64, f64), heading: f64, size: f64, c: Rgb<u8>) {
+    pub(super) fn arrow_head(&mut self, tip: (f64, f64), heading: f64, size: f64, c: Rgb<u8>) {
         let back = |side: f64| {
             let a = heading + std::f64::consts::PI + side * 0.45;
             (tip.0 + size * a.cos(), tip.1 + size * a.sin())
@@ -87,7 +87,7 @@ impl Canvas {
         self.triangle([tip, back(1.0), back(-1.0)], c);
     }
 
-    pub fn triangle(&mut self, t: [(f64, f64); 3], c: Rgb<u8>) {
+    pub(super) fn triangle(&mut self, t: [(f64, f64); 3], c: Rgb<u8>) {
         let (xmin, xmax) = (
             t.iter().map(|p| p.0).fold(f64::INFINITY, f64::min),
             t.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max),

@@ -8,12 +8,13 @@ use std::path::{Path, PathBuf};
 use nalgebra::{Point3, Vector3};
 use serde::{Deserialize, Serialize};
 
-use super::align::{PositionResidual, Sim3, StripFit};
+use super::align::{PositionResidual, StripFit};
 use super::reconstruction::Reconstruction;
 use super::ColmapImage;
 use crate::datum::{Home, VerticalDatum};
 use crate::error::{Location, Result, SceneError};
 use crate::plan::GeodeticOrigin;
+use crate::sim3::Sim3;
 
 /// Name of the frame file written beside an aligned model's files.
 pub const FRAME_FILE: &str = "frame.json";

@@ -35,8 +35,8 @@ mod undistort;
 use std::path::{Path, PathBuf};
 
 pub use align::{
-    align_to_positions, transform_reconstruction, umeyama, AlignParams, Alignment,
-    PositionResidual, Sim3, StripFit,
+    align_to_positions, transform_reconstruction, AlignParams, Alignment, PositionResidual,
+    StripFit,
 };
 pub use binary::{
     cameras_to_bytes, images_to_bytes, parse_cameras_binary, parse_images_binary,

@@ -7,7 +7,8 @@
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
-use super::align::{mean_and_scatter, Sim3};
+use super::align::mean_and_scatter;
+use crate::sim3::Sim3;
 
 /// Centroid and unit principal direction of a point set.
 fn principal_axis(points: &[Point3<f64>]) -> (Vector3<f64>, Vector3<f64>) {

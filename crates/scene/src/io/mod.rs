@@ -27,7 +27,7 @@ mod validate;
 
 use std::fmt;
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
 use nalgebra::{Point3, Vector3};
@@ -204,56 +204,126 @@ pub(crate) struct Found {
     pub(crate) index: usize,
 }
 
-/// Parses a mesh from memory without geometric checks. `origin` names the
-/// source in errors.
-pub fn parse_mesh_raw(bytes: &[u8], file_type: FileType, origin: &Path) -> Result<Mesh> {
+/// Something a reader accepted but a user should hear about: a file read
+/// in a way its author may not have meant (today: a PLY header line without
+/// a keyword, read as a comment). The readers return these instead of
+/// printing them, so that the caller (the CLI, Python, a job) tells the
+/// user in its own way.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ReadWarning {
+    /// The file read.
+    pub path: PathBuf,
+    /// Where in it.
+    pub location: Location,
+    /// What was read how.
+    pub message: String,
+}
+
+impl fmt::Display for ReadWarning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{}: {}: {}",
+            self.path.display(),
+            self.location,
+            self.message
+        )
+    }
+}
+
+/// The points of a point file with their normals and the reader's warnings.
+#[derive(Debug, Clone)]
+pub struct PointFile {
+    /// The vertices of the file.
+    pub points: Vec<Point3<f64>>,
+    /// One normal per point when the file is a PLY with vertex properties
+    /// `nx ny nz`, else `None`.
+    pub normals: Option<Vec<Vector3<f64>>>,
+    /// What was read with a warning.
+    pub warnings: Vec<ReadWarning>,
+}
+
+/// [`parse_mesh_raw`] with what was read with a warning.
+pub fn parse_mesh_raw_with_warnings(
+    bytes: &[u8],
+    file_type: FileType,
+    origin: &Path,
+) -> Result<(Mesh, Vec<ReadWarning>)> {
     match file_type {
         FileType::Ply => ply::parse(bytes, origin),
-        FileType::Obj => obj::parse(bytes, origin),
+        FileType::Obj => Ok((obj::parse(bytes, origin)?, Vec::new())),
+    }
+}
+
+/// Parses a mesh from memory without geometric checks. `origin` names the
+/// source in errors. Warnings are dropped: a caller with a user to tell
+/// calls [`parse_mesh_raw_with_warnings`].
+pub fn parse_mesh_raw(bytes: &[u8], file_type: FileType, origin: &Path) -> Result<Mesh> {
+    Ok(parse_mesh_raw_with_warnings(bytes, file_type, origin)?.0)
+}
+
+/// [`parse_mesh`] with what was read with a warning.
+pub fn parse_mesh_with_warnings(
+    bytes: &[u8],
+    file_type: FileType,
+    origin: &Path,
+) -> Result<(Mesh, Vec<ReadWarning>)> {
+    let (mut mesh, warnings) = parse_mesh_raw_with_warnings(bytes, file_type, origin)?;
+    match validate::first_problem(&mut mesh) {
+        None => Ok((mesh, warnings)),
+        Some(problem) => Err(validate::error(&problem, &mesh, bytes, file_type, origin)),
     }
 }
 
 /// Parses a mesh from memory and validates it ([`Mesh::validate`]); the
-/// error names `origin` and the vertex or face at fault.
+/// error names `origin` and the vertex or face at fault. Warnings are
+/// dropped ([`parse_mesh_with_warnings`] returns them).
 pub fn parse_mesh(bytes: &[u8], file_type: FileType, origin: &Path) -> Result<Mesh> {
-    let mut mesh = parse_mesh_raw(bytes, file_type, origin)?;
-    match validate::first_problem(&mut mesh) {
-        None => Ok(mesh),
-        Some(problem) => Err(validate::error(&problem, &mesh, bytes, file_type, origin)),
-    }
+    Ok(parse_mesh_with_warnings(bytes, file_type, origin)?.0)
 }
 
 /// Points of a point file (PLY or OBJ; faces ignored) with their normals:
 /// `Some` with one per point when the file is a PLY with vertex properties
 /// `nx ny nz` (vp-mvs's and COLMAP's `fused.ply`), else `None`. Only format
 /// errors are reported; coordinates may be non-finite.
-#[allow(clippy::type_complexity)] // (points, normals) reads better than a one-use struct
-pub fn load_points_with_normals(
-    path: &Path,
-) -> Result<(Vec<Point3<f64>>, Option<Vec<Vector3<f64>>>)> {
+pub fn load_points_with_normals(path: &Path) -> Result<PointFile> {
     let bytes = fsio::read_file(path)?;
     match FileType::from_path(path)? {
-        FileType::Ply => {
-            let (mesh, normals) = ply::parse_with_normals(&bytes, path)?;
-            Ok((mesh.vertices, normals))
-        }
-        FileType::Obj => Ok((obj::parse(&bytes, path)?.vertices, None)),
+        FileType::Ply => ply::parse_with_normals(&bytes, path),
+        FileType::Obj => Ok(PointFile {
+            points: obj::parse(&bytes, path)?.vertices,
+            normals: None,
+            warnings: Vec::new(),
+        }),
     }
+}
+
+/// [`load_mesh_raw`] with what was read with a warning.
+pub fn load_mesh_raw_with_warnings(path: &Path) -> Result<(Mesh, Vec<ReadWarning>)> {
+    let file_type = FileType::from_path(path)?;
+    parse_mesh_raw_with_warnings(&fsio::read_file(path)?, file_type, path)
 }
 
 /// Loads a mesh, format by extension, reporting only format errors: the
 /// mesh may hold non-finite coordinates, out-of-range indices or degenerate
 /// faces, for a tool that reports such problems ([`Mesh::cleaned`]).
+/// Warnings are dropped ([`load_mesh_raw_with_warnings`] returns them).
 pub fn load_mesh_raw(path: &Path) -> Result<Mesh> {
+    Ok(load_mesh_raw_with_warnings(path)?.0)
+}
+
+/// [`read_mesh`] with what was read with a warning: what the CLI and
+/// Python call, to tell the user.
+pub fn read_mesh_with_warnings(path: &Path) -> Result<(Mesh, Vec<ReadWarning>)> {
     let file_type = FileType::from_path(path)?;
-    parse_mesh_raw(&fsio::read_file(path)?, file_type, path)
+    parse_mesh_with_warnings(&fsio::read_file(path)?, file_type, path)
 }
 
 /// Loads and validates a mesh, format by extension. Every error names the
 /// file and the place: line, element and byte offset, vertex or face.
+/// Warnings are dropped ([`read_mesh_with_warnings`] returns them).
 pub fn read_mesh(path: &Path) -> Result<Mesh> {
-    let file_type = FileType::from_path(path)?;
-    parse_mesh(&fsio::read_file(path)?, file_type, path)
+    Ok(read_mesh_with_warnings(path)?.0)
 }
 
 /// Writes a mesh atomically with [`Precision::Auto`]. The extension of

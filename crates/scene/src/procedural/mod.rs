@@ -40,26 +40,19 @@ use nalgebra::Point3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
+use crate::hash::mix64;
 use crate::mesh::{Material, Mesh};
 
 pub use crate::plan::GeodeticOrigin;
 
 /// Seed constants of the site's parts: one independent random stream each.
 pub(crate) mod part {
-    pub const TERRAIN: u64 = 0x7465_7272_6169_6e00;
-    pub const ROCK: u64 = 0x726f_636b_0000_0000;
-    pub const TREES: u64 = 0x7472_6565_7300_0000;
-    pub const TREES_AT_ROCK: u64 = 0x726f_636b_7472_6565;
-    pub const GRASS: u64 = 0x6772_6173_7300_0000;
-    pub const MARKERS: u64 = 0x6d61_726b_6572_7300;
-}
-
-/// SplitMix64 finaliser: spreads nearby seeds over the whole u64 range.
-fn mix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
+    pub(crate) const TERRAIN: u64 = 0x7465_7272_6169_6e00;
+    pub(crate) const ROCK: u64 = 0x726f_636b_0000_0000;
+    pub(crate) const TREES: u64 = 0x7472_6565_7300_0000;
+    pub(crate) const TREES_AT_ROCK: u64 = 0x726f_636b_7472_6565;
+    pub(crate) const GRASS: u64 = 0x6772_6173_7300_0000;
+    pub(crate) const MARKERS: u64 = 0x6d61_726b_6572_7300;
 }
 
 /// The seed of stream `index` of `part` for a site seed. Hashing (rather than
@@ -84,19 +77,19 @@ pub(crate) struct Builder {
 
 impl Builder {
     /// Adds a vertex and returns its index.
-    pub fn vertex(&mut self, p: Point3<f64>) -> u32 {
+    pub(crate) fn vertex(&mut self, p: Point3<f64>) -> u32 {
         self.vertices.push(p);
         (self.vertices.len() - 1) as u32
     }
 
     /// Adds a face over existing vertex indices.
-    pub fn face(&mut self, f: [u32; 3], m: Material) {
+    pub(crate) fn face(&mut self, f: [u32; 3], m: Material) {
         self.faces.push(f);
         self.materials.push(m);
     }
 
     /// Adds a free triangle (three new vertices).
-    pub fn triangle(&mut self, t: [Point3<f64>; 3], m: Material) {
+    pub(crate) fn triangle(&mut self, t: [Point3<f64>; 3], m: Material) {
         let a = self.vertex(t[0]);
         let b = self.vertex(t[1]);
         let c = self.vertex(t[2]);
@@ -104,7 +97,7 @@ impl Builder {
     }
 
     /// Appends a mesh, giving all its faces material `m`.
-    pub fn append(&mut self, mesh: &Mesh, m: Material) {
+    pub(crate) fn append(&mut self, mesh: &Mesh, m: Material) {
         let base = self.vertices.len() as u32;
         self.vertices.extend_from_slice(&mesh.vertices);
         self.faces
@@ -114,7 +107,7 @@ impl Builder {
     }
 
     /// Appends another builder's geometry (indices shifted).
-    pub fn extend(&mut self, other: Builder) {
+    pub(crate) fn extend(&mut self, other: Builder) {
         let base = self.vertices.len() as u32;
         self.vertices.extend(other.vertices);
         self.faces
@@ -124,12 +117,12 @@ impl Builder {
 
     /// Number of faces so far.
     #[cfg(test)]
-    pub fn n_faces(&self) -> usize {
+    pub(crate) fn n_faces(&self) -> usize {
         self.faces.len()
     }
 
     /// The finished mesh (not validated: callers validate once at the end).
-    pub fn finish(self) -> Mesh {
+    pub(crate) fn finish(self) -> Mesh {
         Mesh {
             vertices: self.vertices,
             faces: self.faces,

@@ -14,7 +14,7 @@ use super::{reconstruct_surface_with_report, samples_from_model, SurfaceParams, 
 use super::{SurfaceSample, SurfaceSolver};
 use crate::error::{Result, SceneError};
 use crate::height_field::{mesh_from_points, MeshingParams, MeshingReport};
-use crate::io::{self, MeshFormat};
+use crate::io::{self, MeshFormat, ReadWarning};
 use crate::mesh::Mesh;
 use crate::{colmap, fsio};
 
@@ -72,9 +72,22 @@ pub enum SurfaceBuildReport {
     HeightField(MeshingReport),
 }
 
-/// The surface samples of `req`: the model's points, then the cloud's.
-pub fn load_samples(req: &SurfaceRequest) -> Result<Vec<SurfaceSample>> {
+/// A surface built by [`build_surface`] or [`write_surface`].
+#[derive(Debug, Clone)]
+pub struct SurfaceBuild {
+    /// The surface.
+    pub mesh: Mesh,
+    /// What building it did.
+    pub report: SurfaceBuildReport,
+    /// What the point file was read with a warning, for the caller to tell.
+    pub warnings: Vec<ReadWarning>,
+}
+
+/// The surface samples of `req`: the model's points, then the cloud's;
+/// with what the point file was read with a warning.
+pub fn load_samples(req: &SurfaceRequest) -> Result<(Vec<SurfaceSample>, Vec<ReadWarning>)> {
     let mut samples = Vec::new();
+    let mut warnings = Vec::new();
     if let Some(dir) = &req.colmap {
         samples.extend(samples_from_model(&colmap::read_model(dir)?));
     }
@@ -84,8 +97,10 @@ pub fn load_samples(req: &SurfaceRequest) -> Result<Vec<SurfaceSample>> {
         ));
     }
     if let Some(file) = &req.points {
-        let (pts, normals) = io::load_points_with_normals(file)?;
-        let normals: Vec<Option<Vector3<f64>>> = match normals {
+        let cloud = io::load_points_with_normals(file)?;
+        warnings = cloud.warnings;
+        let pts = cloud.points;
+        let normals: Vec<Option<Vector3<f64>>> = match cloud.normals {
             Some(n) => n.into_iter().map(Some).collect(),
             None => vec![None; pts.len()],
         };
@@ -99,16 +114,29 @@ pub fn load_samples(req: &SurfaceRequest) -> Result<Vec<SurfaceSample>> {
                 }),
         );
     }
-    Ok(samples)
+    Ok((samples, warnings))
 }
 
 /// Builds the surface of `req`. A 3D method refuses a cloud point with
 /// neither a normal nor a camera; a height field refuses points that give
 /// no face.
-pub fn build_surface(req: &SurfaceRequest) -> Result<(Mesh, SurfaceBuildReport)> {
-    let samples = load_samples(req)?;
+pub fn build_surface(req: &SurfaceRequest) -> Result<SurfaceBuild> {
+    let (samples, warnings) = load_samples(req)?;
+    let (mesh, report) = surface_of(req, &samples)?;
+    Ok(SurfaceBuild {
+        mesh,
+        report,
+        warnings,
+    })
+}
+
+/// The surface of `samples` by the method of `req`.
+fn surface_of(
+    req: &SurfaceRequest,
+    samples: &[SurfaceSample],
+) -> Result<(Mesh, SurfaceBuildReport)> {
     let solver = match req.method {
-        SurfaceMethod::HeightField => return build_height_field(&samples, &req.height_field),
+        SurfaceMethod::HeightField => return build_height_field(samples, &req.height_field),
         SurfaceMethod::Imls => SurfaceSolver::Imls,
         SurfaceMethod::Poisson => SurfaceSolver::Poisson,
     };
@@ -129,7 +157,7 @@ pub fn build_surface(req: &SurfaceRequest) -> Result<(Mesh, SurfaceBuildReport)>
         solver,
         ..req.surface.clone()
     };
-    let (mesh, report) = reconstruct_surface_with_report(&samples, &params)?;
+    let (mesh, report) = reconstruct_surface_with_report(samples, &params)?;
     Ok((mesh, SurfaceBuildReport::Surface(report)))
 }
 
@@ -152,14 +180,10 @@ fn build_height_field(
 /// Builds the surface of `req` and writes it to `out` (PLY or OBJ by its
 /// extension), refusing an existing file unless `force`: checked before
 /// any work.
-pub fn write_surface(
-    req: &SurfaceRequest,
-    out: &Path,
-    force: bool,
-) -> Result<(Mesh, SurfaceBuildReport)> {
+pub fn write_surface(req: &SurfaceRequest, out: &Path, force: bool) -> Result<SurfaceBuild> {
     fsio::check_overwrite(out, force)?;
     let format = MeshFormat::for_path(out)?;
-    let (mesh, report) = build_surface(req)?;
-    io::write_mesh(out, &mesh, format)?;
-    Ok((mesh, report))
+    let built = build_surface(req)?;
+    io::write_mesh(out, &built.mesh, format)?;
+    Ok(built)
 }

@@ -26,7 +26,7 @@ use crate::raycast::RayCaster;
 /// Box-Muller without another dependency.
 mod rand_distr_free {
     use rand::Rng;
-    pub fn gauss(rng: &mut impl Rng) -> f64 {
+    pub(super) fn gauss(rng: &mut impl Rng) -> f64 {
         let u: f64 = rng.random_range(f64::EPSILON..1.0);
         let v: f64 = rng.random_range(0.0..1.0);
         (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()

@@ -33,7 +33,7 @@ use super::curves::CurveAccumulator;
 use super::fly::truly_positive;
 use super::training::{label_site, LabelledView, TrainingStats};
 use crate::error::{Result, SimError};
-use crate::noise::mix64;
+use vp_scene::hash::mix64;
 
 /// The paper's leave-one-out accuracies (Sec. 5.1): PMVS and SURE, mean and
 /// standard deviation over folds, percent.

@@ -19,7 +19,7 @@ use super::strategy_run::{check_path, run_strategy, Known};
 use super::training::train_forest_with_stats;
 use super::world::{acquire, init_cameras, sfm_cameras, World};
 use crate::error::Result;
-use crate::noise::mix64;
+use vp_scene::hash::mix64;
 
 /// Source tags of image ids: init, grid, then one per strategy.
 const SOURCE_INIT: u64 = 0;

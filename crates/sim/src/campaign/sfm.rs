@@ -40,7 +40,8 @@ use super::features::FeatureMask;
 use super::fly::Flown;
 use super::world::{point_noise, Acquired, World};
 use crate::error::{Result, SimError};
-use crate::noise::{hash3, mix64, unit};
+use crate::noise::{hash3, unit};
+use vp_scene::hash::mix64;
 
 /// An observation ray: camera centre, observed point.
 pub type Observation = (Point3<f64>, Point3<f64>);

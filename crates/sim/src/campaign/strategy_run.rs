@@ -7,9 +7,10 @@ use std::collections::BTreeMap;
 use nalgebra::Point3;
 use vp_forest::Forest;
 use vp_planner::{plan, AcquiredView, PlanInputs, RoiSpec, SafetyConfig};
-use vp_scene::colmap::{ModelFrame, Sim3};
+use vp_scene::colmap::ModelFrame;
 use vp_scene::plan::{Plan, Role};
 use vp_scene::roi::Roi;
+use vp_scene::sim3::Sim3;
 use vp_scene::Camera;
 
 use super::acquired::AcquiredModel;
@@ -23,7 +24,7 @@ use super::strategies::Strategy;
 use super::world::{acquire, sfm_cameras, Acquired, World};
 use crate::error::{Result, SimError};
 use crate::gnss::{camera_through, mesh_through};
-use crate::noise::mix64;
+use vp_scene::hash::mix64;
 
 /// Everything one triplet strategy produced on one site.
 pub(super) struct StrategyRun {

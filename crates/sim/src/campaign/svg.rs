@@ -6,7 +6,7 @@
 use std::fmt::Write as _;
 
 /// One line of a plot.
-pub struct Series {
+pub(super) struct Series {
     /// Legend text.
     pub label: String,
     /// CSS colour.
@@ -18,7 +18,7 @@ pub struct Series {
 }
 
 /// A plot of a few series over fixed axis ranges.
-pub struct LinePlot<'a> {
+pub(super) struct LinePlot<'a> {
     /// Title above the plot.
     pub title: &'a str,
     /// Label of the x axis.
@@ -45,7 +45,7 @@ const TOP: f64 = 26.0;
 const BOTTOM: f64 = 38.0;
 
 /// Escapes text for HTML and SVG.
-pub fn escape(s: &str) -> String {
+pub(super) fn escape(s: &str) -> String {
     let mut o = String::with_capacity(s.len());
     for c in s.chars() {
         match c {
@@ -79,7 +79,7 @@ impl LinePlot<'_> {
     }
 
     /// The plot as an `<svg>` element with a `<title>` for screen readers.
-    pub fn render(&self) -> String {
+    pub(super) fn render(&self) -> String {
         let mut s = String::new();
         let _ = write!(
             s,

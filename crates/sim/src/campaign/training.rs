@@ -28,7 +28,7 @@ use super::sfm::SparseCandidates;
 use super::world::sfm_camera;
 use crate::error::{Result, SimError};
 use crate::mvs::{level_camera, PixelTruth};
-use crate::noise::mix64;
+use vp_scene::hash::mix64;
 
 /// Margin around the rock within which training triplets focus, metres:
 /// the rock and the vegetation around it, as the ROI of a flight.

@@ -16,8 +16,9 @@ use super::curves::CurveAccumulator;
 use super::features::FeatureMask;
 use super::sfm::SparseCandidates;
 use crate::error::{Result, SimError};
-use crate::noise::{gaussian, mix64};
+use crate::noise::gaussian;
 use crate::render::render;
+use vp_scene::hash::mix64;
 
 /// A held-out site with its ray caster and region of interest.
 pub struct World {

@@ -9,7 +9,8 @@ use vp_scene::{Camera, Material, Mesh};
 
 use super::profile::MvsProfile;
 use crate::error::{Result, SimError};
-use crate::noise::{gaussian, hash3, mix64, uniform_field, unit};
+use crate::noise::{gaussian, hash3, uniform_field, unit};
+use vp_scene::hash::mix64;
 use vp_scene::triangulation::{point_covariance, sigma_along, triangulation_angle_deg};
 
 /// Deepest pyramid level accepted (level L has 2^-(L-1) of the resolution).

@@ -141,6 +141,8 @@ pub(crate) struct Header {
     pub(crate) body_start: usize,
     /// 1-based line number of the first body line (ascii bodies).
     pub(crate) body_line: usize,
+    /// Lines read with a warning: (1-based line number, what happened).
+    pub(crate) notes: Vec<(usize, String)>,
 }
 
 /// Parses the header of a PLY file held in `bytes`.
@@ -157,6 +159,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Header> {
     let mut consumed = next_line_start(bytes, 0);
     let mut state = State::default();
     let mut ended = false;
+    let mut notes = Vec::new();
     for (n, raw) in lines.by_ref() {
         // Offsets are tracked on the raw bytes: `raw` lost its '\r' but the
         // body starts after the full line ending.
@@ -172,8 +175,9 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Header> {
             // Old Blender exporters write `Created by Blender3D ...` without
             // `comment`; trimesh and assimp read such files, MeshLab refuses
             // them. Read the line as a comment, but say so: a misspelt
-            // keyword would otherwise vanish without a trace.
-            eprintln!("warning: {}: line {n}: {note}", path.display());
+            // keyword would otherwise vanish without a trace. The caller
+            // decides how to tell (the CLI prints it, Python warns).
+            notes.push((n, note));
             continue;
         }
         if state
@@ -203,6 +207,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Header> {
         elements: state.elements,
         body_start: consumed,
         body_line: lines.line_number(),
+        notes,
     })
 }
 

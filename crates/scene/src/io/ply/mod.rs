@@ -16,7 +16,7 @@ use std::path::Path;
 use nalgebra::{Point3, Vector3};
 
 use self::header::{Element, Encoding, Header, Kind};
-use super::{Found, Target};
+use super::{Found, PointFile, ReadWarning, Target};
 use crate::error::{Location, Result, SceneError};
 use crate::mesh::{Material, Mesh};
 
@@ -228,13 +228,16 @@ pub(crate) fn known_materials() -> String {
     format!("known: {}", names.join(", "))
 }
 
+/// What [`read_body`] read.
+struct Body {
+    mesh: Mesh,
+    normals: Option<Vec<Vector3<f64>>>,
+    found: Option<Found>,
+    warnings: Vec<ReadWarning>,
+}
+
 /// Reads the body, stopping early with the target's location if one is set.
-#[allow(clippy::type_complexity)] // one private function: a struct would only rename the tuple
-fn read_body(
-    bytes: &[u8],
-    path: &Path,
-    target: Option<Target>,
-) -> Result<(Mesh, Option<Vec<Vector3<f64>>>, Option<Found>)> {
+fn read_body(bytes: &[u8], path: &Path, target: Option<Target>) -> Result<Body> {
     let header = header::parse(bytes, path)?;
     let plan = plan(&header, path)?;
     let body = &bytes[header.body_start..];
@@ -249,28 +252,45 @@ fn read_body(
         }
     };
     let (mesh, normals) = builder.finish();
-    Ok((mesh, normals, found))
+    let warnings = header
+        .notes
+        .into_iter()
+        .map(|(line, message)| ReadWarning {
+            path: path.to_path_buf(),
+            location: Location::Line(line),
+            message,
+        })
+        .collect();
+    Ok(Body {
+        mesh,
+        normals,
+        found,
+        warnings,
+    })
 }
 
-/// Parses a whole PLY file. Only format errors are reported; the mesh may
-/// still hold out-of-range indices or non-finite coordinates.
-pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
-    Ok(read_body(bytes, path, None)?.0)
+/// Parses a whole PLY file with what it read with a warning. Only format
+/// errors are reported; the mesh may still hold out-of-range indices or
+/// non-finite coordinates.
+pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<(Mesh, Vec<ReadWarning>)> {
+    let body = read_body(bytes, path, None)?;
+    Ok((body.mesh, body.warnings))
 }
 
-/// Parses a whole PLY file with its vertex normals (`nx ny nz`), if it has
-/// them: one per vertex.
-pub(crate) fn parse_with_normals(
-    bytes: &[u8],
-    path: &Path,
-) -> Result<(Mesh, Option<Vec<Vector3<f64>>>)> {
-    let (mesh, normals, _) = read_body(bytes, path, None)?;
-    Ok((mesh, normals))
+/// [`parse`] with the vertex normals (`nx ny nz`), if the file has them:
+/// one per vertex.
+pub(crate) fn parse_with_normals(bytes: &[u8], path: &Path) -> Result<PointFile> {
+    let body = read_body(bytes, path, None)?;
+    Ok(PointFile {
+        points: body.mesh.vertices,
+        normals: body.normals,
+        warnings: body.warnings,
+    })
 }
 
 /// Where in the file a vertex or triangle of the parsed mesh came from.
 pub(crate) fn locate(bytes: &[u8], path: &Path, target: Target) -> Option<Found> {
-    read_body(bytes, path, Some(target)).ok()?.2
+    read_body(bytes, path, Some(target)).ok()?.found
 }
 
 #[cfg(test)]

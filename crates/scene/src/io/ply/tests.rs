@@ -83,6 +83,10 @@ impl File {
     }
 
     fn parse(&self) -> crate::error::Result<Mesh> {
+        Ok(self.parse_with_warnings()?.0)
+    }
+
+    fn parse_with_warnings(&self) -> crate::error::Result<(Mesh, Vec<super::ReadWarning>)> {
         parse(&self.bytes, Path::new("t.ply"))
     }
 }
@@ -404,7 +408,7 @@ fn ascii_float_properties_read_as_f32_like_binary() {
     // file in ascii and binary gives the same mesh.
     let text = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n\
                 property float y\nproperty double z\nend_header\n0.1 0.2 0.3\n";
-    let mesh = parse(text.as_bytes(), Path::new("t.ply")).unwrap();
+    let (mesh, _) = parse(text.as_bytes(), Path::new("t.ply")).unwrap();
     assert_eq!(mesh.vertices[0].x.to_bits(), f64::from(0.1f32).to_bits());
     assert_eq!(mesh.vertices[0].z.to_bits(), 0.3f64.to_bits());
 }
@@ -493,8 +497,16 @@ fn blender_free_text_header_line_reads_as_a_comment() {
             f.put(Scalar::U32, k);
         }
         f.end();
-        let mesh = f.parse().unwrap();
+        let (mesh, warnings) = f.parse_with_warnings().unwrap();
         assert_eq!(mesh.faces, vec![[0, 1, 2]]);
+        // Returned to the caller (not printed by the reader), naming the
+        // file and the line.
+        let told: Vec<String> = warnings.iter().map(ToString::to_string).collect();
+        assert_eq!(told.len(), 1, "{told:?}");
+        assert!(
+            told[0].starts_with("t.ply: line 3: header line without a PLY keyword read as a comment: 'Created by Blender3D"),
+            "{told:?}"
+        );
     }
 }
 
@@ -504,10 +516,10 @@ fn vertex_normals_are_read_from_ascii_and_binary() {
     let ascii = b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n\
 property float z\nproperty float nx\nproperty float ny\nproperty float nz\nproperty uchar red\n\
 end_header\n0 0 0 0 0 1 255\n1 2 3 0.5 0.5 0 7\n";
-    let (mesh, normals) = super::parse_with_normals(ascii, Path::new("a.ply")).unwrap();
-    assert_eq!(mesh.vertices.len(), 2);
+    let cloud = super::parse_with_normals(ascii, Path::new("a.ply")).unwrap();
+    assert_eq!(cloud.points.len(), 2);
     assert_eq!(
-        normals.unwrap(),
+        cloud.normals.unwrap(),
         vec![Vector3::new(0.0, 0.0, 1.0), Vector3::new(0.5, 0.5, 0.0)]
     );
     let mut bin = b"ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\n\
@@ -517,12 +529,12 @@ end_header\n"
     for v in [1.0f32, 2.0, 3.0, 0.0, -1.0, 0.0] {
         bin.extend_from_slice(&v.to_le_bytes());
     }
-    let (_, normals) = super::parse_with_normals(&bin, Path::new("b.ply")).unwrap();
-    assert_eq!(normals.unwrap(), vec![Vector3::new(0.0, -1.0, 0.0)]);
+    let cloud = super::parse_with_normals(&bin, Path::new("b.ply")).unwrap();
+    assert_eq!(cloud.normals.unwrap(), vec![Vector3::new(0.0, -1.0, 0.0)]);
     let plain = b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n\
 property float z\nend_header\n1 2 3\n";
     assert!(super::parse_with_normals(plain, Path::new("c.ply"))
         .unwrap()
-        .1
+        .normals
         .is_none());
 }

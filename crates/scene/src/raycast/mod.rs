@@ -1,5 +1,5 @@
 //! Ray casting over a mesh with an 8-wide BVH: obvhs builds the tree (CWBVH),
-//! `raycast_bvh8.rs` decodes it into float boxes and 4-triangle packets and
+//! `raycast/bvh8.rs` decodes it into float boxes and 4-triangle packets and
 //! traverses it (about twice obvhs's own traversal on aerial rays, with the
 //! same answers; see that file).
 //!
@@ -58,7 +58,7 @@ const BVH_BUILD: BvhBuildParams = BvhBuildParams::medium_build();
 
 /// BVH over one mesh, ready for queries. Cheap to share across threads.
 pub struct RayCaster {
-    /// obvhs's tree, decoded for traversal (see `raycast_bvh8.rs`).
+    /// obvhs's tree, decoded for traversal (see `raycast/bvh8.rs`).
     bvh: Bvh8,
     /// World position of the local frame's origin (the centre of the mesh bounds).
     offset: Vector3<f64>,
@@ -363,9 +363,7 @@ fn spread_bits(x: u64) -> u64 {
     (x | x << 2) & 0x0924_9249
 }
 
-#[path = "raycast_bvh8.rs"]
 mod bvh8;
 
 #[cfg(test)]
-#[path = "raycast_tests.rs"]
 mod tests;
