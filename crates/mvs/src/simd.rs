@@ -127,7 +127,7 @@ impl Avx2 {
 
     /// `sgm::matching::winner_row` with AVX2 code generation: the same result.
     #[allow(clippy::unused_self)] // `self` is the proof that AVX2 is there
-    pub fn sgm_winner_row(
+    pub(crate) fn sgm_winner_row(
         self,
         row: &[u16],
         y: usize,
@@ -152,7 +152,7 @@ impl Avx2 {
     /// `sgm::matching::cost_row` with AVX2 and, when the CPU has it,
     /// `popcnt` code generation: the same result.
     #[allow(clippy::unused_self)] // `self` is the proof that AVX2 is there
-    pub fn sgm_cost_row(
+    pub(crate) fn sgm_cost_row(
         self,
         cl: &[u64],
         cr: &[u64],

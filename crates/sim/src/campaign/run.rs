@@ -61,10 +61,9 @@ fn fly_flight(
     check_path(&mut check, world, cfg, (None, &path), &label, progress);
     let scene = world.scene();
     let ids: Vec<u64> = (0..cams.len()).map(|i| image_id(source, i)).collect();
-    // Real matchers reconstruct the whole image set, as a user's would.
-    let flown = if cfg.mvs != MvsKind::Virtual {
-        matcher.image_set(&scene, (cams, sfm), &ids, &world.roi, mix64(seed ^ source))?
-    } else {
+    // Real matchers reconstruct the whole image set, as a user's would;
+    // the virtual MVS draws each triplet's outcome.
+    let flown = if cfg.mvs == MvsKind::Virtual {
         (0..cams.len().saturating_sub(2))
             .map(|i| {
                 matcher.fly_triplet(
@@ -78,6 +77,8 @@ fn fly_flight(
                 )
             })
             .collect::<Result<Vec<_>>>()?
+    } else {
+        matcher.image_set(&scene, (cams, sfm), &ids, &world.roi, mix64(seed ^ source))?
     };
     let tol = cfg.eval.depth_tolerance_m;
     let site = world.site.params.seed;
