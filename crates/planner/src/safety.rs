@@ -91,9 +91,10 @@ impl Safety {
             Some("is outside the geofence (`geofence` in the planner config)".into())
         } else if !self.clearance.point_is_clear(p, d + CLEARANCE_MARGIN_M) {
             Some(format!(
-                "is {:.2} m from the mesh, closer than the clearance {d:.2} m (`safety_distance_m` \
-                 + `geometry_margin_m` + the position margin of `[safety] gnss` in the planner \
-                 config, which `vpctl plan` prints; for a grid: a larger --height)",
+                "is {:.2} m from the mesh, closer than the clearance {d:.2} m (the safety distance \
+                 `safety_distance_m` + `geometry_margin_m` + the position margin of `[safety] \
+                 gnss` in the planner config, which `vpctl plan` prints; for a grid: a larger \
+                 --height)",
                 self.clearance.distance(p)
             ))
         } else if !self
