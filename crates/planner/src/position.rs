@@ -31,9 +31,10 @@ pub use vp_scene::gnss::{GnssClass, GnssSigmas};
 /// holds for a whole flight, so the tail is a per-flight risk: 3 leaves a
 /// one-sided 0.13 % of flights reaching into the safety distance at their
 /// closest point (the safety distance itself still between them and the
-/// surface). 2 (2.3 % of flights) was measured at 14 violations on 5 of 200
-/// random sites (docs/reliability.md), as that tail predicts: too many for
-/// a vehicle flown every day.
+/// surface). 2 leaves 2.3 % of flights: about one flight in forty, too
+/// many for a vehicle flown every day. Over 200 random simulated sites with
+/// standard GNSS, 3 kept every flown path outside the safety distance of
+/// the true surface (docs/campaign-findings.md).
 pub const DEFAULT_SIGMAS: f64 = 3.0;
 
 /// The `[safety]` section of the planner config.
