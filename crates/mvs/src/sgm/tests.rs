@@ -453,3 +453,53 @@ fn share_within_2px_by_angle() {
         eprintln!("{angle:>4} deg: {:5.1} % within 2 px", 100.0 * share);
     }
 }
+
+/// FNV-1a over the bits of some floats: a fingerprint of a map.
+fn fingerprint(values: &[f32]) -> u64 {
+    values.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, v| {
+        v.to_bits()
+            .to_le_bytes()
+            .iter()
+            .fold(h, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
+    })
+}
+
+#[test]
+fn matcher_output_is_unchanged_on_rendered_pairs() {
+    // The fingerprints of the rectified disparities and the depth maps of
+    // rendered pairs at 6, 20 and 40 deg as the matcher of main at
+    // fb2517a gave them: speed work must keep the output bit for bit (an
+    // experiment runs on it). 8 paths, then 4.
+    let want: [(f64, u32, u64, u64); 4] = [
+        (6.0, 8, 15_871_701_304_665_511_502, 1_671_584_222_374_675_444),
+        (20.0, 8, 16_929_882_162_016_639_626, 4_498_242_444_053_606_316),
+        (40.0, 8, 13_183_053_221_867_756_185, 18_061_260_326_952_175_045),
+        (20.0, 4, 3_692_441_193_510_678_281, 5_360_474_123_287_757_051),
+    ];
+    let mut got = Vec::new();
+    for &(angle, paths, _, _) in &want {
+        let (views, _) = views(&cameras(2, angle, (200, 150)));
+        let mut params = sgm_params();
+        params.sgm.paths = paths;
+        params.sgm.max_disparities = 1024;
+        let (rv, sv) = (&views[0], &views[1]);
+        let rect = Rectification::new(&rv.camera, &sv.camera, rv.depth_range, 1024).unwrap();
+        let (left, left_valid) = rect.resample(&rv.camera, &rv.grey, false);
+        let (right, right_valid) = rect.resample(&sv.camera, &sv.grey, true);
+        let pair = RectifiedPair {
+            width: rect.width,
+            height: rect.height,
+            left,
+            left_valid,
+            right,
+            right_valid,
+            n_disp: rect.n_disp,
+        };
+        let disp = matching::match_pair(&pair, &params.sgm);
+        let depth = semi_global(&views, 0, &[1], &params).unwrap().depth;
+        got.push((angle, paths, fingerprint(&disp), fingerprint(&depth)));
+    }
+    for (g, w) in got.iter().zip(&want) {
+        assert_eq!(g, w, "all: {got:?}");
+    }
+}
