@@ -11,7 +11,7 @@ use std::sync::{Mutex, PoisonError};
 use rayon::prelude::*;
 
 use super::SgmParams;
-use crate::simd::Avx2;
+use crate::simd::SgmSimd;
 
 /// A rectified image pair on one grid, the reference (left) first.
 pub(crate) struct RectifiedPair {
@@ -30,50 +30,94 @@ const BIG: u16 = 0x4000;
 
 /// Census transform: bit k of a pixel is set when the k-th pixel of its
 /// window (row-major, centre skipped, coordinates clamped to the image)
-/// is darker than the centre.
+/// is darker than the centre. Rows in parallel, each a [`census_row`].
+pub(crate) fn census(
+    img: &[f32],
+    w: usize,
+    h: usize,
+    cw: usize,
+    ch: usize,
+    simd: SgmSimd,
+) -> Vec<u64> {
+    let mut out = vec![0u64; w * h];
+    out.par_chunks_mut(w).enumerate().for_each_init(
+        || (vec![0u32; w], vec![0u32; w]),
+        |(lo_bits, hi_bits), (y, row)| {
+            let job = CensusRow {
+                img,
+                w,
+                h,
+                y,
+                cw,
+                ch,
+            };
+            simd.census_row(&job, lo_bits, hi_bits, row);
+        },
+    );
+    out
+}
+
+/// One row of [`census`]: the image, the row and the window.
+pub(crate) struct CensusRow<'a> {
+    pub img: &'a [f32],
+    pub w: usize,
+    pub h: usize,
+    pub y: usize,
+    pub cw: usize,
+    pub ch: usize,
+}
+
+/// The census codes of row `job.y` into `row` (`w` of them); `lo_bits`
+/// and `hi_bits` are scratch rows of `w` words (any contents), reused
+/// from row to row.
 ///
 /// # Performance
 /// One window offset at a time over a whole row: the interior of the row
 /// (no clamping) is a straight compare-and-or loop that LLVM vectorises;
 /// only the `cw / 2` pixels at each end take the clamped index.
-pub(crate) fn census(img: &[f32], w: usize, h: usize, cw: usize, ch: usize) -> Vec<u64> {
-    let (rx, ry) = ((cw / 2) as isize, (ch / 2) as isize);
-    let mut out = vec![0u64; w * h];
-    out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        let centre = &img[y * w..(y + 1) * w];
-        // Bits 0..32 and 32..64 in two u32 words: a float comparison is a
-        // 32-bit mask, so eight pixels fit one AVX2 register (four as u64).
-        let mut lo_bits = vec![0u32; w];
-        let mut hi_bits = vec![0u32; w];
-        let mut k = 0;
-        for dy in -ry..=ry {
-            let yy = (y as isize + dy).clamp(0, h as isize - 1) as usize;
-            let src = &img[yy * w..(yy + 1) * w];
-            for dx in -rx..=rx {
-                if dx == 0 && dy == 0 {
-                    continue;
-                }
-                let bits = if k < 32 { &mut lo_bits } else { &mut hi_bits };
-                let bit = 1u32 << (k % 32);
-                // Pixels x whose neighbour x + dx lies inside the row.
-                let lo = (-dx).clamp(0, w as isize) as usize;
-                let hi = (w as isize - dx).clamp(lo as isize, w as isize) as usize;
-                let shifted = &src[(lo as isize + dx) as usize..(hi as isize + dx) as usize];
-                for ((c, &m), &s) in bits[lo..hi].iter_mut().zip(&centre[lo..hi]).zip(shifted) {
-                    *c |= if s < m { bit } else { 0 };
-                }
-                for x in (0..lo).chain(hi..w) {
-                    let xx = (x as isize + dx).clamp(0, w as isize - 1) as usize;
-                    bits[x] |= if src[xx] < centre[x] { bit } else { 0 };
-                }
-                k += 1;
+// Always inlined: simd.rs compiles copies with AVX2 and AVX-512 enabled.
+#[allow(clippy::inline_always)]
+#[inline(always)]
+pub(crate) fn census_row(
+    job: &CensusRow,
+    lo_bits: &mut [u32],
+    hi_bits: &mut [u32],
+    row: &mut [u64],
+) {
+    let (img, w, h, y) = (job.img, job.w, job.h, job.y);
+    let (rx, ry) = ((job.cw / 2) as isize, (job.ch / 2) as isize);
+    let centre = &img[y * w..(y + 1) * w];
+    // Bits 0..32 and 32..64 in two u32 words: a float comparison is a
+    // 32-bit mask, so eight pixels fit one AVX2 register (four as u64).
+    lo_bits.fill(0);
+    hi_bits.fill(0);
+    let mut k = 0;
+    for dy in -ry..=ry {
+        let yy = (y as isize + dy).clamp(0, h as isize - 1) as usize;
+        let src = &img[yy * w..(yy + 1) * w];
+        for dx in -rx..=rx {
+            if dx == 0 && dy == 0 {
+                continue;
             }
+            let bits = if k < 32 { &mut *lo_bits } else { &mut *hi_bits };
+            let bit = 1u32 << (k % 32);
+            // Pixels x whose neighbour x + dx lies inside the row.
+            let lo = (-dx).clamp(0, w as isize) as usize;
+            let hi = (w as isize - dx).clamp(lo as isize, w as isize) as usize;
+            let shifted = &src[(lo as isize + dx) as usize..(hi as isize + dx) as usize];
+            for ((c, &m), &s) in bits[lo..hi].iter_mut().zip(&centre[lo..hi]).zip(shifted) {
+                *c |= if s < m { bit } else { 0 };
+            }
+            for x in (0..lo).chain(hi..w) {
+                let xx = (x as isize + dx).clamp(0, w as isize - 1) as usize;
+                bits[x] |= if src[xx] < centre[x] { bit } else { 0 };
+            }
+            k += 1;
         }
-        for ((c, &l), &h) in row.iter_mut().zip(&lo_bits).zip(&hi_bits) {
-            *c = u64::from(h) << 32 | u64::from(l);
-        }
-    });
-    out
+    }
+    for ((c, &l), &h) in row.iter_mut().zip(&*lo_bits).zip(&*hi_bits) {
+        *c = u64::from(h) << 32 | u64::from(l);
+    }
 }
 
 /// One row of the cost volume: `out[x * nd + k]` is the Hamming distance
@@ -90,9 +134,27 @@ pub(crate) fn cost_row(
     left_valid: &[bool],
     right_valid: &[bool],
     n_bits: u8,
+    scratch: &mut (Vec<u64>, Vec<u8>),
     out: &mut [u8],
 ) {
-    let nd = out.len() / cl.len().max(1);
+    let w = cl.len();
+    scratch.0.resize(w, 0);
+    scratch.1.resize(w, 0);
+    let nd = out.len() / w.max(1);
+    // The right row reversed, so that left pixel x's candidates x, x - 1,
+    // ..., x - k are consecutive (a forward loop that vectorises), and its
+    // validity as a mask: a popcount is at most n_bits, so
+    // `(n | mask).min(n_bits)` is n where the right pixel is valid and
+    // n_bits where not, without a branch.
+    let (rev, mask) = (&mut scratch.0[..w], &mut scratch.1[..w]);
+    for ((r, m), (&c, &ok)) in rev
+        .iter_mut()
+        .zip(mask.iter_mut())
+        .zip(cr.iter().zip(right_valid).rev())
+    {
+        *r = c;
+        *m = if ok { 0 } else { 0xFF };
+    }
     for (x, cell) in out.chunks_exact_mut(nd).enumerate() {
         if !left_valid[x] {
             cell.fill(n_bits);
@@ -101,46 +163,73 @@ pub(crate) fn cost_row(
         let reach = nd.min(x + 1);
         let (inside, outside) = cell.split_at_mut(reach);
         outside.fill(n_bits);
-        // Index k is right pixel x - k: the right row read backwards from x.
-        let first = x + 1 - reach;
+        // Index k is right pixel x - k, reversed slot w - 1 - x + k.
+        let first = w - 1 - x;
         let code = cl[x];
-        let right = cr[first..=x]
+        let right = rev[first..first + reach]
             .iter()
-            .rev()
-            .zip(right_valid[first..=x].iter().rev());
-        for (c, (&r, &ok)) in inside.iter_mut().zip(right) {
-            let n = (code ^ r).count_ones() as u8;
-            *c = if ok { n } else { n_bits };
+            .zip(&mask[first..first + reach]);
+        for (c, (&r, &m)) in inside.iter_mut().zip(right) {
+            *c = ((code ^ r).count_ones() as u8 | m).min(n_bits);
         }
     }
 }
 
-/// The cost volume `cost[(y * w + x) * n_disp + k]` of [`cost_row`], rows
-/// in parallel.
-pub(crate) fn cost_volume(
-    pair: &RectifiedPair,
-    cw: usize,
-    ch: usize,
-    avx2: Option<Avx2>,
-) -> Vec<u8> {
-    let (w, h, nd) = (pair.width, pair.height, pair.n_disp);
-    let n_bits = (cw * ch - 1) as u8;
-    let (cl, cr) = rayon::join(
-        || census(&pair.left, w, h, cw, ch),
-        || census(&pair.right, w, h, cw, ch),
+/// The census codes of both images of a pair, and the largest cost
+/// (window pixels but the centre).
+pub(crate) struct PairCensus {
+    pub left: Vec<u64>,
+    pub right: Vec<u64>,
+    pub n_bits: u8,
+}
+
+/// Both census transforms of a pair, side by side.
+pub(crate) fn pair_census(pair: &RectifiedPair, cw: usize, ch: usize, simd: SgmSimd) -> PairCensus {
+    let (w, h) = (pair.width, pair.height);
+    let (left, right) = rayon::join(
+        || census(&pair.left, w, h, cw, ch, simd),
+        || census(&pair.right, w, h, cw, ch, simd),
     );
+    PairCensus {
+        left,
+        right,
+        n_bits: (cw * ch - 1) as u8,
+    }
+}
+
+/// Row y's matching costs ([`cost_row`], `w * nd`) into `out`.
+fn costs_of_row(
+    codes: &PairCensus,
+    pair: &RectifiedPair,
+    y: usize,
+    simd: SgmSimd,
+    scratch: &mut (Vec<u64>, Vec<u8>),
+    out: &mut [u8],
+) {
+    let r = y * pair.width..(y + 1) * pair.width;
+    simd.cost_row(
+        &codes.left[r.clone()],
+        &codes.right[r.clone()],
+        &pair.left_valid[r.clone()],
+        &pair.right_valid[r],
+        codes.n_bits,
+        scratch,
+        out,
+    );
+}
+
+/// The cost volume `cost[(y * w + x) * n_disp + k]` of [`cost_row`]: the
+/// sweeps compute each row's costs where they need them, this whole
+/// volume is for the tests against the reference.
+#[cfg(test)]
+pub(crate) fn cost_volume(pair: &RectifiedPair, cw: usize, ch: usize, simd: SgmSimd) -> Vec<u8> {
+    let (w, h, nd) = (pair.width, pair.height, pair.n_disp);
+    let codes = pair_census(pair, cw, ch, simd);
     let mut cost = vec![0u8; w * h * nd];
-    cost.par_chunks_mut(w * nd)
-        .enumerate()
-        .for_each(|(y, row)| {
-            let r = y * w..(y + 1) * w;
-            let (l, rr) = (&cl[r.clone()], &cr[r.clone()]);
-            let (lv, rv) = (&pair.left_valid[r.clone()], &pair.right_valid[r]);
-            match avx2 {
-                Some(a) => a.sgm_cost_row(l, rr, lv, rv, n_bits, row),
-                None => cost_row(l, rr, lv, rv, n_bits, row),
-            }
-        });
+    let mut scratch = (Vec::new(), Vec::new());
+    for (y, row) in cost.chunks_mut(w * nd).enumerate() {
+        costs_of_row(&codes, pair, y, simd, &mut scratch, row);
+    }
     cost
 }
 
@@ -214,6 +303,37 @@ pub(crate) struct PassState {
     pub row: Vec<u16>,
 }
 
+/// Four scanline steps of one pixel (the in-row path and the three
+/// row-to-row ones of an 8-path pass), each [`step`], and their sum into
+/// `out`. Returns the four minima. simd.rs has the same in one AVX-512
+/// loop over the disparities (`x86::step4_512`), tested equal.
+#[allow(clippy::inline_always)]
+#[inline(always)]
+pub(crate) fn step4(
+    cost: &[u8],
+    prev: [&[u16]; 4],
+    prev_min: [u16; 4],
+    p1: u16,
+    p2: u16,
+    cur: [&mut [u16]; 4],
+    out: &mut [u16],
+) -> [u16; 4] {
+    let [c0, c1, c2, c3] = cur;
+    let mins = [
+        step(cost, prev[0], prev_min[0], p1, p2, c0),
+        step(cost, prev[1], prev_min[1], p1, p2, c1),
+        step(cost, prev[2], prev_min[2], p1, p2, c2),
+        step(cost, prev[3], prev_min[3], p1, p2, c3),
+    ];
+    let nd = cost.len();
+    let cells = c0[1..].iter().zip(&c1[1..]).zip(&c2[1..]).zip(&c3[1..]);
+    // At most 8 paths x (64 + 8000) < 65536: never wraps.
+    for (s, (((&a, &b), &c), &d)) in out[..nd].iter_mut().zip(cells) {
+        *s = a.wrapping_add(b).wrapping_add(c).wrapping_add(d);
+    }
+    mins
+}
+
 /// The sum over a pass's paths of one row's aggregated costs, into `out`
 /// (`w * nd`); the current buffers of `st` are filled (the caller swaps).
 // Always inlined: simd.rs compiles a copy with AVX2 enabled, 16 u16 lanes
@@ -221,6 +341,19 @@ pub(crate) struct PassState {
 #[allow(clippy::inline_always)]
 #[inline(always)]
 pub(crate) fn pass_row(job: &RowPass, st: &mut PassState, out: &mut [u16]) {
+    pass_row_with(job, st, out, |c, q, m, p1, p2, cur, o| {
+        step4(c, q, m, p1, p2, cur, o)
+    });
+}
+
+/// [`pass_row`] with the four steps of an inside pixel of an 8-path pass
+/// done by `four` ([`step4`] or an equal vector version).
+#[allow(clippy::inline_always)]
+#[inline(always)]
+pub(crate) fn pass_row_with<F>(job: &RowPass, st: &mut PassState, out: &mut [u16], four: F)
+where
+    F: Fn(&[u8], [&[u16]; 4], [u16; 4], u16, u16, [&mut [u16]; 4], &mut [u16]) -> [u16; 4],
+{
     let (nd, pad) = (job.nd, job.nd + 2);
     let w = out.len() / nd;
     let (p1, p2) = (job.p1, job.p2);
@@ -230,13 +363,44 @@ pub(crate) fn pass_row(job: &RowPass, st: &mut PassState, out: &mut [u16]) {
         let x = if job.hdx > 0 { n } else { w - 1 - n };
         let c = &job.cost[x * nd..(x + 1) * nd];
         let o = &mut out[x * nd..(x + 1) * nd];
+        // 8 paths inside the image: the four steps in one loop over the
+        // disparities ([`step4`]), the usual case.
+        if n > 0 && !job.first && job.vdx == [0, 1, -1] && x >= 1 && x + 1 < w {
+            let (v0, rest) = st.cur.split_at_mut(w * pad);
+            let (v1, v2) = rest.split_at_mut(w * pad);
+            let prev = |j: usize, px: usize| {
+                let p = j * w + px;
+                (&st.prev[p * pad..(p + 1) * pad], st.prev_min[p])
+            };
+            let (q1, m1) = prev(0, x);
+            let (q2, m2) = prev(1, x - 1);
+            let (q3, m3) = prev(2, x + 1);
+            let mins = four(
+                c,
+                [hprev, q1, q2, q3],
+                [hmin, m1, m2, m3],
+                p1,
+                p2,
+                [
+                    &mut *hcur,
+                    &mut v0[x * pad..(x + 1) * pad],
+                    &mut v1[x * pad..(x + 1) * pad],
+                    &mut v2[x * pad..(x + 1) * pad],
+                ],
+                o,
+            );
+            hmin = mins[0];
+            for (j, &m) in mins[1..].iter().enumerate() {
+                st.cur_min[j * w + x] = m;
+            }
+            std::mem::swap(&mut hprev, &mut hcur);
+            continue;
+        }
         hmin = if n == 0 {
             start(c, hcur)
         } else {
             step(c, hprev, hmin, p1, p2, hcur)
         };
-        o.copy_from_slice(&hcur[1..=nd]);
-        std::mem::swap(&mut hprev, &mut hcur);
         for (j, &dx) in job.vdx.iter().enumerate() {
             let at = j * w + x;
             let cell = &mut st.cur[at * pad..(at + 1) * pad];
@@ -254,11 +418,28 @@ pub(crate) fn pass_row(job: &RowPass, st: &mut PassState, out: &mut [u16]) {
                     cell,
                 )
             };
-            // At most 8 paths x (64 + 8000) < 65536: never wraps.
-            for (s, &v) in o.iter_mut().zip(&cell[1..]) {
-                *s = s.wrapping_add(v);
+        }
+        // The pass's sum in one go (the paths' cells are in L1). At most
+        // 8 paths x (64 + 8000) < 65536: never wraps.
+        let cell = |j: usize| &st.cur[(j * w + x) * pad + 1..(j * w + x) * pad + 1 + nd];
+        let hs = &hcur[1..=nd];
+        match job.vdx.len() {
+            3 => {
+                let (a, b, d) = (cell(0), cell(1), cell(2));
+                for ((((s, &v), &va), &vb), &vd) in o.iter_mut().zip(hs).zip(a).zip(b).zip(d) {
+                    *s = v.wrapping_add(va).wrapping_add(vb).wrapping_add(vd);
+                }
+            }
+            _ => {
+                o.copy_from_slice(hs);
+                for j in 0..job.vdx.len() {
+                    for (s, &v) in o.iter_mut().zip(cell(j)) {
+                        *s = s.wrapping_add(v);
+                    }
+                }
             }
         }
+        std::mem::swap(&mut hprev, &mut hcur);
     }
 }
 
@@ -271,15 +452,14 @@ pub(crate) fn pass_row(job: &RowPass, st: &mut PassState, out: &mut [u16]) {
 /// the two passes together are Hirschmüller's 8 (or 4).
 #[allow(clippy::too_many_arguments)]
 fn sweep(
-    cost: &[u8],
-    w: usize,
-    h: usize,
-    nd: usize,
+    codes: &PairCensus,
+    pair: &RectifiedPair,
     params: &SgmParams,
     forward: bool,
-    avx2: Option<Avx2>,
+    simd: SgmSimd,
     row_done: &mut dyn FnMut(usize, &mut Vec<u16>),
 ) {
+    let (w, h, nd) = (pair.width, pair.height, pair.n_disp);
     let vdx: &[isize] = if params.paths == 4 { &[0] } else { &[0, 1, -1] };
     let pad = nd + 2;
     let cells = vdx.len() * w * pad;
@@ -291,10 +471,13 @@ fn sweep(
         row: vec![BIG; 2 * pad],
     };
     let mut out = vec![0u16; w * nd];
+    let mut cost = vec![0u8; w * nd];
+    let mut scratch = (Vec::new(), Vec::new());
     for n in 0..h {
         let y = if forward { n } else { h - 1 - n };
+        costs_of_row(codes, pair, y, simd, &mut scratch, &mut cost);
         let job = RowPass {
-            cost: &cost[y * w * nd..(y + 1) * w * nd],
+            cost: &cost,
             nd,
             first: n == 0,
             p1: params.p1,
@@ -302,10 +485,7 @@ fn sweep(
             hdx: if forward { 1 } else { -1 },
             vdx,
         };
-        match avx2 {
-            Some(a) => a.sgm_pass_row(&job, &mut st, &mut out),
-            None => pass_row(&job, &mut st, &mut out),
-        }
+        simd.pass_row(&job, &mut st, &mut out);
         std::mem::swap(&mut st.prev, &mut st.cur);
         std::mem::swap(&mut st.prev_min, &mut st.cur_min);
         row_done(y, &mut out);
@@ -317,16 +497,16 @@ fn sweep(
 /// fused [`aggregate_and_pick`] is tested against.
 #[cfg(test)]
 pub(crate) fn aggregate(
-    cost: &[u8],
-    w: usize,
-    h: usize,
-    nd: usize,
+    pair: &RectifiedPair,
     params: &SgmParams,
-    avx2: Option<Avx2>,
+    simd: SgmSimd,
 ) -> (Vec<u16>, Vec<u16>) {
+    let (w, h, nd) = (pair.width, pair.height, pair.n_disp);
+    let (cw, ch) = (params.census_width as usize, params.census_height as usize);
+    let codes = pair_census(pair, cw, ch, simd);
     let pass = |forward: bool| {
         let mut sum = vec![0u16; w * h * nd];
-        sweep(cost, w, h, nd, params, forward, avx2, &mut |y, row| {
+        sweep(&codes, pair, params, forward, simd, &mut |y, row| {
             sum[y * w * nd..(y + 1) * w * nd].copy_from_slice(row);
         });
         sum
@@ -348,22 +528,27 @@ pub(crate) fn aggregate(
 /// AVX2 (detected at run time) only changes the code generation of the
 /// row, not its result.
 pub(crate) fn aggregate_and_pick(
-    cost: &[u8],
+    codes: &PairCensus,
     pair: &RectifiedPair,
     params: &SgmParams,
-    avx2: Option<Avx2>,
+    simd: SgmSimd,
 ) -> Vec<f32> {
     let (w, h, nd) = (pair.width, pair.height, pair.n_disp);
     let meet: Vec<Mutex<Option<Vec<u16>>>> = (0..h).map(|_| Mutex::new(None)).collect();
+    // Rows the second pass has used go back here for the first one to
+    // fill again (every cell of a row is written before it is read).
+    let spare: Mutex<Vec<Vec<u16>>> = Mutex::new(Vec::new());
     let disp = Mutex::new(vec![f32::NAN; w * h]);
     let pass = |forward: bool| {
         let mut picked = vec![f32::NAN; w];
-        sweep(cost, w, h, nd, params, forward, avx2, &mut |y, row| {
+        let mut held = Vec::new();
+        sweep(&codes, pair, params, forward, simd, &mut |y, row| {
             let other = {
                 let mut slot = lock(&meet[y]);
                 let other = slot.take();
                 if other.is_none() {
-                    *slot = Some(std::mem::replace(row, vec![0u16; w * nd]));
+                    let fresh = lock(&spare).pop().unwrap_or_else(|| vec![0u16; w * nd]);
+                    *slot = Some(std::mem::replace(row, fresh));
                 }
                 other
             };
@@ -372,11 +557,9 @@ pub(crate) fn aggregate_and_pick(
                 for (s, &v) in row.iter_mut().zip(&other) {
                     *s = s.wrapping_add(v);
                 }
-                match avx2 {
-                    Some(a) => a.sgm_winner_row(row, y, pair, params, &mut picked),
-                    None => winner_row(row, y, pair, params, &mut picked),
-                }
+                simd.winner_row(row, y, pair, params, &mut held, &mut picked);
                 lock(&disp)[y * w..(y + 1) * w].copy_from_slice(&picked);
+                lock(&spare).push(other);
             }
         });
     };
@@ -405,6 +588,7 @@ pub(crate) fn winner_row(
     y: usize,
     pair: &RectifiedPair,
     params: &SgmParams,
+    held: &mut Vec<u32>,
     out: &mut [f32],
 ) {
     let (w, nd) = (pair.width, pair.n_disp);
@@ -416,13 +600,22 @@ pub(crate) fn winner_row(
     // pixel x's offers go to consecutive slots: a u32 minimum that
     // vectorises.
     let ks: Vec<u32> = (0..nd as u32).collect();
-    let mut held = vec![u32::MAX; w];
-    for x in 0..w {
-        let reach = nd.min(x + 1);
-        let at = w - 1 - x;
-        let offers = row[x * nd..x * nd + reach].iter().zip(&ks[..reach]);
-        for (h, (&v, &k)) in held[at..at + reach].iter_mut().zip(offers) {
-            *h = (*h).min(u32::from(v) << 16 | k);
+    let ks16: Vec<u16> = (0..nd).map(|k| k as u16).collect();
+    held.clear();
+    held.resize(w, u32::MAX);
+    // Left pixels `STRIDE` apart in turn: consecutive offers then cover
+    // whole vectors of the slots the previous one stored, which the CPU
+    // forwards (offers of neighbouring pixels, one slot apart, would each
+    // wait for the store to finish). A minimum: the order does not matter.
+    const STRIDE: usize = 16;
+    for phase in 0..STRIDE.min(w) {
+        for x in (phase..w).step_by(STRIDE) {
+            let reach = nd.min(x + 1);
+            let at = w - 1 - x;
+            let offers = row[x * nd..x * nd + reach].iter().zip(&ks[..reach]);
+            for (h, (&v, &k)) in held[at..at + reach].iter_mut().zip(offers) {
+                *h = (*h).min(u32::from(v) << 16 | k);
+            }
         }
     }
     for (x, o) in out.iter_mut().enumerate() {
@@ -446,13 +639,28 @@ pub(crate) fn winner_row(
         let min = f32::from(s[best]);
         // Every sum two or more disparities away passes the ratio test
         // exactly when the smallest of them does (f32 products are
-        // monotone).
-        let below = s[..best.saturating_sub(1)].iter().copied().min();
-        let above = s.get(best + 2..).and_then(|a| a.iter().copied().min());
-        let rival = match (below, above) {
-            (Some(a), Some(b)) => f32::from(a.min(b)),
-            (Some(a), None) | (None, Some(a)) => f32::from(a),
-            (None, None) => f32::INFINITY,
+        // monotone). One masked minimum over the cell; u16::MAX stands for
+        // "none" (sums stay below 8 x (64 + 8000) < 65535).
+        // Index arithmetic in u16 lanes like the sums' (nd <= 4096):
+        // k is near when k - lo, wrapping, is below the span.
+        let lo = best.saturating_sub(1) as u16;
+        let span = (best + 2) as u16 - lo;
+        let smallest = s
+            .iter()
+            .zip(&ks16)
+            .map(|(&v, &k)| {
+                if k.wrapping_sub(lo) < span {
+                    u16::MAX
+                } else {
+                    v
+                }
+            })
+            .min()
+            .unwrap_or(u16::MAX);
+        let rival = if smallest == u16::MAX {
+            f32::INFINITY
+        } else {
+            f32::from(smallest)
         };
         let unique = min <= params.uniqueness * rival;
         let right_best = (held[w - 1 - (x - best)] & 0xFFFF) as usize;
@@ -531,10 +739,10 @@ pub(crate) fn filter_speckles(
 /// The whole matcher: disparity indices of the left image (NaN where none).
 pub(crate) fn match_pair(pair: &RectifiedPair, params: &SgmParams) -> Vec<f32> {
     let (cw, ch) = (params.census_width as usize, params.census_height as usize);
-    let avx2 = Avx2::detect();
-    let cost = cost_volume(pair, cw, ch, avx2);
-    let mut disp = aggregate_and_pick(&cost, pair, params, avx2);
-    drop(cost);
+    let simd = SgmSimd::detect();
+    let codes = pair_census(pair, cw, ch, simd);
+    let mut disp = aggregate_and_pick(&codes, pair, params, simd);
+    drop(codes);
     filter_speckles(
         &mut disp,
         pair.width,

@@ -305,18 +305,26 @@ fn fast_matcher_equals_the_reference_bit_for_bit() {
     // The fused passes, the vectorised census, the row costs and the
     // shortened uniqueness test against the straightforward matcher, with
     // and without AVX2 code generation, for 4 and 8 paths.
-    let avx2 = crate::simd::Avx2::detect();
-    for (w, h, nd) in [(37, 23, 1), (37, 23, 5), (41, 19, 16), (53, 17, 61)] {
+    let levels = crate::simd::SgmSimd::levels();
+    for (w, h, nd) in [
+        (37, 23, 1),
+        (37, 23, 5),
+        (41, 19, 16),
+        (53, 17, 61),
+        (150, 9, 130),
+    ] {
         let pair = odd_pair(w, h, nd);
         for (cw, ch) in [(9, 7), (3, 3)] {
             let slow = super::reference::census(&pair.left, w, h, cw, ch);
-            assert_eq!(
-                matching::census(&pair.left, w, h, cw, ch),
-                slow,
-                "census {cw}x{ch}"
-            );
+            for &simd in &levels {
+                assert_eq!(
+                    matching::census(&pair.left, w, h, cw, ch, simd),
+                    slow,
+                    "census {cw}x{ch}, {simd:?}"
+                );
+            }
             let cost = super::reference::cost_volume(&pair, cw, ch);
-            for simd in [None, avx2] {
+            for &simd in &levels {
                 assert_eq!(
                     matching::cost_volume(&pair, cw, ch, simd),
                     cost,
@@ -332,21 +340,17 @@ fn fast_matcher_equals_the_reference_bit_for_bit() {
                 };
                 let sum = super::reference::aggregate(&cost, w, h, nd, &params);
                 let want = super::reference::winners(&sum, &pair, &params);
-                for simd in [None, avx2] {
-                    let (f, b) = matching::aggregate(&cost, w, h, nd, &params, simd);
+                for &simd in &levels {
+                    let (f, b) = matching::aggregate(&pair, &params, simd);
                     let got: Vec<u16> = f.iter().zip(&b).map(|(a, b)| a + b).collect();
-                    assert_eq!(
-                        got,
-                        sum,
-                        "{w}x{h}x{nd}, {paths} paths, AVX2 {}",
-                        simd.is_some()
-                    );
-                    let disp = matching::aggregate_and_pick(&cost, &pair, &params, simd);
+                    assert_eq!(got, sum, "{w}x{h}x{nd}, {paths} paths, {simd:?}");
+                    let codes = matching::pair_census(&pair, cw, ch, simd);
+                    let disp = matching::aggregate_and_pick(&codes, &pair, &params, simd);
                     let bits = |d: &[f32]| d.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
                     assert_eq!(
                         bits(&disp),
                         bits(&want),
-                        "winners {w}x{h}x{nd}, {paths} paths"
+                        "winners {w}x{h}x{nd}, {paths} paths, {simd:?}"
                     );
                 }
             }
@@ -471,10 +475,30 @@ fn matcher_output_is_unchanged_on_rendered_pairs() {
     // fb2517a gave them: speed work must keep the output bit for bit (an
     // experiment runs on it). 8 paths, then 4.
     let want: [(f64, u32, u64, u64); 4] = [
-        (6.0, 8, 15_871_701_304_665_511_502, 1_671_584_222_374_675_444),
-        (20.0, 8, 16_929_882_162_016_639_626, 4_498_242_444_053_606_316),
-        (40.0, 8, 13_183_053_221_867_756_185, 18_061_260_326_952_175_045),
-        (20.0, 4, 3_692_441_193_510_678_281, 5_360_474_123_287_757_051),
+        (
+            6.0,
+            8,
+            15_871_701_304_665_511_502,
+            1_671_584_222_374_675_444,
+        ),
+        (
+            20.0,
+            8,
+            16_929_882_162_016_639_626,
+            4_498_242_444_053_606_316,
+        ),
+        (
+            40.0,
+            8,
+            13_183_053_221_867_756_185,
+            18_061_260_326_952_175_045,
+        ),
+        (
+            20.0,
+            4,
+            3_692_441_193_510_678_281,
+            5_360_474_123_287_757_051,
+        ),
     ];
     let mut got = Vec::new();
     for &(angle, paths, _, _) in &want {
