@@ -152,7 +152,7 @@ impl Avx2 {
 
     /// `sgm::matching::cost_row` with AVX2 and, when the CPU has it,
     /// `popcnt` code generation: the same result.
-    #[allow(clippy::unused_self)] // `self` is the proof that AVX2 is there
+    #[allow(clippy::unused_self, clippy::too_many_arguments)] // `self`: the proof of AVX2
     pub(crate) fn sgm_cost_row(
         self,
         cl: &[u64],
@@ -271,6 +271,7 @@ impl SgmSimd {
     }
 
     /// `sgm::matching::cost_row` at this level.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn cost_row(
         self,
         cl: &[u64],
@@ -294,7 +295,7 @@ impl SgmSimd {
                 );
             }
             SgmSimd::Avx2(a) => {
-                a.sgm_cost_row(cl, cr, left_valid, right_valid, n_bits, scratch, out)
+                a.sgm_cost_row(cl, cr, left_valid, right_valid, n_bits, scratch, out);
             }
             SgmSimd::Avx512(_) => {
                 #[cfg(target_arch = "x86_64")]
@@ -387,6 +388,10 @@ mod x86 {
         _mm512_cvtepu8_epi16, _mm512_extracti64x4_epi64, _mm512_loadu_si512, _mm512_min_epu16,
         _mm512_set1_epi16, _mm512_setzero_si512, _mm512_storeu_si512, _mm512_sub_epi16,
         _mm_cvtsi128_si32, _mm_min_epu16, _mm_minpos_epu16,
+    };
+
+    use std::arch::x86_64::{
+        _mm512_cmpeq_epi16_mask, _mm512_cmplt_epu16_mask, _mm512_mask_mov_epi16, _mm512_set_epi16,
     };
 
     use super::FullWindow;
@@ -549,7 +554,7 @@ mod x86 {
     /// `sgm/tests.rs`); disparities past the last whole vector take the
     /// scalar `step` formula.
     #[target_feature(enable = "avx2,popcnt,avx512f,avx512bw,avx512vl,avx512vpopcntdq")]
-    #[allow(clippy::needless_range_loop)]
+    #[allow(clippy::needless_range_loop, clippy::needless_pass_by_value)]
     fn step4_512(
         cost: &[u8],
         prev: [&[u16]; 4],
@@ -619,7 +624,8 @@ mod x86 {
         mins
     }
 
-    /// The safe scalar winners of a row compiled for AVX-512.
+    /// The safe scalar winners of a row compiled for AVX-512, each cell's
+    /// winner picked by [`pick_512`].
     #[target_feature(enable = "avx2,popcnt,avx512f,avx512bw,avx512vl,avx512vpopcntdq")]
     pub(super) fn sgm_winner_row_512(
         row: &[u16],
@@ -629,7 +635,62 @@ mod x86 {
         held: &mut Vec<u32>,
         out: &mut [f32],
     ) {
-        crate::sgm::matching::winner_row(row, y, pair, params, held, out);
+        // A closure inherits this function's target features.
+        crate::sgm::matching::winner_row_with(row, y, pair, params, held, out, |s| pick_512(s));
+    }
+
+    /// `sgm::matching::pick` 32 u16 lanes at a time: the smallest sum
+    /// and the first lane equal to it (the first smallest, as the scalar
+    /// key minimum), then the smallest sum outside best - 1 ..= best + 1
+    /// (those lanes masked to u16::MAX); cells past the last whole vector
+    /// are compared one by one.
+    #[target_feature(enable = "avx2,popcnt,avx512f,avx512bw,avx512vl,avx512vpopcntdq")]
+    fn pick_512(s: &[u16]) -> (usize, u16) {
+        let nd = s.len();
+        let full = nd / 32 * 32;
+        let mut acc = _mm512_set1_epi16(-1);
+        for k in (0..full).step_by(32) {
+            acc = _mm512_min_epu16(acc, load_w(lanes_w(s, k)));
+        }
+        let mut m = min_w(acc);
+        for &v in &s[full..] {
+            m = m.min(v);
+        }
+        let vm = _mm512_set1_epi16(m as i16);
+        let mut best = nd;
+        for k in (0..full).step_by(32) {
+            let eq = _mm512_cmpeq_epi16_mask(load_w(lanes_w(s, k)), vm);
+            if eq != 0 {
+                best = k + eq.trailing_zeros() as usize;
+                break;
+            }
+        }
+        if best == nd {
+            best = full + s[full..].iter().position(|&v| v == m).unwrap_or(0);
+        }
+        let lo = best.saturating_sub(1) as u16;
+        let (vlo, span) = (
+            _mm512_set1_epi16(lo as i16),
+            _mm512_set1_epi16((best + 2 - usize::from(lo)) as i16),
+        );
+        let iota = _mm512_set_epi16(
+            31, 30, 29, 28, 27, 26, 25, 24, 23, 22, 21, 20, 19, 18, 17, 16, 15, 14, 13, 12, 11, 10,
+            9, 8, 7, 6, 5, 4, 3, 2, 1, 0,
+        );
+        let mut acc = _mm512_set1_epi16(-1);
+        for k in (0..full).step_by(32) {
+            let idx = _mm512_add_epi16(iota, _mm512_set1_epi16(k as i16));
+            let near = _mm512_cmplt_epu16_mask(_mm512_sub_epi16(idx, vlo), span);
+            let v = _mm512_mask_mov_epi16(load_w(lanes_w(s, k)), near, _mm512_set1_epi16(-1));
+            acc = _mm512_min_epu16(acc, v);
+        }
+        let mut rival = min_w(acc);
+        for (k, &v) in s.iter().enumerate().skip(full) {
+            if k + 1 < best || k > best + 1 {
+                rival = rival.min(v);
+            }
+        }
+        (best, rival)
     }
 
     /// See [`super::Avx2::sums_full`]; the caller checked the shapes.

@@ -1,5 +1,6 @@
-//! Semi-global matching of a rectified pair (Hirschmüller, PAMI 2008): a
-//! census cost volume, aggregation along 4 or 8 scanlines, then
+//! Semi-global matching of a rectified pair (Hirschmüller, PAMI 2008):
+//! census costs (computed row by row inside the sweeps, never stored as a
+//! volume), aggregation along 4 or 8 scanlines, then
 //! winner-take-all with the uniqueness, sub-pixel, left-right and speckle
 //! steps. All sums are integers, so the result does not depend on the
 //! order rows are processed in, nor on which of the two sweeps
@@ -423,19 +424,16 @@ where
         // 8 paths x (64 + 8000) < 65536: never wraps.
         let cell = |j: usize| &st.cur[(j * w + x) * pad + 1..(j * w + x) * pad + 1 + nd];
         let hs = &hcur[1..=nd];
-        match job.vdx.len() {
-            3 => {
-                let (a, b, d) = (cell(0), cell(1), cell(2));
-                for ((((s, &v), &va), &vb), &vd) in o.iter_mut().zip(hs).zip(a).zip(b).zip(d) {
-                    *s = v.wrapping_add(va).wrapping_add(vb).wrapping_add(vd);
-                }
+        if job.vdx.len() == 3 {
+            let (a, b, d) = (cell(0), cell(1), cell(2));
+            for ((((s, &v), &va), &vb), &vd) in o.iter_mut().zip(hs).zip(a).zip(b).zip(d) {
+                *s = v.wrapping_add(va).wrapping_add(vb).wrapping_add(vd);
             }
-            _ => {
-                o.copy_from_slice(hs);
-                for j in 0..job.vdx.len() {
-                    for (s, &v) in o.iter_mut().zip(cell(j)) {
-                        *s = s.wrapping_add(v);
-                    }
+        } else {
+            o.copy_from_slice(hs);
+            for j in 0..job.vdx.len() {
+                for (s, &v) in o.iter_mut().zip(cell(j)) {
+                    *s = s.wrapping_add(v);
                 }
             }
         }
@@ -522,11 +520,12 @@ pub(crate) fn aggregate(
 /// result does not depend on which pass came first, nor on the threads.
 ///
 /// # Performance
-/// Each cell's cost is read once per pass; only the rows one pass has
-/// finished and the other has not reached are kept (about half the image
-/// when both run at once), instead of a sum volume per path or per pass.
-/// AVX2 (detected at run time) only changes the code generation of the
-/// row, not its result.
+/// Each sweep computes a row's census costs where it needs them (a row of
+/// `w * nd` bytes in cache; popcounts are cheap, memory traffic is not);
+/// only the rows one pass has finished and the other has not reached are
+/// kept (about half the image when both run at once), instead of a sum
+/// volume per path or per pass. AVX2 or AVX-512 (detected at run time)
+/// only change the code generation of the rows, not their result.
 pub(crate) fn aggregate_and_pick(
     codes: &PairCensus,
     pair: &RectifiedPair,
@@ -536,13 +535,16 @@ pub(crate) fn aggregate_and_pick(
     let (w, h, nd) = (pair.width, pair.height, pair.n_disp);
     let meet: Vec<Mutex<Option<Vec<u16>>>> = (0..h).map(|_| Mutex::new(None)).collect();
     // Rows the second pass has used go back here for the first one to
-    // fill again (every cell of a row is written before it is read).
-    let spare: Mutex<Vec<Vec<u16>>> = Mutex::new(Vec::new());
+    // fill again (every cell of a row is written before it is read), and
+    // rows of an earlier pair of the same size ([`SPARE_ROWS`]).
+    let mut kept = std::mem::take(&mut *lock(&SPARE_ROWS));
+    kept.retain(|r| r.len() == w * nd);
+    let spare: Mutex<Vec<Vec<u16>>> = Mutex::new(kept);
     let disp = Mutex::new(vec![f32::NAN; w * h]);
     let pass = |forward: bool| {
         let mut picked = vec![f32::NAN; w];
         let mut held = Vec::new();
-        sweep(&codes, pair, params, forward, simd, &mut |y, row| {
+        sweep(codes, pair, params, forward, simd, &mut |y, row| {
             let other = {
                 let mut slot = lock(&meet[y]);
                 let other = slot.take();
@@ -564,8 +566,21 @@ pub(crate) fn aggregate_and_pick(
         });
     };
     rayon::join(|| pass(true), || pass(false));
+    let mut kept = spare.into_inner().unwrap_or_else(PoisonError::into_inner);
+    kept.truncate(KEEP_BYTES / (2 * w * nd).max(1));
+    *lock(&SPARE_ROWS) = kept;
     disp.into_inner().unwrap_or_else(PoisonError::into_inner)
 }
+
+/// Rows of sums kept from one matcher run to the next, as StereoSGBM keeps
+/// its buffer in its object: a run of the same size (the next pair of a
+/// workspace, the next frame) then fills them instead of zeroing fresh
+/// memory, about 1 byte per cell. Whole rows are overwritten before they
+/// are read, so the results do not depend on what they held.
+static SPARE_ROWS: Mutex<Vec<Vec<u16>>> = Mutex::new(Vec::new());
+
+/// Most bytes [`SPARE_ROWS`] keeps between runs.
+const KEEP_BYTES: usize = 64 << 20;
 
 /// The lock of `m`, also after a panic elsewhere (the data are plain
 /// sums, whole after any panic).
@@ -591,6 +606,43 @@ pub(crate) fn winner_row(
     held: &mut Vec<u32>,
     out: &mut [f32],
 ) {
+    winner_row_with(row, y, pair, params, held, out, pick);
+}
+
+/// A cell's winner: the index of its first smallest sum, and the smallest
+/// sum two or more disparities away from it (u16::MAX for none: sums stay
+/// below 8 x (64 + 8000) < 65535). simd.rs has the same with AVX-512
+/// (`x86::pick_512`), tested equal.
+#[allow(clippy::inline_always)]
+#[inline(always)]
+pub(crate) fn pick(s: &[u16]) -> (usize, u16) {
+    // The first smallest sum: the minimum of (sum << 16 | k).
+    let key = s
+        .iter()
+        .zip(0u32..)
+        .map(|(&v, k)| u32::from(v) << 16 | k)
+        .min()
+        .unwrap_or(0);
+    let best = (key & 0xFFFF) as usize;
+    let fold = |v: &[u16]| v.iter().fold(u16::MAX, |a, &b| a.min(b));
+    let rival = fold(&s[..best.saturating_sub(1)]).min(fold(s.get(best + 2..).unwrap_or(&[])));
+    (best, rival)
+}
+
+/// [`winner_row`] with the cells' winners picked by `pick` ([`pick`] or
+/// an equal vector version).
+#[allow(clippy::inline_always)]
+#[inline(always)]
+pub(crate) fn winner_row_with<F: Fn(&[u16]) -> (usize, u16)>(
+    row: &[u16],
+    y: usize,
+    pair: &RectifiedPair,
+    params: &SgmParams,
+    held: &mut Vec<u32>,
+    out: &mut [f32],
+    pick: F,
+) {
+    const STRIDE: usize = 16;
     let (w, nd) = (pair.width, pair.n_disp);
     // Right pixel xr's best disparity, the first smallest of left pixel
     // xr + k's sum at index k over k. Each right pixel holds (sum << 16 |
@@ -600,14 +652,12 @@ pub(crate) fn winner_row(
     // pixel x's offers go to consecutive slots: a u32 minimum that
     // vectorises.
     let ks: Vec<u32> = (0..nd as u32).collect();
-    let ks16: Vec<u16> = (0..nd).map(|k| k as u16).collect();
     held.clear();
     held.resize(w, u32::MAX);
     // Left pixels `STRIDE` apart in turn: consecutive offers then cover
     // whole vectors of the slots the previous one stored, which the CPU
     // forwards (offers of neighbouring pixels, one slot apart, would each
     // wait for the store to finish). A minimum: the order does not matter.
-    const STRIDE: usize = 16;
     for phase in 0..STRIDE.min(w) {
         for x in (phase..w).step_by(STRIDE) {
             let reach = nd.min(x + 1);
@@ -624,39 +674,14 @@ pub(crate) fn winner_row(
             continue;
         }
         let s = &row[x * nd..(x + 1) * nd];
-        // The first smallest sum: the minimum of (sum << 16 | k), one
-        // vectorised pass.
-        let key = s
-            .iter()
-            .zip(&ks)
-            .map(|(&v, &k)| u32::from(v) << 16 | k)
-            .min()
-            .unwrap_or(0);
-        let best = (key & 0xFFFF) as usize;
+        let (best, smallest) = pick(s);
         if best > x || !pair.right_valid[y * w + x - best] {
             continue;
         }
         let min = f32::from(s[best]);
         // Every sum two or more disparities away passes the ratio test
         // exactly when the smallest of them does (f32 products are
-        // monotone). One masked minimum over the cell; u16::MAX stands for
-        // "none" (sums stay below 8 x (64 + 8000) < 65535).
-        // Index arithmetic in u16 lanes like the sums' (nd <= 4096):
-        // k is near when k - lo, wrapping, is below the span.
-        let lo = best.saturating_sub(1) as u16;
-        let span = (best + 2) as u16 - lo;
-        let smallest = s
-            .iter()
-            .zip(&ks16)
-            .map(|(&v, &k)| {
-                if k.wrapping_sub(lo) < span {
-                    u16::MAX
-                } else {
-                    v
-                }
-            })
-            .min()
-            .unwrap_or(u16::MAX);
+        // monotone).
         let rival = if smallest == u16::MAX {
             f32::INFINITY
         } else {
