@@ -551,8 +551,7 @@ mod x86 {
     /// `sgm::matching::step4` in one loop over the disparities, 32 u16
     /// lanes a vector: the same wrapping u16 additions and unsigned
     /// minima, term for term, so the same results (tested in
-    /// `sgm/tests.rs`); disparities past the last whole vector take the
-    /// scalar `step` formula.
+    /// `sgm/tests.rs`); below 32 disparities, the scalar `step` formula.
     #[target_feature(enable = "avx2,popcnt,avx512f,avx512bw,avx512vl,avx512vpopcntdq")]
     #[allow(clippy::needless_range_loop, clippy::needless_pass_by_value)]
     fn step4_512(
@@ -565,12 +564,19 @@ mod x86 {
         out: &mut [u16],
     ) -> [u16; 4] {
         let nd = cost.len();
-        let full = nd / 32 * 32;
+        // Whole vectors, the last one overlapping the one before when nd
+        // is not a multiple of 32 (recomputing a cell gives the same value;
+        // minima do not mind a lane seen twice); below 32 disparities, one
+        // by one.
+        let starts = (0..nd / 32 * 32)
+            .step_by(32)
+            .chain((nd % 32 != 0 && nd > 32).then_some(nd.saturating_sub(32)));
+        let done = if nd >= 32 { nd } else { 0 };
         let vp1 = _mm512_set1_epi16(p1 as i16);
         let lim = prev_min.map(|m| _mm512_set1_epi16((m + p2) as i16));
         let vm = prev_min.map(|m| _mm512_set1_epi16(m as i16));
         let mut vmin = [_mm512_set1_epi16(-1); 4];
-        for k in (0..full).step_by(32) {
+        for k in starts.clone() {
             let Ok(c8) = <&[u8; 32]>::try_from(&cost[k..k + 32]) else {
                 unreachable!("a slice of 32 elements")
             };
@@ -605,7 +611,7 @@ mod x86 {
         }
         #[allow(clippy::redundant_closure)] // a closure inherits the features
         let mut mins = vmin.map(|v| min_w(v));
-        for k in full..nd {
+        for k in done..nd {
             let c = u16::from(cost[k]);
             let mut sum = 0u16;
             for j in 0..4 {
@@ -642,23 +648,30 @@ mod x86 {
     /// `sgm::matching::pick` 32 u16 lanes at a time: the smallest sum
     /// and the first lane equal to it (the first smallest, as the scalar
     /// key minimum), then the smallest sum outside best - 1 ..= best + 1
-    /// (those lanes masked to u16::MAX); cells past the last whole vector
-    /// are compared one by one.
+    /// (those lanes masked to u16::MAX); below 32 disparities, one by
+    /// one.
     #[target_feature(enable = "avx2,popcnt,avx512f,avx512bw,avx512vl,avx512vpopcntdq")]
     fn pick_512(s: &[u16]) -> (usize, u16) {
         let nd = s.len();
-        let full = nd / 32 * 32;
+        // Whole vectors, the last one overlapping the one before when nd
+        // is not a multiple of 32 (recomputing a cell gives the same value;
+        // minima do not mind a lane seen twice); below 32 disparities, one
+        // by one.
+        let starts = (0..nd / 32 * 32)
+            .step_by(32)
+            .chain((nd % 32 != 0 && nd > 32).then_some(nd.saturating_sub(32)));
+        let done = if nd >= 32 { nd } else { 0 };
         let mut acc = _mm512_set1_epi16(-1);
-        for k in (0..full).step_by(32) {
+        for k in starts.clone() {
             acc = _mm512_min_epu16(acc, load_w(lanes_w(s, k)));
         }
         let mut m = min_w(acc);
-        for &v in &s[full..] {
+        for &v in &s[done..] {
             m = m.min(v);
         }
         let vm = _mm512_set1_epi16(m as i16);
         let mut best = nd;
-        for k in (0..full).step_by(32) {
+        for k in starts.clone() {
             let eq = _mm512_cmpeq_epi16_mask(load_w(lanes_w(s, k)), vm);
             if eq != 0 {
                 best = k + eq.trailing_zeros() as usize;
@@ -666,7 +679,7 @@ mod x86 {
             }
         }
         if best == nd {
-            best = full + s[full..].iter().position(|&v| v == m).unwrap_or(0);
+            best = done + s[done..].iter().position(|&v| v == m).unwrap_or(0);
         }
         let lo = best.saturating_sub(1) as u16;
         let (vlo, span) = (
@@ -678,14 +691,14 @@ mod x86 {
             9, 8, 7, 6, 5, 4, 3, 2, 1, 0,
         );
         let mut acc = _mm512_set1_epi16(-1);
-        for k in (0..full).step_by(32) {
+        for k in starts.clone() {
             let idx = _mm512_add_epi16(iota, _mm512_set1_epi16(k as i16));
             let near = _mm512_cmplt_epu16_mask(_mm512_sub_epi16(idx, vlo), span);
             let v = _mm512_mask_mov_epi16(load_w(lanes_w(s, k)), near, _mm512_set1_epi16(-1));
             acc = _mm512_min_epu16(acc, v);
         }
         let mut rival = min_w(acc);
-        for (k, &v) in s.iter().enumerate().skip(full) {
+        for (k, &v) in s.iter().enumerate().skip(done) {
             if k + 1 < best || k > best + 1 {
                 rival = rival.min(v);
             }
