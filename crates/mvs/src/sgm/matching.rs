@@ -592,10 +592,16 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
 /// Hirschmüller's checks: uniqueness (the best sum at most `uniqueness`
 /// times every sum two or more disparities away), parabola sub-pixel fit,
 /// and left-right consistency against the right image's winners taken
-/// from the same sums (as OpenCV's StereoSGBM does). Writes the disparity
-/// index (fractional) of each left pixel of row y into `out`, NaN where
-/// rejected.
-// Always inlined: simd.rs compiles a copy with AVX2 enabled.
+/// from the same sums. The right winner is Hirschmüller's (PAMI 2008,
+/// sec. 3.4): the smallest sum along the right pixel's whole epipolar
+/// line. OpenCV's StereoSGBM differs here: a right pixel takes the
+/// disparity of the best left winner landing on it (none: no check), and
+/// a left pixel is rejected only when the right pixels at both the floor
+/// and the ceiling of its disparity disagree, which keeps more pixels
+/// where the disparity changes by more than 1 px per pixel (wide angles;
+/// docs/performance.md). Writes the disparity index (fractional) of each
+/// left pixel of row y into `out`, NaN where rejected.
+// Always inlined: simd.rs compiles copies with AVX2 and AVX-512 enabled.
 #[allow(clippy::inline_always)]
 #[inline(always)]
 pub(crate) fn winner_row(
