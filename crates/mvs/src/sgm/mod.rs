@@ -17,12 +17,14 @@
 //! and COLMAP's files follow unchanged. Integer aggregation and a fixed
 //! order: the same inputs give the same bytes for any thread count.
 
+mod costs;
 pub(crate) mod matching;
 pub(crate) mod rectify;
 #[cfg(test)]
 mod reference;
 #[cfg(test)]
 mod tests;
+mod winners;
 
 use std::fmt::Write as _;
 
