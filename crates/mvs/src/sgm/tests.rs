@@ -374,6 +374,37 @@ fn speckles_are_removed_and_large_regions_kept() {
 }
 
 #[test]
+fn speckle_regions_do_not_depend_on_the_bands() {
+    // Steps, islands, NaN holes and regions crossing every band boundary:
+    // the banded filter must drop exactly what one fill over the image
+    // drops.
+    let (w, h) = (61, 47);
+    let disp: Vec<f32> = (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            let v = noise(&Point3::new(x as f64, y as f64, 0.0), 3.0, 7) as f32;
+            if (i * 2_654_435_761) % 13 == 0 {
+                f32::NAN
+            } else {
+                (v * 12.0).floor() + if (x / 9 + y / 4) % 3 == 0 { 0.5 } else { 0.0 }
+            }
+        })
+        .collect();
+    let run = |bands: usize| {
+        let mut d = disp.clone();
+        super::winners::filter_speckles_in_bands(&mut d, w, h, 30, 1.0, bands);
+        d.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+    };
+    let one = run(1);
+    let dropped = one.iter().filter(|&&b| f32::from_bits(b).is_nan()).count();
+    let holes = disp.iter().filter(|d| d.is_nan()).count();
+    assert!(dropped > holes + 100, "{dropped} NaN after, {holes} before");
+    for bands in [2, 3, 5, 47] {
+        assert_eq!(run(bands), one, "{bands} bands");
+    }
+}
+
+#[test]
 fn most_pixels_are_within_2px_at_small_angles() {
     for angle in [5.0, 10.0] {
         let cams = cameras(2, angle, (320, 240));

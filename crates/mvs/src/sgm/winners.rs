@@ -1,6 +1,8 @@
 //! Winner-take-all over a row's aggregated sums with Hirschmüller's
 //! checks, and OpenCV's speckle filter over the disparity image.
 
+use rayon::prelude::*;
+
 use super::matching::RectifiedPair;
 use super::SgmParams;
 
@@ -128,7 +130,7 @@ pub(crate) fn winner_row_with<F: Fn(&[u16]) -> (usize, u16)>(
 
 /// OpenCV's `filterSpeckles`: 4-connected regions whose neighbours differ
 /// by at most `max_diff` and that hold at most `max_size` pixels are set to
-/// NaN. Regions are grown from pixels in row-major order.
+/// NaN. Bands of rows in parallel ([`filter_speckles_in_bands`]).
 pub(crate) fn filter_speckles(
     disp: &mut [f32],
     w: usize,
@@ -136,23 +138,103 @@ pub(crate) fn filter_speckles(
     max_size: usize,
     max_diff: f32,
 ) {
-    if max_size == 0 {
+    let bands = rayon::current_num_threads().clamp(1, h.max(1));
+    filter_speckles_in_bands(disp, w, h, max_size, max_diff, bands);
+}
+
+/// [`filter_speckles`] over `bands` bands of rows: each band's regions are
+/// grown on their own (in parallel), then regions that touch across a
+/// band boundary are joined (union-find) and their sizes added. The
+/// neighbour relation is symmetric, so a region is the same set of pixels
+/// wherever its growth starts: the result does not depend on `bands`
+/// (tested).
+pub(crate) fn filter_speckles_in_bands(
+    disp: &mut [f32],
+    w: usize,
+    h: usize,
+    max_size: usize,
+    max_diff: f32,
+    bands: usize,
+) {
+    if max_size == 0 || w == 0 || h == 0 {
         return;
     }
+    let rows = h.div_ceil(bands.max(1));
     let mut label = vec![0u32; w * h];
-    let mut small = vec![false; 1];
+    let image: &[f32] = disp;
+    // Per band, each region's size (region i has label i + 1).
+    let sizes: Vec<Vec<u32>> = label
+        .par_chunks_mut(rows * w)
+        .enumerate()
+        .map(|(b, lab)| {
+            let y0 = b * rows;
+            grow_regions(&image[y0 * w..y0 * w + lab.len()], w, max_diff, lab)
+        })
+        .collect();
+    let mut first = Vec::with_capacity(sizes.len());
+    let mut size: Vec<u64> = Vec::new();
+    for s in &sizes {
+        first.push(size.len());
+        size.extend(s.iter().map(|&n| u64::from(n)));
+    }
+    let id = |y: usize, l: u32| first[y / rows] + l as usize - 1;
+    let mut parent: Vec<usize> = (0..size.len()).collect();
+    for y in (rows..h).step_by(rows) {
+        for x in 0..w {
+            let (p, q) = ((y - 1) * w + x, y * w + x);
+            if label[p] != 0 && label[q] != 0 && (image[q] - image[p]).abs() <= max_diff {
+                let (a, b) = (
+                    root(&mut parent, id(y - 1, label[p])),
+                    root(&mut parent, id(y, label[q])),
+                );
+                if a != b {
+                    parent[b] = a;
+                    size[a] += size[b];
+                }
+            }
+        }
+    }
+    let small: Vec<bool> = (0..size.len())
+        .map(|i| size[root(&mut parent, i)] <= max_size as u64)
+        .collect();
+    disp.par_chunks_mut(w)
+        .zip(label.par_chunks(w))
+        .enumerate()
+        .for_each(|(y, (row, lab))| {
+            for (d, &l) in row.iter_mut().zip(lab) {
+                if l != 0 && small[id(y, l)] {
+                    *d = f32::NAN;
+                }
+            }
+        });
+}
+
+/// The root of `i` in a union-find forest, halving the path on the way.
+fn root(parent: &mut [usize], mut i: usize) -> usize {
+    while parent[i] != i {
+        parent[i] = parent[parent[i]];
+        i = parent[i];
+    }
+    i
+}
+
+/// The regions of one band (`disp.len() / w` rows), grown from pixels in
+/// row-major order into `label` (region i gets label i + 1, NaN pixels
+/// 0); returns each region's size.
+fn grow_regions(disp: &[f32], w: usize, max_diff: f32, label: &mut [u32]) -> Vec<u32> {
+    let h = disp.len() / w;
+    let mut sizes = Vec::new();
     let mut stack = Vec::new();
-    let mut region = Vec::new();
     for start in 0..w * h {
         if label[start] != 0 || disp[start].is_nan() {
             continue;
         }
-        let id = small.len() as u32;
+        let id = sizes.len() as u32 + 1;
         label[start] = id;
         stack.push(start);
-        region.clear();
+        let mut n = 0u32;
         while let Some(p) = stack.pop() {
-            region.push(p);
+            n += 1;
             let (x, y) = (p % w, p / w);
             let d = disp[p];
             let mut visit = |q: usize| {
@@ -174,11 +256,7 @@ pub(crate) fn filter_speckles(
                 visit(p + w);
             }
         }
-        small.push(region.len() <= max_size);
+        sizes.push(n);
     }
-    for (d, &l) in disp.iter_mut().zip(&label) {
-        if l != 0 && small[l as usize] {
-            *d = f32::NAN;
-        }
-    }
+    sizes
 }
