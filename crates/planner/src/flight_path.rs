@@ -123,6 +123,10 @@ pub enum Block {
     },
 }
 
+/// Where a route starts: the vehicle's position, or (with the view) a
+/// waypoint of a path already flown.
+type Start<'a> = (&'a Point3<f64>, Option<&'a PlannedView>);
+
 /// An unsafe waypoint, or a segment no climb-traverse-descend route makes safe.
 struct Blocked {
     /// Index of the unsafe waypoint, or of the one the segment leads to.
@@ -185,6 +189,30 @@ impl PathContext<'_> {
     /// Orders `views` greedily from `start`, inserts bridging views, then
     /// makes every segment safe.
     pub fn build(&self, start: &Camera, captured: &[Camera], views: Vec<PlannedView>) -> Path {
+        self.build_from(start, None, captured, views)
+    }
+
+    /// [`PathContext::build`] for views flown after `last`, a waypoint of a
+    /// safe path already built (with its cameras among `captured`): the
+    /// segment from `last` keeps the rules of every other segment, and a
+    /// reason names `last` as the waypoint it starts at.
+    pub fn build_after(
+        &self,
+        last: &PlannedView,
+        captured: &[Camera],
+        views: Vec<PlannedView>,
+    ) -> Path {
+        let start = last.to_camera(self.intrinsics);
+        self.build_from(&start, Some(last), captured, views)
+    }
+
+    fn build_from(
+        &self,
+        start: &Camera,
+        after: Option<&PlannedView>,
+        captured: &[Camera],
+        views: Vec<PlannedView>,
+    ) -> Path {
         let k = self.intrinsics;
         let mut remaining = views;
         let mut earlier: Vec<Camera> = captured.to_vec();
@@ -233,7 +261,7 @@ impl PathContext<'_> {
             unbridged.push(std::mem::take(&mut unbridged_next));
         }
         let (waypoints, unbridged, dropped) =
-            self.route_dropping(&start.center(), ordered, unbridged);
+            self.route_dropping((&start.center(), after), ordered, unbridged);
         let dropped_reasons = dropped
             .iter()
             .map(|d| self.describe(d, &waypoints))
@@ -296,7 +324,7 @@ impl PathContext<'_> {
     /// every round removes a view.
     fn route_dropping(
         &self,
-        start: &Point3<f64>,
+        start: Start<'_>,
         mut views: Vec<PlannedView>,
         mut unbridged: Vec<bool>,
     ) -> (Vec<PlannedView>, Vec<usize>, Vec<Dropped>) {
@@ -376,7 +404,7 @@ impl PathContext<'_> {
     /// without a detour.
     fn route(
         &self,
-        start: Option<&Point3<f64>>,
+        start: Option<Start<'_>>,
         waypoints: &[PlannedView],
     ) -> std::result::Result<(Vec<PlannedView>, Vec<usize>), Box<Blocked>> {
         let s = self.safety;
@@ -392,11 +420,12 @@ impl PathContext<'_> {
             }
             let prev = match out.last() {
                 Some(v) => Some((Point3::from(v.position), v.clone(), Some(v.clone()))),
-                None => start.map(|a| (*a, w.clone(), None)),
+                None => start.map(|(a, after)| (*a, after.unwrap_or(w).clone(), after.cloned())),
             };
             if let Some((a, prev, from)) = prev {
                 let b = Point3::from(w.position);
-                let from_vehicle = out.is_empty();
+                let from_vehicle =
+                    out.is_empty() && start.is_some_and(|(_, after)| after.is_none());
                 let ok = if from_vehicle {
                     s.leg_ok(&a, &b)
                 } else {

@@ -5,9 +5,12 @@
 //! f(t) during M3, so the later triplets were chosen as if it would be
 //! flown. Here the triplets that are kept are replayed on f(t) as it was
 //! before M3 (the iteration figures then count only what is flown), M3
-//! searches the missing ones away from the dropped ones, and M4 runs
-//! again; until nothing is dropped, nothing better is found, the time
-//! budget is spent or [`MAX_ROUNDS`] rounds have passed.
+//! searches the missing ones away from the dropped ones, and M4 routes
+//! them after the path already built ([`PathContext::build_after`]: a
+//! replacement never reorders, and so never costs, a triplet that can be
+//! flown; re-building the whole path did, in the quick demo); until
+//! nothing is dropped, nothing is found, the time budget is spent or
+//! [`MAX_ROUNDS`] rounds have passed.
 
 use std::collections::VecDeque;
 use std::time::Instant;
@@ -130,6 +133,9 @@ pub(crate) struct Flown {
     /// replacement flown instead; reasons still to be worded against the
     /// final waypoints ([`PathContext::describe`]).
     pub(crate) dropped: Vec<(crate::flight_path::Dropped, Option<u32>)>,
+    /// How many of the triplets M3 chose first were dropped and not
+    /// replaced (a dropped replacement waits for none).
+    pub(crate) unreplaced: usize,
     /// Why fewer than k triplets are flown, when some drop was not replaced.
     pub(crate) not_replaced: Option<String>,
 }
@@ -169,16 +175,21 @@ impl Rounds<'_> {
         let mut not_replaced = None;
         let mut banned = vec![false; self.surrogates.len()];
         let mut next_id = m3.chosen.iter().map(|c| c.id + 1).max().unwrap_or(0);
+        // Ids from here are replacements: one dropped waits for no other.
+        let first_replacement = next_id;
         // Dropped triplets waiting for a replacement (indices into `dropped`).
         let mut waiting: VecDeque<usize> = VecDeque::new();
         let mut round = 0;
         while !path.dropped.is_empty() {
+            // `path` is safe without what it dropped.
             for d in std::mem::take(&mut path.dropped) {
                 if let Some(c) = m3.chosen.iter().find(|c| c.id == d.triplet_id) {
                     ban_around(&mut banned, self.surrogates, &c.best);
                 }
                 m3.chosen.retain(|c| c.id != d.triplet_id);
-                waiting.push_back(dropped.len());
+                if d.triplet_id < first_replacement {
+                    waiting.push_back(dropped.len());
+                }
                 dropped.push((d, None));
             }
             // What is kept, on f(t) as it was before M3.
@@ -204,28 +215,58 @@ impl Rounds<'_> {
             }
             round += 1;
             let found_from = m3.chosen.len();
-            let why = searcher.search(ful, &banned, missing, next_id, &mut m3);
-            for c in &m3.chosen[found_from..] {
-                if let Some(i) = waiting.pop_front() {
-                    dropped[i].1 = Some(c.id);
-                }
-                next_id = next_id.max(c.id + 1);
-            }
-            not_replaced = why;
-            if m3.chosen.len() == found_from {
+            not_replaced = searcher.search(ful, &banned, missing, next_id, &mut m3);
+            let found = &m3.chosen[found_from..];
+            if found.is_empty() {
                 break;
             }
-            path = self
-                .ctx
-                .build(self.start, self.captured, views_of(&m3.chosen));
+            next_id = found.iter().map(|c| c.id + 1).max().unwrap_or(next_id);
+            let more = self.after(&path, views_of(found));
+            // Replacements are flown in place of the oldest drops.
+            let flown: Vec<u32> = found
+                .iter()
+                .map(|c| c.id)
+                .filter(|id| !more.dropped.iter().any(|d| d.triplet_id == *id))
+                .collect();
+            for id in flown {
+                if let Some(i) = waiting.pop_front() {
+                    dropped[i].1 = Some(id);
+                }
+            }
+            path = append(path, more);
         }
         Flown {
             path,
             m3,
             dropped,
+            unreplaced: waiting.len(),
             not_replaced,
         }
     }
+
+    /// The path of `views` flown after `path` (from the vehicle's position
+    /// when `path` is empty).
+    fn after(&self, path: &Path, views: Vec<PlannedView>) -> Path {
+        let k = self.ctx.intrinsics;
+        let mut captured = self.captured.to_vec();
+        captured.extend(path.waypoints.iter().map(|w| w.to_camera(k)));
+        match path.waypoints.last() {
+            Some(last) => self.ctx.build_after(last, &captured, views),
+            None => self.ctx.build(self.start, &captured, views),
+        }
+    }
+}
+
+/// `more` flown after `path`: its waypoints appended, its unbridged
+/// indices shifted, its drops kept (for the next round).
+fn append(mut path: Path, more: Path) -> Path {
+    let n = path.waypoints.len();
+    path.unbridged.extend(more.unbridged.iter().map(|i| i + n));
+    path.waypoints.extend(more.waypoints);
+    path.dropped = more.dropped;
+    path.dropped_triplets = more.dropped_triplets;
+    path.dropped_reasons = more.dropped_reasons;
+    path
 }
 
 impl Flown {
@@ -241,13 +282,11 @@ impl Flown {
             .clone()
             .or(cut)
             .unwrap_or_else(|| "no other triplet was found".into());
-        Some(
-            match self.dropped.iter().filter(|d| d.1.is_none()).count() {
-                0 => why,
-                1 => format!("1 dropped triplet not replaced: {why}"),
-                n => format!("{n} dropped triplets not replaced: {why}"),
-            },
-        )
+        Some(match self.unreplaced {
+            0 => why,
+            1 => format!("1 dropped triplet not replaced: {why}"),
+            n => format!("{n} dropped triplets not replaced: {why}"),
+        })
     }
 }
 

@@ -521,10 +521,12 @@ fn dropped_triplets_that_cannot_be_replaced_are_reported() {
     let plan = &r.plan;
     let flown = flown_triplets(plan);
     assert!(flown.len() < 4 && !flown.is_empty(), "{flown:?}");
+    // M3 chose triplets 0-3; a replacement that is dropped too waits for
+    // no replacement of its own.
     let unreplaced = plan
         .dropped_triplets
         .iter()
-        .filter(|d| d.replaced_by.is_none())
+        .filter(|d| d.replaced_by.is_none() && d.triplet_id < 4)
         .count();
     assert_eq!(unreplaced, 4 - flown.len());
     let why = plan.cut_short_reason.as_deref().unwrap_or_default();
