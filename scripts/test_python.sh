@@ -20,8 +20,9 @@ if [ ! -x .venv/bin/python ]; then
 fi
 py=.venv/bin/python
 # dask[distributed]: the `dask` extra of py/pyproject.toml (vpctl.distributed,
-# tested on a LocalCluster of 2 workers in py/tests/test_distributed.py).
-$py -m pip install --quiet --disable-pip-version-check numpy pytest "dask[distributed]>=2024.1"
+# tested on a LocalCluster of 2 workers in py/tests/test_distributed.py);
+# mypy: the stubs say what runs (below).
+$py -m pip install --quiet --disable-pip-version-check numpy pytest "dask[distributed]>=2024.1" mypy
 # The tests build the extension with cargo's dev profile (dependencies at
 # opt-level 2, see Cargo.toml) into cargo's target folder: cold, that is
 # about a third faster than the release profile a user's `pip install ./py`
@@ -31,4 +32,10 @@ $py -m pip install --quiet --disable-pip-version-check numpy pytest "dask[distri
 CARGO_TARGET_DIR="$target" MATURIN_PEP517_ARGS="--profile dev" \
   $py -m pip install --quiet --disable-pip-version-check --force-reinstall --no-deps ./py
 # Not from the repo root: `import vpctl` must find the installed package.
-cd py/tests && ../../$py -m pytest -q -p no:cacheprovider .
+(cd py/tests && ../../$py -m pytest -q -p no:cacheprovider .)
+# The stubs say what runs: mypy on the package's stubs and Python modules,
+# then stubtest, which imports the installed package and compares every
+# stub with what runs (a property typed as a method, a missing parameter).
+# (No cache left behind: MYPY_CACHE_DIR=/dev/null.)
+MYPY_CACHE_DIR=/dev/null $py -m mypy py/python/vpctl
+(cd py/tests && MYPY_CACHE_DIR=/dev/null ../../$py -m mypy.stubtest vpctl)

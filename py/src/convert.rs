@@ -3,7 +3,7 @@
 
 use nalgebra::{Matrix4, Point3, Rotation3, Translation3, UnitQuaternion};
 use numpy::ndarray::{Array2, Array3};
-use numpy::{IntoPyArray, PyArray2, PyArray3, PyReadonlyArray2, PyReadonlyArray3};
+use numpy::{IntoPyArray, PyArray2, PyArray3, PyReadonlyArray, PyReadonlyArray2, PyReadonlyArray3};
 use pyo3::prelude::*;
 use pyo3::types::PyAnyMethods;
 use serde::de::DeserializeOwned;
@@ -13,45 +13,184 @@ use vp_scene::raster::{Label, LabelImage, RgbImage};
 use crate::errors::{type_error, value_error};
 
 /// Any array-like (a numpy array of any numeric dtype or layout, a list,
-/// a tuple) as a C-contiguous numpy array of `dtype` with `ndim`
-/// dimensions: the one conversion at the boundary, as numpy-based
-/// libraries do. `kinds` are the numpy dtype kinds accepted without loss
-/// of meaning ("iu" for indices: a float array of indices is refused, not
-/// truncated; "iuf" for coordinates). Errors name the argument: TypeError
-/// for what is not numbers, ValueError for a wrong number of dimensions.
+/// a tuple) as a C-contiguous numpy array of `dtype` of `shape`: the one
+/// conversion at the boundary, as numpy-based libraries do. `shape` is
+/// written as the docs write it, "(N, 3)", "(H, W, 3)", "(N,)": a number
+/// must match, a name is any size. `kinds` are the numpy dtype kinds
+/// accepted without loss of meaning ("iu" for indices: a float array of
+/// indices is refused, not truncated; "iuf" for coordinates; "b" for
+/// flags). Errors name the argument, the expected shape and dtype:
+/// TypeError for what is not such numbers, ValueError for a wrong shape.
 pub fn array_like<'py>(
     obj: &Bound<'py, PyAny>,
     dtype: &str,
     kinds: &str,
-    ndim: usize,
+    shape: &str,
     what: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let np = obj.py().import("numpy")?;
-    let a = np
-        .call_method1("asarray", (obj,))
-        .map_err(|e| type_error(format!("{what}: not an array-like of numbers ({e})")))?;
-    let kind: String = a.getattr("dtype")?.getattr("kind")?.extract()?;
-    let shape: Vec<usize> = a.getattr("shape")?.extract()?;
-    // An empty list has dtype float64 whatever is meant: let it through.
-    let empty = shape.contains(&0);
-    if !empty && !kinds.contains(kind.as_str()) {
-        let got: String = a.getattr("dtype")?.str()?.extract()?;
-        return Err(type_error(format!(
-            "{what}: expected {} numbers, got dtype {got}",
-            if kinds == "iu" { "integer" } else { "real" }
-        )));
-    }
-    if shape.len() != ndim {
-        return Err(value_error(format!(
-            "{what}: expected a {ndim}-D array, got shape {shape:?}"
-        )));
-    }
-    np.call_method1("ascontiguousarray", (a, dtype))
+    let a = checked(obj, kinds, shape, what, &expected(dtype, kinds, shape))?;
+    obj.py()
+        .import("numpy")?
+        .call_method1("ascontiguousarray", (a, dtype))
 }
 
-/// [`array_like`] as an (N, C) float64 array.
-pub fn f64_2d<'py>(obj: &Bound<'py, PyAny>, what: &str) -> PyResult<PyReadonlyArray2<'py, f64>> {
-    array_like(obj, "float64", "iuf", 2, what)?.extract()
+/// `obj` as a numpy array of `kinds` and `shape`, not converted; errors
+/// say what was `expected`.
+fn checked<'py>(
+    obj: &Bound<'py, PyAny>,
+    kinds: &str,
+    shape: &str,
+    what: &str,
+    expected: &str,
+) -> PyResult<Bound<'py, PyAny>> {
+    let a = obj
+        .py()
+        .import("numpy")?
+        .call_method1("asarray", (obj,))
+        .map_err(|e| type_error(format!("{what}: expected {expected}: {e}")))?;
+    let kind: String = a.getattr("dtype")?.getattr("kind")?.extract()?;
+    let got: Vec<usize> = a.getattr("shape")?.extract()?;
+    // An empty list has dtype float64 whatever is meant: let it through.
+    let empty = got.contains(&0);
+    if !empty && !kinds.contains(kind.as_str()) {
+        let dt: String = a.getattr("dtype")?.str()?.extract()?;
+        return Err(type_error(format!(
+            "{what}: expected {expected}, got dtype {dt}"
+        )));
+    }
+    let dims = dims(shape);
+    let fits = got.len() == dims.len()
+        && got
+            .iter()
+            .zip(&dims)
+            .all(|(&n, d)| d.parse::<usize>().map_or(true, |want| want == n));
+    if !fits {
+        return Err(value_error(format!(
+            "{what}: expected {expected}, got shape {}",
+            tuple(&got)
+        )));
+    }
+    Ok(a)
+}
+
+/// "an (N, 3) array of real numbers (float64)".
+fn expected(dtype: &str, kinds: &str, shape: &str) -> String {
+    let numbers = match kinds {
+        "b" => "booleans",
+        k if k.contains('f') => "real numbers",
+        _ => "integers",
+    };
+    let article = if shape.starts_with("(N") || shape.starts_with("(M") {
+        "an"
+    } else {
+        "a"
+    };
+    format!("{article} {shape} array of {numbers} ({dtype})")
+}
+
+/// The dimensions of `(N, 3)`: `N` and `3`.
+fn dims(shape: &str) -> Vec<&str> {
+    shape
+        .trim_matches(|c| c == '(' || c == ')')
+        .split(',')
+        .map(str::trim)
+        .filter(|d| !d.is_empty())
+        .collect()
+}
+
+/// A shape as Python writes it: (3,), (2, 3).
+fn tuple(shape: &[usize]) -> String {
+    match shape {
+        [n] => format!("({n},)"),
+        _ => format!(
+            "({})",
+            shape
+                .iter()
+                .map(ToString::to_string)
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    }
+}
+
+/// [`array_like`] as an (N, C) float64 array; `shape` as "(N, 3)".
+pub fn f64_2d<'py>(
+    obj: &Bound<'py, PyAny>,
+    shape: &str,
+    what: &str,
+) -> PyResult<PyReadonlyArray2<'py, f64>> {
+    array_like(obj, "float64", "iuf", shape, what)?.extract()
+}
+
+/// [`array_like`] as a real array of `T` (float64 or float32) of `shape`.
+pub fn reals<'py, T: numpy::Element, D: numpy::ndarray::Dimension>(
+    obj: &Bound<'py, PyAny>,
+    shape: &str,
+    what: &str,
+) -> PyResult<PyReadonlyArray<'py, T, D>> {
+    let dtype: String = T::get_dtype(obj.py()).getattr("name")?.extract()?;
+    array_like(obj, &dtype, "iuf", shape, what)?.extract()
+}
+
+/// [`array_like`] as a bool array of `shape` (numpy bools only: 2 is not a flag).
+pub fn bools<'py, D: numpy::ndarray::Dimension>(
+    obj: &Bound<'py, PyAny>,
+    shape: &str,
+    what: &str,
+) -> PyResult<PyReadonlyArray<'py, bool, D>> {
+    array_like(obj, "bool", "b", shape, what)?.extract()
+}
+
+/// An 8-bit array of `shape` from any integer or real array-like: integers
+/// must be in 0..=255; reals in [0, 1] are scaled by 255 and rounded, as
+/// scikit-image's `img_as_ubyte` does (a float image is in [0, 1] in the
+/// numpy imaging libraries). `integers_only`: label codes, where a real
+/// number is refused.
+pub fn u8_array<'py, D: numpy::ndarray::Dimension>(
+    obj: &Bound<'py, PyAny>,
+    shape: &str,
+    integers_only: bool,
+    what: &str,
+) -> PyResult<PyReadonlyArray<'py, u8, D>> {
+    let (kinds, expected) = if integers_only {
+        (
+            "iu",
+            format!("a {shape} array of integers in 0..=255 (uint8)"),
+        )
+    } else {
+        (
+            "iuf",
+            format!("a {shape} image of integers in 0..=255 or reals in [0, 1] (uint8)"),
+        )
+    };
+    let a = checked(obj, kinds, shape, what, &expected)?;
+    let np = obj.py().import("numpy")?;
+    let real = a.getattr("dtype")?.getattr("kind")?.extract::<String>()? == "f";
+    let size: usize = a.getattr("size")?.extract()?;
+    if size > 0 {
+        let (lo, hi): (f64, f64) = (
+            a.call_method0("min")?.extract()?,
+            a.call_method0("max")?.extract()?,
+        );
+        let top = if real { 1.0 } else { 255.0 };
+        if !(lo >= 0.0 && hi <= top) {
+            return Err(value_error(format!(
+                "{what}: expected {expected}: values from {lo} to {hi}{}",
+                if real {
+                    " (reals are scaled by 255: pass integers for 0-255)"
+                } else {
+                    ""
+                }
+            )));
+        }
+    }
+    let a = if real {
+        np.call_method1("rint", (a.call_method1("__mul__", (255.0,))?,))?
+    } else {
+        a
+    };
+    np.call_method1("ascontiguousarray", (a, "uint8"))?
+        .extract()
 }
 
 /// An (N, 3) float array as points; `what` names the argument in errors.
@@ -121,6 +260,24 @@ pub fn rgb(a: &PyReadonlyArray3<'_, u8>, what: &str) -> PyResult<RgbImage> {
     let raw: Vec<u8> = v.iter().copied().collect();
     RgbImage::from_raw(w as u32, h as u32, raw)
         .ok_or_else(|| value_error(format!("{what}: {w}x{h} image does not fit its data")))
+}
+
+/// An (H, W, 3) image array-like ([`u8_array`]) as an RGB image.
+pub fn rgb_like(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<RgbImage> {
+    rgb(&u8_array(obj, "(H, W, 3)", false, what)?, what)
+}
+
+/// Label codes (H, W) and angles (H, W) array-likes as a label image;
+/// `what` names the label argument, `angles_what` the angles.
+pub fn label_image_like(
+    labels: &Bound<'_, PyAny>,
+    angles: &Bound<'_, PyAny>,
+    what: &str,
+    angles_what: &str,
+) -> PyResult<LabelImage> {
+    let l = u8_array(labels, "(H, W)", true, what)?;
+    let a = reals(angles, "(H, W)", angles_what)?;
+    label_image(&l, &a, what)
 }
 
 /// An RGB image as an (H, W, 3) uint8 array.

@@ -96,11 +96,18 @@ pub fn mission(e: &MissionError) -> PyErr {
     // The class follows the failure itself (a timeout stays TimeoutError);
     // the message keeps what was added around it, e.g. what the vehicle
     // holds after a failed upload.
+    if let MissionError::HomeOffset(h) = e {
+        // The next steps as a Python caller takes them.
+        return PyValueError::new_err(h.message(
+            "home=(lat, lon, alt), the CLI's --home",
+            "accept_home_offset=True (the CLI's --accept-home-offset)",
+        ));
+    }
     match e.root() {
         MissionError::Scene(s) => scene(s),
-        MissionError::InvalidInput(_) | MissionError::BadUrl { .. } => {
-            PyValueError::new_err(message(e))
-        }
+        MissionError::InvalidInput(_)
+        | MissionError::HomeOffset(_)
+        | MissionError::BadUrl { .. } => PyValueError::new_err(message(e)),
         MissionError::Connect { .. } | MissionError::Link(_) => {
             PyConnectionError::new_err(message(e))
         }

@@ -3,13 +3,13 @@
 
 use std::path::PathBuf;
 
-use numpy::{PyArray1, PyArray3, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3};
+use numpy::{PyArray1, PyArray3, PyReadonlyArray1, PyReadonlyArray3};
 use pyo3::prelude::*;
 use vp_forest::{Forest, Scored, TrainParams, TrainingSet};
 use vp_scene::fsio;
 use vp_scene::raster::{AngleBins, ConfidenceImage};
 
-use crate::convert::{self, image3, label_image, rgb, ArrayPair};
+use crate::convert::{self, image3, ArrayPair};
 use crate::errors::{value_error, IntoPy};
 
 /// Predicted MVS confidence of one image: b values per node of a grid with
@@ -30,12 +30,13 @@ impl PyConfidence {
     #[new]
     #[pyo3(signature = (values, width, height, step, gamma_max_deg = 45.0))]
     fn new(
-        values: PyReadonlyArray3<'_, f32>,
+        values: &Bound<'_, PyAny>,
         width: u32,
         height: u32,
         step: u32,
         gamma_max_deg: f32,
     ) -> PyResult<Self> {
+        let values: PyReadonlyArray3<'_, f32> = convert::reals(values, "(gh, gw, b)", "values")?;
         let v = values.as_array();
         let (gh, gw, b) = v.dim();
         let bins = AngleBins::uniform(b, gamma_max_deg).py()?;
@@ -101,13 +102,16 @@ impl PyConfidence {
     fn sample<'py>(
         &self,
         py: Python<'py>,
-        pixels: PyReadonlyArray2<'_, f64>,
-        angles_deg: PyReadonlyArray1<'_, f64>,
+        pixels: &Bound<'_, PyAny>,
+        angles_deg: &Bound<'_, PyAny>,
     ) -> PyResult<Bound<'py, PyArray1<f32>>> {
+        let pixels = convert::f64_2d(pixels, "(N, 2)", "pixels")?;
+        let angles_deg: PyReadonlyArray1<'_, f64> =
+            convert::reals(angles_deg, "(N,)", "angles_deg")?;
         let (p, a) = (pixels.as_array(), angles_deg.as_array());
-        if p.ncols() != 2 || p.nrows() != a.len() {
+        if p.nrows() != a.len() {
             return Err(value_error(format!(
-                "pixels {:?} and angles {:?}: expected (N, 2) and (N,)",
+                "pixels {:?} and angles_deg {:?}: expected (N, 2) and (N,), one angle per pixel",
                 p.shape(),
                 a.shape()
             )));
@@ -169,10 +173,10 @@ impl PyForest {
     fn predict(
         &self,
         py: Python<'_>,
-        image: PyReadonlyArray3<'_, u8>,
+        image: &Bound<'_, PyAny>,
         step: u32,
     ) -> PyResult<PyConfidence> {
-        let img = rgb(&image, "image")?;
+        let img = convert::rgb_like(image, "image")?;
         py.detach(|| self.0.predict_image(&img, step))
             .py()
             .map(PyConfidence)
@@ -183,12 +187,12 @@ impl PyForest {
     fn score<'py>(
         &self,
         py: Python<'py>,
-        image: PyReadonlyArray3<'_, u8>,
-        labels: PyReadonlyArray2<'_, u8>,
-        angles: PyReadonlyArray2<'_, f32>,
+        image: &Bound<'_, PyAny>,
+        labels: &Bound<'_, PyAny>,
+        angles: &Bound<'_, PyAny>,
     ) -> PyResult<ArrayPair<'py, PyArray1<f32>, PyArray1<bool>>> {
-        let img = rgb(&image, "image")?;
-        let lab = label_image(&labels, &angles, "labels")?;
+        let img = convert::rgb_like(image, "image")?;
+        let lab = convert::label_image_like(labels, angles, "labels", "angles")?;
         let s = py.detach(|| self.0.score_labels(&img, &lab)).py()?;
         Ok((
             PyArray1::from_vec(py, s.iter().map(|x| x.confidence).collect()),
@@ -206,9 +210,9 @@ impl PyForest {
 #[pyo3(signature = (images, labels, angles, params = None, seed = 0, max_per_label_image = None))]
 fn train(
     py: Python<'_>,
-    images: Vec<PyReadonlyArray3<'_, u8>>,
-    labels: Vec<PyReadonlyArray2<'_, u8>>,
-    angles: Vec<PyReadonlyArray2<'_, f32>>,
+    images: Vec<Bound<'_, PyAny>>,
+    labels: Vec<Bound<'_, PyAny>>,
+    angles: Vec<Bound<'_, PyAny>>,
     params: Option<&Bound<'_, PyAny>>,
     seed: u64,
     max_per_label_image: Option<usize>,
@@ -227,8 +231,9 @@ fn train(
         None => TrainingSet::new(),
     };
     for (i, ((img, l), a)) in images.iter().zip(&labels).zip(&angles).enumerate() {
-        let img = rgb(img, &format!("images[{i}]"))?;
-        let lab = label_image(l, a, &format!("labels[{i}]"))?;
+        let img = convert::rgb_like(img, &format!("images[{i}]"))?;
+        let lab =
+            convert::label_image_like(l, a, &format!("labels[{i}]"), &format!("angles[{i}]"))?;
         set.add_image(&img, &[lab]).py()?;
     }
     py.detach(|| vp_forest::train(&set, &p, seed))
@@ -271,10 +276,9 @@ fn default_params<'py>(py: Python<'py>, preset: &str) -> PyResult<Bound<'py, PyA
     convert::to_py(py, &TrainParams::preset(p))
 }
 
-fn scored(
-    confidence: &PyReadonlyArray1<'_, f32>,
-    positive: &PyReadonlyArray1<'_, bool>,
-) -> PyResult<Vec<Scored>> {
+fn scored(confidence: &Bound<'_, PyAny>, positive: &Bound<'_, PyAny>) -> PyResult<Vec<Scored>> {
+    let confidence: PyReadonlyArray1<'_, f32> = convert::reals(confidence, "(N,)", "confidence")?;
+    let positive: PyReadonlyArray1<'_, bool> = convert::bools(positive, "(N,)", "positive")?;
     let (c, p) = (confidence.as_array(), positive.as_array());
     if c.len() != p.len() {
         return Err(value_error(format!(
@@ -296,11 +300,11 @@ fn scored(
 #[pyfunction]
 #[pyo3(signature = (confidence, positive, threshold = 0.5))]
 fn accuracy(
-    confidence: PyReadonlyArray1<'_, f32>,
-    positive: PyReadonlyArray1<'_, bool>,
+    confidence: &Bound<'_, PyAny>,
+    positive: &Bound<'_, PyAny>,
     threshold: f32,
 ) -> PyResult<f64> {
-    vp_forest::accuracy(&scored(&confidence, &positive)?, threshold).py()
+    vp_forest::accuracy(&scored(confidence, positive)?, threshold).py()
 }
 
 /// Sparsification curve and AUSC (absolute, optimal, relative, random).
@@ -308,11 +312,11 @@ fn accuracy(
 #[pyo3(signature = (confidence, positive, curve_points = 100))]
 fn sparsification<'py>(
     py: Python<'py>,
-    confidence: PyReadonlyArray1<'_, f32>,
-    positive: PyReadonlyArray1<'_, bool>,
+    confidence: &Bound<'_, PyAny>,
+    positive: &Bound<'_, PyAny>,
     curve_points: usize,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let s = vp_forest::sparsification(&scored(&confidence, &positive)?, curve_points).py()?;
+    let s = vp_forest::sparsification(&scored(confidence, positive)?, curve_points).py()?;
     convert::to_py(py, &s)
 }
 

@@ -89,10 +89,10 @@ fn sparse_model(
     py: Python<'_>,
     cameras: Vec<(String, PyCamera)>,
     caster: PyRef<'_, PyRayCaster>,
-    pts: PyReadonlyArray2<'_, f64>,
+    pts: &Bound<'_, PyAny>,
 ) -> PyResult<PyColmap> {
     let cams: Vec<_> = cameras.into_iter().map(|(n, c)| (n, c.0)).collect();
-    let p = points(&pts, "points")?;
+    let p = points(&convert::f64_2d(pts, "(N, 3)", "pts")?, "pts")?;
     let c = &caster.0;
     Ok(PyColmap(py.detach(|| {
         vp_labelgen::synthetic::sparse_model(&cams, c, &p)
@@ -113,19 +113,21 @@ pub struct PyRecon(TripletReconstruction);
 #[pymethods]
 impl PyRecon {
     #[new]
-    fn new(
-        id: String,
-        views: Vec<(String, PyCamera, PyReadonlyArray2<'_, f32>)>,
-    ) -> PyResult<Self> {
+    fn new(id: String, views: Vec<(String, PyCamera, Bound<'_, PyAny>)>) -> PyResult<Self> {
         let n = views.len();
         let v: Vec<View> = views
             .into_iter()
-            .map(|(name, camera, depth)| View {
-                name,
-                camera: camera.0,
-                depth: depth_map(&depth),
+            .enumerate()
+            .map(|(i, (name, camera, depth))| {
+                let depth: PyReadonlyArray2<'_, f32> =
+                    convert::reals(&depth, "(H, W)", &format!("views[{i}] depth"))?;
+                Ok(View {
+                    name,
+                    camera: camera.0,
+                    depth: depth_map(&depth),
+                })
             })
-            .collect();
+            .collect::<PyResult<_>>()?;
         let views: [View; 3] = v
             .try_into()
             .map_err(|_| value_error(format!("reconstruction {id}: {n} views, expected 3")))?;

@@ -7,7 +7,7 @@
 
 use std::path::PathBuf;
 
-use numpy::{PyArray2, PyArray3, PyReadonlyArray3};
+use numpy::{PyArray2, PyArray3};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use vp_mvs::{
@@ -15,7 +15,7 @@ use vp_mvs::{
     WorkspaceRequest,
 };
 
-use crate::convert::{self, image2, image3, rgb};
+use crate::convert::{self, image2, image3};
 use crate::errors::{value_error, IntoPy};
 use crate::scene::PyCamera;
 
@@ -142,7 +142,7 @@ fn map_arrays(py: Python<'_>, m: DepthNormalMap) -> PyResult<MapArrays<'_>> {
 #[allow(clippy::too_many_arguments)]
 fn patch_match<'py>(
     py: Python<'py>,
-    images: Vec<PyReadonlyArray3<'py, u8>>,
+    images: Vec<Bound<'py, PyAny>>,
     cameras: Vec<PyCamera>,
     depth_ranges: Vec<(f64, f64)>,
     sources: Option<Vec<Vec<usize>>>,
@@ -170,7 +170,7 @@ fn patch_match<'py>(
     };
     let mut views = Vec::with_capacity(n);
     for (i, (img, cam)) in images.iter().zip(&cameras).enumerate() {
-        let rgb = rgb(img, &format!("images[{i}]"))?;
+        let rgb = crate::convert::rgb_like(img, &format!("images[{i}]"))?;
         let view = View::new(&format!("images[{i}]"), cam.0, rgb, ranges[i])
             .map_err(|e| crate::errors::mvs(&e))?;
         views.push(view);

@@ -127,13 +127,14 @@ impl PyPlanResult {
         PyPlan(self.0.plan.clone())
     }
 
-    /// Per iteration: {iteration, f_before, f_after, coverage, time_s}.
+    /// Per flown triplet: {iteration (its triplet_id), f_before, f_after,
+    /// coverage, time_s}; a dropped triplet is not among them.
     #[getter]
     fn iterations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         convert::to_py(py, &self.0.iterations)
     }
 
-    /// Gain of each chosen triplet.
+    /// Gain of each flown triplet, when chosen.
     #[getter]
     fn triplet_gains(&self) -> Vec<f64> {
         self.0.triplet_gains.clone()
@@ -145,20 +146,23 @@ impl PyPlanResult {
         self.0.module_time_s.clone()
     }
 
-    /// Why planning stopped early, or None.
+    /// Why fewer than k triplets are flown, or None.
     #[getter]
     fn cut_short_reason(&self) -> Option<String> {
         self.0.cut_short_reason.clone()
     }
 
-    /// Triplets planned but left out of the path: one of their images is
-    /// unsafe or no safe route reaches it.
+    /// Triplets chosen but left out of the path: one of their images is
+    /// unsafe or no safe route reaches it (`plan.to_json()`'s
+    /// `dropped_triplets` has each with its replacement).
     #[getter]
     fn dropped_triplets(&self) -> Vec<u32> {
         self.0.dropped_triplets.clone()
     }
 
-    /// Why each of `dropped_triplets` was left out, in the same order.
+    /// Why each of `dropped_triplets` was left out, in the same order,
+    /// naming waypoints of the plan, ending "replaced by triplet N" or
+    /// "not replaced".
     #[getter]
     fn dropped_reasons(&self) -> Vec<String> {
         self.0.dropped_reasons.clone()

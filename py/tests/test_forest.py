@@ -126,6 +126,34 @@ def test_bad_training_inputs():
         vpctl.forest.train([img[..., :2]], [labels], [angles], params=TINY)
 
 
+def test_forest_takes_array_likes_of_any_real_dtype(forest):
+    """Issue 40: `Forest.predict` on a float image raised "type mismatch:
+    from=float64, to=uint8" naming neither the argument nor what it wants.
+    A real image is in [0, 1] (scikit-image's convention), integers in 0..255."""
+    img, labels, angles = texture(9)
+    ref = forest.predict(img, step=8).values
+    for same in [img / 255.0, (img / 255.0).astype(np.float32), img.astype(np.int64),
+                 np.asfortranarray(img), img.tolist()]:
+        assert np.array_equal(forest.predict(same, step=8).values, ref)
+    c, pos = forest.score(img, labels, angles)
+    c2, pos2 = forest.score(img / 255.0, labels.astype(np.int32), angles.astype(np.float64))
+    assert np.array_equal(c, c2) and np.array_equal(pos, pos2)
+    assert vpctl.forest.accuracy(c.tolist(), pos.tolist()) == vpctl.forest.accuracy(c, pos)
+    with pytest.raises(ValueError, match=r"image: expected a \(H, W, 3\) image of integers in 0..=255 or reals "
+                       r"in \[0, 1\] \(uint8\): values from 2 to 243 \(reals are scaled by 255"):
+        forest.predict(img.astype(np.float64))
+    with pytest.raises(ValueError, match=r"image: expected a \(H, W, 3\) .*got shape \(96, 96\)"):
+        forest.predict(img[..., 0])
+    with pytest.raises(TypeError, match=r"labels: expected a \(H, W\) array of integers in 0..=255 \(uint8\), got dtype float64"):
+        forest.score(img, labels.astype(np.float64), angles)
+    with pytest.raises(TypeError, match=r"positive: expected an \(N,\) array of booleans \(bool\), got dtype int64"):
+        vpctl.forest.accuracy(c, pos.astype(np.int64))
+    vals = np.linspace(0, 1, 4 * 5 * 9).reshape(4, 5, 9)
+    conf = vpctl.forest.ConfidenceImage(vals, 40, 32, 8)
+    assert np.array_equal(conf.values, vals.astype(np.float32))
+    assert conf.sample([[4.5, 4.5]], [2.5])[0] == pytest.approx(vals[0, 0, 0], abs=1e-6)
+
+
 def test_metrics_exact_values():
     c = np.array([0.9, 0.8, 0.3, 0.1], dtype=np.float32)
     pos = np.array([True, False, False, True])

@@ -94,8 +94,12 @@ def test_upload_compares_the_simulated_vehicles_home_with_the_plans(plan_file):
     _, plan = plan_file
     far = (46.0 + 30.0 / 111_195.0, 10.3, 400.0)
     with vpctl.mission.SimulatedVehicle(home=far) as v:
-        with pytest.raises(ValueError, match="accept"):
+        # The next step in a Python caller's words (issue 40: it named only
+        # the CLI's flags), with the CLI's for reference.
+        with pytest.raises(ValueError, match=r"give the real one \(home=\(lat, lon, alt\), the CLI's --home\), "
+                           r"or pass accept_home_offset=True \(the CLI's --accept-home-offset\)") as e:
             vpctl.mission.upload(plan, v.url, heartbeat_timeout=3.0)
+        assert "30.0 m from the plan's home" in str(e.value)
         assert v.mission() == [] and v.upload_counts() == (0, 0)
         report = vpctl.mission.upload(plan, v.url, heartbeat_timeout=3.0, accept_home_offset=True)
         assert report["verified"] and "ACCEPTED" in report["home"], report["home"]

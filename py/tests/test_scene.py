@@ -116,6 +116,42 @@ def test_ray_casting_batch_hits_plane_at_height():
         caster.closest_hits(np.array([[np.nan, 0, 0]]), dirs[:1])
 
 
+def test_ray_caster_and_clearance_take_array_likes():
+    """Issue 40: `closest_hits([[0,0,50]], [[0,0,-1]])` raised "'list' object
+    is not an instance of 'ndarray'" and float32 arrays "type mismatch:
+    from=float32, to=float64", though the stubs promise array-likes."""
+    caster = vpctl.scene.RayCaster(plane(z=1.0))
+    ref = caster.closest_hits(np.array([[0.0, 0.0, 50.0]]), np.array([[0.0, 0.0, -1.0]]))
+    for o, d in [
+        ([[0, 0, 50]], [[0, 0, -1]]),
+        (np.array([[0, 0, 50]], dtype=np.float32), np.array([[0, 0, -1]], dtype=np.float32)),
+        (np.array([[0, 0, 50]], dtype=np.int32), ((0, 0, -1),)),
+        # A strided view (every other row of a Fortran-ordered array).
+        (np.asfortranarray(np.array([[0.0, 0, 50], [9, 9, 9]]))[::2], [[0, 0, -1.0]]),
+    ]:
+        hits = caster.closest_hits(o, d)
+        assert hits["t"][0] == pytest.approx(49.0, abs=1e-5)
+        assert hits["face"][0] == ref["face"][0]
+    occ = caster.occluded([[0, 0, 5], [0, 0, 5]], np.array([[0, 0, -5], [0, 0, 2]], dtype=np.float32))
+    assert occ.tolist() == [True, False]
+    c = vpctl.scene.Clearance(plane(z=0.0))
+    assert np.allclose(c.distance([[0, 0, 3]]), [3.0], atol=1e-6)
+    assert c.points_clear(np.array([[0, 0, 3]], dtype=np.float32), 1.0).tolist() == [True]
+    assert c.segments_clear([[0, 0, 3]], [[5, 0, 0.2]], 1.0).tolist() == [False]
+    # Errors name the argument, the expected shape and dtype.
+    with pytest.raises(ValueError, match=r"directions: expected an \(N, 3\) array of real numbers \(float64\), got shape \(3,\)"):
+        caster.closest_hits([[0, 0, 50]], [0, 0, -1])
+    with pytest.raises(TypeError, match=r"origins: expected an \(N, 3\) array of real numbers \(float64\), got dtype <U1"):
+        caster.closest_hits([["a", "b", "c"]], [[0, 0, -1]])
+    with pytest.raises(ValueError, match=r"b: expected an \(N, 3\)"):
+        c.segments_clear([[0, 0, 3]], [[5, 0]], 1.0)
+    cam = vpctl.scene.Camera.look_at(64, 48, 60.0, [0, 0, 10], [0, 0, 0])
+    o, d = cam.rays([[32, 24]])
+    assert np.allclose(d, [[0, 0, -1]], atol=1e-9)
+    with pytest.raises(ValueError, match=r"pixels: expected an \(N, 2\)"):
+        cam.rays([[1, 2, 3]])
+
+
 def test_camera_projection_and_depth_render():
     cam = vpctl.scene.Camera.look_at(64, 48, 60.0, [0.0, -1.0, 10.0], [0.0, 0.0, 1.0])
     assert cam.size == (64, 48)

@@ -54,6 +54,9 @@ enum Command {
     /// Train the MVS confidence predictor from images and label images.
     Train(cmd::forest::TrainArgs),
     /// Predict confidence images (one channel per angle bin) with a trained model.
+    ///
+    /// Prints a line per image for up to 20 images, else a summary (the
+    /// mean, the lowest and highest image, where the files are).
     Predict(cmd::forest::PredictArgs),
     /// Inspect, evaluate and configure confidence-predictor models.
     #[command(subcommand)]

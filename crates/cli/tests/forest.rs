@@ -527,8 +527,9 @@ fn check_angle_success(out: &Path, summary: &str) {
 }
 
 /// Regression (issue 40): `predict` into a log wrote a line per image on
-/// stderr (two with previews); now timestamped summary lines, a few per
-/// stage, however many images.
+/// stderr (two with previews), and its result a line per image on stdout
+/// (10,000 lines for 5,000 images); now timestamped summary lines, a few
+/// per stage, and a summary of the result beyond 20 images.
 #[test]
 fn predict_in_a_log_writes_few_timestamped_lines_not_one_per_image() {
     let dir = tempfile::tempdir().unwrap();
@@ -575,5 +576,14 @@ fn predict_in_a_log_writes_few_timestamped_lines_not_one_per_image() {
     assert!(
         !err.contains('\r') && !err.contains('\u{1b}'),
         "no terminal codes in a log: {err:?}"
+    );
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.lines().count() <= 3, "{out}");
+    assert!(
+        out.contains(&format!("predicted {n} images: mean confidence "))
+            && out.contains(&format!(
+                "written: {n} confidence files <image name>.vpconf in "
+            )),
+        "{out}"
     );
 }

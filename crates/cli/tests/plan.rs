@@ -308,3 +308,94 @@ fn plan_refuses_a_model_without_frame_unless_told() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("implausible scale"), "{}", stderr(&o));
 }
+
+/// Regression (issue 40): a triplet dropped as unreachable was not
+/// replaced (k = 4 asked, 3 flown), "mean f" and `statistics.iterations`
+/// still counted it, and its reason cited "segment 10 -> 11", numbers that
+/// appear in no output. On a site where M4 drops a triplet (a random case
+/// of the planner's safety test), the plan now flies k triplets, its
+/// figures are those of the flown ones, and a reason names waypoints of
+/// the plan file.
+#[test]
+fn a_dropped_triplet_is_replaced_and_the_summary_counts_only_what_is_flown() {
+    let dir = tempfile::tempdir().unwrap();
+    let site = common::plan_fixture_seeded(dir.path(), 80557);
+    let p = |f: &str| dir.path().join(f).to_str().unwrap().to_string();
+    let (fence, v) = (28.802_337_047_640_44, site.flight_volume);
+    std::fs::write(
+        dir.path().join("drop.toml"),
+        format!(
+            "n_triangles = 200\nn_surrogates = 400\nn_selected = 40\nn_triplets = 4\n\
+             seed = 80557\nsafety_distance_m = 7.435409014953079\n\
+             flight_volume = [[{}, {}, {}], [{}, {}, {}]]\n\
+             geofence = [[-{fence}, -{fence}], [{fence}, -{fence}], [{fence}, {fence}], [-{fence}, {fence}]]\n\
+             altitude_limits = {{ min_m = {}, max_m = 47.597875864562276 }}\n\
+             [safety]\ngnss = {{ horizontal_m = 0.0, vertical_m = 0.0 }}\ntracking_m = 0.0\n",
+            v.min.x, v.min.y, v.min.z, v.max.x, v.max.y, v.max.z, v.min.z
+        ),
+    )
+    .unwrap();
+    let (cx, cy, h) = (
+        -7.936_663_369_069_961,
+        -7.972_792_518_331_621,
+        8.606_707_443_950_37,
+    );
+    let roi = format!("{},{},-100,{},{},100", cx - h, cy - h, cx + h, cy + h);
+    let o = vpctl(&[
+        "plan",
+        "--mesh",
+        &p("site.ply"),
+        "--colmap",
+        &p("model"),
+        "--config",
+        &p("drop.toml"),
+        "--roi-box",
+        &roi,
+        "--out",
+        &p("plan.json"),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    let plan = Plan::load(&dir.path().join("plan.json")).unwrap();
+    assert!(
+        !plan.dropped_triplets.is_empty(),
+        "the site no longer drops a triplet: the test checks nothing\n{out}"
+    );
+    let mut flown: Vec<u32> = plan.waypoints.iter().filter_map(|w| w.triplet_id).collect();
+    flown.sort_unstable();
+    flown.dedup();
+    // k asked = k flown, or the summary says why not.
+    if flown.len() < 4 {
+        assert!(out.contains("not replaced"), "{out}");
+    } else {
+        assert!(out.contains("cut short: no"), "{out}");
+    }
+    for d in &plan.dropped_triplets {
+        assert!(!flown.contains(&d.triplet_id), "{d:?}");
+        if let Some(by) = d.replaced_by {
+            assert!(flown.contains(&by), "{d:?}");
+            assert!(
+                out.contains(&format!("triplet {}: ", d.triplet_id))
+                    && out.contains(&format!("replaced by triplet {by}")),
+                "{out}"
+            );
+        }
+        // Every waypoint a reason names is that waypoint of the plan file.
+        for (at, _) in d.reason.match_indices("waypoint ") {
+            let rest = &d.reason[at + "waypoint ".len()..];
+            let n: usize = rest[..rest.find(' ').unwrap()].parse().unwrap();
+            let t: u32 = rest[rest.find("(triplet ").unwrap() + 9..rest.find(')').unwrap()]
+                .parse()
+                .unwrap();
+            assert_eq!(plan.waypoints[n].triplet_id, Some(t), "{}", d.reason);
+        }
+        assert!(!d.reason.contains(" -> "), "{}", d.reason);
+    }
+    // The figures are those of the flown triplets only.
+    let its = &plan.statistics.iterations;
+    let mut ids: Vec<u32> = its.iter().map(|i| i.iteration).collect();
+    ids.sort_unstable();
+    assert_eq!(ids, flown);
+    let (a, b) = (its[0].f_before, its[its.len() - 1].f_after);
+    assert!(out.contains(&format!("mean f: {a:.4} -> {b:.4}")), "{out}");
+}

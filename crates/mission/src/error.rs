@@ -20,6 +20,10 @@ pub enum MissionError {
         /// Where in it and what is wrong.
         message: String,
     },
+    /// The vehicle's home lies too far from the plan's: every waypoint
+    /// would be off by that much (`mission upload`).
+    #[error("invalid mission input: {0}")]
+    HomeOffset(crate::vehicle_home::HomeOffset),
     /// The connection URL is malformed or names an unknown transport.
     #[error("connection URL {url:?}: {message} (expected udpin:HOST:PORT, udpout:HOST:PORT, tcpout:HOST:PORT or serial:DEVICE:BAUD)")]
     BadUrl {
@@ -148,6 +152,7 @@ impl MissionError {
             MissionError::Scene(e) => e.is_input_error(),
             MissionError::Explained { source, .. } => source.is_input_error(),
             MissionError::InvalidInput(_)
+            | MissionError::HomeOffset(_)
             | MissionError::BadFile { .. }
             | MissionError::BadUrl { .. }
             | MissionError::SigningKey { .. } => true,

@@ -67,6 +67,47 @@ impl std::fmt::Display for HomeCheck {
     }
 }
 
+/// [`compare_home`]'s refusal: the vehicle's home lies beyond the limits
+/// from the plan's.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HomeOffset {
+    /// The vehicle's home (altitude above mean sea level).
+    pub vehicle: GeodeticOrigin,
+    /// Horizontal distance from the plan's home, metres.
+    pub horizontal_m: f64,
+    /// Vehicle minus plan altitude, metres, where comparable.
+    pub vertical_m: Option<f64>,
+}
+
+impl HomeOffset {
+    /// The refusal with the next steps in the caller's words: `home`, how
+    /// to give the real home (`--home LAT,LON,ALT` on the command line),
+    /// and `accept`, how to accept the offset (`--accept-home-offset`).
+    pub fn message(&self, home: &str, accept: &str) -> String {
+        let v = &self.vehicle;
+        format!(
+            "the vehicle's home ({:.7},{:.7}, {:.1} m above sea level) is {:.1} m from the \
+             plan's home{}; the mission's heights are above the vehicle's home, so every \
+             waypoint would be off by that much. Launch from the plan's home, give the real \
+             one ({home}), or pass {accept} if you know why (limits: \
+             {MAX_HORIZONTAL_OFFSET_M} m across, {MAX_VERTICAL_OFFSET_M} m in height)",
+            v.lat_deg,
+            v.lon_deg,
+            v.alt_m,
+            self.horizontal_m,
+            self.vertical_m
+                .map_or(String::new(), |d| format!(" and {d:+.1} m in height"))
+        )
+    }
+}
+
+impl std::fmt::Display for HomeOffset {
+    /// In the command line's words.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message("--home LAT,LON,ALT", "--accept-home-offset"))
+    }
+}
+
 /// Compares the vehicle's home (`vehicle`, above mean sea level) with the
 /// plan's `home` in `datum`; refuses an offset beyond the limits unless
 /// `accept_offset`.
@@ -92,17 +133,11 @@ pub fn compare_home(
     let off = horizontal_m > MAX_HORIZONTAL_OFFSET_M
         || vertical_m.is_some_and(|d| d.abs() > MAX_VERTICAL_OFFSET_M);
     if off && !accept_offset {
-        return Err(MissionError::InvalidInput(format!(
-            "the vehicle's home ({:.7},{:.7}, {:.1} m above sea level) is {horizontal_m:.1} m \
-             from the plan's home{}; the mission's heights are above the vehicle's home, so \
-             every waypoint would be off by that much. Launch from the plan's home, give the \
-             real one (--home LAT,LON,ALT), or pass --accept-home-offset if you know why \
-             (limits: {MAX_HORIZONTAL_OFFSET_M} m across, {MAX_VERTICAL_OFFSET_M} m in height)",
-            v.lat_deg,
-            v.lon_deg,
-            v.alt_m,
-            vertical_m.map_or(String::new(), |d| format!(" and {d:+.1} m in height"))
-        )));
+        return Err(MissionError::HomeOffset(HomeOffset {
+            vehicle: v,
+            horizontal_m,
+            vertical_m,
+        }));
     }
     Ok(HomeCheck::Reported {
         vehicle: v,

@@ -5,8 +5,9 @@
 //! not); every waypoint and every straight segment between consecutive
 //! waypoints keeps the safety distance, blocked segments climb, traverse and
 //! descend. A triplet that no such route reaches is dropped from the path
-//! (and named in [`Path::dropped_triplets`]); [`PathContext::make_safe`]
-//! alone refuses the waypoints naming the segment.
+//! (and named in [`Path::dropped`]; [`crate::plan`] then looks for a
+//! replacement); [`PathContext::make_safe`] alone refuses the waypoints
+//! naming the segment.
 
 use nalgebra::{Point2, Point3};
 use rayon::prelude::*;
@@ -86,19 +87,52 @@ pub struct Path {
     /// Images that could not be bridged to o_min overlap (index into `waypoints`).
     pub unbridged: Vec<usize>,
     /// Triplets left out because one of their images is unsafe or no safe
-    /// route reaches it.
+    /// route reaches it, in the order they were dropped.
+    pub dropped: Vec<Dropped>,
+    /// Their ids (`dropped[i].triplet_id`).
     pub dropped_triplets: Vec<u32>,
-    /// Why each of `dropped_triplets` was left out (the rule the blocked
-    /// waypoint or segment broke), in the same order.
+    /// Why each was left out, naming waypoints by their index in `waypoints`
+    /// ([`PathContext::describe`]), in the same order.
     pub dropped_reasons: Vec<String>,
 }
+
+/// A triplet the path left out, and the view and rule that made it go.
+#[derive(Debug, Clone)]
+pub struct Dropped {
+    /// Its id.
+    pub triplet_id: u32,
+    /// Its unsafe or unreachable view.
+    pub view: PlannedView,
+    /// What is wrong.
+    pub block: Block,
+}
+
+/// Why a view cannot be flown.
+#[derive(Debug, Clone)]
+pub enum Block {
+    /// The view itself breaks a rule (the words of [`Safety::point_problem`]).
+    Point(String),
+    /// The straight segment to it breaks a rule and no climb-traverse-descend
+    /// route is clear.
+    Segment {
+        /// Where the segment starts.
+        start: [f64; 3],
+        /// The view there, or `None` for the vehicle's position (the start
+        /// of the path).
+        from: Option<PlannedView>,
+    },
+}
+
+/// Where a route starts: the vehicle's position, or (with the view) a
+/// waypoint of a path already flown.
+type Start<'a> = (&'a Point3<f64>, Option<&'a PlannedView>);
 
 /// An unsafe waypoint, or a segment no climb-traverse-descend route makes safe.
 struct Blocked {
     /// Index of the unsafe waypoint, or of the one the segment leads to.
     to: usize,
-    /// What is wrong, for the user.
-    message: String,
+    /// What is wrong.
+    block: Block,
 }
 
 fn cam_of(v: &PlannedView, k: Intrinsics) -> Camera {
@@ -155,6 +189,30 @@ impl PathContext<'_> {
     /// Orders `views` greedily from `start`, inserts bridging views, then
     /// makes every segment safe.
     pub fn build(&self, start: &Camera, captured: &[Camera], views: Vec<PlannedView>) -> Path {
+        self.build_from(start, None, captured, views)
+    }
+
+    /// [`PathContext::build`] for views flown after `last`, a waypoint of a
+    /// safe path already built (with its cameras among `captured`): the
+    /// segment from `last` keeps the rules of every other segment, and a
+    /// reason names `last` as the waypoint it starts at.
+    pub fn build_after(
+        &self,
+        last: &PlannedView,
+        captured: &[Camera],
+        views: Vec<PlannedView>,
+    ) -> Path {
+        let start = last.to_camera(self.intrinsics);
+        self.build_from(&start, Some(last), captured, views)
+    }
+
+    fn build_from(
+        &self,
+        start: &Camera,
+        after: Option<&PlannedView>,
+        captured: &[Camera],
+        views: Vec<PlannedView>,
+    ) -> Path {
         let k = self.intrinsics;
         let mut remaining = views;
         let mut earlier: Vec<Camera> = captured.to_vec();
@@ -203,13 +261,57 @@ impl PathContext<'_> {
             unbridged.push(std::mem::take(&mut unbridged_next));
         }
         let (waypoints, unbridged, dropped) =
-            self.route_dropping(&start.center(), ordered, unbridged);
-        let (dropped_triplets, dropped_reasons) = dropped.into_iter().unzip();
+            self.route_dropping((&start.center(), after), ordered, unbridged);
+        let dropped_reasons = dropped
+            .iter()
+            .map(|d| self.describe(d, &waypoints))
+            .collect();
         Path {
+            dropped_triplets: dropped.iter().map(|d| d.triplet_id).collect(),
+            dropped_reasons,
             waypoints,
             unbridged,
-            dropped_triplets,
-            dropped_reasons,
+            dropped,
+        }
+    }
+
+    /// Why `d` was dropped, for an operator: the view, the rule, and the
+    /// view the blocked segment starts at by its index in `waypoints` (the
+    /// flown waypoints, where the operator can find it), or by its position
+    /// when it is not among them.
+    pub fn describe(&self, d: &Dropped, waypoints: &[PlannedView]) -> String {
+        let at = |[x, y, z]: [f64; 3]| format!("({x:.2}, {y:.2}, {z:.2})");
+        match &d.block {
+            Block::Point(problem) => format!("its view at {} {problem}", at(d.view.position)),
+            Block::Segment { start, from } => {
+                let from = match from {
+                    None => format!(
+                        "the start of the path (the last acquired image) at {}",
+                        at(*start)
+                    ),
+                    Some(v) if v.triplet_id.is_some() && v.triplet_id == d.view.triplet_id => {
+                        format!("its own view at {}", at(*start))
+                    }
+                    Some(v) => match waypoints.iter().position(|w| w == v) {
+                        Some(i) => format!("waypoint {i}{} at {}", role_note(v), at(*start)),
+                        None => format!(
+                            "the view at {}{}, which is not flown either",
+                            at(*start),
+                            role_note(v)
+                        ),
+                    },
+                };
+                let s = self.safety;
+                format!(
+                    "no safe route reaches its view at {} from {from}: the straight segment \
+                     comes closer than {:.2} m to the mesh (or to unobserved space, with \
+                     unknown_space = \"occupied\") or leaves the geofence, and no \
+                     climb-traverse-descend route below the altitude limit {:.1} m is clear",
+                    at(d.view.position),
+                    s.distance,
+                    s.altitude.max_m
+                )
+            }
         }
     }
 
@@ -222,10 +324,10 @@ impl PathContext<'_> {
     /// every round removes a view.
     fn route_dropping(
         &self,
-        start: &Point3<f64>,
+        start: Start<'_>,
         mut views: Vec<PlannedView>,
         mut unbridged: Vec<bool>,
-    ) -> (Vec<PlannedView>, Vec<usize>, Vec<(u32, String)>) {
+    ) -> (Vec<PlannedView>, Vec<usize>, Vec<Dropped>) {
         let mut dropped = Vec::new();
         loop {
             match self.route(Some(start), &views) {
@@ -240,7 +342,11 @@ impl PathContext<'_> {
                 Err(blocked) => {
                     let gone: Vec<bool> = match views[blocked.to].triplet_id {
                         Some(t) => {
-                            dropped.push((t, blocked.message));
+                            dropped.push(Dropped {
+                                triplet_id: t,
+                                view: views[blocked.to].clone(),
+                                block: blocked.block,
+                            });
                             views.iter().map(|v| v.triplet_id == Some(t)).collect()
                         }
                         None => (0..views.len()).map(|i| i == blocked.to).collect(),
@@ -262,7 +368,34 @@ impl PathContext<'_> {
     pub fn make_safe(&self, waypoints: &[PlannedView]) -> Result<Vec<PlannedView>> {
         self.route(None, waypoints)
             .map(|(safe, _)| safe)
-            .map_err(|b| PlannerError::Refused(b.message))
+            .map_err(|b| PlannerError::Refused(self.refusal(&b, waypoints)))
+    }
+
+    /// [`PathContext::make_safe`]'s refusal, naming waypoints by their
+    /// index in the caller's `waypoints`.
+    fn refusal(&self, b: &Blocked, waypoints: &[PlannedView]) -> String {
+        let [x, y, z] = waypoints[b.to].position;
+        let i = b.to;
+        match &b.block {
+            Block::Point(problem) => {
+                format!("waypoint {i} at ({x:.2}, {y:.2}, {z:.2}) {problem}")
+            }
+            Block::Segment {
+                start: [ax, ay, az],
+                ..
+            } => {
+                let s = self.safety;
+                format!(
+                    "segment {} -> {i} from ({ax:.2}, {ay:.2}, {az:.2}) to ({x:.2}, {y:.2}, {z:.2}) \
+                     comes closer than {:.2} m to the mesh (or to unobserved space, with \
+                     unknown_space = \"occupied\") or leaves the geofence, and no \
+                     climb-traverse-descend route below the altitude limit {:.1} m is clear",
+                    i.saturating_sub(1),
+                    s.distance,
+                    s.altitude.max_m
+                )
+            }
+        }
     }
 
     /// The waypoints with a detour inserted before every blocked segment
@@ -271,57 +404,42 @@ impl PathContext<'_> {
     /// without a detour.
     fn route(
         &self,
-        start: Option<&Point3<f64>>,
+        start: Option<Start<'_>>,
         waypoints: &[PlannedView],
-    ) -> std::result::Result<(Vec<PlannedView>, Vec<usize>), Blocked> {
+    ) -> std::result::Result<(Vec<PlannedView>, Vec<usize>), Box<Blocked>> {
         let s = self.safety;
         let mut out: Vec<PlannedView> = Vec::with_capacity(waypoints.len());
         let mut at = Vec::with_capacity(waypoints.len());
         for (i, w) in waypoints.iter().enumerate() {
             let p = Point3::from(w.position);
             if let Some(problem) = s.point_problem(&p) {
-                return Err(Blocked {
+                return Err(Box::new(Blocked {
                     to: i,
-                    message: format!(
-                        "waypoint {i} at ({:.2}, {:.2}, {:.2}) {problem}",
-                        p.x, p.y, p.z
-                    ),
-                });
+                    block: Block::Point(problem),
+                }));
             }
             let prev = match out.last() {
-                Some(v) => Some((Point3::from(v.position), v.clone())),
-                None => start.map(|a| (*a, w.clone())),
+                Some(v) => Some((Point3::from(v.position), v.clone(), Some(v.clone()))),
+                None => start.map(|(a, after)| (*a, after.unwrap_or(w).clone(), after.cloned())),
             };
-            if let Some((a, prev)) = prev {
+            if let Some((a, prev, from)) = prev {
                 let b = Point3::from(w.position);
-                let from_vehicle = out.is_empty();
+                let from_vehicle =
+                    out.is_empty() && start.is_some_and(|(_, after)| after.is_none());
                 let ok = if from_vehicle {
                     s.leg_ok(&a, &b)
                 } else {
                     s.segment_ok(&a, &b)
                 };
                 if !ok {
-                    let from = if i == 0 {
-                        "vehicle".to_string()
-                    } else {
-                        (i - 1).to_string()
-                    };
-                    let detour = self.climb(&a, &b, from_vehicle).ok_or_else(|| Blocked {
-                        to: i,
-                        message: format!(
-                            "segment {from} -> {i} from ({:.2}, {:.2}, {:.2}) to ({:.2}, {:.2}, {:.2}) \
-                             comes closer than {} m to the mesh (or to unobserved space, with \
-                             unknown_space = \"occupied\") or leaves the geofence, and no \
-                             climb-traverse-descend route below the altitude limit {:.1} m is clear",
-                            a.x,
-                            a.y,
-                            a.z,
-                            b.x,
-                            b.y,
-                            b.z,
-                            s.distance,
-                            s.altitude.max_m
-                        ),
+                    let detour = self.climb(&a, &b, from_vehicle).ok_or_else(|| {
+                        Box::new(Blocked {
+                            to: i,
+                            block: Block::Segment {
+                                start: a.into(),
+                                from,
+                            },
+                        })
                     })?;
                     for (p, from) in detour.into_iter().zip([&prev, w]) {
                         out.push(bridge_view(from, p));
@@ -358,6 +476,15 @@ impl PathContext<'_> {
             h += CLIMB_STEP_M;
         }
         None
+    }
+}
+
+/// What a waypoint is, for a drop reason: " (triplet 3)", " (a bridging view)".
+fn role_note(v: &PlannedView) -> String {
+    match (v.role, v.triplet_id) {
+        (_, Some(t)) => format!(" (triplet {t})"),
+        (Role::Bridge, None) => " (a bridging view)".into(),
+        _ => String::new(),
     }
 }
 

@@ -244,6 +244,10 @@ pub fn sample_triangles(
 }
 
 /// f(t) bookkeeping over the sampled triangles and a growing camera set.
+///
+/// `Clone`: replacing a dropped triplet replays the kept ones on f(t) as it
+/// was before M3 ([`crate::plan`]).
+#[derive(Clone)]
 pub struct Fulfillment {
     /// Requirements used for scoring.
     pub req: Requirements,

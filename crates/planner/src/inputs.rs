@@ -90,7 +90,9 @@ pub struct SampledFulfillment {
 pub struct PlanResult {
     /// The plan (also carries statistics and the cut-short flag).
     pub plan: Plan,
-    /// Per-iteration figures (same as `plan.statistics.iterations`).
+    /// Per-iteration figures of the triplets flown (same as
+    /// `plan.statistics.iterations`): a dropped triplet is not among them,
+    /// and those after it are replayed without it.
     pub iterations: Vec<IterationStatistics>,
     /// Wall time per module over the whole call, seconds.
     pub module_time_s: BTreeMap<String, f64>,
@@ -98,18 +100,22 @@ pub struct PlanResult {
     pub selected_faces: Vec<u32>,
     /// Every sampled triangle with its final f(t).
     pub sampled: Vec<SampledFulfillment>,
-    /// Gains g(c3) of the planned triplets, in planning order.
+    /// Gains g(c3) of the triplets flown, when M3 chose them, in planning order.
     pub triplet_gains: Vec<f64>,
-    /// Surrogates visited by M3 in each iteration.
+    /// Surrogates visited by each M3 search (those of dropped triplets and
+    /// of the searches for their replacements too).
     pub visited: Vec<usize>,
     /// Waypoint indices of images that could not be bridged to o_min overlap.
     pub unbridged: Vec<usize>,
-    /// Triplets planned but left out of the path: one of their images is
-    /// unsafe or no climb-traverse-descend route reaches it.
+    /// Triplets chosen but left out of the path: one of their images is
+    /// unsafe or no climb-traverse-descend route reaches it
+    /// (`plan.dropped_triplets` has them with their replacements).
     pub dropped_triplets: Vec<u32>,
-    /// Why each of `dropped_triplets` was left out, in the same order.
+    /// Why each of `dropped_triplets` was left out, naming waypoints of
+    /// `plan`, and the triplet that replaced it ("...; replaced by triplet
+    /// 4") or "...; not replaced" (then `cut_short_reason` says why).
     pub dropped_reasons: Vec<String>,
-    /// True when planning stopped before k triplets.
+    /// True when fewer than k triplets are flown.
     pub cut_short: bool,
     /// Why.
     pub cut_short_reason: Option<String>,

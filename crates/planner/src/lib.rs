@@ -34,6 +34,7 @@ pub mod triplet;
 
 mod inputs;
 mod pipeline;
+mod replace;
 
 pub use acquired::acquired_from_model;
 pub use config::{CameraConfig, PlannerConfig};

@@ -1,4 +1,5 @@
-//! The planning call: M1 once, M2 once, M3 k times with f(t) updates, M4.
+//! The planning call: M1 once, M2 once, M3 k times with f(t) updates, M4
+//! (and M3 again for what M4 drops, `replace.rs`).
 
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
@@ -7,12 +8,11 @@ use nalgebra::Point3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use vp_scene::mesh_ops::submesh;
-use vp_scene::plan::{IterationStatistics, Plan, PlannedView, Role};
+use vp_scene::plan::{IterationStatistics, Plan};
 use vp_scene::raster::ConfidenceImage;
 use vp_scene::raycast::RayCaster;
 use vp_scene::{Camera, Mesh};
 
-use crate::config::PlannerConfig;
 use crate::error::{PlannerError, Result};
 use crate::flight_path::PathContext;
 use crate::flights::assign_flights;
@@ -20,6 +20,7 @@ use crate::free_space::{free_space, observations_from_mesh, UnknownSpace};
 use crate::fulfillment::{sample_triangles, Fulfillment};
 use crate::inputs::{safety_for, AcquiredView, PlanInputs, PlanResult, SampledFulfillment};
 use crate::quality::Requirements;
+use crate::replace::{self, Chosen, Flown, M3Loop, Rounds, Searcher};
 use crate::safety::Safety;
 use crate::surrogate::{sample_positions, LazyLinks};
 use crate::triplet::{Potential, Search};
@@ -35,13 +36,14 @@ fn timed<T>(f: impl FnOnce() -> T) -> (T, f64) {
     (v, secs(t.elapsed()))
 }
 
-/// M1: sampled triangles, f(t) with the acquired cameras, and the selection T.
+/// M1: sampled triangles, f(t) with the acquired cameras, the selection T
+/// and T as a mesh (face i = `selected[i]`).
 fn m1(
     inputs: &PlanInputs,
     roi: &[u32],
     caster: &RayCaster,
     rng: &mut ChaCha8Rng,
-) -> Result<(Fulfillment, Vec<usize>)> {
+) -> Result<(Fulfillment, Vec<usize>, Mesh)> {
     let cfg = inputs.config;
     let (tri_mesh, tris) = sample_triangles(inputs.mesh, roi, cfg.n_triangles, rng)?;
     let req = Requirements {
@@ -72,7 +74,11 @@ fn m1(
         )));
     }
     let selected = ful.select(cfg.n_selected, rng);
-    Ok((ful, selected))
+    let selected_mesh = submesh(
+        &ful.tri_mesh,
+        &selected.iter().map(|&t| t as u32).collect::<Vec<_>>(),
+    );
+    Ok((ful, selected, selected_mesh))
 }
 
 /// Per-triangle results of a call.
@@ -100,10 +106,11 @@ struct Setup<'a> {
     pitch_limits: (f64, f64),
     early_stop: bool,
     deadline: Option<Instant>,
+    time_budget_s: f64,
 }
 
 impl Setup<'_> {
-    fn search<'b>(&'b self, ful: &'b Fulfillment) -> Search<'b> {
+    fn search<'b>(&'b self, ful: &'b Fulfillment, banned: &'b [bool]) -> Search<'b> {
         Search {
             ful,
             selected: self.selected,
@@ -115,79 +122,70 @@ impl Setup<'_> {
             pitch_limits: self.pitch_limits,
             early_stop: self.early_stop,
             deadline: self.deadline,
+            banned,
         }
     }
 }
 
-/// What the M3 iterations produce.
-#[derive(Default)]
-struct M3Loop {
-    iterations: Vec<IterationStatistics>,
-    views: Vec<PlannedView>,
-    gains: Vec<f64>,
-    visited: Vec<usize>,
+/// M3 with its surrogates' links.
+struct M3<'a, 's> {
+    setup: &'a Setup<'s>,
+    links: &'a mut LazyLinks,
+    /// Wall time of every search so far, seconds.
+    time_s: f64,
 }
 
-/// k best-triplet searches with f(t) updates; returns why it stopped early, if it did.
-fn m3_loop(
-    setup: &Setup,
-    links: &mut LazyLinks,
-    ful: &mut Fulfillment,
-    cfg: &PlannerConfig,
-    times: &mut BTreeMap<String, f64>,
-    out: &mut M3Loop,
-) -> Option<String> {
-    let over = || setup.deadline.is_some_and(|d| Instant::now() >= d);
-    for it in 0..cfg.n_triplets {
-        if over() {
-            return Some(format!(
-                "time budget of {} s spent after {it} triplets",
-                cfg.time_budget_s.unwrap_or(0.0)
-            ));
+impl Searcher for M3<'_, '_> {
+    /// Best-triplet searches with f(t) updates; returns why it stopped
+    /// early, if it did.
+    fn search(
+        &mut self,
+        ful: &mut Fulfillment,
+        banned: &[bool],
+        n: usize,
+        next_id: u32,
+        out: &mut M3Loop,
+    ) -> Option<String> {
+        let setup = self.setup;
+        let over = || setup.deadline.is_some_and(|d| Instant::now() >= d);
+        for (it, id) in (0..n).zip(next_id..) {
+            let done = out.chosen.len();
+            if over() {
+                return Some(format!(
+                    "time budget of {} s spent after {done} triplets",
+                    setup.time_budget_s
+                ));
+            }
+            let tm = Instant::now();
+            let outcome = setup.search(ful, banned).run_lazy(self.links);
+            out.visited.push(outcome.visited);
+            let Some(best) = outcome.best else {
+                return Some(if outcome.timed_out {
+                    format!("time budget spent during triplet search {done}")
+                } else {
+                    format!("no triplet with a positive gain after {done} triplets")
+                });
+            };
+            let mut chosen = Chosen {
+                id,
+                best,
+                m3_s: 0.0,
+            };
+            let mut stats = replace::add(ful, &chosen, setup.caster);
+            chosen.m3_s = secs(tm.elapsed());
+            stats.time_s.insert("m3".into(), chosen.m3_s);
+            self.time_s += chosen.m3_s;
+            out.iterations.push(stats);
+            out.chosen.push(chosen);
+            if outcome.timed_out && it + 1 < n {
+                return Some(format!(
+                    "time budget spent during triplet search {}",
+                    done + 1
+                ));
+            }
         }
-        let tm = Instant::now();
-        let f_before = ful.mean_f();
-        let outcome = setup.search(ful).run_lazy(links);
-        out.visited.push(outcome.visited);
-        let Some(best) = outcome.best else {
-            return Some(if outcome.timed_out {
-                format!("time budget spent during triplet search {it}")
-            } else {
-                format!("no triplet with a positive gain after {it} triplets")
-            });
-        };
-        for cam in &best.cameras {
-            ful.add_planned(cam, setup.caster);
-            let mut v = PlannedView::from_camera(cam, Role::TripletMember);
-            v.triplet_id = Some(it as u32);
-            v.expected_gain = Some(best.gain);
-            v.angle_bin_deg = Some(best.angle_deg);
-            out.views.push(v);
-        }
-        out.gains.push(best.gain);
-        let dt = secs(tm.elapsed());
-        *times.entry("m3".into()).or_default() += dt;
-        let mut stats = IterationStatistics {
-            iteration: it as u32,
-            f_before,
-            f_after: ful.mean_f(),
-            coverage: ful.coverage(),
-            time_s: BTreeMap::new(),
-        };
-        stats.time_s.insert("m3".into(), dt);
-        if it == 0 {
-            stats.time_s.insert("m1".into(), times["m1"]);
-            stats.time_s.insert("m2".into(), times["m2"]);
-        }
-        out.iterations.push(stats);
-        if outcome.timed_out && it + 1 < cfg.n_triplets {
-            return Some(format!(
-                "time budget spent during triplet search {}",
-                it + 1
-            ));
-        }
+        None
     }
-    None
 }
 
 /// Surrogate positions, their links to T (segments tested on demand) and
@@ -261,6 +259,43 @@ fn checked_start<'a>(inputs: &PlanInputs<'a>) -> Result<&'a AcquiredView> {
     })
 }
 
+/// The plan file of what is flown: the waypoints cut into flights, the
+/// rules they keep, the figures, and the triplets dropped.
+fn plan_file(
+    inputs: &PlanInputs,
+    safety: &Safety,
+    ctx: &PathContext,
+    flown: &Flown,
+    cut: Option<String>,
+) -> Result<Plan> {
+    let cfg = inputs.config;
+    let mut plan = Plan::new(inputs.origin);
+    let path = &flown.path;
+    let flights = assign_flights(safety, inputs.home.as_ref(), &path.waypoints, &cfg.mission)?;
+    (plan.waypoints, plan.flights) = (flights.waypoints, flights.flights);
+    plan.unbridged = path.unbridged.iter().map(|&i| flights.index[i]).collect();
+    plan.geofence.clone_from(&safety.geofence);
+    plan.altitude_limits = Some(safety.altitude);
+    plan.safety_distance_m = Some(cfg.safety_distance_m);
+    plan.statistics.iterations.clone_from(&flown.m3.iterations);
+    plan.cut_short = cut.is_some();
+    plan.cut_short_reason = cut;
+    plan.dropped_triplets = replace::for_plan(ctx, &flown.dropped, &plan.waypoints);
+    Ok(plan)
+}
+
+/// Adds the times of M1 and M2 to the first iteration's figures, M4's to the last's.
+fn with_module_times(iterations: &mut [IterationStatistics], times: &BTreeMap<String, f64>) {
+    if let Some(s) = iterations.first_mut() {
+        for m in ["m1", "m2"] {
+            s.time_s.insert(m.into(), times[m]);
+        }
+    }
+    if let Some(s) = iterations.last_mut() {
+        s.time_s.insert("m4".into(), times["m4"]);
+    }
+}
+
 /// Plans the next k triplets and the flight path (M1-M4;
 /// docs/design.md#the-planning-call).
 pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
@@ -284,11 +319,7 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
 
     // M1.
     let tm = Instant::now();
-    let (mut ful, selected) = m1(inputs, &roi, &caster, &mut rng)?;
-    let selected_mesh = submesh(
-        &ful.tri_mesh,
-        &selected.iter().map(|&t| t as u32).collect::<Vec<_>>(),
-    );
+    let (mut ful, selected, selected_mesh) = m1(inputs, &roi, &caster, &mut rng)?;
     times.insert("m1".into(), secs(tm.elapsed()));
 
     // M2.
@@ -319,19 +350,21 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
         ),
         early_stop: cfg.m3_early_stop,
         deadline,
+        time_budget_s: cfg.time_budget_s.unwrap_or(0.0),
     };
+    let before_m3 = ful.clone();
     let mut m3 = M3Loop::default();
+    let mut search = M3 {
+        setup: &setup,
+        links: &mut links,
+        time_s: 0.0,
+    };
     if cut.is_none() {
-        cut = m3_loop(&setup, &mut links, &mut ful, cfg, &mut times, &mut m3);
+        cut = search.search(&mut ful, &[], cfg.n_triplets, 0, &mut m3);
     }
-    let M3Loop {
-        mut iterations,
-        views,
-        gains,
-        visited,
-    } = m3;
+    let m3_first = search.time_s;
 
-    // M4.
+    // M4, and the replacement of what it drops.
     let tm = Instant::now();
     let ctx = PathContext {
         mesh,
@@ -341,37 +374,40 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
         min_overlap: cfg.min_overlap,
     };
     let captured: Vec<Camera> = inputs.acquired.iter().map(|a| a.camera).collect();
-    let path = ctx.build(&last.camera, &captured, views);
-    let m4 = secs(tm.elapsed());
+    let rounds = Rounds {
+        ctx: &ctx,
+        start: &last.camera,
+        captured: &captured,
+        before_m3: &before_m3,
+        surrogates: &surrogates,
+        n_triplets: cfg.n_triplets,
+        deadline,
+    };
+    let mut flown = rounds.fly_or_replace(&mut ful, m3, &mut search);
+    let cut = flown.cut_short_reason(cut, cfg.n_triplets);
+    // The replacement searches count as M3.
+    let m4 = secs(tm.elapsed()) - (search.time_s - m3_first);
+    times.insert("m3".into(), search.time_s);
     times.insert("m4".into(), m4);
-    if let Some(s) = iterations.last_mut() {
-        s.time_s.insert("m4".into(), m4);
-    }
+    with_module_times(&mut flown.m3.iterations, &times);
 
-    let mut plan = Plan::new(inputs.origin);
-    let flights = assign_flights(&safety, inputs.home.as_ref(), &path.waypoints, &cfg.mission)?;
-    (plan.waypoints, plan.flights) = (flights.waypoints, flights.flights);
-    plan.unbridged = path.unbridged.iter().map(|&i| flights.index[i]).collect();
-    plan.geofence.clone_from(&safety.geofence);
-    plan.altitude_limits = Some(safety.altitude);
-    plan.safety_distance_m = Some(cfg.safety_distance_m);
-    plan.statistics.iterations.clone_from(&iterations);
+    let mut plan = plan_file(inputs, &safety, &ctx, &flown, cut.clone())?;
     plan.statistics.total_time_s = Some(secs(t0.elapsed()));
-    plan.cut_short = cut.is_some();
-    plan.cut_short_reason.clone_from(&cut);
     let sampled = sampled_results(&ful, &selected);
     let unbridged = plan.unbridged.clone();
+    let dropped_triplets = plan.dropped_triplets.iter().map(|d| d.triplet_id).collect();
+    let dropped_reasons = replace::reasons(&plan.dropped_triplets);
     Ok(PlanResult {
         plan,
-        iterations,
+        iterations: flown.m3.iterations,
         module_time_s: times,
         selected_faces: selected.iter().map(|&t| ful.tris[t].parent).collect(),
         sampled,
-        triplet_gains: gains,
-        visited,
+        triplet_gains: flown.m3.chosen.iter().map(|c| c.best.gain).collect(),
+        visited: flown.m3.visited,
         unbridged,
-        dropped_triplets: path.dropped_triplets,
-        dropped_reasons: path.dropped_reasons,
+        dropped_triplets,
+        dropped_reasons,
         cut_short: cut.is_some(),
         cut_short_reason: cut,
     })

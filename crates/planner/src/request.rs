@@ -162,7 +162,7 @@ fn refuse_if_uncertain(result: Result<PlanResult>, config: &PlannerConfig) -> Re
     let why = match &result {
         Err(PlannerError::Refused(m)) => m.clone(),
         Ok(r) if r.plan.waypoints.is_empty() && !r.dropped_triplets.is_empty() => format!(
-            "all {} triplets were dropped: {}",
+            "every triplet tried was dropped ({}): {}",
             r.dropped_triplets.len(),
             r.dropped_reasons.join("; ")
         ),

@@ -122,6 +122,10 @@ pub struct Search<'a> {
     pub early_stop: bool,
     /// Stop searching at this instant.
     pub deadline: Option<Instant>,
+    /// Surrogates not to visit (`banned[s]`; shorter than the surrogates:
+    /// the rest are allowed): around them a chosen triplet could not be
+    /// flown, and its replacement is searched elsewhere.
+    pub banned: &'a [bool],
 }
 
 /// Camera frame around a viewing direction: image right (horizontal when
@@ -145,6 +149,10 @@ fn half_cone(gamma_rad: f64) -> f64 {
 }
 
 impl Search<'_> {
+    fn is_banned(&self, s: usize) -> bool {
+        self.banned.get(s).copied().unwrap_or(false)
+    }
+
     /// Orients surrogate `s` with its `links` and their potential gains
     /// `gpot`, builds its b triplets and returns the best safe one.
     ///
@@ -243,7 +251,9 @@ impl Search<'_> {
     pub fn run(&self, links: &[Vec<u32>], potential: &[Vec<f64>]) -> Outcome {
         let gpot = self.potential_gains(links, potential);
         let sums: Vec<f64> = gpot.iter().map(|g| g.iter().sum()).collect();
-        let mut order: Vec<usize> = (0..sums.len()).filter(|&s| sums[s] > 0.0).collect();
+        let mut order: Vec<usize> = (0..sums.len())
+            .filter(|&s| sums[s] > 0.0 && !self.is_banned(s))
+            .collect();
         order.sort_by(|&a, &b| sums[b].total_cmp(&sums[a]).then(a.cmp(&b)));
         let mut out = Outcome::default();
         'chunks: for chunk in order.chunks(CHUNK) {
@@ -300,7 +310,7 @@ impl Search<'_> {
                     .collect()
             })
             .collect();
-        let mut order = VisitOrder::new(gpot, lazy);
+        let mut order = VisitOrder::new(gpot, lazy, |s| self.is_banned(s));
         let mut out = Outcome::default();
         loop {
             // Every sum left below the best gain: Search::run stops at the
@@ -371,9 +381,10 @@ struct VisitOrder {
 }
 
 impl VisitOrder {
-    fn new(gpot: Vec<Vec<f64>>, lazy: &LazyLinks) -> Self {
+    fn new(gpot: Vec<Vec<f64>>, lazy: &LazyLinks, banned: impl Fn(usize) -> bool + Sync) -> Self {
         let heap: Vec<Ranked> = (0..lazy.len())
             .into_par_iter()
+            .filter(|&s| !banned(s))
             .filter_map(|s| {
                 let r = Self::rank(&gpot, lazy, s);
                 (r.sum > 0.0).then_some(r)

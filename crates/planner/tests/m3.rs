@@ -69,6 +69,7 @@ fn gain_search<'a>(
         pitch_limits: (-90f64.to_radians(), 0.0),
         early_stop: true,
         deadline: None,
+        banned: &[],
     }
 }
 
@@ -191,6 +192,7 @@ fn lazy_search_equals_the_search_over_tested_links() {
                 pitch_limits: (-90f64.to_radians(), 0.0),
                 early_stop,
                 deadline: None,
+                banned: &[],
             };
             let want = search.run(&links, &potential);
             let got = search.run_lazy(&mut lazy);

@@ -280,12 +280,16 @@ fn a_triplet_behind_an_unclimbable_wall_is_dropped_not_the_plan() {
     with_path(&mesh, &cfg, 0.0, |ctx, mut plan| {
         let path = ctx.build(&start, &[], views);
         assert_eq!(path.dropped_triplets, vec![1]);
-        // The reason names the blocked segment and the limit that stopped
-        // the climb, so an operator knows what to change.
+        // The reason names the blocked view, the waypoint the segment
+        // starts at (by its index among the flown waypoints, where an
+        // operator finds it) and the limit that stopped the climb, so an
+        // operator knows what to change; it named "segment 2 -> 3", an
+        // index of the planner's own list that appeared nowhere.
         let why = &path.dropped_reasons[0];
         assert!(
             path.dropped_reasons.len() == 1
-                && why.contains("segment 2 -> 3")
+                && why.contains("its view at (20.00, 0.00, 10.00)")
+                && why.contains("from waypoint 2 (triplet 0) at (-20.00, 0.00, 10.00)")
                 && why.contains("altitude limit 22.0 m"),
             "{:?}",
             path.dropped_reasons
@@ -378,4 +382,161 @@ fn occupied_unknown_space_keeps_plans_in_observed_free_space() {
         inside_free_policy > 0,
         "the \"free\" policy never approached unobserved space"
     );
+}
+
+/// A random case of [`run_case`] (seed, ROI centre and half-size, safety
+/// distance, geofence half-size, ceiling) planned with k = 4.
+fn plan_case(
+    seed: u64,
+    roi_centre: (f64, f64),
+    roi_half: f64,
+    safety: f64,
+    fence_half: f64,
+    ceiling: f64,
+) -> (vp_planner::PlanResult, vp_scene::Mesh, PlannerConfig) {
+    let s = site(seed, 20_000);
+    let cfg = PlannerConfig {
+        seed,
+        safety_distance_m: safety,
+        geofence: Some(vec![
+            [-fence_half, -fence_half],
+            [fence_half, -fence_half],
+            [fence_half, fence_half],
+            [-fence_half, fence_half],
+        ]),
+        altitude_limits: Some(AltitudeLimits {
+            min_m: s.flight_volume.min.z,
+            max_m: ceiling,
+        }),
+        n_surrogates: 400,
+        n_triangles: 200,
+        n_selected: 40,
+        n_triplets: 4,
+        ..test_config(&s)
+    };
+    let roi = Roi::Box {
+        min: [roi_centre.0 - roi_half, roi_centre.1 - roi_half, -100.0],
+        max: [roi_centre.0 + roi_half, roi_centre.1 + roi_half, 100.0],
+    };
+    let acquired = initial_views(&s);
+    let r = vp_planner::plan(&PlanInputs {
+        mesh: &s.mesh,
+        acquired: &acquired,
+        roi: RoiSpec::Region(roi),
+        config: &cfg,
+        origin: None,
+        observations: None,
+        home: None,
+    })
+    .unwrap();
+    assert_safe(
+        &r.plan,
+        &s.mesh,
+        &cfg,
+        acquired.last().map(|a| a.camera.center()),
+    );
+    (r, s.mesh, cfg)
+}
+
+/// The triplet ids the plan's waypoints carry, sorted.
+fn flown_triplets(plan: &Plan) -> Vec<u32> {
+    let mut ids: Vec<u32> = plan.waypoints.iter().filter_map(|w| w.triplet_id).collect();
+    ids.sort_unstable();
+    ids.dedup();
+    ids
+}
+
+/// Every "waypoint N (triplet T)" a reason names is waypoint N of the plan
+/// and carries triplet T.
+fn assert_reason_names_plan_waypoints(plan: &Plan, reason: &str) {
+    for (at, _) in reason.match_indices("waypoint ") {
+        let rest = &reason[at + "waypoint ".len()..];
+        let n: usize = rest[..rest.find(' ').unwrap()].parse().unwrap();
+        let t: u32 = rest[rest.find("(triplet ").unwrap() + 9..rest.find(')').unwrap()]
+            .parse()
+            .unwrap();
+        assert_eq!(plan.waypoints[n].triplet_id, Some(t), "{reason}");
+    }
+}
+
+/// A triplet dropped as unreachable was not replaced (k = 4 asked, 3
+/// flown), and the plan's "mean f" and `statistics.iterations` still
+/// counted it: they now count only what is flown.
+#[test]
+fn a_dropped_triplet_is_replaced_and_the_figures_count_only_what_is_flown() {
+    let (r, _, _) = plan_case(
+        80_557,
+        (-7.936_663_369_069_961, -7.972_792_518_331_621),
+        8.606_707_443_950_37,
+        7.435_409_014_953_079,
+        28.802_337_047_640_44,
+        47.597_875_864_562_276,
+    );
+    let plan = &r.plan;
+    assert_eq!(
+        plan.dropped_triplets.len(),
+        1,
+        "{:?}",
+        plan.dropped_triplets
+    );
+    let d = &plan.dropped_triplets[0];
+    let by = d.replaced_by.expect("the dropped triplet is replaced");
+    // k asked = k flown; the dropped one flies nowhere, its replacement does.
+    let flown = flown_triplets(plan);
+    assert_eq!(flown.len(), 4, "{flown:?}");
+    assert!(!flown.contains(&d.triplet_id) && flown.contains(&by));
+    assert!(!plan.cut_short, "{:?}", plan.cut_short_reason);
+    // The iteration figures are those of the flown triplets, chained.
+    let mut its: Vec<u32> = plan
+        .statistics
+        .iterations
+        .iter()
+        .map(|i| i.iteration)
+        .collect();
+    its.sort_unstable();
+    assert_eq!(its, flown);
+    for w in plan.statistics.iterations.windows(2) {
+        assert_eq!(w[0].f_after.to_bits(), w[1].f_before.to_bits());
+    }
+    // The last f_after is f(t) with the flown cameras only.
+    let mean = r.sampled.iter().map(|t| t.f).sum::<f64>() / r.sampled.len() as f64;
+    let last = plan.statistics.iterations.last().unwrap().f_after;
+    assert!((last - mean).abs() < 1e-12, "{last} vs {mean}");
+    assert_reason_names_plan_waypoints(plan, &d.reason);
+    assert!(r.dropped_reasons[0].ends_with(&format!("replaced by triplet {by}")));
+}
+
+/// Where no replacement can be flown either, the plan says how many
+/// dropped triplets were not replaced and why, and flies what it can.
+#[test]
+fn dropped_triplets_that_cannot_be_replaced_are_reported() {
+    let (r, _, _) = plan_case(
+        77_203,
+        (-11.832_895_337_498_89, -11.856_656_835_595_022),
+        11.894_373_307_855_85,
+        7.224_836_834_398_475_5,
+        18.655_221_276_537_738,
+        54.108_146_887_352_94,
+    );
+    let plan = &r.plan;
+    let flown = flown_triplets(plan);
+    assert!(flown.len() < 4 && !flown.is_empty(), "{flown:?}");
+    // M3 chose triplets 0-3; a replacement that is dropped too waits for
+    // no replacement of its own.
+    let unreplaced = plan
+        .dropped_triplets
+        .iter()
+        .filter(|d| d.replaced_by.is_none() && d.triplet_id < 4)
+        .count();
+    assert_eq!(unreplaced, 4 - flown.len());
+    let why = plan.cut_short_reason.as_deref().unwrap_or_default();
+    assert!(
+        plan.cut_short && why.starts_with(&format!("{unreplaced} dropped triplets not replaced: ")),
+        "{why}"
+    );
+    for d in &plan.dropped_triplets {
+        assert!(!flown.contains(&d.triplet_id));
+        assert_reason_names_plan_waypoints(plan, &d.reason);
+    }
+    assert_eq!(plan.statistics.iterations.len(), flown.len());
 }

@@ -172,10 +172,12 @@ pub struct AltitudeLimits {
     pub max_m: f64,
 }
 
-/// Figures of one planning iteration.
+/// Figures of one planning iteration: one triplet that is flown.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct IterationStatistics {
-    /// 0-based iteration number.
+    /// The `triplet_id` of the iteration's views: the 0-based M3 iteration
+    /// that chose it (a triplet chosen to replace a dropped one gets the
+    /// next unused number, so the list may skip the dropped ones).
     pub iteration: u32,
     /// Mean fulfillment f(t) over the sampled triangles before the iteration.
     pub f_before: f64,
@@ -197,6 +199,22 @@ pub struct PlanStatistics {
     /// Total planning wall time, seconds.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub total_time_s: Option<f64>,
+}
+
+/// A triplet the planner chose and then left out of the flight: one of its
+/// views is unsafe or no safe route reaches it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DroppedTriplet {
+    /// Its id (the M3 iteration that chose it; no waypoint carries it).
+    pub triplet_id: u32,
+    /// Which view and which rule, naming waypoints by their index in
+    /// [`Plan::waypoints`].
+    pub reason: String,
+    /// The triplet flown in its place, when the planner found one that
+    /// passes the safety rules.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub replaced_by: Option<u32>,
 }
 
 /// A plan: ordered views plus the constraints they were planned under.
@@ -248,6 +266,11 @@ pub struct Plan {
     /// were recorded (then the plan is one flight).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub flights: Vec<Flight>,
+    /// Triplets chosen and then left out as unsafe or unreachable (their
+    /// views are not in `waypoints`, nor in `statistics`), with the
+    /// replacement flown instead, if any.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub dropped_triplets: Vec<DroppedTriplet>,
 }
 
 /// One flight of a plan: from home (when the plan has one) through a run
@@ -284,6 +307,7 @@ impl Plan {
             cut_short_reason: None,
             unbridged: Vec::new(),
             flights: Vec::new(),
+            dropped_triplets: Vec::new(),
         }
     }
 

@@ -7,3 +7,5 @@ from vpctl import scene as scene
 from vpctl import sim as sim
 
 __version__: str
+
+__all__ = ["__version__", "forest", "labelgen", "mission", "mvs", "planner", "scene", "sim"]

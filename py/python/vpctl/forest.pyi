@@ -1,22 +1,33 @@
 """The confidence forest: train, predict, save/load, metrics (vp-forest)."""
 
 from os import PathLike
-from typing import Any, Mapping, Optional, Sequence, Union
+from typing import Any, Mapping, Optional, Sequence, Union, final
 
 import numpy as np
 import numpy.typing as npt
 
 _Path = Union[str, PathLike[str]]
 
+__all__ = [
+    "ConfidenceImage",
+    "Forest",
+    "accuracy",
+    "default_params",
+    "sparsification",
+    "train",
+    "train_dirs",
+]
+
+@final
 class ConfidenceImage:
-    def __init__(
-        self,
+    def __new__(
+        cls,
         values: npt.ArrayLike,
         width: int,
         height: int,
         step: int,
         gamma_max_deg: float = 45.0,
-    ) -> None: ...
+    ) -> ConfidenceImage: ...
     @staticmethod
     def constant(value: float) -> ConfidenceImage: ...
     @staticmethod
@@ -34,6 +45,7 @@ class ConfidenceImage:
         self, pixels: npt.ArrayLike, angles_deg: npt.ArrayLike
     ) -> npt.NDArray[np.float32]: ...
 
+@final
 class Forest:
     @staticmethod
     def load(path: _Path) -> Forest: ...

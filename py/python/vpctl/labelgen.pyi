@@ -2,7 +2,7 @@
 
 from os import PathLike
 from pathlib import Path
-from typing import Any, Mapping, Optional, Sequence, Union
+from typing import Any, Mapping, Optional, Sequence, Union, final
 
 import numpy.typing as npt
 
@@ -10,16 +10,32 @@ from vpctl.scene import Camera, ColmapModel, Mesh, RayCaster
 
 _Path = Union[str, PathLike[str]]
 
+__all__ = [
+    "Labels",
+    "TripletReconstruction",
+    "depth_map_path",
+    "generate_labels",
+    "load_reconstructions",
+    "read_triplet_list",
+    "run",
+    "sample_triplets",
+    "sparse_model",
+    "triplet_id",
+    "write_triplet_list",
+]
+
+@final
 class TripletReconstruction:
-    def __init__(self, id: str, views: Sequence[tuple[str, Camera, npt.ArrayLike]]) -> None: ...
+    def __new__(cls, id: str, views: Sequence[tuple[str, Camera, npt.ArrayLike]]) -> TripletReconstruction: ...
     @property
     def id(self) -> str: ...
     @property
     def names(self) -> list[str]: ...
 
+@final
 class Labels:
     def __len__(self) -> int: ...
-    def __getitem__(self, key: int) -> dict[str, Any]: ...
+    def __getitem__(self, key: int, /) -> dict[str, Any]: ...
     def summary(self) -> dict[str, Any]: ...
     def write(self, out_dir: _Path, force: bool = False) -> dict[str, Any]: ...
 

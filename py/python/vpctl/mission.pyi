@@ -2,7 +2,7 @@
 
 from os import PathLike
 from types import TracebackType
-from typing import Any, Optional, Union
+from typing import Any, Optional, Union, final
 
 from vpctl.planner import Plan
 
@@ -10,6 +10,17 @@ _Path = Union[str, PathLike[str]]
 
 _Home = Union[tuple[float, float, float], tuple[float, float, float, str]]
 
+__all__ = [
+    "Mission",
+    "SimulatedVehicle",
+    "build_mission",
+    "clear",
+    "download",
+    "export",
+    "upload",
+]
+
+@final
 class Mission:
     @property
     def items(self) -> list[dict[str, Any]]: ...
@@ -20,13 +31,14 @@ class Mission:
     def to_wpl(self) -> str: ...
     def __len__(self) -> int: ...
 
+@final
 class SimulatedVehicle:
-    def __init__(
-        self,
+    def __new__(
+        cls,
         bind: str = "127.0.0.1:0",
         autopilot: str = "px4",
         home: tuple[float, float, float] | None = None,
-    ) -> None: ...
+    ) -> SimulatedVehicle: ...
     @property
     def url(self) -> str: ...
     def mission(self) -> list[dict[str, Any]]: ...

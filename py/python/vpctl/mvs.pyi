@@ -1,7 +1,7 @@
 """Dense multi-view stereo on the CPU (vp-mvs: PatchMatch or semi-global matching) on a COLMAP dense workspace."""
 
 from os import PathLike
-from typing import Any, Literal, Mapping, Optional, Sequence, Union
+from typing import Any, Literal, Mapping, Optional, Sequence, Union, final
 
 import numpy as np
 import numpy.typing as npt
@@ -9,6 +9,11 @@ import numpy.typing as npt
 from vpctl.scene import Camera
 
 _Path = Union[str, PathLike[str]]
+
+__all__ = [
+    "patch_match",
+    "reconstruct",
+]
 
 def reconstruct(
     workspace: _Path,
@@ -30,7 +35,7 @@ def reconstruct(
     ...
 
 def patch_match(
-    images: Sequence[npt.NDArray[np.uint8]],
+    images: Sequence[npt.ArrayLike],
     cameras: Sequence[Camera],
     depth_ranges: Union[tuple[float, float], Sequence[tuple[float, float]]],
     *,

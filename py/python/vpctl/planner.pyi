@@ -1,7 +1,7 @@
 """The paper's planner (M1-M4) and the grid baseline (vp-planner)."""
 
 from os import PathLike
-from typing import Any, Mapping, Optional, Sequence, Union
+from typing import Any, Mapping, Optional, Sequence, Union, final
 
 import numpy as np
 import numpy.typing as npt
@@ -13,6 +13,17 @@ _Path = Union[str, PathLike[str]]
 _Config = Union[Mapping[str, Any], _Path, None]
 _Roi = Union[Sequence[float], Mapping[str, Any], None]
 
+__all__ = [
+    "Plan",
+    "PlanResult",
+    "default_config",
+    "default_config_toml",
+    "plan",
+    "plan_cameras",
+    "plan_grid",
+]
+
+@final
 class Plan:
     @staticmethod
     def load(path: _Path) -> Plan: ...
@@ -31,6 +42,7 @@ class Plan:
     def cut_short_reason(self) -> Optional[str]: ...
     def __len__(self) -> int: ...
 
+@final
 class PlanResult:
     @property
     def plan(self) -> Plan: ...

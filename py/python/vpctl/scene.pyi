@@ -1,20 +1,38 @@
 """Meshes, cameras, COLMAP models, procedural sites, ray casting, clearance (vp-scene)."""
 
 from os import PathLike
-from typing import Any, Optional, Sequence, Union
+from typing import Any, Optional, Sequence, Union, final
 
 import numpy as np
 import numpy.typing as npt
 
 _Path = Union[str, PathLike[str]]
 
+__all__ = [
+    "Camera",
+    "Clearance",
+    "ColmapModel",
+    "Mesh",
+    "RayCaster",
+    "Site",
+    "generate_site",
+    "load_image",
+    "material_names",
+    "read_depth_map",
+    "read_label_image",
+    "save_image",
+    "write_depth_map",
+    "write_label_image",
+]
+
+@final
 class Mesh:
-    def __init__(
-        self,
+    def __new__(
+        cls,
         vertices: npt.ArrayLike,
         faces: npt.ArrayLike,
         materials: Optional[npt.ArrayLike] = None,
-    ) -> None: ...
+    ) -> Mesh: ...
     @staticmethod
     def load(path: _Path) -> Mesh: ...
     def save(self, path: _Path, format: Optional[str] = None, force: bool = False) -> None: ...
@@ -32,9 +50,10 @@ class Mesh:
     def face_normals(self) -> npt.NDArray[np.float64]: ...
     def bounds(self) -> npt.NDArray[np.float64]: ...
 
+@final
 class Camera:
-    def __init__(
-        self,
+    def __new__(
+        cls,
         width: int,
         height: int,
         fx: float,
@@ -42,7 +61,7 @@ class Camera:
         cx: float,
         cy: float,
         world_from_cam: npt.ArrayLike,
-    ) -> None: ...
+    ) -> Camera: ...
     @staticmethod
     def look_at(
         width: int,
@@ -64,6 +83,7 @@ class Camera:
         self, pixels: npt.ArrayLike
     ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
 
+@final
 class Site:
     @property
     def mesh(self) -> Mesh: ...
@@ -79,6 +99,7 @@ class Site:
     def surface_height(self, x: float, y: float) -> float: ...
     def save(self, path: _Path, format: Optional[str] = None, force: bool = False) -> None: ...
 
+@final
 class ColmapModel:
     @staticmethod
     def load(path: _Path) -> ColmapModel: ...
@@ -90,8 +111,9 @@ class ColmapModel:
     def points(self) -> npt.NDArray[np.float64]: ...
     def __len__(self) -> int: ...
 
+@final
 class RayCaster:
-    def __init__(self, mesh: Mesh) -> None: ...
+    def __new__(cls, mesh: Mesh) -> RayCaster: ...
     def closest_hits(
         self, origins: npt.ArrayLike, directions: npt.ArrayLike, t_max: Optional[float] = None
     ) -> dict[str, npt.NDArray[Any]]: ...
@@ -100,8 +122,9 @@ class RayCaster:
         self, camera: Camera
     ) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.int64]]: ...
 
+@final
 class Clearance:
-    def __init__(self, mesh: Mesh) -> None: ...
+    def __new__(cls, mesh: Mesh) -> Clearance: ...
     def distance(self, pts: npt.ArrayLike) -> npt.NDArray[np.float64]: ...
     def points_clear(self, pts: npt.ArrayLike, radius: float) -> npt.NDArray[np.bool_]: ...
     def segments_clear(

@@ -1,15 +1,24 @@
 """Rendering, a virtual MVS and closed-loop campaigns (vp-sim)."""
 
 from os import PathLike
-from typing import Any, Callable, Mapping, Optional, Sequence, Union
+from typing import Any, Callable, Mapping, Optional, Sequence, Union, final
 
 import numpy as np
 import numpy.typing as npt
 
 from vpctl.scene import Camera, Mesh, RayCaster
 
+__all__ = [
+    "VirtualMvs",
+    "campaign_config",
+    "fly",
+    "render",
+    "run_campaign",
+]
+
+@final
 class VirtualMvs:
-    def __init__(self, profile: Union[str, Mapping[str, Any], None] = None) -> None: ...
+    def __new__(cls, profile: Union[str, Mapping[str, Any], None] = None) -> VirtualMvs: ...
     @property
     def profile(self) -> dict[str, Any]: ...
     def reconstruct(

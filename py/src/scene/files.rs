@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use nalgebra::Point3;
-use numpy::{PyArray2, PyArray3, PyReadonlyArray2, PyReadonlyArray3};
+use numpy::{PyArray2, PyArray3, PyReadonlyArray2};
 use pyo3::prelude::*;
 use vp_scene::colmap::{self, DepthMap, Reconstruction};
 use vp_scene::fsio;
@@ -91,8 +91,7 @@ pub(super) fn write_depth_map(
     depth: &Bound<'_, PyAny>,
     force: bool,
 ) -> PyResult<()> {
-    let depth: PyReadonlyArray2<'_, f32> =
-        crate::convert::array_like(depth, "float32", "iuf", 2, "depth")?.extract()?;
+    let depth: PyReadonlyArray2<'_, f32> = crate::convert::reals(depth, "(H, W)", "depth")?;
     fsio::check_overwrite(&path, force).py()?;
     colmap::write_depth_map(&path, &depth_map(&depth)).py()
 }
@@ -118,12 +117,8 @@ pub(super) fn load_image(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, Py
 /// extension); refuses to overwrite unless `force`.
 #[pyfunction]
 #[pyo3(signature = (path, image, force = false))]
-pub(super) fn save_image(
-    path: PathBuf,
-    image: PyReadonlyArray3<'_, u8>,
-    force: bool,
-) -> PyResult<()> {
-    let img = convert::rgb(&image, "image")?;
+pub(super) fn save_image(path: PathBuf, image: &Bound<'_, PyAny>, force: bool) -> PyResult<()> {
+    let img = convert::rgb_like(image, "image")?;
     fsio::check_overwrite(&path, force).py()?;
     raster::save_rgb(&img, &path).py()
 }
@@ -134,11 +129,11 @@ pub(super) fn save_image(
 #[pyo3(signature = (path, labels, angles, force = false))]
 pub(super) fn write_label_image(
     path: PathBuf,
-    labels: PyReadonlyArray2<'_, u8>,
-    angles: PyReadonlyArray2<'_, f32>,
+    labels: &Bound<'_, PyAny>,
+    angles: &Bound<'_, PyAny>,
     force: bool,
 ) -> PyResult<()> {
-    let img = convert::label_image(&labels, &angles, "labels")?;
+    let img = convert::label_image_like(labels, angles, "labels", "angles")?;
     fsio::check_overwrite(&path, force).py()?;
     img.save(&path).py()
 }

@@ -38,11 +38,11 @@ impl PyMesh {
         faces: &Bound<'_, PyAny>,
         materials: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let vertices = convert::f64_2d(vertices, "vertices")?;
+        let vertices = convert::f64_2d(vertices, "(N, 3)", "vertices")?;
         let faces: PyReadonlyArray2<'_, i64> =
-            convert::array_like(faces, "int64", "iu", 2, "faces")?.extract()?;
+            convert::array_like(faces, "int64", "iu", "(M, 3)", "faces")?.extract()?;
         let materials: Option<PyReadonlyArray1<'_, i64>> = materials
-            .map(|m| convert::array_like(m, "int64", "iu", 1, "materials")?.extract())
+            .map(|m| convert::array_like(m, "int64", "iu", "(M,)", "materials")?.extract())
             .transpose()?;
         let verts = points(&vertices, "vertices")?;
         let f = faces.as_array();
@@ -198,7 +198,7 @@ impl PyCamera {
         world_from_cam: &Bound<'_, PyAny>,
     ) -> PyResult<Self> {
         let k = intrinsics(width, height, fx, fy, cx, cy)?;
-        let world_from_cam = convert::f64_2d(world_from_cam, "world_from_cam")?;
+        let world_from_cam = convert::f64_2d(world_from_cam, "(4, 4)", "world_from_cam")?;
         Ok(PyCamera(Camera::new(
             k,
             convert::isometry(&world_from_cam, "world_from_cam")?,
@@ -268,7 +268,7 @@ impl PyCamera {
         py: Python<'py>,
         pts: &Bound<'_, PyAny>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let p = points(&convert::f64_2d(pts, "pts")?, "pts")?;
+        let p = points(&convert::f64_2d(pts, "(N, 3)", "pts")?, "pts")?;
         let flat: Vec<f64> = p
             .iter()
             .flat_map(|q| match self.0.project(q) {
@@ -283,15 +283,10 @@ impl PyCamera {
     fn rays<'py>(
         &self,
         py: Python<'py>,
-        pixels: PyReadonlyArray2<'_, f64>,
+        pixels: &Bound<'_, PyAny>,
     ) -> PyResult<ArrayPair<'py, PyArray2<f64>, PyArray2<f64>>> {
+        let pixels = convert::f64_2d(pixels, "(N, 2)", "pixels")?;
         let v = pixels.as_array();
-        if v.ncols() != 2 {
-            return Err(value_error(format!(
-                "pixels: expected an (N, 2) array, got shape {:?}",
-                v.shape()
-            )));
-        }
         let (o, d): (Vec<Point3<f64>>, Vec<Point3<f64>>) = v
             .rows()
             .into_iter()

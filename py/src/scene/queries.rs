@@ -1,14 +1,14 @@
 //! Ray casting and clearance for `vpctl.scene`.
 
 use nalgebra::{Point3, Vector3};
-use numpy::{PyArray1, PyArray2, PyReadonlyArray2};
+use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use vp_scene::clearance::Clearance;
 use vp_scene::raycast::RayCaster;
 
 use super::{PyCamera, PyMesh};
-use crate::convert::{image2, points, points_array, ArrayPair};
+use crate::convert::{f64_2d, image2, points, points_array, ArrayPair};
 use crate::errors::value_error;
 
 /// BVH over a mesh for batches of rays (CWBVH, obvhs).
@@ -31,13 +31,13 @@ impl PyRayCaster {
     fn closest_hits<'py>(
         &self,
         py: Python<'py>,
-        origins: PyReadonlyArray2<'_, f64>,
-        directions: PyReadonlyArray2<'_, f64>,
+        origins: &Bound<'_, PyAny>,
+        directions: &Bound<'_, PyAny>,
         t_max: Option<f64>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let t_max = t_max.unwrap_or(f64::INFINITY);
-        let o = points(&origins, "origins")?;
-        let d = points(&directions, "directions")?;
+        let o = points(&f64_2d(origins, "(N, 3)", "origins")?, "origins")?;
+        let d = points(&f64_2d(directions, "(N, 3)", "directions")?, "directions")?;
         if o.len() != d.len() {
             return Err(value_error(format!(
                 "{} origins but {} directions",
@@ -78,10 +78,13 @@ impl PyRayCaster {
     fn occluded<'py>(
         &self,
         py: Python<'py>,
-        a: PyReadonlyArray2<'_, f64>,
-        b: PyReadonlyArray2<'_, f64>,
+        a: &Bound<'_, PyAny>,
+        b: &Bound<'_, PyAny>,
     ) -> PyResult<Bound<'py, PyArray1<bool>>> {
-        let (a, b) = (points(&a, "a")?, points(&b, "b")?);
+        let (a, b) = (
+            points(&f64_2d(a, "(N, 3)", "a")?, "a")?,
+            points(&f64_2d(b, "(N, 3)", "b")?, "b")?,
+        );
         if a.len() != b.len() {
             return Err(value_error(format!(
                 "{} starts but {} ends",
@@ -133,9 +136,9 @@ impl PyClearance {
     fn distance<'py>(
         &self,
         py: Python<'py>,
-        pts: PyReadonlyArray2<'_, f64>,
+        pts: &Bound<'_, PyAny>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let p = points(&pts, "points")?;
+        let p = points(&f64_2d(pts, "(N, 3)", "pts")?, "pts")?;
         let d: Vec<f64> = py.detach(|| p.iter().map(|q| self.0.distance(q)).collect());
         Ok(PyArray1::from_vec(py, d))
     }
@@ -144,11 +147,11 @@ impl PyClearance {
     fn points_clear<'py>(
         &self,
         py: Python<'py>,
-        pts: PyReadonlyArray2<'_, f64>,
+        pts: &Bound<'_, PyAny>,
         radius: f64,
     ) -> PyResult<Bound<'py, PyArray1<bool>>> {
         check_radius(radius)?;
-        let p = points(&pts, "points")?;
+        let p = points(&f64_2d(pts, "(N, 3)", "pts")?, "pts")?;
         let c: Vec<bool> =
             py.detach(|| p.iter().map(|q| self.0.point_is_clear(q, radius)).collect());
         Ok(PyArray1::from_vec(py, c))
@@ -158,12 +161,15 @@ impl PyClearance {
     fn segments_clear<'py>(
         &self,
         py: Python<'py>,
-        a: PyReadonlyArray2<'_, f64>,
-        b: PyReadonlyArray2<'_, f64>,
+        a: &Bound<'_, PyAny>,
+        b: &Bound<'_, PyAny>,
         radius: f64,
     ) -> PyResult<Bound<'py, PyArray1<bool>>> {
         check_radius(radius)?;
-        let (a, b) = (points(&a, "a")?, points(&b, "b")?);
+        let (a, b) = (
+            points(&f64_2d(a, "(N, 3)", "a")?, "a")?,
+            points(&f64_2d(b, "(N, 3)", "b")?, "b")?,
+        );
         if a.len() != b.len() {
             return Err(value_error(format!(
                 "{} starts but {} ends",

@@ -188,7 +188,6 @@ pub fn predict(a: &PredictArgs, out: &mut dyn Write) -> Result<()> {
         previews: !a.no_previews,
         force: false,
     };
-    let b = forest.bins().len();
     let progress = super::Progress::new();
     let predicted = target.write(|stage| -> Result<_> {
         let mut predicted =
@@ -207,18 +206,8 @@ pub fn predict(a: &PredictArgs, out: &mut dyn Write) -> Result<()> {
         Ok(predicted)
     })?;
     progress.finish();
-    for p in predicted {
-        let (gw, gh) = p.confidence.grid_size();
-        writeln!(
-            out,
-            "{}: {gw}x{gh} nodes x {b} bins, mean confidence {:.3} -> {}",
-            p.image.display(),
-            p.mean_confidence(),
-            p.confidence_file.display()
-        )?;
-        if let Some(f) = &p.preview_file {
-            writeln!(out, "  preview: {}", f.display())?;
-        }
+    for line in vp_forest::batch::report(&predicted, &a.out) {
+        writeln!(out, "{line}")?;
     }
     Ok(())
 }

@@ -36,8 +36,13 @@ pub fn scene_data(rel: &str) -> PathBuf {
 
 /// A site mesh, a COLMAP model of an initial grid flight over it, and a small config.
 pub fn plan_fixture(dir: &Path) -> Site {
+    plan_fixture_seeded(dir, 2)
+}
+
+/// [`plan_fixture`] on the procedural site of `seed`.
+pub fn plan_fixture_seeded(dir: &Path, seed: u64) -> Site {
     let site = generate_site(&SiteParams {
-        seed: 2,
+        seed,
         target_faces: 20_000,
         ..SiteParams::default()
     })
