@@ -4,13 +4,13 @@
 //!   per-material solid textures, sun shading, shadows and sensor noise,
 //!   plus exact depth and face ids. vp-mvs matches these images in every
 //!   campaign; nothing decides its success but the images.
-//! - [`mvs::triplet_truth`]: per pixel of a triplet, what the renderer knows
+//! - [`virtual_mvs::triplet_truth`]: per pixel of a triplet, what the renderer knows
 //!   (visibility in all three views, triangulation angle, first-order depth
 //!   sigma), the truth vp-mvs's output is measured against.
-//! - [`mvs::VirtualMvs`]: a fast stand-in for unit tests (`mvs = "virtual"`):
+//! - [`virtual_mvs::VirtualMvs`]: a fast stand-in for unit tests (`mvs = "virtual"`):
 //!   one depth map per image of a camera triplet, failing
 //!   with a probability that depends on material, triangulation angle and
-//!   resolution ([`mvs::MvsProfile`]: SURE-like and PMVS-like presets), in
+//!   resolution ([`virtual_mvs::MvsProfile`]: SURE-like and PMVS-like presets), in
 //!   spatially coherent blobs, with depth noise from the triplet's first-order
 //!   3D uncertainty and a share of outliers.
 //!
@@ -32,7 +32,7 @@ pub mod campaign;
 pub mod error;
 pub mod flight;
 pub mod gnss;
-pub mod mvs;
+pub mod virtual_mvs;
 pub mod noise;
 pub mod render;
 pub mod texture;
@@ -43,5 +43,5 @@ mod render_tests;
 mod test_scenes;
 
 pub use error::{Result, SimError};
-pub use mvs::{MaterialCurve, MvsProfile, VirtualMvs};
+pub use virtual_mvs::{MaterialCurve, MvsProfile, VirtualMvs};
 pub use render::{look_at_camera, material_shares, render, RenderParams, Rendered};

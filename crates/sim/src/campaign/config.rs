@@ -16,7 +16,7 @@ use crate::error::{Result, SimError};
 use vp_mvs::MvsParams;
 
 use super::fly::MvsKind;
-use crate::mvs::MvsProfile;
+use crate::virtual_mvs::MvsProfile;
 use crate::render::RenderParams;
 
 /// Everything a campaign needs. See the module docs.
@@ -375,7 +375,7 @@ impl CampaignConfig {
         if t.levels.is_empty()
             || t.levels
                 .iter()
-                .any(|&l| !(1..=crate::mvs::MAX_LEVEL).contains(&l))
+                .any(|&l| !(1..=crate::virtual_mvs::MAX_LEVEL).contains(&l))
         {
             return bad(format!(
                 "training.levels = {:?}: need levels in 1..=6",

@@ -33,7 +33,7 @@ use super::gate::gate_stats;
 pub use super::gate::GateStats;
 use super::sfm::{sparse_depth_ranges, SparseCandidates};
 use crate::error::{Result, SimError};
-use crate::mvs::{level_camera, triplet_truth, PixelStatus, PixelTruth, VirtualMvs};
+use crate::virtual_mvs::{level_camera, triplet_truth, PixelStatus, PixelTruth, VirtualMvs};
 use crate::render::{render, RenderParams};
 
 /// Which multi-view stereo reconstructs the flown and training images.

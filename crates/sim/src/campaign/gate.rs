@@ -5,7 +5,7 @@ use serde::Serialize;
 use vp_scene::Material;
 
 use super::config::MatchingGate;
-use crate::mvs::{PixelStatus, PixelTruth};
+use crate::virtual_mvs::{PixelStatus, PixelTruth};
 
 /// What the gate saw of one triplet (virtual MVS only).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]

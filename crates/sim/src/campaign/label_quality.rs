@@ -15,7 +15,7 @@ use vp_scene::raster::{Label, LabelImage};
 use vp_scene::Material;
 
 use super::fly::truly_positive;
-use crate::mvs::{PixelStatus, PixelTruth};
+use crate::virtual_mvs::{PixelStatus, PixelTruth};
 
 /// Counts of one material.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]

@@ -14,7 +14,7 @@ use crate::error::{Result, SimError};
 use vp_mvs::MvsParams;
 
 use super::fly::MvsKind;
-use crate::mvs::MvsProfile;
+use crate::virtual_mvs::MvsProfile;
 use crate::render::RenderParams;
 
 /// Names of the presets, for [`CampaignConfig::preset`].

@@ -27,7 +27,7 @@ use super::label_quality::LabelQuality;
 use super::sfm::SparseCandidates;
 use super::world::sfm_camera;
 use crate::error::{Result, SimError};
-use crate::mvs::{level_camera, PixelTruth};
+use crate::virtual_mvs::{level_camera, PixelTruth};
 use vp_scene::hash::mix64;
 
 /// Margin around the rock within which training triplets focus, metres:
