@@ -23,7 +23,7 @@ use vp_scene::raster::{save_rgb, RgbImage};
 use vp_scene::{Camera, SceneError};
 
 use crate::campaign::world::{point_noise, sfm_camera, World};
-use crate::campaign::CampaignConfig;
+use crate::config::CampaignConfig;
 use crate::error::{Result, SimError};
 use crate::render::render;
 use vp_scene::hash::mix64;

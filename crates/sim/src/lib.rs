@@ -29,6 +29,7 @@
 #![deny(clippy::print_stderr, clippy::print_stdout)]
 
 pub mod campaign;
+pub mod config;
 pub mod error;
 pub mod flight;
 pub mod gnss;

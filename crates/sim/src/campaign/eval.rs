@@ -25,8 +25,8 @@ use vp_scene::colmap::DepthMap;
 use vp_scene::mesh_ops::{split_faces, submesh};
 use vp_scene::{Camera, Material};
 
-use super::config::CampaignConfig;
-use super::fly::Flown;
+use crate::config::CampaignConfig;
+use super::reconstruct::Flown;
 use super::world::{roi_faces, World};
 use crate::error::Result;
 

@@ -28,9 +28,9 @@ use vp_scene::outdir::OutDir;
 use vp_scene::raster::Label;
 use vp_scene::{Material, SceneError};
 
-use super::config::CampaignConfig;
+use crate::config::CampaignConfig;
 use super::curves::CurveAccumulator;
-use super::fly::truly_positive;
+use super::reconstruct::truly_positive;
 use super::training::{label_site, LabelledView, TrainingStats};
 use crate::error::{Result, SimError};
 use vp_scene::hash::mix64;

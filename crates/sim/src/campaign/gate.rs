@@ -4,7 +4,7 @@
 use serde::Serialize;
 use vp_scene::Material;
 
-use super::config::MatchingGate;
+use crate::config::MatchingGate;
 use crate::virtual_mvs::{PixelStatus, PixelTruth};
 
 /// What the gate saw of one triplet (virtual MVS only).

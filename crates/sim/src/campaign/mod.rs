@@ -24,7 +24,6 @@
 //! `docs/campaign-findings.md` keeps what the experiment found.
 
 pub mod acquired;
-pub mod config;
 pub mod crash;
 pub mod curves;
 mod depth_maps;
@@ -32,32 +31,31 @@ pub mod eval;
 pub mod evaluate;
 pub mod f_vs_np;
 pub mod features;
-pub mod fly;
+pub mod reconstruct;
 mod gate;
 pub mod html;
 pub mod label_quality;
 pub mod plot;
-mod presets;
 pub mod report;
 mod run;
 pub mod scene;
 pub mod sfm;
-pub mod strategies;
 mod strategy_run;
 mod svg;
 pub mod training;
 pub mod world;
 
-pub use config::{
-    CampaignConfig, EvalConfig, GridBaseline, InitFlight, MatchingGate, SfmConfig, TrainingConfig,
+// The configuration lives at the crate root (`crate::config`, shared with
+// `vpctl sim fly`); its old paths under `campaign` stay valid.
+pub use crate::config;
+pub use crate::config::{
+    CampaignConfig, EvalConfig, GridBaseline, InitFlight, MatchingGate, MvsKind, SfmConfig,
+    Strategy, TrainingConfig, PRESETS,
 };
 pub use curves::ConfidenceCurve;
 pub use eval::Scores;
 pub use evaluate::{evaluate_forest, evaluate_to_dir, ForestEvaluation};
-pub use fly::MvsKind;
 pub use label_quality::LabelQuality;
-pub use presets::PRESETS;
 pub use report::{write_report, CampaignReport, SiteResult, TableRow};
 pub use run::{run_campaign, run_campaign_trained, run_campaign_with_forest};
-pub use strategies::Strategy;
 pub use training::{train_forest, train_forest_with_stats, TrainingStats};

@@ -13,7 +13,7 @@ use vp_scene::plan::Plan;
 use vp_scene::{Aabb, Mesh};
 
 use super::acquired::AcquiredModel;
-use super::config::CampaignConfig;
+use crate::config::CampaignConfig;
 use super::curves::ConfidenceCurve;
 use super::eval::Scores;
 use super::training::TrainingStats;

@@ -8,13 +8,14 @@ use vp_scene::plan::{Plan, Role};
 use vp_scene::{Aabb, Camera};
 
 use super::acquired::AcquiredModel;
-use super::config::CampaignConfig;
+use crate::config::CampaignConfig;
 use super::crash::PathCheck;
 use super::curves::CurveAccumulator;
 use super::eval::{evaluate, EvalMesh, Scores};
-use super::fly::{Flown, Matcher, MvsKind};
+use super::reconstruct::{Flown, Matcher};
+use crate::config::MvsKind;
 use super::report::{aggregate, CampaignReport, SiteArtifacts, SiteResult, StrategyArtifacts};
-use super::strategies::Strategy;
+use crate::config::Strategy;
 use super::strategy_run::{check_path, run_strategy, Known};
 use super::training::train_forest_with_stats;
 use super::world::{acquire, init_cameras, sfm_cameras, World};
@@ -159,7 +160,7 @@ pub(super) fn with_home(plan: Plan, world: &World) -> Plan {
 
 /// One progress line for a flight reconstructed as a whole (Init, Grid).
 fn flight_line(seed: u64, name: &str, images: usize, flown: &[Flown], tolerance_m: f64) -> String {
-    let mut total = super::fly::OutputStats::default();
+    let mut total = super::reconstruct::OutputStats::default();
     for f in flown {
         total.pixels += f.stats.pixels;
         total.output += f.stats.output;

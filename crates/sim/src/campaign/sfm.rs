@@ -35,9 +35,9 @@ use vp_scene::raycast::{RayCaster, FACE_VISIBILITY_EPSILON};
 use vp_scene::surface::{reconstruct_surface, SurfaceSample};
 use vp_scene::{Camera, Mesh};
 
-use super::config::CampaignConfig;
+use crate::config::CampaignConfig;
 use super::features::FeatureMask;
-use super::fly::Flown;
+use super::reconstruct::Flown;
 use super::world::{point_noise, Acquired, World};
 use crate::error::{Result, SimError};
 use crate::noise::{hash3, unit};

@@ -14,13 +14,13 @@ use vp_scene::sim3::Sim3;
 use vp_scene::Camera;
 
 use super::acquired::AcquiredModel;
-use super::config::CampaignConfig;
+use crate::config::CampaignConfig;
 use super::crash::PathCheck;
 use super::curves::CurveAccumulator;
-use super::fly::{Flown, Matcher};
+use super::reconstruct::{Flown, Matcher};
 use super::run::{fly_with_error, image_id, name_hash, with_home, MESH_TOLERANCE_M};
 use super::sfm::SfmState;
-use super::strategies::Strategy;
+use crate::config::Strategy;
 use super::world::{acquire, sfm_cameras, Acquired, World};
 use crate::error::{Result, SimError};
 use crate::gnss::{camera_through, mesh_through};

@@ -20,9 +20,9 @@ use vp_scene::raycast::RayCaster;
 use vp_scene::surface::{reconstruct_surface, SurfaceSample};
 use vp_scene::{Camera, Intrinsics};
 
-use super::config::CampaignConfig;
+use crate::config::CampaignConfig;
 use super::curves::CurveAccumulator;
-use super::fly::{Matcher, Scene};
+use super::reconstruct::{Matcher, Scene};
 use super::label_quality::LabelQuality;
 use super::sfm::SparseCandidates;
 use super::world::sfm_camera;

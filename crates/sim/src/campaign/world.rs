@@ -11,7 +11,7 @@ use vp_scene::raster::ConfidenceImage;
 use vp_scene::raycast::RayCaster;
 use vp_scene::{Aabb, Camera, Intrinsics, Mesh};
 
-use super::config::CampaignConfig;
+use crate::config::CampaignConfig;
 use super::curves::CurveAccumulator;
 use super::features::FeatureMask;
 use super::sfm::SparseCandidates;
@@ -63,8 +63,8 @@ impl World {
     }
 
     /// The true world as the matcher sees it.
-    pub fn scene(&self) -> super::fly::Scene<'_> {
-        super::fly::Scene {
+    pub fn scene(&self) -> super::reconstruct::Scene<'_> {
+        super::reconstruct::Scene {
             mesh: &self.site.mesh,
             caster: &self.caster,
             texture_seed: self.site.params.seed,
@@ -154,7 +154,7 @@ pub fn sfm_cameras(cams: &[Camera], cfg: &CampaignConfig, seed: u64) -> Vec<Came
     cams.iter().map(|c| sfm_camera(c, cfg, seed)).collect()
 }
 
-/// The initial flight: a nadir grid centred on the ROI (see [`super::config::InitFlight`]).
+/// The initial flight: a nadir grid centred on the ROI (see [`crate::config::InitFlight`]).
 pub fn init_cameras(world: &World, cfg: &CampaignConfig) -> Vec<Camera> {
     let i = &cfg.init;
     let cx = 0.5 * (world.roi.min.x + world.roi.max.x);

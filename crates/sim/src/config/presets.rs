@@ -7,13 +7,13 @@ use vp_planner::{CameraConfig, GnssClass, PlannerConfig, SafetyConfig};
 use vp_scene::procedural::SiteParams;
 use vp_scene::surface::SurfaceParams;
 
-use super::config::{
+use super::{
     CampaignConfig, EvalConfig, GridBaseline, InitFlight, MatchingGate, SfmConfig, TrainingConfig,
 };
 use crate::error::{Result, SimError};
 use vp_mvs::MvsParams;
 
-use super::fly::MvsKind;
+use super::MvsKind;
 use crate::virtual_mvs::MvsProfile;
 use crate::render::RenderParams;
 

@@ -1,4 +1,4 @@
-//! Flying images and reconstructing them: vp-mvs on the rendered images (the
+//! Reconstructing flown images: vp-mvs on the rendered images (the
 //! default), or the virtual MVS with its triplet gate as a fast stand-in for
 //! unit tests (`mvs = "virtual"`).
 //!
@@ -17,7 +17,7 @@
 //! compared with the renderer's depth.
 
 use nalgebra::Point2;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use vp_mvs::{MvsParams, View};
 use vp_scene::colmap::DepthMap;
 use vp_scene::raster::RgbImage;
@@ -25,7 +25,7 @@ use vp_scene::raycast::RayCaster;
 use vp_scene::surface::SurfaceSample;
 use vp_scene::{Aabb, Camera, Mesh};
 
-use super::config::CampaignConfig;
+use crate::config::{CampaignConfig, MvsKind};
 use super::curves::CurveAccumulator;
 use super::depth_maps::{depth_in_truth, depth_of, zero_depth};
 use super::features::FeatureMask;
@@ -35,22 +35,6 @@ use super::sfm::{sparse_depth_ranges, SparseCandidates};
 use crate::error::{Result, SimError};
 use crate::virtual_mvs::{level_camera, triplet_truth, PixelStatus, PixelTruth, VirtualMvs};
 use crate::render::{render, RenderParams};
-
-/// Which multi-view stereo reconstructs the flown and training images.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "lowercase")]
-pub enum MvsKind {
-    /// vp-mvs (PatchMatch) on the rendered images: the experiment.
-    #[default]
-    Patchmatch,
-    /// vp-mvs's semi-global matcher (`[patchmatch.sgm]` parameters) on the
-    /// rendered images: the second matcher of the paper's claim that
-    /// confidence depends on the matcher (SURE-like, narrow angles best).
-    Sgm,
-    /// The virtual MVS of `profile` and `gate`: success drawn from planted
-    /// curves. A fast stand-in for unit tests only.
-    Virtual,
-}
 
 /// What came out of one reconstruction, counted over its views' pixels.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
@@ -579,5 +563,5 @@ pub fn truly_positive(t: &PixelTruth, z: f32, k: f32) -> bool {
 }
 
 #[cfg(test)]
-#[path = "fly_tests.rs"]
+#[path = "reconstruct_tests.rs"]
 mod tests;
