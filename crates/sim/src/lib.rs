@@ -33,10 +33,12 @@ pub mod config;
 pub mod error;
 pub mod flight;
 pub mod gnss;
-pub mod virtual_mvs;
 pub mod noise;
 pub mod render;
+pub mod sfm;
 pub mod texture;
+pub mod virtual_mvs;
+pub mod world;
 
 #[cfg(test)]
 mod render_tests;
@@ -44,5 +46,5 @@ mod render_tests;
 mod test_scenes;
 
 pub use error::{Result, SimError};
-pub use virtual_mvs::{MaterialCurve, MvsProfile, VirtualMvs};
 pub use render::{look_at_camera, material_shares, render, RenderParams, Rendered};
+pub use virtual_mvs::{MaterialCurve, MvsProfile, VirtualMvs};

@@ -28,10 +28,10 @@ use vp_scene::outdir::OutDir;
 use vp_scene::raster::Label;
 use vp_scene::{Material, SceneError};
 
-use crate::config::CampaignConfig;
 use super::curves::CurveAccumulator;
 use super::reconstruct::truly_positive;
 use super::training::{label_site, LabelledView, TrainingStats};
+use crate::config::CampaignConfig;
 use crate::error::{Result, SimError};
 use vp_scene::hash::mix64;
 

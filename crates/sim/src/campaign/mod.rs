@@ -30,20 +30,19 @@ mod depth_maps;
 pub mod eval;
 pub mod evaluate;
 pub mod f_vs_np;
-pub mod features;
-pub mod reconstruct;
 mod gate;
 pub mod html;
+pub mod images;
 pub mod label_quality;
 pub mod plot;
+pub mod reconstruct;
 pub mod report;
 mod run;
 pub mod scene;
-pub mod sfm;
+pub mod seen;
 mod strategy_run;
 mod svg;
 pub mod training;
-pub mod world;
 
 // The configuration lives at the crate root (`crate::config`, shared with
 // `vpctl sim fly`); its old paths under `campaign` stay valid.

@@ -7,9 +7,9 @@
 //! (texture, sun, shadows, sensor noise), PatchMatch matches them with SfM's
 //! estimates of the poses (the same ones labelgen and the planner get, with
 //! `sfm.*` noise), and each view's depth range is COLMAP's rule
-//! ([`super::features::colmap_depth_range`]: 1st to 99th percentile of the
+//! ([`crate::sfm::features::colmap_depth_range`]: 1st to 99th percentile of the
 //! depths of the sparse points the view observes, times 0.75 and 1.25) over
-//! the simulated SfM of the image set ([`super::sfm::SparseCandidates`]:
+//! the simulated SfM of the image set ([`crate::sfm::SparseCandidates`]:
 //! surface points where FAST fires on the renders, seen by at least
 //! `sfm.min_views` of the set's images). A view without sparse points is
 //! not matched. Only the measurement looks at the truth: each depth, a
@@ -21,20 +21,20 @@ use serde::Serialize;
 use vp_mvs::{MvsParams, View};
 use vp_scene::colmap::DepthMap;
 use vp_scene::raster::RgbImage;
-use vp_scene::raycast::RayCaster;
 use vp_scene::surface::SurfaceSample;
-use vp_scene::{Aabb, Camera, Mesh};
+use vp_scene::{Aabb, Camera};
 
-use crate::config::{CampaignConfig, MvsKind};
 use super::curves::CurveAccumulator;
 use super::depth_maps::{depth_in_truth, depth_of, zero_depth};
-use super::features::FeatureMask;
 use super::gate::gate_stats;
 pub use super::gate::GateStats;
-use super::sfm::{sparse_depth_ranges, SparseCandidates};
+use crate::config::{CampaignConfig, MvsKind};
 use crate::error::{Result, SimError};
-use crate::virtual_mvs::{level_camera, triplet_truth, PixelStatus, PixelTruth, VirtualMvs};
 use crate::render::{render, RenderParams};
+use crate::sfm::sparse_depth_ranges;
+use crate::sfm::FeatureMask;
+use crate::virtual_mvs::{level_camera, triplet_truth, PixelStatus, PixelTruth, VirtualMvs};
+use crate::world::Scene;
 
 /// What came out of one reconstruction, counted over its views' pixels.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
@@ -104,20 +104,6 @@ pub struct TripletRun {
     pub stats: OutputStats,
     /// The gate's view (virtual MVS only).
     pub gate: Option<GateStats>,
-}
-
-/// The world a reconstruction looks at: the true mesh, its caster, the
-/// texture seed of its renders and the points SfM may triangulate.
-#[derive(Clone, Copy)]
-pub struct Scene<'a> {
-    /// The true mesh.
-    pub mesh: &'a Mesh,
-    /// Ray caster of `mesh`.
-    pub caster: &'a RayCaster,
-    /// Texture seed of the world.
-    pub texture_seed: u64,
-    /// SfM's candidate points on `mesh`.
-    pub candidates: &'a SparseCandidates,
 }
 
 /// The campaign's MVS, as configured.

@@ -1,8 +1,11 @@
-//! Tests of the matcher (`fly.rs`).
+//! Tests of the matcher (`reconstruct.rs`).
 
 use super::*;
 use crate::campaign::MatchingGate;
+use crate::sfm::SparseCandidates;
+use vp_scene::raycast::RayCaster;
 use vp_scene::Material;
+use vp_scene::Mesh;
 
 fn stats(matchable: f64, nonflat: f64, angle: f64) -> GateStats {
     GateStats {
@@ -71,7 +74,7 @@ fn nadir_grid_over_ground_reconstructs_most_pixels() {
             max: nalgebra::Point3::new(61.0, 61.0, 1.0),
         };
         let m = Matcher::new(&cfg).unwrap();
-        let sfm = crate::campaign::world::sfm_cameras(&cams, &cfg, 7);
+        let sfm = crate::sfm::sfm_cameras(&cams, &cfg, 7);
         let flown = m
             .image_set(&scene, (&cams, &sfm), &ids, &region, 5)
             .unwrap();

@@ -13,10 +13,10 @@ use vp_scene::plan::Plan;
 use vp_scene::{Aabb, Mesh};
 
 use super::acquired::AcquiredModel;
-use crate::config::CampaignConfig;
 use super::curves::ConfidenceCurve;
 use super::eval::Scores;
 use super::training::TrainingStats;
+use crate::config::CampaignConfig;
 use crate::error::{Result, SimError};
 
 /// One row of the table: a strategy's figures over the held-out sites.

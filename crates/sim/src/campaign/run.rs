@@ -8,18 +8,20 @@ use vp_scene::plan::{Plan, Role};
 use vp_scene::{Aabb, Camera};
 
 use super::acquired::AcquiredModel;
-use crate::config::CampaignConfig;
 use super::crash::PathCheck;
 use super::curves::CurveAccumulator;
 use super::eval::{evaluate, EvalMesh, Scores};
+use super::images::{acquire, init_cameras};
 use super::reconstruct::{Flown, Matcher};
-use crate::config::MvsKind;
 use super::report::{aggregate, CampaignReport, SiteArtifacts, SiteResult, StrategyArtifacts};
-use crate::config::Strategy;
 use super::strategy_run::{check_path, run_strategy, Known};
 use super::training::train_forest_with_stats;
-use super::world::{acquire, init_cameras, sfm_cameras, World};
+use crate::config::CampaignConfig;
+use crate::config::MvsKind;
+use crate::config::Strategy;
 use crate::error::Result;
+use crate::sfm::sfm_cameras;
+use crate::world::World;
 use vp_scene::hash::mix64;
 
 /// Source tags of image ids: init, grid, then one per strategy.

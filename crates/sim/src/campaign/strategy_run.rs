@@ -14,16 +14,18 @@ use vp_scene::sim3::Sim3;
 use vp_scene::Camera;
 
 use super::acquired::AcquiredModel;
-use crate::config::CampaignConfig;
 use super::crash::PathCheck;
 use super::curves::CurveAccumulator;
+use super::images::acquire;
 use super::reconstruct::{Flown, Matcher};
 use super::run::{fly_with_error, image_id, name_hash, with_home, MESH_TOLERANCE_M};
-use super::sfm::SfmState;
+use super::seen::SfmState;
+use crate::config::CampaignConfig;
 use crate::config::Strategy;
-use super::world::{acquire, sfm_cameras, Acquired, World};
 use crate::error::{Result, SimError};
 use crate::gnss::{camera_through, mesh_through};
+use crate::sfm::sfm_cameras;
+use crate::world::{Acquired, World};
 use vp_scene::hash::mix64;
 
 /// Everything one triplet strategy produced on one site.

@@ -21,8 +21,8 @@ pub use strategy::Strategy;
 use crate::error::{Result, SimError};
 use vp_mvs::MvsParams;
 
-use crate::virtual_mvs::MvsProfile;
 use crate::render::RenderParams;
+use crate::virtual_mvs::MvsProfile;
 
 /// Which multi-view stereo reconstructs the flown and training images.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -198,7 +198,7 @@ pub struct GridBaseline {
 #[serde(default, deny_unknown_fields)]
 pub struct SfmConfig {
     /// Standard deviation of the SfM model's georeferencing shift per
-    /// axis, metres (one shift for all its images; see `world::sfm_camera`).
+    /// axis, metres (one shift for all its images; see `sfm::sfm_camera`).
     pub position_noise_m: f64,
     /// Standard deviation of the SfM model's georeferencing rotation per
     /// axis, degrees (one rotation about the origin for all its images).
@@ -332,10 +332,7 @@ impl CampaignConfig {
 
     /// The strategies, parsed.
     pub fn parsed_strategies(&self) -> Result<Vec<Strategy>> {
-        self.strategies
-            .iter()
-            .map(|s| Strategy::parse(s))
-            .collect()
+        self.strategies.iter().map(|s| Strategy::parse(s)).collect()
     }
 
     /// Checks ranges and the leave-one-site-out rule; the error names the key.

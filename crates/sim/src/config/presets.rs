@@ -14,8 +14,8 @@ use crate::error::{Result, SimError};
 use vp_mvs::MvsParams;
 
 use super::MvsKind;
-use crate::virtual_mvs::MvsProfile;
 use crate::render::RenderParams;
+use crate::virtual_mvs::MvsProfile;
 
 /// Names of the presets, for [`CampaignConfig::preset`].
 pub const PRESETS: [&str; 3] = ["demo", "quick", "paper"];

@@ -71,8 +71,8 @@ fn refuses_unknown_keys_and_training_on_the_held_out_site() {
     )
     .unwrap_err();
     assert!(e.to_string().contains("never be a training site"), "{e}");
-    let e = CampaignConfig::from_toml("strategies = [\"G5x4\"]\n", Path::new("s.toml"))
-        .unwrap_err();
+    let e =
+        CampaignConfig::from_toml("strategies = [\"G5x4\"]\n", Path::new("s.toml")).unwrap_err();
     assert!(e.to_string().contains("G5x4"), "{e}");
 }
 
@@ -90,7 +90,7 @@ fn a_partial_section_keeps_the_demo_values_of_its_other_keys() {
     assert_eq!(c.site.n_trees_at_rock, 3);
     assert_eq!(c.site.target_faces, demo.site.target_faces);
     // A wrong type still names the line.
-    let e = CampaignConfig::from_toml("[planner]\ngsd_m = \"x\"\n", Path::new("t.toml"))
-        .unwrap_err();
+    let e =
+        CampaignConfig::from_toml("[planner]\ngsd_m = \"x\"\n", Path::new("t.toml")).unwrap_err();
     assert!(e.to_string().contains("line 2"), "{e}");
 }
