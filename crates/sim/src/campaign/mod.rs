@@ -29,19 +29,14 @@ pub mod curves;
 mod depth_maps;
 pub mod eval;
 pub mod evaluate;
-pub mod f_vs_np;
 mod gate;
-pub mod html;
 pub mod images;
 pub mod label_quality;
-pub mod plot;
 pub mod reconstruct;
 pub mod report;
 mod run;
-pub mod scene;
 pub mod seen;
 mod strategy_run;
-mod svg;
 pub mod training;
 
 // The configuration lives at the crate root (`crate::config`, shared with
@@ -55,6 +50,7 @@ pub use curves::ConfidenceCurve;
 pub use eval::Scores;
 pub use evaluate::{evaluate_forest, evaluate_to_dir, ForestEvaluation};
 pub use label_quality::LabelQuality;
+pub use report::{f_vs_np, html, plot, scene};
 pub use report::{write_report, CampaignReport, SiteResult, TableRow};
 pub use run::{run_campaign, run_campaign_trained, run_campaign_with_forest};
 pub use training::{train_forest, train_forest_with_stats, TrainingStats};
