@@ -36,6 +36,7 @@ pub mod reconstruct;
 pub mod report;
 mod run;
 pub mod seen;
+mod site;
 mod strategy_run;
 pub mod training;
 

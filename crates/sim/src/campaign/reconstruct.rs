@@ -168,12 +168,10 @@ impl<'a> Matcher<'a> {
     /// matching) at pyramid `level`; `region` limits the pixels the
     /// statistics count. Adds every pixel the three cameras see to
     /// `curves`' measured side.
-    #[allow(clippy::too_many_arguments)]
     pub fn triplet(
         &self,
         scene: &Scene<'_>,
-        cams: [&Camera; 3],
-        sfm: [&Camera; 3],
+        (cams, sfm): ([&Camera; 3], [&Camera; 3]),
         level: u8,
         region: Option<&Aabb>,
         seed: u64,
@@ -461,14 +459,12 @@ impl<'a> Matcher<'a> {
         Ok(flown)
     }
 
-    /// Flies one triplet at full resolution over the ROI `region`: `cams`
-    /// true, `sfm` SfM's estimates of them.
-    #[allow(clippy::too_many_arguments)]
+    /// Reconstructs one flown triplet at full resolution over the ROI
+    /// `region`: `cams` true, `sfm` SfM's estimates of them.
     pub fn fly_triplet(
         &self,
         scene: &Scene<'_>,
-        cams: [Camera; 3],
-        sfm: [Camera; 3],
+        (cams, sfm): ([Camera; 3], [Camera; 3]),
         ids: [u64; 3],
         region: &Aabb,
         seed: u64,
@@ -476,8 +472,7 @@ impl<'a> Matcher<'a> {
     ) -> Result<Flown> {
         let run = self.triplet(
             scene,
-            [&cams[0], &cams[1], &cams[2]],
-            [&sfm[0], &sfm[1], &sfm[2]],
+            ([&cams[0], &cams[1], &cams[2]], [&sfm[0], &sfm[1], &sfm[2]]),
             1,
             Some(region),
             seed,

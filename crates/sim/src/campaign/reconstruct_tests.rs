@@ -140,7 +140,14 @@ fn the_matcher_matches_with_the_sfm_poses() {
     let m = Matcher::new(&cfg).unwrap();
     let mut curves = CurveAccumulator::new(cfg.training.forest.bins.clone());
     let fl = m
-        .fly_triplet(&scene, cams, sfm, [0, 1, 2], &whole_plane(), 5, &mut curves)
+        .fly_triplet(
+            &scene,
+            (cams, sfm),
+            [0, 1, 2],
+            &whole_plane(),
+            5,
+            &mut curves,
+        )
         .unwrap();
     assert_eq!(fl.sfm, sfm.to_vec(), "the flown set keeps its SfM poses");
     assert!(fl.fused.len() > 100, "{} fused points", fl.fused.len());
@@ -176,8 +183,10 @@ fn the_depth_range_comes_from_sparse_points_not_the_renderer() {
         let run = m
             .triplet(
                 &scene,
-                [&cams[0], &cams[1], &cams[2]],
-                [&cams[0], &cams[1], &cams[2]],
+                (
+                    [&cams[0], &cams[1], &cams[2]],
+                    [&cams[0], &cams[1], &cams[2]],
+                ),
                 1,
                 None,
                 5,

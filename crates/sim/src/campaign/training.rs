@@ -153,8 +153,7 @@ pub(crate) fn label_site(
             let tseed = mix64(cfg.seed ^ mix64(seed ^ mix64((n as u64) << 8 | u64::from(level))));
             let run = matcher.triplet(
                 &scene,
-                [&cams[0], &cams[1], &cams[2]],
-                [&sfm[0], &sfm[1], &sfm[2]],
+                ([&cams[0], &cams[1], &cams[2]], [&sfm[0], &sfm[1], &sfm[2]]),
                 level,
                 None,
                 tseed,
