@@ -14,6 +14,10 @@
 //!   spatially coherent blobs, with depth noise from the triplet's first-order
 //!   3D uncertainty and a share of outliers.
 //!
+//! - [`config`]: what a run is asked to do ([`config::CampaignConfig`],
+//!   TOML-loadable, with presets); [`world`]: the procedural site with its
+//!   ray caster, clearance and ROI; [`sfm`]: the one SfM simulator (the
+//!   poses and sparse points a user's SfM would give of rendered images).
 //! - [`flight::fly`]: a plan flown in the simulated world: its images and
 //!   the COLMAP model SfM would give (`vpctl sim fly`).
 //! - [`gnss`]: the position error of a flight (GNSS bias and noise,
