@@ -2,18 +2,19 @@
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::time::Duration;
 
 use anyhow::{Context, Result};
-use clap::{Args, Subcommand, ValueEnum};
-use vp_mission::heights::{HeightLimits, UserMissionOptions};
-use vp_mission::sim_vehicle::{spawn_udp_vehicle, VehicleConfig};
-use vp_mission::{
-    build_mission, export_flights, one_flight, write_flights, Autopilot, ConnectOptions,
-    DjiOptions, HomePolicy, MissionItem, MissionOptions, Progress, SigningKey,
-};
+use clap::Subcommand;
+use vp_mission::{export_flights, write_flights, DjiOptions};
 use vp_scene::fsio;
 use vp_scene::plan::Plan;
+
+mod args;
+mod link;
+mod vehicle;
+
+use args::{dji_heights_arg, drone_arg};
+pub use args::{AutopilotArg, ExportFormat, LinkArgs, MissionArgs};
 
 /// Mission subcommands.
 #[derive(Debug, Subcommand)]
@@ -103,143 +104,9 @@ pub enum MissionCommand {
         signing_key: Option<PathBuf>,
         /// The vehicle's home, LAT,LON,ALT (altitude above mean sea level),
         /// reported as HOME_POSITION; without it the vehicle has no fix.
-        #[arg(long, value_name = "LAT,LON,ALT", allow_hyphen_values = true, value_parser = super::plan::home_arg)]
-        home: Option<super::plan::HomeArg>,
+        #[arg(long, value_name = "LAT,LON,ALT", allow_hyphen_values = true, value_parser = crate::cmd::plan::home_arg)]
+        home: Option<crate::cmd::plan::HomeArg>,
     },
-}
-
-/// Export formats.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum ExportFormat {
-    /// QGroundControl `.plan` JSON (SimpleItems only).
-    Qgc,
-    /// `QGC WPL 110` waypoint text.
-    Wpl,
-    /// DJI WPML mission (`.kmz`).
-    Wpml,
-    /// Litchi waypoint CSV.
-    Litchi,
-    /// KML preview of the path and photos (not a mission).
-    Kml,
-}
-
-fn drone_arg(s: &str) -> std::result::Result<vp_mission::wpml::Drone, String> {
-    s.parse()
-        .map_err(|e: vp_mission::MissionError| e.to_string())
-}
-
-fn dji_heights_arg(s: &str) -> std::result::Result<vp_mission::wpml::WpmlHeights, String> {
-    s.parse()
-        .map_err(|e: vp_mission::MissionError| e.to_string())
-}
-
-/// Autopilot conventions.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum AutopilotArg {
-    /// PX4: the mission starts at seq 0.
-    Px4,
-    /// ArduPilot: seq 0 is home.
-    Ardupilot,
-}
-
-impl From<AutopilotArg> for Autopilot {
-    fn from(a: AutopilotArg) -> Self {
-        match a {
-            AutopilotArg::Px4 => Autopilot::Px4,
-            AutopilotArg::Ardupilot => Autopilot::ArduPilot,
-        }
-    }
-}
-
-/// How the plan becomes mission items.
-#[derive(Debug, Args)]
-pub struct MissionArgs {
-    /// Autopilot conventions: ArduPilot keeps home at seq 0 and ignores a
-    /// waypoint's heading, so each photo also gets a CONDITION_YAW (4
-    /// items per photo instead of 3).
-    #[arg(long, value_enum, default_value_t = AutopilotArg::Px4)]
-    autopilot: AutopilotArg,
-    /// Seconds to hold at each waypoint before the photo (0 to 60).
-    #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
-    hold: f32,
-    /// Mission speed, m/s (0.5 to 20).
-    #[arg(long, allow_negative_numbers = true)]
-    speed: Option<f32>,
-    /// Take off to this height above home first, metres (0: no takeoff
-    /// item; else between --min-height and --ceiling).
-    #[arg(long, default_value_t = 20.0, allow_negative_numbers = true)]
-    takeoff: f32,
-    /// Do not end the mission with return-to-launch.
-    #[arg(long)]
-    no_rtl: bool,
-    /// Where the vehicle takes off: LAT,LON,ALT[,DATUM] on the ground
-    /// (DATUM egm96, ellipsoid or takeoff; default the plan's). Overrides
-    /// the plan's home; a plan without one needs it.
-    #[arg(long, value_name = "LAT,LON,ALT[,DATUM]", allow_hyphen_values = true, value_parser = super::plan::home_arg)]
-    home: Option<super::plan::HomeArg>,
-    /// Highest waypoint allowed, metres above home (most rules: 120).
-    #[arg(long, default_value_t = vp_mission::heights::DEFAULT_CEILING_M, allow_negative_numbers = true)]
-    ceiling: f64,
-    /// Lowest waypoint allowed, metres above home.
-    #[arg(long, default_value_t = vp_mission::heights::DEFAULT_MIN_HEIGHT_M, allow_negative_numbers = true)]
-    min_height: f64,
-}
-
-impl MissionArgs {
-    /// The options for `plan` (vp-mission's `UserMissionOptions`, as Python's).
-    fn options(&self, plan: &Plan) -> Result<MissionOptions> {
-        let user = UserMissionOptions {
-            autopilot: self.autopilot.into(),
-            hold_s: self.hold,
-            speed_m_s: self.speed,
-            takeoff_m: self.takeoff,
-            return_to_launch: !self.no_rtl,
-            home: self.home.map(|h| (h.position, h.datum)),
-            limits: HeightLimits {
-                min_height_m: self.min_height,
-                ceiling_m: self.ceiling,
-            },
-        };
-        Ok(user.resolve(plan)?)
-    }
-}
-
-/// Where the vehicle is.
-#[derive(Debug, Args)]
-pub struct LinkArgs {
-    /// MAVLink connection: `udpout:HOST:PORT`, `udpin:HOST:PORT`,
-    /// `tcpout:HOST:PORT` or `serial:/dev/ttyUSB0:57600`.
-    #[arg(long, default_value = "udpout:127.0.0.1:14550")]
-    url: String,
-    /// Seconds to wait for the vehicle's heartbeat.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 5.0)]
-    heartbeat_timeout: f64,
-    /// MAVLink 2 signing: sign every message with the key in FILE (64
-    /// hexadecimal digits; see docs/formats.md) and ignore messages from
-    /// the vehicle that are not signed with it (unsigned, another key,
-    /// replays).
-    #[arg(long, value_name = "FILE")]
-    signing_key: Option<PathBuf>,
-}
-
-impl LinkArgs {
-    fn options(&self) -> Result<ConnectOptions> {
-        Ok(ConnectOptions {
-            signing: load_key(self.signing_key.as_deref())?,
-            ..ConnectOptions::from_user(self.heartbeat_timeout, 1.0)?
-        })
-    }
-}
-
-/// Reads a signing key file; its permission warning goes to standard
-/// error (never the key).
-fn load_key(path: Option<&Path>) -> Result<Option<SigningKey>> {
-    let Some(path) = path else { return Ok(None) };
-    let loaded = SigningKey::load(path)?;
-    if let Some(w) = loaded.warning {
-        eprintln!("{w}");
-    }
-    Ok(Some(loaded.key))
 }
 
 pub fn run(cmd: MissionCommand, out: &mut dyn Write) -> Result<()> {
@@ -293,164 +160,16 @@ pub fn run(cmd: MissionCommand, out: &mut dyn Write) -> Result<()> {
             accept_home_offset,
             link,
             mission,
-        } => upload(&plan, (flight, accept_home_offset), &link, &mission, out),
-        MissionCommand::Download { link } => download(&link, out),
+        } => link::upload(&plan, (flight, accept_home_offset), &link, &mission, out),
+        MissionCommand::Download { link } => link::download(&link, out),
         MissionCommand::Vehicle {
             bind,
             autopilot,
             seconds,
             signing_key,
             home,
-        } => vehicle(&bind, autopilot, seconds, signing_key.as_deref(), home, out),
+        } => vehicle::vehicle(&bind, autopilot, seconds, signing_key.as_deref(), home, out),
     }
-}
-
-fn upload(
-    plan_path: &Path,
-    (flight, accept_home_offset): (Option<usize>, bool),
-    link: &LinkArgs,
-    mission: &MissionArgs,
-    out: &mut dyn Write,
-) -> Result<()> {
-    let plan = one_flight(&load_plan(plan_path)?, flight)
-        .with_context(|| format!("plan {}", plan_path.display()))?;
-    let opts = ConnectOptions {
-        home_check: Some(HomePolicy {
-            datum: plan.vertical_datum,
-            accept_offset: accept_home_offset,
-        }),
-        ..link.options()?
-    };
-    let m = build_mission(&plan, &mission.options(&plan)?)
-        .with_context(|| format!("mission of {}", plan_path.display()))?;
-    writeln!(
-        out,
-        "mission: {} items ({} photos) for {:?}",
-        m.items.len(),
-        m.photos,
-        m.autopilot
-    )?;
-    let bar = super::Progress::new();
-    let (report, info) = vp_mission::upload(&link.url, &m, &opts, &mut |p| progress(&bar, &p))?;
-    bar.finish();
-    writeln!(
-        out,
-        "vehicle: system {} component {} ({:?})",
-        info.target.system, info.target.component, info.autopilot
-    )?;
-    if let Some(home) = &report.home {
-        writeln!(out, "home: {home}")?;
-    }
-    writeln!(
-        out,
-        "uploaded {} items in {:.2} s ({} resends); verified: {}",
-        m.items.len(),
-        report.upload.elapsed.as_secs_f64(),
-        report.upload.resends,
-        if report.verified {
-            "yes, item by item"
-        } else {
-            "no"
-        }
-    )?;
-    Ok(())
-}
-
-fn download(link: &LinkArgs, out: &mut dyn Write) -> Result<()> {
-    let bar = super::Progress::new();
-    let (items, report, info) =
-        vp_mission::download(&link.url, &link.options()?, &mut |p| progress(&bar, &p))?;
-    bar.finish();
-    writeln!(
-        out,
-        "vehicle: system {} component {}; {} items in {:.2} s",
-        info.target.system,
-        info.target.component,
-        items.len(),
-        report.elapsed.as_secs_f64()
-    )?;
-    for (seq, item) in items.iter().enumerate() {
-        print_item(seq, item, out)?;
-    }
-    Ok(())
-}
-
-fn vehicle(
-    bind: &str,
-    autopilot: AutopilotArg,
-    seconds: Option<u64>,
-    signing_key: Option<&Path>,
-    home: Option<super::plan::HomeArg>,
-    out: &mut dyn Write,
-) -> Result<()> {
-    let d = VehicleConfig::default();
-    let cfg = VehicleConfig {
-        autopilot: autopilot.into(),
-        signing: load_key(signing_key)?,
-        home: home.map_or(d.home, |h| h.position),
-        reports_home: home.is_some(),
-        ..d
-    };
-    let signing = cfg.signing.is_some();
-    let vehicle = spawn_udp_vehicle(bind, cfg)?;
-    writeln!(
-        out,
-        "simulated {:?} vehicle listening on {} (connect with --url udpout:{}){}",
-        Autopilot::from(autopilot),
-        vehicle.addr(),
-        vehicle.addr(),
-        if signing {
-            "; MAVLink 2 signing on"
-        } else {
-            ""
-        }
-    )?;
-    out.flush()?;
-    let deadline = seconds.map(|s| std::time::Instant::now() + Duration::from_secs(s));
-    let mut last = (0, 0);
-    let mut last_ignored = vp_mission::signing::IgnoredCounts::default();
-    while deadline.is_none_or(|d| std::time::Instant::now() < d) {
-        std::thread::sleep(Duration::from_millis(100));
-        let ignored = vehicle.ignored();
-        if ignored != last_ignored {
-            writeln!(out, "ignored messages: {ignored}")?;
-            out.flush()?;
-            last_ignored = ignored;
-        }
-        let counts = vehicle.upload_counts();
-        if counts != last {
-            writeln!(
-                out,
-                "uploads completed: {}, abandoned: {}; stored items: {}",
-                counts.0,
-                counts.1,
-                vehicle.mission().len()
-            )?;
-            out.flush()?;
-            last = counts;
-        }
-    }
-    Ok(())
-}
-
-/// One progress report: redrawn in place on a terminal, a line otherwise.
-fn progress(bar: &super::Progress, p: &Progress) {
-    let stage = if p.attempt > 1 {
-        format!("{:?} items, attempt {}", p.phase, p.attempt)
-    } else {
-        format!("{:?} items", p.phase)
-    };
-    bar.message(&format!("{stage} ({}/{})", p.done, p.total));
-}
-
-fn print_item(seq: usize, item: &MissionItem, out: &mut dyn Write) -> Result<()> {
-    let p = item.params;
-    writeln!(
-        out,
-        "{seq:4} {:?} {:?} [{}, {}, {}, {}] x={} y={} z={}",
-        item.command, item.frame, p[0], p[1], p[2], p[3], item.x, item.y, item.z
-    )?;
-    Ok(())
 }
 
 /// The export format: `--format`, else from the extension of `--out`
@@ -467,7 +186,9 @@ fn export_format(
         ExportFormat::Kml => vp_mission::ExportFormat::Kml,
     });
     vp_mission::ExportFormat::for_output(out, format).map_err(|e| match e {
-        vp_mission::MissionError::InvalidInput(m) => super::UsageError(format!("--out {m}")).into(),
+        vp_mission::MissionError::InvalidInput(m) => {
+            crate::cmd::UsageError(format!("--out {m}")).into()
+        }
         other => other.into(),
     })
 }
@@ -477,7 +198,7 @@ fn export_format(
 fn load_plan(path: &Path) -> Result<Plan> {
     let plan = Plan::load(path)?;
     if plan.origin.is_none() {
-        return Err(super::UsageError(format!(
+        return Err(crate::cmd::UsageError(format!(
             "{}: the plan has no geodetic origin, which a mission needs to place its waypoints \
              on the earth; plan again with --origin LAT,LON,ALT (`vpctl plan grid ... --origin \
              46.03,10.35,400`), or plan on a model aligned by `vpctl colmap align` (its \
