@@ -42,6 +42,9 @@ cargo test --locked --workspace --test safety -- --ignored --nocapture
 echo "== long runs: 100 uploads through a lossy UDP relay"
 cargo test --locked --workspace --test udp_loopback -- --ignored --nocapture
 
+echo "== long runs: 1000 uploads through links that duplicate every packet and 30 % of them"
+cargo test --locked --workspace --test duplicate_storms -- --ignored --nocapture --test-threads 1
+
 echo "== long runs: the campaign on vp-mvs, its measured findings on a held-out site, determinism (release)"
 # --workspace (not -p vp-sim): the same feature set as the bench step below,
 # which then reuses this release build instead of compiling everything again.

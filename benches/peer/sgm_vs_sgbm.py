@@ -318,7 +318,7 @@ def converging_sgbm(pair, args):
     return z, dt, f"rectified {size[0]}x{size[1]}, disparities {lo}..{lo + num - 1}"
 
 
-def converging_sgm(pair, vpctl, ws):
+def converging_sgm(pair, vpctl, ws, extra=""):
     """vp-mvs sgm on a COLMAP workspace of the two posed views (world = the
     left camera), the left image the only reference: its photometric depth."""
     import cv2
@@ -343,7 +343,7 @@ def converging_sgm(pair, vpctl, ws):
     # guard, not a matching parameter): SGBM searches as many.
     cfg = os.path.join(ws, "sgm.toml")
     with open(cfg, "w") as fh:
-        fh.write("[sgm]\nmax_disparities = 1024\n")
+        fh.write("[sgm]\nmax_disparities = 1024\n" + "".join(f"{kv.strip()}\n" for kv in extra.split(";") if kv.strip()))
     cmd = [vpctl, "mvs", "run", "--algorithm", "sgm", "--workspace", ws, "--config", cfg,
            "--depth-range", f"{lo:.6g},{hi:.6g}", "--force"]
     t0 = time.perf_counter()
@@ -364,13 +364,19 @@ def run_converging(vpctl, tmp, args):
         os.makedirs(sub, exist_ok=True)
         pair = Converging(vpctl, sub, angle, args)
         z_sg, t_sg, note = converging_sgbm(pair, args)
-        z_vp, t_vp, cmd = converging_sgm(pair, vpctl, os.path.join(sub, "ws"))
+        z_vp, t_vp, cmd = converging_sgm(pair, vpctl, os.path.join(sub, "ws"), args.sgm_extra)
         print(f"\n== converging {angle:g} deg: {pair.w}x{pair.h}; SGBM {note} [{t_sg:.3f} s compute()]; "
               f"vpctl {cmd} [{t_vp:.3f} s whole process]")
         for mname, m in (("visible", pair.visible), ("nonocc", pair.nonocc)):
             s, v = pair.score(z_sg, m), pair.score(z_vp, m)
             print(f"   [{mname}, {int(m.sum())} GT px] within 2 px: StereoSGBM {100 * s:5.1f} %, "
                   f"vp-mvs sgm {100 * v:5.1f} %")
+            # Coverage (a depth at all) and the share of those within 2 px:
+            # which of the two a gap comes from.
+            cov = lambda z: float((m & np.isfinite(z) & (z > 0)).sum()) / max(int(m.sum()), 1)  # noqa: E731
+            print(f"   [{mname}] with a depth: StereoSGBM {100 * cov(z_sg):5.1f} %, vp-mvs {100 * cov(z_vp):5.1f} %; "
+                  f"of those within 2 px: {100 * s / max(cov(z_sg), 1e-9):5.1f} %, "
+                  f"{100 * v / max(cov(z_vp), 1e-9):5.1f} %")
             rows.append((angle, mname, s, v))
     print("\nconverging pairs, per angle bin (mean over its pairs): share of GT pixels within 2 px")
     bins = [(5, 15), (15, 25), (25, 35), (35, 45.01)]
@@ -410,6 +416,9 @@ def main():
     ap.add_argument("--paths", type=int, default=8, help="vp-mvs aggregation paths in the matcher timing")
     ap.add_argument("--angles", default="5,10,15,20,25,30,35,40,45",
                     help="converging pairs' angles at the look-at point, degrees (pair 'converging')")
+    ap.add_argument("--sgm-extra", default="",
+                    help="extra [sgm] lines for vp-mvs on converging pairs, ';'-separated "
+                         "(diagnosis, e.g. 'lr_max_diff = 1000'; the G0 figures use none)")
     ap.add_argument("--sgbm-pair", default=None, help="LEFT,RIGHT,MIN,NUM,RUNS: time only SGBM's compute()")
     args = ap.parse_args()
     if args.sgbm_pair:

@@ -73,7 +73,7 @@ print("forest:", forest.n_trees, "trees; confidence grid", conf[0].values.shape)
 
 # %% Plan the next triplets with the predicted confidence.
 # The simulated cameras are exact, as an RTK drone's would be; a consumer
-# drone's standard GNSS (the default) adds about 8.6 m to the clearance.
+# drone's standard GNSS (the default) adds about 12.8 m to the clearance.
 cfg = {"n_triangles": 300, "n_surrogates": 600, "n_selected": 60, "n_triplets": 2,
        "camera": camera, "flight_volume": fv, "safety": {"gnss": "rtk"}}
 # The site's origin lies on its ground, where the vehicle takes off: the home.

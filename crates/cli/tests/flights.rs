@@ -250,6 +250,8 @@ fn limits_that_cannot_work_are_refused_with_nothing_written() {
             "25",
             "--max-flight-time",
             "900",
+            "--config",
+            "rtk.toml",
             "--out",
             "c.json",
         ],

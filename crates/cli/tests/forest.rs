@@ -487,6 +487,43 @@ fn sim_evaluate_scores_each_held_out_site_and_refuses_a_single_site() {
     );
     let summary = std::fs::read_to_string(out.join("summary.txt")).unwrap();
     assert!(printed.starts_with(&summary), "{printed}\n---\n{summary}");
+
+    check_angle_success(&out, &summary);
+}
+
+/// `angle_success.csv` of `vpctl sim evaluate` in `out`: the matcher's
+/// measured success per site, material and angle bin, and its fall from
+/// 5-15 to 35-45 deg on ground and rock in `summary` where both ranges have
+/// pixels on a site.
+fn check_angle_success(out: &Path, summary: &str) {
+    let success = std::fs::read_to_string(out.join("angle_success.csv")).unwrap();
+    let mut lines = success.lines();
+    assert_eq!(
+        lines.next(),
+        Some("matcher,site,material,angle_bin,angle_lo,angle_hi,visible,reconstructed,success")
+    );
+    let mut ranges = std::collections::BTreeMap::<&str, [bool; 2]>::new();
+    for l in lines {
+        let f: Vec<&str> = l.split(',').collect();
+        assert_eq!(f.len(), 9, "{l}");
+        assert!(f[1] == "101" || f[1] == "102", "{l}");
+        let (lo, hi): (f64, f64) = (f[4].parse().unwrap(), f[5].parse().unwrap());
+        let (visible, ok): (u64, u64) = (f[6].parse().unwrap(), f[7].parse().unwrap());
+        assert!(visible > 0 && ok <= visible, "{l}");
+        let share: f64 = f[8].parse().unwrap();
+        assert!((share - ok as f64 / visible as f64).abs() < 1e-4, "{l}");
+        if f[2] == "ground" || f[2] == "rock" {
+            let r = ranges.entry(f[1]).or_default();
+            r[0] |= lo >= 5.0 && hi <= 15.0;
+            r[1] |= lo >= 35.0 && hi <= 45.0;
+        }
+    }
+    let both = ranges.values().filter(|r| r[0] && r[1]).count();
+    assert_eq!(
+        summary.contains(&format!("mean over {both} sites: 5-15 deg")),
+        both > 0,
+        "{both} sites with both ranges:\n{summary}"
+    );
 }
 
 /// Regression (issue 40): `predict` into a log wrote a line per image on

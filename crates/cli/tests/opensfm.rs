@@ -119,7 +119,7 @@ fn an_odm_project_plans_as_its_colmap_twin() {
     let site = plan_fixture(d);
     add_points(d, &site.mesh);
     // Exact positions: the twins then plan with the same small clearance.
-    // (Under standard GNSS's 8.6 m margin the candidate set leaves two
+    // (Under standard GNSS's 12.8 m margin the candidate set leaves two
     // triplets of equal gain, to 3e-15, and the 1e-15 rounding between the
     // readers picks either: a tie, not a reader difference.)
     let mut cfg = std::fs::read_to_string(d.join("plan.toml")).unwrap();

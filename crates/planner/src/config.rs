@@ -208,7 +208,7 @@ seed = 0
 # altitude_limits = { min_m = 5.0, max_m = 60.0 }
 
 # Position uncertainty: the clearance to the mesh is safety_distance_m +
-# geometry_margin_m + 2 sigma of the vehicle's position error relative to the
+# geometry_margin_m + `sigmas` sigma of the vehicle's position error relative to the
 # model (two independent GNSS errors: the model's georeference and the flight;
 # the larger of horizontal and vertical; the model's alignment residual from
 # frame.json; the path tracking). `vpctl plan` prints the sum.
@@ -216,6 +216,7 @@ seed = 0
 # gnss = "standard"      # "rtk" (2/3 cm), "standard" (1.5/3 m) or { horizontal_m = 0.5, vertical_m = 1.0 };
                          # default: the class the model's frame.json records, else "standard"
 tracking_m = 0.3         # the autopilot's path-tracking error, 1 sigma
+sigmas = 3.0             # standard deviations the margin holds (one-sided: 0.13 % of flights beyond it)
 
 # Camera of the new views: DJI Phantom 4 Pro class (1" sensor, 8.8 mm lens).
 [camera]

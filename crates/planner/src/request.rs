@@ -427,7 +427,7 @@ mod tests {
         let m = e.to_string();
         assert!(e.is_input_error(), "{m}");
         assert!(
-            m.contains("clearance 13.")
+            m.contains("clearance 17.8")
                 && m.contains("safety 5.00")
                 && m.contains("standard GNSS 1.5/3 m")
                 && m.contains("alignment residual 0.40 m")

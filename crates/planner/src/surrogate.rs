@@ -60,8 +60,11 @@ pub fn sample_positions(
     }
     if out.is_empty() {
         return Err(PlannerError::Input(format!(
-            "no position in the flight volume {:?}..{:?} keeps the safety distance of {} m \
-             to the mesh ({} random draws): lower the safety distance or enlarge the volume",
+            "no position in the flight volume {:?}..{:?} keeps the clearance of {:.2} m to \
+             the mesh ({} random draws; the clearance is the safety distance plus the position \
+             margin, whose parts `vpctl plan` prints): lower safety_distance_m, give a more \
+             precise position class (`[safety] gnss = \"rtk\"` for a model aligned to RTK \
+             positions), or enlarge the volume",
             <[f64; 3]>::from(b.min),
             <[f64; 3]>::from(b.max),
             safety.distance,

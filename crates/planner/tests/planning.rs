@@ -138,7 +138,7 @@ fn bad_inputs_give_clear_errors() {
     };
     let e = run(roi.clone(), &huge, &acquired);
     assert!(
-        e.is_input_error() && e.to_string().contains("safety distance of 500 m"),
+        e.is_input_error() && e.to_string().contains("clearance of 500.00 m"),
         "{e}"
     );
     let bad = PlannerConfig {

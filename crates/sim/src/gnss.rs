@@ -33,7 +33,7 @@ use vp_scene::colmap::{
 };
 use vp_scene::gnss::GnssClass;
 use vp_scene::sim3::Sim3;
-use vp_scene::{Camera, Mesh};
+use vp_scene::{Aabb, Camera, Mesh};
 
 use crate::error::{Result, SimError};
 use crate::noise::gaussian;
@@ -58,6 +58,12 @@ pub struct FlightError {
     /// The planner keeps the position margin (`[safety]`, from this
     /// class); false plans without it, to measure the risk it removes.
     pub position_margin: bool,
+    /// A measurement switch: the planner plans on the TRUE surface (moved
+    /// into the model's georeferenced frame) instead of the mesh of what
+    /// was seen, so that a flown path inside the safety distance can only
+    /// come from position error, not from a surface no image showed
+    /// (that risk is the unknown-space rule's, issue 16).
+    pub plan_on_true_surface: bool,
 }
 
 impl Default for FlightError {
@@ -69,6 +75,7 @@ impl Default for FlightError {
             white_share: 0.2,
             tracking_m: 0.2,
             position_margin: true,
+            plan_on_true_surface: false,
         }
     }
 }
@@ -194,6 +201,27 @@ pub fn mesh_through(sim: &Sim3, mesh: &Mesh) -> Mesh {
         *v = sim.apply(v);
     }
     m
+}
+
+/// The box holding `aabb`'s corners in the frame `sim` maps into: a region
+/// drawn on the georeferenced model, as a user draws it.
+pub fn aabb_through(sim: &Sim3, aabb: &Aabb) -> Aabb {
+    let (a, b) = (aabb.min, aabb.max);
+    let mut out = Aabb {
+        min: Point3::from(Vector3::repeat(f64::INFINITY)),
+        max: Point3::from(Vector3::repeat(f64::NEG_INFINITY)),
+    };
+    for i in 0..8 {
+        let c = Point3::new(
+            if i & 1 == 0 { a.x } else { b.x },
+            if i & 2 == 0 { a.y } else { b.y },
+            if i & 4 == 0 { a.z } else { b.z },
+        );
+        let p = sim.apply(&c);
+        out.min = out.min.inf(&p);
+        out.max = out.max.sup(&p);
+    }
+    out
 }
 
 /// The identity similarity (no georeference error).

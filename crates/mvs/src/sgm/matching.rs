@@ -1,5 +1,6 @@
-//! Semi-global matching of a rectified pair (Hirschmüller, PAMI 2008): a
-//! census cost volume, aggregation along 4 or 8 scanlines, then
+//! Semi-global matching of a rectified pair (Hirschmüller, PAMI 2008):
+//! census costs (computed row by row inside the sweeps, never stored as a
+//! volume), aggregation along 4 or 8 scanlines, then
 //! winner-take-all with the uniqueness, sub-pixel, left-right and speckle
 //! steps. All sums are integers, so the result does not depend on the
 //! order rows are processed in, nor on which of the two sweeps
@@ -8,10 +9,8 @@
 
 use std::sync::{Mutex, PoisonError};
 
-use rayon::prelude::*;
-
 use super::SgmParams;
-use crate::simd::Avx2;
+use crate::simd::SgmSimd;
 
 /// A rectified image pair on one grid, the reference (left) first.
 pub(crate) struct RectifiedPair {
@@ -28,121 +27,11 @@ pub(crate) struct RectifiedPair {
 /// `BIG + p1` never wins and never overflows (validated: p1, p2 < 8000).
 const BIG: u16 = 0x4000;
 
-/// Census transform: bit k of a pixel is set when the k-th pixel of its
-/// window (row-major, centre skipped, coordinates clamped to the image)
-/// is darker than the centre.
-///
-/// # Performance
-/// One window offset at a time over a whole row: the interior of the row
-/// (no clamping) is a straight compare-and-or loop that LLVM vectorises;
-/// only the `cw / 2` pixels at each end take the clamped index.
-pub(crate) fn census(img: &[f32], w: usize, h: usize, cw: usize, ch: usize) -> Vec<u64> {
-    let (rx, ry) = ((cw / 2) as isize, (ch / 2) as isize);
-    let mut out = vec![0u64; w * h];
-    out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        let centre = &img[y * w..(y + 1) * w];
-        // Bits 0..32 and 32..64 in two u32 words: a float comparison is a
-        // 32-bit mask, so eight pixels fit one AVX2 register (four as u64).
-        let mut lo_bits = vec![0u32; w];
-        let mut hi_bits = vec![0u32; w];
-        let mut k = 0;
-        for dy in -ry..=ry {
-            let yy = (y as isize + dy).clamp(0, h as isize - 1) as usize;
-            let src = &img[yy * w..(yy + 1) * w];
-            for dx in -rx..=rx {
-                if dx == 0 && dy == 0 {
-                    continue;
-                }
-                let bits = if k < 32 { &mut lo_bits } else { &mut hi_bits };
-                let bit = 1u32 << (k % 32);
-                // Pixels x whose neighbour x + dx lies inside the row.
-                let lo = (-dx).clamp(0, w as isize) as usize;
-                let hi = (w as isize - dx).clamp(lo as isize, w as isize) as usize;
-                let shifted = &src[(lo as isize + dx) as usize..(hi as isize + dx) as usize];
-                for ((c, &m), &s) in bits[lo..hi].iter_mut().zip(&centre[lo..hi]).zip(shifted) {
-                    *c |= if s < m { bit } else { 0 };
-                }
-                for x in (0..lo).chain(hi..w) {
-                    let xx = (x as isize + dx).clamp(0, w as isize - 1) as usize;
-                    bits[x] |= if src[xx] < centre[x] { bit } else { 0 };
-                }
-                k += 1;
-            }
-        }
-        for ((c, &l), &h) in row.iter_mut().zip(&lo_bits).zip(&hi_bits) {
-            *c = u64::from(h) << 32 | u64::from(l);
-        }
-    });
-    out
-}
-
-/// One row of the cost volume: `out[x * nd + k]` is the Hamming distance
-/// between the census codes of left pixel x and right pixel x - k, or
-/// `n_bits` (the largest cost) where either pixel lies outside its
-/// original image.
-// Always inlined: the copy inside simd.rs's `#[target_feature(enable =
-// "avx2,popcnt")]` function then counts bits with `popcnt`.
-#[allow(clippy::inline_always)]
-#[inline(always)]
-pub(crate) fn cost_row(
-    cl: &[u64],
-    cr: &[u64],
-    left_valid: &[bool],
-    right_valid: &[bool],
-    n_bits: u8,
-    out: &mut [u8],
-) {
-    let nd = out.len() / cl.len().max(1);
-    for (x, cell) in out.chunks_exact_mut(nd).enumerate() {
-        if !left_valid[x] {
-            cell.fill(n_bits);
-            continue;
-        }
-        let reach = nd.min(x + 1);
-        let (inside, outside) = cell.split_at_mut(reach);
-        outside.fill(n_bits);
-        // Index k is right pixel x - k: the right row read backwards from x.
-        let first = x + 1 - reach;
-        let code = cl[x];
-        let right = cr[first..=x]
-            .iter()
-            .rev()
-            .zip(right_valid[first..=x].iter().rev());
-        for (c, (&r, &ok)) in inside.iter_mut().zip(right) {
-            let n = (code ^ r).count_ones() as u8;
-            *c = if ok { n } else { n_bits };
-        }
-    }
-}
-
-/// The cost volume `cost[(y * w + x) * n_disp + k]` of [`cost_row`], rows
-/// in parallel.
-pub(crate) fn cost_volume(
-    pair: &RectifiedPair,
-    cw: usize,
-    ch: usize,
-    avx2: Option<Avx2>,
-) -> Vec<u8> {
-    let (w, h, nd) = (pair.width, pair.height, pair.n_disp);
-    let n_bits = (cw * ch - 1) as u8;
-    let (cl, cr) = rayon::join(
-        || census(&pair.left, w, h, cw, ch),
-        || census(&pair.right, w, h, cw, ch),
-    );
-    let mut cost = vec![0u8; w * h * nd];
-    cost.par_chunks_mut(w * nd)
-        .enumerate()
-        .for_each(|(y, row)| {
-            let r = y * w..(y + 1) * w;
-            let (l, rr) = (&cl[r.clone()], &cr[r.clone()]);
-            let (lv, rv) = (&pair.left_valid[r.clone()], &pair.right_valid[r]);
-            match avx2 {
-                Some(a) => a.sgm_cost_row(l, rr, lv, rv, n_bits, row),
-                None => cost_row(l, rr, lv, rv, n_bits, row),
-            }
-        });
-    cost
-}
+use super::costs::costs_of_row;
+#[cfg(test)]
+pub(crate) use super::costs::{census, cost_volume};
+pub(crate) use super::costs::{census_row, cost_row, pair_census, CensusRow, PairCensus};
+pub(crate) use super::winners::{filter_speckles, winner_row, winner_row_with};
 
 /// One step of a scanline: `cur[1..=nd]` from the previous pixel's
 /// `prev[1..=nd]` (both padded with `BIG` at 0 and nd + 1) and its minimum
@@ -214,6 +103,37 @@ pub(crate) struct PassState {
     pub row: Vec<u16>,
 }
 
+/// Four scanline steps of one pixel (the in-row path and the three
+/// row-to-row ones of an 8-path pass), each [`step`], and their sum into
+/// `out`. Returns the four minima. simd.rs has the same in one AVX-512
+/// loop over the disparities (`x86::step4_512`), tested equal.
+#[allow(clippy::inline_always)]
+#[inline(always)]
+pub(crate) fn step4(
+    cost: &[u8],
+    prev: [&[u16]; 4],
+    prev_min: [u16; 4],
+    p1: u16,
+    p2: u16,
+    cur: [&mut [u16]; 4],
+    out: &mut [u16],
+) -> [u16; 4] {
+    let [c0, c1, c2, c3] = cur;
+    let mins = [
+        step(cost, prev[0], prev_min[0], p1, p2, c0),
+        step(cost, prev[1], prev_min[1], p1, p2, c1),
+        step(cost, prev[2], prev_min[2], p1, p2, c2),
+        step(cost, prev[3], prev_min[3], p1, p2, c3),
+    ];
+    let nd = cost.len();
+    let cells = c0[1..].iter().zip(&c1[1..]).zip(&c2[1..]).zip(&c3[1..]);
+    // At most 8 paths x (64 + 8000) < 65536: never wraps.
+    for (s, (((&a, &b), &c), &d)) in out[..nd].iter_mut().zip(cells) {
+        *s = a.wrapping_add(b).wrapping_add(c).wrapping_add(d);
+    }
+    mins
+}
+
 /// The sum over a pass's paths of one row's aggregated costs, into `out`
 /// (`w * nd`); the current buffers of `st` are filled (the caller swaps).
 // Always inlined: simd.rs compiles a copy with AVX2 enabled, 16 u16 lanes
@@ -221,6 +141,19 @@ pub(crate) struct PassState {
 #[allow(clippy::inline_always)]
 #[inline(always)]
 pub(crate) fn pass_row(job: &RowPass, st: &mut PassState, out: &mut [u16]) {
+    pass_row_with(job, st, out, |c, q, m, p1, p2, cur, o| {
+        step4(c, q, m, p1, p2, cur, o)
+    });
+}
+
+/// [`pass_row`] with the four steps of an inside pixel of an 8-path pass
+/// done by `four` ([`step4`] or an equal vector version).
+#[allow(clippy::inline_always)]
+#[inline(always)]
+pub(crate) fn pass_row_with<F>(job: &RowPass, st: &mut PassState, out: &mut [u16], four: F)
+where
+    F: Fn(&[u8], [&[u16]; 4], [u16; 4], u16, u16, [&mut [u16]; 4], &mut [u16]) -> [u16; 4],
+{
     let (nd, pad) = (job.nd, job.nd + 2);
     let w = out.len() / nd;
     let (p1, p2) = (job.p1, job.p2);
@@ -230,13 +163,44 @@ pub(crate) fn pass_row(job: &RowPass, st: &mut PassState, out: &mut [u16]) {
         let x = if job.hdx > 0 { n } else { w - 1 - n };
         let c = &job.cost[x * nd..(x + 1) * nd];
         let o = &mut out[x * nd..(x + 1) * nd];
+        // 8 paths inside the image: the four steps in one loop over the
+        // disparities ([`step4`]), the usual case.
+        if n > 0 && !job.first && job.vdx == [0, 1, -1] && x >= 1 && x + 1 < w {
+            let (v0, rest) = st.cur.split_at_mut(w * pad);
+            let (v1, v2) = rest.split_at_mut(w * pad);
+            let prev = |j: usize, px: usize| {
+                let p = j * w + px;
+                (&st.prev[p * pad..(p + 1) * pad], st.prev_min[p])
+            };
+            let (q1, m1) = prev(0, x);
+            let (q2, m2) = prev(1, x - 1);
+            let (q3, m3) = prev(2, x + 1);
+            let mins = four(
+                c,
+                [hprev, q1, q2, q3],
+                [hmin, m1, m2, m3],
+                p1,
+                p2,
+                [
+                    &mut *hcur,
+                    &mut v0[x * pad..(x + 1) * pad],
+                    &mut v1[x * pad..(x + 1) * pad],
+                    &mut v2[x * pad..(x + 1) * pad],
+                ],
+                o,
+            );
+            hmin = mins[0];
+            for (j, &m) in mins[1..].iter().enumerate() {
+                st.cur_min[j * w + x] = m;
+            }
+            std::mem::swap(&mut hprev, &mut hcur);
+            continue;
+        }
         hmin = if n == 0 {
             start(c, hcur)
         } else {
             step(c, hprev, hmin, p1, p2, hcur)
         };
-        o.copy_from_slice(&hcur[1..=nd]);
-        std::mem::swap(&mut hprev, &mut hcur);
         for (j, &dx) in job.vdx.iter().enumerate() {
             let at = j * w + x;
             let cell = &mut st.cur[at * pad..(at + 1) * pad];
@@ -254,11 +218,25 @@ pub(crate) fn pass_row(job: &RowPass, st: &mut PassState, out: &mut [u16]) {
                     cell,
                 )
             };
-            // At most 8 paths x (64 + 8000) < 65536: never wraps.
-            for (s, &v) in o.iter_mut().zip(&cell[1..]) {
-                *s = s.wrapping_add(v);
+        }
+        // The pass's sum in one go (the paths' cells are in L1). At most
+        // 8 paths x (64 + 8000) < 65536: never wraps.
+        let cell = |j: usize| &st.cur[(j * w + x) * pad + 1..(j * w + x) * pad + 1 + nd];
+        let hs = &hcur[1..=nd];
+        if job.vdx.len() == 3 {
+            let (a, b, d) = (cell(0), cell(1), cell(2));
+            for ((((s, &v), &va), &vb), &vd) in o.iter_mut().zip(hs).zip(a).zip(b).zip(d) {
+                *s = v.wrapping_add(va).wrapping_add(vb).wrapping_add(vd);
+            }
+        } else {
+            o.copy_from_slice(hs);
+            for j in 0..job.vdx.len() {
+                for (s, &v) in o.iter_mut().zip(cell(j)) {
+                    *s = s.wrapping_add(v);
+                }
             }
         }
+        std::mem::swap(&mut hprev, &mut hcur);
     }
 }
 
@@ -271,15 +249,14 @@ pub(crate) fn pass_row(job: &RowPass, st: &mut PassState, out: &mut [u16]) {
 /// the two passes together are Hirschmüller's 8 (or 4).
 #[allow(clippy::too_many_arguments)]
 fn sweep(
-    cost: &[u8],
-    w: usize,
-    h: usize,
-    nd: usize,
+    codes: &PairCensus,
+    pair: &RectifiedPair,
     params: &SgmParams,
     forward: bool,
-    avx2: Option<Avx2>,
+    simd: SgmSimd,
     row_done: &mut dyn FnMut(usize, &mut Vec<u16>),
 ) {
+    let (w, h, nd) = (pair.width, pair.height, pair.n_disp);
     let vdx: &[isize] = if params.paths == 4 { &[0] } else { &[0, 1, -1] };
     let pad = nd + 2;
     let cells = vdx.len() * w * pad;
@@ -291,10 +268,13 @@ fn sweep(
         row: vec![BIG; 2 * pad],
     };
     let mut out = vec![0u16; w * nd];
+    let mut cost = vec![0u8; w * nd];
+    let mut scratch = (Vec::new(), Vec::new());
     for n in 0..h {
         let y = if forward { n } else { h - 1 - n };
+        costs_of_row(codes, pair, y, simd, &mut scratch, &mut cost);
         let job = RowPass {
-            cost: &cost[y * w * nd..(y + 1) * w * nd],
+            cost: &cost,
             nd,
             first: n == 0,
             p1: params.p1,
@@ -302,10 +282,7 @@ fn sweep(
             hdx: if forward { 1 } else { -1 },
             vdx,
         };
-        match avx2 {
-            Some(a) => a.sgm_pass_row(&job, &mut st, &mut out),
-            None => pass_row(&job, &mut st, &mut out),
-        }
+        simd.pass_row(&job, &mut st, &mut out);
         std::mem::swap(&mut st.prev, &mut st.cur);
         std::mem::swap(&mut st.prev_min, &mut st.cur_min);
         row_done(y, &mut out);
@@ -317,16 +294,16 @@ fn sweep(
 /// fused [`aggregate_and_pick`] is tested against.
 #[cfg(test)]
 pub(crate) fn aggregate(
-    cost: &[u8],
-    w: usize,
-    h: usize,
-    nd: usize,
+    pair: &RectifiedPair,
     params: &SgmParams,
-    avx2: Option<Avx2>,
+    simd: SgmSimd,
 ) -> (Vec<u16>, Vec<u16>) {
+    let (w, h, nd) = (pair.width, pair.height, pair.n_disp);
+    let (cw, ch) = (params.census_width as usize, params.census_height as usize);
+    let codes = pair_census(pair, cw, ch, simd);
     let pass = |forward: bool| {
         let mut sum = vec![0u16; w * h * nd];
-        sweep(cost, w, h, nd, params, forward, avx2, &mut |y, row| {
+        sweep(&codes, pair, params, forward, simd, &mut |y, row| {
             sum[y * w * nd..(y + 1) * w * nd].copy_from_slice(row);
         });
         sum
@@ -342,28 +319,37 @@ pub(crate) fn aggregate(
 /// result does not depend on which pass came first, nor on the threads.
 ///
 /// # Performance
-/// Each cell's cost is read once per pass; only the rows one pass has
-/// finished and the other has not reached are kept (about half the image
-/// when both run at once), instead of a sum volume per path or per pass.
-/// AVX2 (detected at run time) only changes the code generation of the
-/// row, not its result.
+/// Each sweep computes a row's census costs where it needs them (a row of
+/// `w * nd` bytes in cache; popcounts are cheap, memory traffic is not);
+/// only the rows one pass has finished and the other has not reached are
+/// kept (about half the image when both run at once), instead of a sum
+/// volume per path or per pass. AVX2 or AVX-512 (detected at run time)
+/// only change the code generation of the rows, not their result.
 pub(crate) fn aggregate_and_pick(
-    cost: &[u8],
+    codes: &PairCensus,
     pair: &RectifiedPair,
     params: &SgmParams,
-    avx2: Option<Avx2>,
+    simd: SgmSimd,
 ) -> Vec<f32> {
     let (w, h, nd) = (pair.width, pair.height, pair.n_disp);
     let meet: Vec<Mutex<Option<Vec<u16>>>> = (0..h).map(|_| Mutex::new(None)).collect();
+    // Rows the second pass has used go back here for the first one to
+    // fill again (every cell of a row is written before it is read), and
+    // rows of an earlier pair of the same size ([`SPARE_ROWS`]).
+    let mut kept = std::mem::take(&mut *lock(&SPARE_ROWS));
+    kept.retain(|r| r.len() == w * nd);
+    let spare: Mutex<Vec<Vec<u16>>> = Mutex::new(kept);
     let disp = Mutex::new(vec![f32::NAN; w * h]);
     let pass = |forward: bool| {
         let mut picked = vec![f32::NAN; w];
-        sweep(cost, w, h, nd, params, forward, avx2, &mut |y, row| {
+        let mut held = Vec::new();
+        sweep(codes, pair, params, forward, simd, &mut |y, row| {
             let other = {
                 let mut slot = lock(&meet[y]);
                 let other = slot.take();
                 if other.is_none() {
-                    *slot = Some(std::mem::replace(row, vec![0u16; w * nd]));
+                    let fresh = lock(&spare).pop().unwrap_or_else(|| vec![0u16; w * nd]);
+                    *slot = Some(std::mem::replace(row, fresh));
                 }
                 other
             };
@@ -372,17 +358,28 @@ pub(crate) fn aggregate_and_pick(
                 for (s, &v) in row.iter_mut().zip(&other) {
                     *s = s.wrapping_add(v);
                 }
-                match avx2 {
-                    Some(a) => a.sgm_winner_row(row, y, pair, params, &mut picked),
-                    None => winner_row(row, y, pair, params, &mut picked),
-                }
+                simd.winner_row(row, y, pair, params, &mut held, &mut picked);
                 lock(&disp)[y * w..(y + 1) * w].copy_from_slice(&picked);
+                lock(&spare).push(other);
             }
         });
     };
     rayon::join(|| pass(true), || pass(false));
+    let mut kept = spare.into_inner().unwrap_or_else(PoisonError::into_inner);
+    kept.truncate(KEEP_BYTES / (2 * w * nd).max(1));
+    *lock(&SPARE_ROWS) = kept;
     disp.into_inner().unwrap_or_else(PoisonError::into_inner)
 }
+
+/// Rows of sums kept from one matcher run to the next, as StereoSGBM keeps
+/// its buffer in its object: a run of the same size (the next pair of a
+/// workspace, the next frame) then fills them instead of zeroing fresh
+/// memory, about 1 byte per cell. Whole rows are overwritten before they
+/// are read, so the results do not depend on what they held.
+static SPARE_ROWS: Mutex<Vec<Vec<u16>>> = Mutex::new(Vec::new());
+
+/// Most bytes [`SPARE_ROWS`] keeps between runs.
+const KEEP_BYTES: usize = 64 << 20;
 
 /// The lock of `m`, also after a panic elsewhere (the data are plain
 /// sums, whole after any panic).
@@ -390,151 +387,13 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(PoisonError::into_inner)
 }
 
-/// Winner-take-all over one row's aggregated sums (`w * nd`) with
-/// Hirschmüller's checks: uniqueness (the best sum at most `uniqueness`
-/// times every sum two or more disparities away), parabola sub-pixel fit,
-/// and left-right consistency against the right image's winners taken
-/// from the same sums (as OpenCV's StereoSGBM does). Writes the disparity
-/// index (fractional) of each left pixel of row y into `out`, NaN where
-/// rejected.
-// Always inlined: simd.rs compiles a copy with AVX2 enabled.
-#[allow(clippy::inline_always)]
-#[inline(always)]
-pub(crate) fn winner_row(
-    row: &[u16],
-    y: usize,
-    pair: &RectifiedPair,
-    params: &SgmParams,
-    out: &mut [f32],
-) {
-    let (w, nd) = (pair.width, pair.n_disp);
-    // Right pixel xr's best disparity, the first smallest of left pixel
-    // xr + k's sum at index k over k. Each right pixel holds (sum << 16 |
-    // k), whose minimum is the smallest sum with the smallest k; left
-    // pixels in order offer their sums to the right pixels x - k. Right
-    // pixels are stored from the right end (slot w - 1 - xr), so that left
-    // pixel x's offers go to consecutive slots: a u32 minimum that
-    // vectorises.
-    let ks: Vec<u32> = (0..nd as u32).collect();
-    let mut held = vec![u32::MAX; w];
-    for x in 0..w {
-        let reach = nd.min(x + 1);
-        let at = w - 1 - x;
-        let offers = row[x * nd..x * nd + reach].iter().zip(&ks[..reach]);
-        for (h, (&v, &k)) in held[at..at + reach].iter_mut().zip(offers) {
-            *h = (*h).min(u32::from(v) << 16 | k);
-        }
-    }
-    for (x, o) in out.iter_mut().enumerate() {
-        *o = f32::NAN;
-        if !pair.left_valid[y * w + x] {
-            continue;
-        }
-        let s = &row[x * nd..(x + 1) * nd];
-        // The first smallest sum: the minimum of (sum << 16 | k), one
-        // vectorised pass.
-        let key = s
-            .iter()
-            .zip(&ks)
-            .map(|(&v, &k)| u32::from(v) << 16 | k)
-            .min()
-            .unwrap_or(0);
-        let best = (key & 0xFFFF) as usize;
-        if best > x || !pair.right_valid[y * w + x - best] {
-            continue;
-        }
-        let min = f32::from(s[best]);
-        // Every sum two or more disparities away passes the ratio test
-        // exactly when the smallest of them does (f32 products are
-        // monotone).
-        let below = s[..best.saturating_sub(1)].iter().copied().min();
-        let above = s.get(best + 2..).and_then(|a| a.iter().copied().min());
-        let rival = match (below, above) {
-            (Some(a), Some(b)) => f32::from(a.min(b)),
-            (Some(a), None) | (None, Some(a)) => f32::from(a),
-            (None, None) => f32::INFINITY,
-        };
-        let unique = min <= params.uniqueness * rival;
-        let right_best = (held[w - 1 - (x - best)] & 0xFFFF) as usize;
-        if !unique || right_best.abs_diff(best) > params.lr_max_diff as usize {
-            continue;
-        }
-        let mut d = best as f32;
-        if best > 0 && best + 1 < nd {
-            let (a, b, c) = (f32::from(s[best - 1]), min, f32::from(s[best + 1]));
-            let denom = a + c - 2.0 * b;
-            if denom > 0.0 {
-                d += (a - c) / (2.0 * denom);
-            }
-        }
-        *o = d;
-    }
-}
-
-/// OpenCV's `filterSpeckles`: 4-connected regions whose neighbours differ
-/// by at most `max_diff` and that hold at most `max_size` pixels are set to
-/// NaN. Regions are grown from pixels in row-major order.
-pub(crate) fn filter_speckles(
-    disp: &mut [f32],
-    w: usize,
-    h: usize,
-    max_size: usize,
-    max_diff: f32,
-) {
-    if max_size == 0 {
-        return;
-    }
-    let mut label = vec![0u32; w * h];
-    let mut small = vec![false; 1];
-    let mut stack = Vec::new();
-    let mut region = Vec::new();
-    for start in 0..w * h {
-        if label[start] != 0 || disp[start].is_nan() {
-            continue;
-        }
-        let id = small.len() as u32;
-        label[start] = id;
-        stack.push(start);
-        region.clear();
-        while let Some(p) = stack.pop() {
-            region.push(p);
-            let (x, y) = (p % w, p / w);
-            let d = disp[p];
-            let mut visit = |q: usize| {
-                if label[q] == 0 && !disp[q].is_nan() && (disp[q] - d).abs() <= max_diff {
-                    label[q] = id;
-                    stack.push(q);
-                }
-            };
-            if x > 0 {
-                visit(p - 1);
-            }
-            if x + 1 < w {
-                visit(p + 1);
-            }
-            if y > 0 {
-                visit(p - w);
-            }
-            if y + 1 < h {
-                visit(p + w);
-            }
-        }
-        small.push(region.len() <= max_size);
-    }
-    for (d, &l) in disp.iter_mut().zip(&label) {
-        if l != 0 && small[l as usize] {
-            *d = f32::NAN;
-        }
-    }
-}
-
 /// The whole matcher: disparity indices of the left image (NaN where none).
 pub(crate) fn match_pair(pair: &RectifiedPair, params: &SgmParams) -> Vec<f32> {
     let (cw, ch) = (params.census_width as usize, params.census_height as usize);
-    let avx2 = Avx2::detect();
-    let cost = cost_volume(pair, cw, ch, avx2);
-    let mut disp = aggregate_and_pick(&cost, pair, params, avx2);
-    drop(cost);
+    let simd = SgmSimd::detect();
+    let codes = pair_census(pair, cw, ch, simd);
+    let mut disp = aggregate_and_pick(&codes, pair, params, simd);
+    drop(codes);
     filter_speckles(
         &mut disp,
         pair.width,

@@ -17,12 +17,14 @@
 //! and COLMAP's files follow unchanged. Integer aggregation and a fixed
 //! order: the same inputs give the same bytes for any thread count.
 
+mod costs;
 pub(crate) mod matching;
 pub(crate) mod rectify;
 #[cfg(test)]
 mod reference;
 #[cfg(test)]
 mod tests;
+mod winners;
 
 use std::fmt::Write as _;
 
@@ -89,8 +91,9 @@ pub struct SgmParams {
     /// belong to one region.
     pub speckle_range: f32,
     /// Most disparities a pair may search; a depth range that needs more
-    /// is refused (narrow it, or raise this: memory is width x height x
-    /// disparities x 3 bytes).
+    /// is refused (narrow it, or raise this: memory is up to width x
+    /// height x disparities x 2 bytes, about half that when both sweeps
+    /// run at once).
     pub max_disparities: u32,
     /// Multi-baseline fusion: pairs whose depths must agree before a pixel
     /// keeps one (fewer when fewer pairs gave a depth there).
@@ -443,9 +446,10 @@ fn fuse_pixel(depths: &mut Vec<f32>, min_agree: usize, tol: f32) -> Option<f32> 
 /// no NCC to report.
 ///
 /// # Performance
-/// Per pair: the rectified width x height x disparities cells are each
-/// touched once by the census cost and once per path; memory is 3 bytes
-/// per cell.
+/// Per pair: the rectified width x height x disparities cells each get
+/// their census cost once per sweep (two sweeps) and one step per path;
+/// memory is at most 2 bytes per cell (the sums one sweep leaves for the
+/// other), about 1 when both sweeps run side by side.
 pub fn semi_global(
     views: &[View],
     reference: usize,

@@ -305,18 +305,26 @@ fn fast_matcher_equals_the_reference_bit_for_bit() {
     // The fused passes, the vectorised census, the row costs and the
     // shortened uniqueness test against the straightforward matcher, with
     // and without AVX2 code generation, for 4 and 8 paths.
-    let avx2 = crate::simd::Avx2::detect();
-    for (w, h, nd) in [(37, 23, 1), (37, 23, 5), (41, 19, 16), (53, 17, 61)] {
+    let levels = crate::simd::SgmSimd::levels();
+    for (w, h, nd) in [
+        (37, 23, 1),
+        (37, 23, 5),
+        (41, 19, 16),
+        (53, 17, 61),
+        (150, 9, 130),
+    ] {
         let pair = odd_pair(w, h, nd);
         for (cw, ch) in [(9, 7), (3, 3)] {
             let slow = super::reference::census(&pair.left, w, h, cw, ch);
-            assert_eq!(
-                matching::census(&pair.left, w, h, cw, ch),
-                slow,
-                "census {cw}x{ch}"
-            );
+            for &simd in &levels {
+                assert_eq!(
+                    matching::census(&pair.left, w, h, cw, ch, simd),
+                    slow,
+                    "census {cw}x{ch}, {simd:?}"
+                );
+            }
             let cost = super::reference::cost_volume(&pair, cw, ch);
-            for simd in [None, avx2] {
+            for &simd in &levels {
                 assert_eq!(
                     matching::cost_volume(&pair, cw, ch, simd),
                     cost,
@@ -332,21 +340,17 @@ fn fast_matcher_equals_the_reference_bit_for_bit() {
                 };
                 let sum = super::reference::aggregate(&cost, w, h, nd, &params);
                 let want = super::reference::winners(&sum, &pair, &params);
-                for simd in [None, avx2] {
-                    let (f, b) = matching::aggregate(&cost, w, h, nd, &params, simd);
+                for &simd in &levels {
+                    let (f, b) = matching::aggregate(&pair, &params, simd);
                     let got: Vec<u16> = f.iter().zip(&b).map(|(a, b)| a + b).collect();
-                    assert_eq!(
-                        got,
-                        sum,
-                        "{w}x{h}x{nd}, {paths} paths, AVX2 {}",
-                        simd.is_some()
-                    );
-                    let disp = matching::aggregate_and_pick(&cost, &pair, &params, simd);
+                    assert_eq!(got, sum, "{w}x{h}x{nd}, {paths} paths, {simd:?}");
+                    let codes = matching::pair_census(&pair, cw, ch, simd);
+                    let disp = matching::aggregate_and_pick(&codes, &pair, &params, simd);
                     let bits = |d: &[f32]| d.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
                     assert_eq!(
                         bits(&disp),
                         bits(&want),
-                        "winners {w}x{h}x{nd}, {paths} paths"
+                        "winners {w}x{h}x{nd}, {paths} paths, {simd:?}"
                     );
                 }
             }
@@ -367,6 +371,37 @@ fn speckles_are_removed_and_large_regions_kept() {
     matching::filter_speckles(&mut disp, w, h, 10, 2.0);
     assert!(disp[5 * w + 5].is_nan());
     assert_eq!(disp.iter().filter(|d| d.is_nan()).count(), 9);
+}
+
+#[test]
+fn speckle_regions_do_not_depend_on_the_bands() {
+    // Steps, islands, NaN holes and regions crossing every band boundary:
+    // the banded filter must drop exactly what one fill over the image
+    // drops.
+    let (w, h) = (61, 47);
+    let disp: Vec<f32> = (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            let v = noise(&Point3::new(x as f64, y as f64, 0.0), 3.0, 7) as f32;
+            if (i * 2_654_435_761) % 13 == 0 {
+                f32::NAN
+            } else {
+                (v * 12.0).floor() + if (x / 9 + y / 4) % 3 == 0 { 0.5 } else { 0.0 }
+            }
+        })
+        .collect();
+    let run = |bands: usize| {
+        let mut d = disp.clone();
+        super::winners::filter_speckles_in_bands(&mut d, w, h, 30, 1.0, bands);
+        d.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+    };
+    let one = run(1);
+    let dropped = one.iter().filter(|&&b| f32::from_bits(b).is_nan()).count();
+    let holes = disp.iter().filter(|d| d.is_nan()).count();
+    assert!(dropped > holes + 100, "{dropped} NaN after, {holes} before");
+    for bands in [2, 3, 5, 47] {
+        assert_eq!(run(bands), one, "{bands} bands");
+    }
 }
 
 #[test]
@@ -451,5 +486,75 @@ fn share_within_2px_by_angle() {
         let map = semi_global(&views, 0, &[1], &sgm_params()).unwrap();
         let share = share_within_2px(&views, &truth, &map.depth);
         eprintln!("{angle:>4} deg: {:5.1} % within 2 px", 100.0 * share);
+    }
+}
+
+/// FNV-1a over the bits of some floats: a fingerprint of a map.
+fn fingerprint(values: &[f32]) -> u64 {
+    values.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, v| {
+        v.to_bits()
+            .to_le_bytes()
+            .iter()
+            .fold(h, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
+    })
+}
+
+#[test]
+fn matcher_output_is_unchanged_on_rendered_pairs() {
+    // The fingerprints of the rectified disparities and the depth maps of
+    // rendered pairs at 6, 20 and 40 deg as the matcher of main at
+    // fb2517a gave them: speed work must keep the output bit for bit (an
+    // experiment runs on it). 8 paths, then 4.
+    let want: [(f64, u32, u64, u64); 4] = [
+        (
+            6.0,
+            8,
+            15_871_701_304_665_511_502,
+            1_671_584_222_374_675_444,
+        ),
+        (
+            20.0,
+            8,
+            16_929_882_162_016_639_626,
+            4_498_242_444_053_606_316,
+        ),
+        (
+            40.0,
+            8,
+            13_183_053_221_867_756_185,
+            18_061_260_326_952_175_045,
+        ),
+        (
+            20.0,
+            4,
+            3_692_441_193_510_678_281,
+            5_360_474_123_287_757_051,
+        ),
+    ];
+    let mut got = Vec::new();
+    for &(angle, paths, _, _) in &want {
+        let (views, _) = views(&cameras(2, angle, (200, 150)));
+        let mut params = sgm_params();
+        params.sgm.paths = paths;
+        params.sgm.max_disparities = 1024;
+        let (rv, sv) = (&views[0], &views[1]);
+        let rect = Rectification::new(&rv.camera, &sv.camera, rv.depth_range, 1024).unwrap();
+        let (left, left_valid) = rect.resample(&rv.camera, &rv.grey, false);
+        let (right, right_valid) = rect.resample(&sv.camera, &sv.grey, true);
+        let pair = RectifiedPair {
+            width: rect.width,
+            height: rect.height,
+            left,
+            left_valid,
+            right,
+            right_valid,
+            n_disp: rect.n_disp,
+        };
+        let disp = matching::match_pair(&pair, &params.sgm);
+        let depth = semi_global(&views, 0, &[1], &params).unwrap().depth;
+        got.push((angle, paths, fingerprint(&disp), fingerprint(&depth)));
+    }
+    for (g, w) in got.iter().zip(&want) {
+        assert_eq!(g, w, "all: {got:?}");
     }
 }

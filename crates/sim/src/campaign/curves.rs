@@ -88,6 +88,28 @@ impl CurveAccumulator {
         }
     }
 
+    /// What was measured, one row per material and bin with pixels, tagged
+    /// with `site` (an accumulator per site gives the per-site rows).
+    pub fn measured_rows(&self, site: u64) -> Vec<super::angle_fall::SiteSuccess> {
+        Material::ALL
+            .iter()
+            .zip(&self.measured)
+            .flat_map(|(&material, per_bin)| {
+                per_bin
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, b)| b.1 > 0)
+                    .map(move |(bin, b)| super::angle_fall::SiteSuccess {
+                        site,
+                        material,
+                        bin,
+                        visible: b.1,
+                        reconstructed: b.0,
+                    })
+            })
+            .collect()
+    }
+
     /// The curves of every material with learned samples.
     pub fn curves(&self) -> Vec<ConfidenceCurve> {
         let centres: Vec<f64> = (0..self.bins.len())

@@ -28,6 +28,7 @@ use vp_scene::outdir::OutDir;
 use vp_scene::raster::Label;
 use vp_scene::{Material, SceneError};
 
+use super::angle_fall::{self, angle_fall, AngleFall, SiteSuccess};
 use super::curves::CurveAccumulator;
 use super::reconstruct::truly_positive;
 use super::training::{label_site, LabelledView, TrainingStats};
@@ -76,7 +77,17 @@ pub struct ForestEvaluation {
     pub folds: Vec<(String, u64, Tally)>,
     /// Labelling statistics of all sites.
     pub stats: TrainingStats,
+    /// The matcher's measured success per site, material and angle bin.
+    pub success: Vec<SiteSuccess>,
+    /// Its fall from 5-15 to 35-45 deg on ground and rock (stop rule G1).
+    pub fall: Option<AngleFall>,
 }
+
+/// The narrow and wide angle ranges of the stop rule G1, degrees, and its
+/// materials (the paper's SURE curve falls there on its rock and ground).
+const G1_NARROW: (f32, f32) = (5.0, 15.0);
+const G1_WIDE: (f32, f32) = (35.0, 45.0);
+const G1_MATERIALS: [Material; 2] = [Material::Ground, Material::Rock];
 
 /// Running sums over labelled pixels.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -126,8 +137,8 @@ impl Tally {
 }
 
 /// `vpctl sim evaluate`: evaluates the campaign of the config file `config`
-/// ([`evaluate_forest`]) and writes `out/forest_eval.csv` and
-/// `out/summary.txt` (the output folder rules of [`OutDir`]; nothing is
+/// ([`evaluate_forest`]) and writes `out/forest_eval.csv`,
+/// `out/angle_success.csv` and `out/summary.txt` (the output folder rules of [`OutDir`]; nothing is
 /// written when the evaluation fails).
 pub fn evaluate_to_dir(
     config: &Path,
@@ -145,8 +156,14 @@ pub fn evaluate_to_dir(
         e => e,
     })?;
     dir.write(|stage| -> Result<()> {
+        let matcher = format!("{:?}", cfg.mvs).to_lowercase();
+        let bins = &cfg.training.forest.bins;
         for (name, text) in [
             ("forest_eval.csv", eval.csv()),
+            (
+                "angle_success.csv",
+                angle_fall::csv(&matcher, &eval.success, bins),
+            ),
             ("summary.txt", eval.summary()),
         ] {
             let p = stage.join(name);
@@ -176,17 +193,29 @@ pub fn evaluate_forest(
             t.site_seeds.len()
         )));
     }
-    let mut curves = CurveAccumulator::new(t.forest.bins.clone());
     let mut stats = TrainingStats::default();
     let mut sites = Vec::with_capacity(t.site_seeds.len());
+    let mut success = Vec::new();
     for &seed in &t.site_seeds {
+        let mut curves = CurveAccumulator::new(t.forest.bins.clone());
         sites.push(label_site(cfg, seed, &mut stats, &mut curves, progress)?);
+        success.extend(curves.measured_rows(seed));
     }
     let bins = &t.forest.bins;
+    let fall = angle_fall(
+        &success,
+        bins,
+        &G1_MATERIALS,
+        G1_NARROW,
+        G1_WIDE,
+        mix64(cfg.seed ^ 0x0067_3166_616c),
+    );
     let k_sigma = t.labels.k_sigma as f32;
     let matcher = format!("{:?}", cfg.mvs).to_lowercase();
     let mut out = ForestEvaluation {
         stats,
+        success,
+        fall,
         ..ForestEvaluation::default()
     };
     let own = [(t.forest.n_trees, t.forest.max_depth)];
@@ -391,6 +420,9 @@ impl ForestEvaluation {
                 all.brier_skill(),
                 100.0 * all.share(all.positive.max(all.n - all.positive)),
             );
+        }
+        if let Some(f) = &self.fall {
+            out.push_str(&f.summary());
         }
         out
     }

@@ -24,6 +24,7 @@
 //! `docs/campaign-findings.md` keeps what the experiment found.
 
 pub mod acquired;
+pub mod angle_fall;
 pub mod crash;
 pub mod curves;
 mod depth_maps;

@@ -21,7 +21,7 @@ use super::site::{fly_with_error, image_id, name_hash, with_home, SiteRun, MESH_
 use crate::config::CampaignConfig;
 use crate::config::Strategy;
 use crate::error::{Result, SimError};
-use crate::gnss::{camera_through, mesh_through};
+use crate::gnss::{aabb_through, camera_through, mesh_through};
 use crate::sfm::sfm_cameras;
 use crate::world::{Acquired, World};
 use vp_scene::hash::mix64;
@@ -177,7 +177,11 @@ fn plan_iteration(
 ) -> Result<(vp_planner::PlanResult, vp_scene::Mesh)> {
     // The planner sees the model in its georeferenced frame.
     let g = &known.georef;
-    let seen = known.sfm.planning_mesh(cfg)?;
+    let seen = if cfg.flight_error.plan_on_true_surface {
+        world.site.mesh.clone()
+    } else {
+        known.sfm.planning_mesh(cfg)?
+    };
     let mesh = mesh_through(g, &seen);
     let views: Vec<AcquiredView> = known
         .acquired
@@ -210,7 +214,9 @@ fn plan_iteration(
     let inputs = PlanInputs {
         mesh: &mesh,
         acquired: &views,
-        roi: RoiSpec::Region(Roi::from_aabb(&world.roi)),
+        // The region as drawn on the georeferenced model (the truth's box
+        // would sit off the model by the georeference error).
+        roi: RoiSpec::Region(Roi::from_aabb(&aabb_through(g, &world.roi))),
         config: &pc,
         origin: Some(world.site.origin),
         observations: Some(&observations),

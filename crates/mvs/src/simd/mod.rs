@@ -28,11 +28,18 @@
 //! `#[target_feature]` function, under the same detected token (and a
 //! detected `popcnt`); the operations are integer and identical, so the
 //! results are the scalar ones (tested in `sgm/tests.rs`).
+//! Those, the AVX-512 copies (F, BW, VL, VPOPCNTDQ, runtime-detected as
+//! a second token, [`sgm::Avx512`]) and the matcher's two intrinsics
+//! kernels live in `simd/sgm.rs` under the same rules; [`SgmSimd`] picks
+//! the widest level the CPU has.
 #![allow(unsafe_code)]
 // Off x86-64 the token is never made and the window's fields never read.
 #![cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 
 use crate::cost::CHUNK;
+
+mod sgm;
+pub(crate) use sgm::SgmSimd;
 
 /// Proof that the running CPU has AVX2 (only [`Avx2::detect`] makes one).
 #[derive(Debug, Clone, Copy)]
@@ -102,80 +109,10 @@ impl Avx2 {
     }
 }
 
-impl Avx2 {
-    /// `sgm::matching::pass_row` with AVX2 code generation: the same result.
-    #[allow(clippy::unused_self)] // `self` is the proof that AVX2 is there
-    pub(crate) fn sgm_pass_row(
-        self,
-        job: &crate::sgm::matching::RowPass,
-        st: &mut crate::sgm::matching::PassState,
-        out: &mut [u16],
-    ) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            // SAFETY: `self` exists only if `detect` found AVX2 on this CPU,
-            // the one feature `x86::sgm_pass_row` is compiled for; its body
-            // is safe code.
-            unsafe { x86::sgm_pass_row(job, st, out) }
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            let _ = self;
-            crate::sgm::matching::pass_row(job, st, out);
-        }
-    }
-
-    /// `sgm::matching::winner_row` with AVX2 code generation: the same result.
-    #[allow(clippy::unused_self)] // `self` is the proof that AVX2 is there
-    pub(crate) fn sgm_winner_row(
-        self,
-        row: &[u16],
-        y: usize,
-        pair: &crate::sgm::matching::RectifiedPair,
-        params: &crate::sgm::SgmParams,
-        out: &mut [f32],
-    ) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            // SAFETY: `self` exists only if `detect` found AVX2 on this CPU,
-            // the one feature `x86::sgm_winner_row` is compiled for; its
-            // body is safe code.
-            unsafe { x86::sgm_winner_row(row, y, pair, params, out) }
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            let _ = self;
-            crate::sgm::matching::winner_row(row, y, pair, params, out);
-        }
-    }
-
-    /// `sgm::matching::cost_row` with AVX2 and, when the CPU has it,
-    /// `popcnt` code generation: the same result.
-    #[allow(clippy::unused_self)] // `self` is the proof that AVX2 is there
-    pub(crate) fn sgm_cost_row(
-        self,
-        cl: &[u64],
-        cr: &[u64],
-        left_valid: &[bool],
-        right_valid: &[bool],
-        n_bits: u8,
-        out: &mut [u8],
-    ) {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("popcnt") {
-            // SAFETY: `self` proves AVX2 and the line above `popcnt`, the
-            // two features `x86::sgm_cost_row` is compiled for; its body is
-            // safe code.
-            unsafe { x86::sgm_cost_row(cl, cr, left_valid, right_valid, n_bits, out) };
-            return;
-        }
-        let _ = self;
-        crate::sgm::matching::cost_row(cl, cr, left_valid, right_valid, n_bits, out);
-    }
-}
-
 #[cfg(target_arch = "x86_64")]
 mod x86 {
+    use super::FullWindow;
+    use crate::cost::CHUNK;
     use std::arch::x86_64::{
         __m256, __m256i, _mm256_add_epi32, _mm256_add_ps, _mm256_and_ps, _mm256_blendv_ps,
         _mm256_castpd_ps, _mm256_castps_si256, _mm256_castsi256_ps, _mm256_castsi256_si128,
@@ -186,9 +123,6 @@ mod x86 {
         _mm256_storeu_ps, _mm256_sub_epi32, _mm256_sub_ps, _mm_add_epi32, _mm_set1_epi32,
         _CMP_GT_OQ,
     };
-
-    use super::FullWindow;
-    use crate::cost::CHUNK;
 
     /// Eight floats from a bounds-checked array.
     #[inline]
@@ -224,43 +158,6 @@ mod x86 {
         let i = _mm256_add_epi32(bits, _mm256_castps_si256(up));
         let f = _mm256_blendv_ps(r, _mm256_sub_ps(r, _mm256_set1_ps(1.0)), up);
         (f, i)
-    }
-
-    /// The safe scalar row of a pass, inlined here and so compiled for AVX2.
-    #[target_feature(enable = "avx2")]
-    pub(super) fn sgm_pass_row(
-        job: &crate::sgm::matching::RowPass,
-        st: &mut crate::sgm::matching::PassState,
-        out: &mut [u16],
-    ) {
-        crate::sgm::matching::pass_row(job, st, out);
-    }
-
-    /// The safe scalar winners of a row, inlined here and so compiled for
-    /// AVX2.
-    #[target_feature(enable = "avx2")]
-    pub(super) fn sgm_winner_row(
-        row: &[u16],
-        y: usize,
-        pair: &crate::sgm::matching::RectifiedPair,
-        params: &crate::sgm::SgmParams,
-        out: &mut [f32],
-    ) {
-        crate::sgm::matching::winner_row(row, y, pair, params, out);
-    }
-
-    /// The safe scalar cost row, inlined here and so compiled for AVX2 and
-    /// `popcnt`.
-    #[target_feature(enable = "avx2,popcnt")]
-    pub(super) fn sgm_cost_row(
-        cl: &[u64],
-        cr: &[u64],
-        left_valid: &[bool],
-        right_valid: &[bool],
-        n_bits: u8,
-        out: &mut [u8],
-    ) {
-        crate::sgm::matching::cost_row(cl, cr, left_valid, right_valid, n_bits, out);
     }
 
     /// See [`super::Avx2::sums_full`]; the caller checked the shapes.
