@@ -11,7 +11,7 @@ use vpctl_suite::scene::procedural::{generate_site, SiteParams};
 use vpctl_suite::scene::raster::Label;
 use vpctl_suite::scene::raycast::RayCaster;
 use vpctl_suite::scene::Material;
-use vpctl_suite::sim::mvs::{level_camera, PixelStatus, PixelTruth};
+use vpctl_suite::sim::virtual_mvs::{level_camera, PixelStatus, PixelTruth};
 use vpctl_suite::sim::{MvsProfile, VirtualMvs};
 
 /// Reconstructions of ring triplets around the rock, with the per-pixel truth.
@@ -63,7 +63,7 @@ fn simulate(mesh_seed: u64) -> (vpctl_suite::scene::Mesh, Simulated) {
                 )
                 .unwrap();
             let [v0, v1, v2] = views;
-            let view = |i: usize, v: &vpctl_suite::sim::mvs::MvsView| View {
+            let view = |i: usize, v: &vpctl_suite::sim::virtual_mvs::MvsView| View {
                 name: format!("img{:02}", ids[i]),
                 camera: level_camera(&cams[ids[i]], level).unwrap(),
                 depth: v.depth.clone(),

@@ -65,7 +65,7 @@ fn mvs_run_writes_colmap_layout_and_refuses_bad_input() {
     assert!(o.status.success(), "{}", stderr(&o));
     let defaults = stdout(&o);
     assert!(defaults.contains("# Geometric filter"), "{defaults}");
-    let parsed = vp_mvs::MvsParams::from_toml(Path::new("defaults"), &defaults).unwrap();
+    let parsed = vp_mvs::MvsParams::from_toml(&defaults, Path::new("defaults")).unwrap();
     assert_eq!(parsed, vp_mvs::MvsParams::default());
 
     let dir = tempfile::tempdir().unwrap();

@@ -198,8 +198,10 @@ impl MvsParams {
         self.window_offsets().len()
     }
 
-    /// Parses a TOML config (missing fields take defaults) and validates it.
-    pub fn from_toml(path: &std::path::Path, text: &str) -> Result<Self> {
+    /// Parses a TOML config (missing fields take defaults) and validates it;
+    /// `path` names the file in errors (the argument order of every vpctl
+    /// config reader: the text, then where it came from).
+    pub fn from_toml(text: &str, path: &std::path::Path) -> Result<Self> {
         // The one reader of every vpctl config: file, line, column, and the
         // valid keys when a key is unknown.
         let p: MvsParams = vp_scene::config_file::parse_toml(text, path)?;
@@ -266,17 +268,17 @@ mod tests {
     #[test]
     fn defaults_toml_round_trips_and_validates() {
         let text = MvsParams::defaults_toml();
-        let p = MvsParams::from_toml(std::path::Path::new("mvs.toml"), &text).unwrap();
+        let p = MvsParams::from_toml(&text, std::path::Path::new("mvs.toml")).unwrap();
         assert_eq!(p, MvsParams::default());
         assert_eq!(p.window_offsets(), vec![-5, -3, -1, 1, 3, 5]);
     }
 
     #[test]
     fn bad_config_names_file_and_field() {
-        let e = MvsParams::from_toml(std::path::Path::new("m.toml"), "min_ncc = 3.0").unwrap_err();
+        let e = MvsParams::from_toml("min_ncc = 3.0", std::path::Path::new("m.toml")).unwrap_err();
         assert!(e.to_string().starts_with("m.toml: "), "{e}");
         assert!(e.to_string().contains("min_ncc"), "{e}");
-        let e = MvsParams::from_toml(std::path::Path::new("m.toml"), "\nbogus = 1").unwrap_err();
+        let e = MvsParams::from_toml("\nbogus = 1", std::path::Path::new("m.toml")).unwrap_err();
         let m = e.to_string();
         assert!(
             m.starts_with("m.toml: line 2: column 1: unknown field `bogus`, expected one of"),

@@ -6,7 +6,7 @@
 //! The world is a campaign's site ([`CampaignConfig::site`], its own seed);
 //! the camera is the campaign's `planner.camera`; the lighting its `render`
 //! section. Poses and points are what the campaign's simulated SfM gives
-//! ([`world::sfm_camera`], [`world::point_noise`] with `sfm` noise), or
+//! ([`crate::sfm::sfm_camera`], [`crate::sfm::point_noise`] with `sfm` noise), or
 //! exact. The sparse points are surface points (face centroids, thinned to
 //! at most [`FlyOptions::max_points`]) that at least `sfm.min_views` images
 //! see, each with its track, as SfM triangulates them.
@@ -22,10 +22,11 @@ use vp_scene::plan::Plan;
 use vp_scene::raster::{save_rgb, RgbImage};
 use vp_scene::{Camera, SceneError};
 
-use crate::campaign::world::{point_noise, sfm_camera, World};
-use crate::campaign::CampaignConfig;
+use crate::config::CampaignConfig;
 use crate::error::{Result, SimError};
 use crate::render::render;
+use crate::sfm::{point_noise, sfm_camera};
+use crate::world::World;
 use vp_scene::hash::mix64;
 
 /// Options of [`fly`].

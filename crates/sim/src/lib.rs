@@ -4,16 +4,20 @@
 //!   per-material solid textures, sun shading, shadows and sensor noise,
 //!   plus exact depth and face ids. vp-mvs matches these images in every
 //!   campaign; nothing decides its success but the images.
-//! - [`mvs::triplet_truth`]: per pixel of a triplet, what the renderer knows
+//! - [`virtual_mvs::triplet_truth`]: per pixel of a triplet, what the renderer knows
 //!   (visibility in all three views, triangulation angle, first-order depth
 //!   sigma), the truth vp-mvs's output is measured against.
-//! - [`mvs::VirtualMvs`]: a fast stand-in for unit tests (`mvs = "virtual"`):
+//! - [`virtual_mvs::VirtualMvs`]: a fast stand-in for unit tests (`mvs = "virtual"`):
 //!   one depth map per image of a camera triplet, failing
 //!   with a probability that depends on material, triangulation angle and
-//!   resolution ([`mvs::MvsProfile`]: SURE-like and PMVS-like presets), in
+//!   resolution ([`virtual_mvs::MvsProfile`]: SURE-like and PMVS-like presets), in
 //!   spatially coherent blobs, with depth noise from the triplet's first-order
 //!   3D uncertainty and a share of outliers.
 //!
+//! - [`config`]: what a run is asked to do ([`config::CampaignConfig`],
+//!   TOML-loadable, with presets); [`world`]: the procedural site with its
+//!   ray caster, clearance and ROI; [`sfm`]: the one SfM simulator (the
+//!   poses and sparse points a user's SfM would give of rendered images).
 //! - [`flight::fly`]: a plan flown in the simulated world: its images and
 //!   the COLMAP model SfM would give (`vpctl sim fly`).
 //! - [`gnss`]: the position error of a flight (GNSS bias and noise,
@@ -29,13 +33,16 @@
 #![deny(clippy::print_stderr, clippy::print_stdout)]
 
 pub mod campaign;
+pub mod config;
 pub mod error;
 pub mod flight;
 pub mod gnss;
-pub mod mvs;
 pub mod noise;
 pub mod render;
+pub mod sfm;
 pub mod texture;
+pub mod virtual_mvs;
+pub mod world;
 
 #[cfg(test)]
 mod render_tests;
@@ -43,5 +50,5 @@ mod render_tests;
 mod test_scenes;
 
 pub use error::{Result, SimError};
-pub use mvs::{MaterialCurve, MvsProfile, VirtualMvs};
 pub use render::{look_at_camera, material_shares, render, RenderParams, Rendered};
+pub use virtual_mvs::{MaterialCurve, MvsProfile, VirtualMvs};

@@ -98,7 +98,7 @@ pub fn run(cmd: MvsCommand, out: &mut dyn Write) -> Result<()> {
                 Some(path) => {
                     let text = std::fs::read_to_string(path)
                         .with_context(|| format!("{}: cannot read config", path.display()))?;
-                    MvsParams::from_toml(path, &text)?
+                    MvsParams::from_toml(&text, path)?
                 }
                 None => MvsParams::default(),
             };

@@ -461,17 +461,17 @@ fn fuse_pixel_keeps_the_agreeing_median() {
 fn sgm_table_round_trips_and_unknown_keys_are_refused() {
     let text = MvsParams::defaults_toml();
     assert!(text.contains("\n[sgm]\n"), "{text}");
-    let p = MvsParams::from_toml(std::path::Path::new("m.toml"), &text).unwrap();
+    let p = MvsParams::from_toml(&text, std::path::Path::new("m.toml")).unwrap();
     assert_eq!(p, MvsParams::default());
     let p = MvsParams::from_toml(
-        std::path::Path::new("m.toml"),
         "algorithm = \"sgm\"\n[sgm]\npaths = 4\n",
+        std::path::Path::new("m.toml"),
     )
     .unwrap();
     assert_eq!((p.algorithm, p.sgm.paths), (Algorithm::Sgm, 4));
-    let e = MvsParams::from_toml(std::path::Path::new("m.toml"), "[sgm]\nbogus = 1\n").unwrap_err();
+    let e = MvsParams::from_toml("[sgm]\nbogus = 1\n", std::path::Path::new("m.toml")).unwrap_err();
     assert!(e.to_string().contains("unknown field `bogus`"), "{e}");
-    let e = MvsParams::from_toml(std::path::Path::new("m.toml"), "[sgm]\npaths = 5\n").unwrap_err();
+    let e = MvsParams::from_toml("[sgm]\npaths = 5\n", std::path::Path::new("m.toml")).unwrap_err();
     assert!(e.to_string().contains("sgm.paths = 5"), "{e}");
 }
 

@@ -25,10 +25,10 @@ use vp_scene::colmap::DepthMap;
 use vp_scene::mesh_ops::{split_faces, submesh};
 use vp_scene::{Camera, Material};
 
-use super::config::CampaignConfig;
-use super::fly::Flown;
-use super::world::{roi_faces, World};
+use super::reconstruct::Flown;
+use crate::config::CampaignConfig;
 use crate::error::Result;
+use crate::world::{roi_faces, World};
 
 /// The split ROI faces of the true mesh.
 pub struct EvalMesh {

@@ -29,10 +29,10 @@ use vp_scene::raster::Label;
 use vp_scene::{Material, SceneError};
 
 use super::angle_fall::{self, angle_fall, AngleFall, SiteSuccess};
-use super::config::CampaignConfig;
 use super::curves::CurveAccumulator;
-use super::fly::truly_positive;
+use super::reconstruct::truly_positive;
 use super::training::{label_site, LabelledView, TrainingStats};
+use crate::config::CampaignConfig;
 use crate::error::{Result, SimError};
 use vp_scene::hash::mix64;
 

@@ -4,8 +4,8 @@
 use serde::Serialize;
 use vp_scene::Material;
 
-use super::config::MatchingGate;
-use crate::mvs::{PixelStatus, PixelTruth};
+use crate::config::MatchingGate;
+use crate::virtual_mvs::{PixelStatus, PixelTruth};
 
 /// What the gate saw of one triplet (virtual MVS only).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]

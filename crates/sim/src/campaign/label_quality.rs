@@ -14,8 +14,8 @@ use serde::Serialize;
 use vp_scene::raster::{Label, LabelImage};
 use vp_scene::Material;
 
-use super::fly::truly_positive;
-use crate::mvs::{PixelStatus, PixelTruth};
+use super::reconstruct::truly_positive;
+use crate::virtual_mvs::{PixelStatus, PixelTruth};
 
 /// Counts of one material.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]

@@ -25,40 +25,34 @@
 
 pub mod acquired;
 pub mod angle_fall;
-pub mod config;
 pub mod crash;
 pub mod curves;
 mod depth_maps;
 pub mod eval;
 pub mod evaluate;
-pub mod f_vs_np;
-pub mod features;
-pub mod fly;
 mod gate;
-pub mod html;
+pub mod images;
 pub mod label_quality;
-pub mod plot;
-mod presets;
+pub mod reconstruct;
 pub mod report;
 mod run;
-pub mod scene;
-pub mod sfm;
-pub mod strategies;
+pub mod seen;
+mod site;
 mod strategy_run;
-mod svg;
 pub mod training;
-pub mod world;
 
-pub use config::{
-    CampaignConfig, EvalConfig, GridBaseline, InitFlight, MatchingGate, SfmConfig, TrainingConfig,
+// The configuration lives at the crate root (`crate::config`, shared with
+// `vpctl sim fly`); its old paths under `campaign` stay valid.
+pub use crate::config;
+pub use crate::config::{
+    CampaignConfig, EvalConfig, GridBaseline, InitFlight, MatchingGate, MvsKind, SfmConfig,
+    Strategy, TrainingConfig, PRESETS,
 };
 pub use curves::ConfidenceCurve;
 pub use eval::Scores;
 pub use evaluate::{evaluate_forest, evaluate_to_dir, ForestEvaluation};
-pub use fly::MvsKind;
 pub use label_quality::LabelQuality;
-pub use presets::PRESETS;
+pub use report::{f_vs_np, html, plot, scene};
 pub use report::{write_report, CampaignReport, SiteResult, TableRow};
 pub use run::{run_campaign, run_campaign_trained, run_campaign_with_forest};
-pub use strategies::Strategy;
 pub use training::{train_forest, train_forest_with_stats, TrainingStats};

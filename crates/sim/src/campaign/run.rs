@@ -8,57 +8,43 @@ use vp_scene::plan::{Plan, Role};
 use vp_scene::{Aabb, Camera};
 
 use super::acquired::AcquiredModel;
-use super::config::CampaignConfig;
 use super::crash::PathCheck;
 use super::curves::CurveAccumulator;
 use super::eval::{evaluate, EvalMesh, Scores};
-use super::fly::{Flown, Matcher, MvsKind};
+use super::images::{acquire, init_cameras};
+use super::reconstruct::{Flown, Matcher};
 use super::report::{aggregate, CampaignReport, SiteArtifacts, SiteResult, StrategyArtifacts};
-use super::strategies::Strategy;
-use super::strategy_run::{check_path, run_strategy, Known};
+use super::site::{fly_with_error, image_id, SiteRun};
+use super::strategy_run::{run_strategy, Known};
 use super::training::train_forest_with_stats;
-use super::world::{acquire, init_cameras, sfm_cameras, World};
+use crate::config::CampaignConfig;
+use crate::config::MvsKind;
+use crate::config::Strategy;
 use crate::error::Result;
+use crate::sfm::sfm_cameras;
+use crate::world::World;
 use vp_scene::hash::mix64;
 
 /// Source tags of image ids: init, grid, then one per strategy.
 const SOURCE_INIT: u64 = 0;
 const SOURCE_GRID: u64 = 1;
-/// A true surface point counts as in the planning mesh within this, metres.
-pub(super) const MESH_TOLERANCE_M: f64 = 0.5;
-
-pub(super) fn image_id(source: u64, index: usize) -> u64 {
-    source << 32 | index as u64
-}
-
-/// Hash of a name, for seeds.
-pub(super) fn name_hash(s: &str) -> u64 {
-    s.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
-        (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3)
-    })
-}
-
 /// Flies a flight that is not a set of triplets (the initial images, the
 /// Grid): checks its path (waypoints in order, from its first) against the
 /// truth and reconstructs it with SfM's estimates `sfm` of its cameras:
 /// with vp-mvs as the paper's Grid, every image against its best
 /// overlapping neighbours; with the virtual MVS (triplets only), sliding
 /// triplets (i, i+1, i+2) along the flight in order.
-#[allow(clippy::too_many_arguments)]
 fn fly_flight(
-    world: &World,
-    matcher: &Matcher<'_>,
-    cfg: &CampaignConfig,
+    site: &mut SiteRun<'_>,
     (name, cams, sfm): (&str, &[Camera], &[Camera]),
     source: u64,
     seed: u64,
-    curves: &mut CurveAccumulator,
-    progress: &mut dyn FnMut(&str),
 ) -> Result<(Vec<Flown>, PathCheck)> {
+    let (world, matcher, cfg) = (site.world, site.matcher, site.cfg);
     let mut check = PathCheck::default();
     let path: Vec<Point3<f64>> = cams.iter().map(Camera::center).collect();
     let label = format!("site {} {name}", world.site.params.seed);
-    check_path(&mut check, world, cfg, (None, &path), &label, progress);
+    site.check_path(&mut check, (None, &path), &label);
     let scene = world.scene();
     let ids: Vec<u64> = (0..cams.len()).map(|i| image_id(source, i)).collect();
     // Real matchers reconstruct the whole image set, as a user's would;
@@ -68,12 +54,14 @@ fn fly_flight(
             .map(|i| {
                 matcher.fly_triplet(
                     &scene,
-                    [cams[i], cams[i + 1], cams[i + 2]],
-                    [sfm[i], sfm[i + 1], sfm[i + 2]],
+                    (
+                        [cams[i], cams[i + 1], cams[i + 2]],
+                        [sfm[i], sfm[i + 1], sfm[i + 2]],
+                    ),
                     [ids[i], ids[i + 1], ids[i + 2]],
                     &world.roi,
                     mix64(seed ^ mix64(source << 40 | i as u64)),
-                    curves,
+                    site.curves,
                 )
             })
             .collect::<Result<Vec<_>>>()?
@@ -81,29 +69,9 @@ fn fly_flight(
         matcher.image_set(&scene, (cams, sfm), &ids, &world.roi, mix64(seed ^ source))?
     };
     let tol = cfg.eval.depth_tolerance_m;
-    let site = world.site.params.seed;
-    progress(&flight_line(site, name, cams.len(), &flown, tol));
+    let site_seed = world.site.params.seed;
+    (site.progress)(&flight_line(site_seed, name, cams.len(), &flown, tol));
     Ok((flown, check))
-}
-
-/// `planned` flown with the vehicle's position error (a flight of its
-/// own, drawn with `seed`): the true cameras and their GNSS tags.
-pub(super) fn fly_with_error(
-    cfg: &CampaignConfig,
-    planned: &[Camera],
-    seed: u64,
-) -> (Vec<Camera>, Vec<Point3<f64>>) {
-    let path: Vec<Point3<f64>> = planned.iter().map(Camera::center).collect();
-    let m = &cfg.planner.mission;
-    let flown = cfg
-        .flight_error
-        .fly(&path, m.cruise_speed_m_s, m.hover_per_photo_s, mix64(seed));
-    let cams = planned
-        .iter()
-        .zip(&flown.truth)
-        .map(|(c, t)| crate::gnss::moved_to(c, t))
-        .collect();
-    (cams, flown.tagged)
 }
 
 /// The Grid baseline's cameras: nadir lawnmower over the ROI footprint plus margin.
@@ -148,18 +116,9 @@ fn plan_of(world: &World, cams: &[Camera], role: Role) -> Plan {
     p
 }
 
-/// `plan` with the simulated take-off point as its home (the missions of
-/// the report are exported from it).
-pub(super) fn with_home(plan: Plan, world: &World) -> Plan {
-    Plan {
-        home: Some(world.home()),
-        ..plan
-    }
-}
-
 /// One progress line for a flight reconstructed as a whole (Init, Grid).
 fn flight_line(seed: u64, name: &str, images: usize, flown: &[Flown], tolerance_m: f64) -> String {
-    let mut total = super::fly::OutputStats::default();
+    let mut total = super::reconstruct::OutputStats::default();
     for f in flown {
         total.pixels += f.stats.pixels;
         total.output += f.stats.output;
@@ -252,28 +211,28 @@ fn run_site(
     let sfm_seed = mix64(run_seed ^ 0x0073_666d);
     let init_sfm = sfm_cameras(&init_cams, cfg, sfm_seed);
     let init = acquire(&world, &init_cams, &init_sfm, Some(forest), cfg, curves)?;
-    let (init_flown, init_check) = fly_flight(
-        &world,
-        &matcher,
+    let mut site = SiteRun {
+        world: &world,
+        matcher: &matcher,
         cfg,
+        forest,
+        curves,
+        progress,
+    };
+    let (init_flown, init_check) = fly_flight(
+        &mut site,
         ("initial flight", &init_cams, &init_sfm),
         SOURCE_INIT,
         run_seed,
-        curves,
-        progress,
     )?;
     let known = Known::new(&world, cfg, init, &init_flown, sfm_seed, georef);
     let (grid_cams, _) = fly_with_error(cfg, &grid_cameras(&world, cfg)?, run_seed ^ 2);
     let grid_sfm = sfm_cameras(&grid_cams, cfg, sfm_seed);
     let (grid_flown, grid_check) = fly_flight(
-        &world,
-        &matcher,
-        cfg,
+        &mut site,
         ("Grid", &grid_cams, &grid_sfm),
         SOURCE_GRID,
         run_seed,
-        curves,
-        progress,
     )?;
 
     let mut scores: Vec<(String, Scores)> = Vec::new();
@@ -289,21 +248,10 @@ fn run_site(
     }
     let mut combos = Vec::new();
     for (i, st) in strategies.iter().enumerate() {
-        let run = run_strategy(
-            &world,
-            &matcher,
-            forest,
-            cfg,
-            st,
-            2 + i as u64,
-            &known,
-            keep_artifacts,
-            curves,
-            progress,
-        )?;
+        let run = run_strategy(&mut site, st, 2 + i as u64, &known, keep_artifacts)?;
         let (s, f) = evaluate(&em, &refs(&run.flown), cfg)?;
         let s = with_check(s, &run.check);
-        progress(&strategy_line(seed, &st.name, &s));
+        (site.progress)(&strategy_line(seed, &st.name, &s));
         scores.push((st.name.clone(), s));
         let mut union = refs(&grid_flown);
         union.extend(run.flown.iter());

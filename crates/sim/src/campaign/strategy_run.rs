@@ -5,7 +5,6 @@
 use std::collections::BTreeMap;
 
 use nalgebra::Point3;
-use vp_forest::Forest;
 use vp_planner::{plan, AcquiredView, PlanInputs, RoiSpec, SafetyConfig};
 use vp_scene::colmap::ModelFrame;
 use vp_scene::plan::{Plan, Role};
@@ -14,16 +13,17 @@ use vp_scene::sim3::Sim3;
 use vp_scene::Camera;
 
 use super::acquired::AcquiredModel;
-use super::config::CampaignConfig;
 use super::crash::PathCheck;
-use super::curves::CurveAccumulator;
-use super::fly::{Flown, Matcher};
-use super::run::{fly_with_error, image_id, name_hash, with_home, MESH_TOLERANCE_M};
-use super::sfm::SfmState;
-use super::strategies::Strategy;
-use super::world::{acquire, sfm_cameras, Acquired, World};
+use super::images::acquire;
+use super::reconstruct::Flown;
+use super::seen::SfmState;
+use super::site::{fly_with_error, image_id, name_hash, with_home, SiteRun, MESH_TOLERANCE_M};
+use crate::config::CampaignConfig;
+use crate::config::Strategy;
 use crate::error::{Result, SimError};
 use crate::gnss::{aabb_through, camera_through, mesh_through};
+use crate::sfm::sfm_cameras;
+use crate::world::{Acquired, World};
 use vp_scene::hash::mix64;
 
 /// Everything one triplet strategy produced on one site.
@@ -233,37 +233,15 @@ fn plan_iteration(
     Ok((result, seen))
 }
 
-/// Checks a flown path against the truth and says every violation loudly.
-pub(super) fn check_path(
-    check: &mut PathCheck,
-    world: &World,
-    cfg: &CampaignConfig,
-    (start, path): (Option<Point3<f64>>, &[Point3<f64>]),
-    label: &str,
-    progress: &mut dyn FnMut(&str),
-) {
-    let before = check.violations.len();
-    let safety_m = cfg.planner.safety_distance_m;
-    check.add(&world.clearance, safety_m, start, path, label);
-    for v in &check.violations[before..] {
-        progress(&format!("  SAFETY VIOLATION against the true mesh: {v}"));
-    }
-}
-
 /// Runs one triplet strategy from the initial flight.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn run_strategy(
-    world: &World,
-    matcher: &Matcher<'_>,
-    forest: &Forest,
-    cfg: &CampaignConfig,
+    site: &mut SiteRun<'_>,
     strategy: &Strategy,
     source: u64,
     init: &Known,
     keep_artifacts: bool,
-    curves: &mut CurveAccumulator,
-    progress: &mut dyn FnMut(&str),
 ) -> Result<StrategyRun> {
+    let (world, matcher, cfg, forest) = (site.world, site.matcher, site.cfg, site.forest);
     let site_seed = world.site.params.seed;
     let base = strategy_seed(cfg.seed, site_seed, strategy);
     let mut known = init.clone();
@@ -283,7 +261,7 @@ pub(super) fn run_strategy(
                 .push(known.model(world, cfg, &mesh, strategy.prediction)?);
         }
         let q = known.sfm.mesh_quality(world, cfg, &mesh, MESH_TOLERANCE_M);
-        progress(&format!(
+        (site.progress)(&format!(
             "  site {site_seed} {} iteration {}: planning mesh of {} faces, {:.2} m mean ({:.2} m 95th pct) from the truth, {:.0} % of the surface within {MESH_TOLERANCE_M} m, {} under canopies; {} dense points, {:.1} % farther than {MESH_TOLERANCE_M} m",
             strategy.name,
             it + 1,
@@ -301,14 +279,7 @@ pub(super) fn run_strategy(
         let (new_cams, _) = fly_with_error(cfg, &planned, base ^ 0x666c_7974 ^ it as u64);
         let path: Vec<Point3<f64>> = new_cams.iter().map(Camera::center).collect();
         let label = format!("site {site_seed} {} iteration {}", strategy.name, it + 1);
-        check_path(
-            &mut out.check,
-            world,
-            cfg,
-            (vehicle, &path),
-            &label,
-            progress,
-        );
+        site.check_path(&mut out.check, (vehicle, &path), &label);
         vehicle = path.last().copied().or(vehicle);
         let first_flown = out.flown.len();
         // SfM's estimates of the new images: the poses they are matched
@@ -323,18 +294,20 @@ pub(super) fn run_strategy(
             let ids = [i, i + 1, i + 2].map(|k| image_id(source, k));
             let fl = matcher.fly_triplet(
                 &world.scene(),
-                [new_cams[a], new_cams[b], new_cams[c]],
-                [new_sfm[a], new_sfm[b], new_sfm[c]],
+                (
+                    [new_cams[a], new_cams[b], new_cams[c]],
+                    [new_sfm[a], new_sfm[b], new_sfm[c]],
+                ),
                 ids,
                 &world.roi,
                 mix64(base ^ mix64(i as u64)),
-                curves,
+                site.curves,
             )?;
             let tol = cfg.eval.depth_tolerance_m;
-            progress(&triplet_line(&result.plan, *t, &fl, tol));
+            (site.progress)(&triplet_line(&result.plan, *t, &fl, tol));
             out.flown.push(fl);
         }
-        progress(&format!(
+        (site.progress)(&format!(
             "  site {site_seed} {} iteration {}/{}: {} triplets planned ({} images with bridges, {} dropped as unreachable), {} of {} flown so far succeeded",
             strategy.name,
             it + 1,
@@ -345,12 +318,12 @@ pub(super) fn run_strategy(
             out.flown.iter().filter(|f| f.success).count(),
             out.flown.len()
         ));
-        report_dropped(&result, progress);
+        report_dropped(&result, site.progress);
         out.plans.push(with_home(result.plan, world));
         let last = it + 1 == strategy.iterations;
         if !last {
             let pred = strategy.prediction.then_some(forest);
-            let new = acquire(world, &new_cams, &new_sfm, pred, cfg, curves)?;
+            let new = acquire(world, &new_cams, &new_sfm, pred, cfg, site.curves)?;
             known.sfm.add_images(world, &new);
             known
                 .names

@@ -20,14 +20,14 @@ use vp_scene::raycast::RayCaster;
 use vp_scene::surface::{reconstruct_surface, SurfaceSample};
 use vp_scene::{Camera, Intrinsics};
 
-use super::config::CampaignConfig;
 use super::curves::CurveAccumulator;
-use super::fly::{Matcher, Scene};
 use super::label_quality::LabelQuality;
-use super::sfm::SparseCandidates;
-use super::world::sfm_camera;
+use super::reconstruct::Matcher;
+use crate::config::CampaignConfig;
 use crate::error::{Result, SimError};
-use crate::mvs::{level_camera, PixelTruth};
+use crate::sfm::{sfm_camera, SparseCandidates};
+use crate::virtual_mvs::{level_camera, PixelTruth};
+use crate::world::Scene;
 use vp_scene::hash::mix64;
 
 /// Margin around the rock within which training triplets focus, metres:
@@ -98,24 +98,6 @@ fn random_triplet(
 /// cameras, for the label quality).
 type LevelRun = ([RgbImage; 3], [Vec<PixelTruth>; 3], [DepthMap; 3]);
 
-/// Adds a triplet's sparse points (SfM of its images, [`TripletRun::sparse`])
-/// to the site's, each candidate once, observed from the SfM centres
-/// `sfm_centres` of the views that see it.
-fn add_sparse_points(
-    sparse: &[(usize, Point3<f64>, Vec<usize>)],
-    sfm_centres: &[Point3<f64>; 3],
-    out: &mut BTreeMap<usize, SurfaceSample>,
-) {
-    for (i, p, views) in sparse {
-        let e = out.entry(*i).or_insert_with(|| SurfaceSample {
-            position: *p,
-            normal: None,
-            seen_from: Vec::new(),
-        });
-        e.seen_from.extend(views.iter().map(|&v| sfm_centres[v]));
-    }
-}
-
 /// One labelled image of a training site, with the renderer's truth under
 /// each pixel (for scoring the labels and the forest, never for training).
 pub struct LabelledView {
@@ -171,8 +153,7 @@ pub(crate) fn label_site(
             let tseed = mix64(cfg.seed ^ mix64(seed ^ mix64((n as u64) << 8 | u64::from(level))));
             let run = matcher.triplet(
                 &scene,
-                [&cams[0], &cams[1], &cams[2]],
-                [&sfm[0], &sfm[1], &sfm[2]],
+                ([&cams[0], &cams[1], &cams[2]], [&sfm[0], &sfm[1], &sfm[2]]),
                 level,
                 None,
                 tseed,
@@ -182,7 +163,7 @@ pub(crate) fn label_site(
             stats.successful_triplets += usize::from(matcher.succeeded(&run.stats));
             if level == t.levels[0] {
                 let centres = sfm.each_ref().map(Camera::center);
-                add_sparse_points(&run.sparse, &centres, &mut points);
+                crate::sfm::track_samples(&run.sparse, &centres, &mut points);
             }
             let id = format!("t{n:03}/level{level}");
             let view = |v: usize, d: DepthMap| -> Result<View> {

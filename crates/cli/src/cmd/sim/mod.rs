@@ -2,18 +2,16 @@
 //! `run` and `config` of closed-loop campaigns live in [`super::demo`]).
 
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::Subcommand;
-use nalgebra::Point3;
-use vp_scene::colmap::write_depth_map;
-use vp_scene::procedural::{generate_site, SiteParams};
-use vp_scene::raster::save_rgb;
-use vp_scene::raycast::RayCaster;
-use vp_scene::{fsio, Intrinsics, Material};
-use vp_sim::flight::{write_flight, FlightRequest, FlyOptions};
-use vp_sim::{look_at_camera, material_shares, render, RenderParams};
+use vp_sim::flight::{FlightRequest, FlyOptions};
+
+mod flight;
+mod render;
+
+pub use render::RenderArgs;
 
 /// Simulation subcommands.
 #[derive(Debug, Subcommand)]
@@ -21,41 +19,7 @@ pub enum SimCommand {
     /// Render an image of a procedural site (textured per material, sun-lit)
     /// from a pinhole camera; optionally write its exact depth as a COLMAP
     /// depth map. The same arguments give a byte-identical image.
-    Render {
-        /// Seed of the site (and of its textures).
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// Approximate number of faces of the site.
-        #[arg(long, default_value_t = 200_000)]
-        faces: usize,
-        /// Camera centre x,y,z in metres (local ENU; the site is centred on the origin).
-        #[arg(long, value_parser = parse_point, default_value = "-30,-25,30", allow_hyphen_values = true)]
-        from: [f64; 3],
-        /// Point the camera looks at, x,y,z in metres.
-        #[arg(long, value_parser = parse_point, default_value = "0,0,0", allow_hyphen_values = true)]
-        at: [f64; 3],
-        /// Image width in pixels.
-        #[arg(long, default_value_t = 1024)]
-        width: u32,
-        /// Image height in pixels.
-        #[arg(long, default_value_t = 768)]
-        height: u32,
-        /// Horizontal field of view in degrees.
-        #[arg(long, allow_negative_numbers = true, default_value_t = 60.0)]
-        hfov: f64,
-        /// Turn sun shadows off (faster).
-        #[arg(long)]
-        no_shadows: bool,
-        /// Output image (.png, .jpg, .tif).
-        #[arg(long)]
-        out: PathBuf,
-        /// Also write the depth along the optical axis as a COLMAP depth map (.bin).
-        #[arg(long)]
-        depth: Option<PathBuf>,
-        /// Overwrite output files that exist.
-        #[arg(long)]
-        force: bool,
-    },
+    Render(RenderArgs),
     /// Run a full closed-loop campaign from a TOML config (training sites,
     /// held-out sites, strategies, evaluation): prints the paper's Table 1
     /// and writes the report directory. `sim config --defaults` prints a
@@ -164,7 +128,7 @@ fn parse_size(s: &str) -> Result<(usize, usize), String> {
 }
 
 /// Parses "x,y,z" into three finite numbers.
-fn parse_point(s: &str) -> Result<[f64; 3], String> {
+pub(super) fn parse_point(s: &str) -> Result<[f64; 3], String> {
     let parts: Vec<&str> = s.split(',').map(str::trim).collect();
     let [x, y, z] = parts.as_slice() else {
         return Err(format!(
@@ -195,13 +159,13 @@ pub fn run(cmd: SimCommand, out: &mut dyn Write) -> Result<()> {
             req.options = FlyOptions { exact, max_points };
             req.binary = output_type == "bin";
             req.force = force;
-            fly(&req, out)
+            flight::fly(&req, out)
         }
         SimCommand::Train {
             config,
             out: path,
             force,
-        } => train(&config, &path, force, out),
+        } => flight::train(&config, &path, force, out),
         SimCommand::Run { config, common } => {
             let cfg = vp_sim::campaign::CampaignConfig::load(&config)?;
             super::demo::run_config(&cfg, &common, "sim run", &[&config], out)
@@ -225,112 +189,6 @@ pub fn run(cmd: SimCommand, out: &mut dyn Write) -> Result<()> {
             write!(out, "{}", cfg.to_toml()?)?;
             Ok(())
         }
-        SimCommand::Render {
-            seed,
-            faces,
-            from,
-            at,
-            width,
-            height,
-            hfov,
-            no_shadows,
-            out: path,
-            depth,
-            force,
-        } => {
-            fsio::check_output_file(&path, force)?;
-            if let Some(d) = &depth {
-                fsio::check_output_file(d, force)?;
-            }
-            let k = Intrinsics::from_hfov(width, height, hfov)?;
-            let cam = look_at_camera(k, Point3::from(from), Point3::from(at))?;
-            let site = generate_site(&SiteParams {
-                seed,
-                target_faces: faces,
-                ..SiteParams::default()
-            })?;
-            let caster = RayCaster::new(&site.mesh);
-            let params = RenderParams {
-                shadows: !no_shadows,
-                texture_seed: seed,
-                ..RenderParams::default()
-            };
-            let r = render(&site.mesh, &caster, &cam, &params)?;
-            save_rgb(&r.rgb, &path)?;
-            writeln!(out, "wrote {} ({width}x{height})", path.display())?;
-            if let Some(d) = &depth {
-                write_depth_map(d, &r.depth)?;
-                writeln!(out, "wrote {}", d.display())?;
-            }
-            let shares = material_shares(&site.mesh, &r.face_id);
-            writeln!(
-                out,
-                "surface: {:.1} % of pixels",
-                100.0 * shares.iter().sum::<f64>()
-            )?;
-            for (m, share) in Material::ALL.iter().zip(shares) {
-                writeln!(out, "  {}: {:.1} %", m.name(), 100.0 * share)?;
-            }
-            Ok(())
-        }
+        SimCommand::Render(a) => render::render_site(&a, out),
     }
-}
-
-/// `vpctl sim fly`.
-fn fly(req: &FlightRequest, out: &mut dyn Write) -> Result<()> {
-    let progress = super::Progress::new();
-    let s = write_flight(req, &mut |m| progress.message(m))?;
-    progress.finish();
-    writeln!(
-        out,
-        "wrote {} images to {}",
-        s.images,
-        s.images_dir.display()
-    )?;
-    writeln!(
-        out,
-        "wrote {} ({} images, {} sparse points seen by >= {} images, {} poses)",
-        s.sparse_dir.display(),
-        s.images,
-        s.points,
-        s.min_views,
-        if req.options.exact { "exact" } else { "noisy" }
-    )?;
-    if s.points == 0 {
-        eprintln!(
-            "warning: no surface point is seen by two images: `vpctl plan` will have nothing \
-             to plan on; fly with more overlap (plan grid --overlap)"
-        );
-    }
-    Ok(())
-}
-
-/// `vpctl sim train`.
-fn train(config: &Path, path: &Path, force: bool, out: &mut dyn Write) -> Result<()> {
-    fsio::check_output_file(path, force)?;
-    let cfg = vp_sim::campaign::CampaignConfig::load(config)?;
-    let mut curves =
-        vp_sim::campaign::curves::CurveAccumulator::new(cfg.training.forest.bins.clone());
-    let progress = super::Progress::new();
-    let (forest, stats) = vp_sim::campaign::train_forest_with_stats(&cfg, &mut curves, &mut |m| {
-        progress.message(m);
-    })?;
-    progress.finish();
-    forest
-        .save(path)
-        .with_context(|| format!("saving the forest to {}", path.display()))?;
-    writeln!(out, "wrote {}", path.display())?;
-    writeln!(
-        out,
-        "training: {} sites, {} triplets ({} with output), {} positive and {} negative \
-                 pixels",
-        stats.sites, stats.triplets, stats.successful_triplets, stats.positives, stats.negatives
-    )?;
-    if stats.positives == 0 || stats.negatives == 0 {
-        eprintln!(
-            "warning: the training labels hold only one class: the forest predicts a \
-                     constant; add training sites or triplets ([training] in the config)"
-        );
-    }
-    Ok(())
 }

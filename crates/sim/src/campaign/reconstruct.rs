@@ -1,4 +1,4 @@
-//! Flying images and reconstructing them: vp-mvs on the rendered images (the
+//! Reconstructing flown images: vp-mvs on the rendered images (the
 //! default), or the virtual MVS with its triplet gate as a fast stand-in for
 //! unit tests (`mvs = "virtual"`).
 //!
@@ -7,9 +7,9 @@
 //! (texture, sun, shadows, sensor noise), PatchMatch matches them with SfM's
 //! estimates of the poses (the same ones labelgen and the planner get, with
 //! `sfm.*` noise), and each view's depth range is COLMAP's rule
-//! ([`super::features::colmap_depth_range`]: 1st to 99th percentile of the
+//! ([`crate::sfm::features::colmap_depth_range`]: 1st to 99th percentile of the
 //! depths of the sparse points the view observes, times 0.75 and 1.25) over
-//! the simulated SfM of the image set ([`super::sfm::SparseCandidates`]:
+//! the simulated SfM of the image set ([`crate::sfm::SparseCandidates`]:
 //! surface points where FAST fires on the renders, seen by at least
 //! `sfm.min_views` of the set's images). A view without sparse points is
 //! not matched. Only the measurement looks at the truth: each depth, a
@@ -17,40 +17,24 @@
 //! compared with the renderer's depth.
 
 use nalgebra::Point2;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use vp_mvs::{MvsParams, View};
 use vp_scene::colmap::DepthMap;
 use vp_scene::raster::RgbImage;
-use vp_scene::raycast::RayCaster;
 use vp_scene::surface::SurfaceSample;
-use vp_scene::{Aabb, Camera, Mesh};
+use vp_scene::{Aabb, Camera};
 
-use super::config::CampaignConfig;
 use super::curves::CurveAccumulator;
 use super::depth_maps::{depth_in_truth, depth_of, zero_depth};
-use super::features::FeatureMask;
 use super::gate::gate_stats;
 pub use super::gate::GateStats;
-use super::sfm::{sparse_depth_ranges, SparseCandidates};
+use crate::config::{CampaignConfig, MvsKind};
 use crate::error::{Result, SimError};
-use crate::mvs::{level_camera, triplet_truth, PixelStatus, PixelTruth, VirtualMvs};
 use crate::render::{render, RenderParams};
-
-/// Which multi-view stereo reconstructs the flown and training images.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "lowercase")]
-pub enum MvsKind {
-    /// vp-mvs (PatchMatch) on the rendered images: the experiment.
-    #[default]
-    Patchmatch,
-    /// vp-mvs's semi-global matcher (`[patchmatch.sgm]` parameters) on the
-    /// rendered images: the second matcher of the paper's claim that
-    /// confidence depends on the matcher (SURE-like, narrow angles best).
-    Sgm,
-    /// The virtual MVS of `profile` and `gate`: success drawn from planted
-    /// curves. A fast stand-in for unit tests only.
-    Virtual,
-}
+use crate::sfm::sparse_depth_ranges;
+use crate::sfm::FeatureMask;
+use crate::virtual_mvs::{level_camera, triplet_truth, PixelStatus, PixelTruth, VirtualMvs};
+use crate::world::Scene;
 
 /// What came out of one reconstruction, counted over its views' pixels.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
@@ -122,20 +106,6 @@ pub struct TripletRun {
     pub gate: Option<GateStats>,
 }
 
-/// The world a reconstruction looks at: the true mesh, its caster, the
-/// texture seed of its renders and the points SfM may triangulate.
-#[derive(Clone, Copy)]
-pub struct Scene<'a> {
-    /// The true mesh.
-    pub mesh: &'a Mesh,
-    /// Ray caster of `mesh`.
-    pub caster: &'a RayCaster,
-    /// Texture seed of the world.
-    pub texture_seed: u64,
-    /// SfM's candidate points on `mesh`.
-    pub candidates: &'a SparseCandidates,
-}
-
 /// The campaign's MVS, as configured.
 pub struct Matcher<'a> {
     cfg: &'a CampaignConfig,
@@ -198,12 +168,10 @@ impl<'a> Matcher<'a> {
     /// matching) at pyramid `level`; `region` limits the pixels the
     /// statistics count. Adds every pixel the three cameras see to
     /// `curves`' measured side.
-    #[allow(clippy::too_many_arguments)]
     pub fn triplet(
         &self,
         scene: &Scene<'_>,
-        cams: [&Camera; 3],
-        sfm: [&Camera; 3],
+        (cams, sfm): ([&Camera; 3], [&Camera; 3]),
         level: u8,
         region: Option<&Aabb>,
         seed: u64,
@@ -491,14 +459,12 @@ impl<'a> Matcher<'a> {
         Ok(flown)
     }
 
-    /// Flies one triplet at full resolution over the ROI `region`: `cams`
-    /// true, `sfm` SfM's estimates of them.
-    #[allow(clippy::too_many_arguments)]
+    /// Reconstructs one flown triplet at full resolution over the ROI
+    /// `region`: `cams` true, `sfm` SfM's estimates of them.
     pub fn fly_triplet(
         &self,
         scene: &Scene<'_>,
-        cams: [Camera; 3],
-        sfm: [Camera; 3],
+        (cams, sfm): ([Camera; 3], [Camera; 3]),
         ids: [u64; 3],
         region: &Aabb,
         seed: u64,
@@ -506,8 +472,7 @@ impl<'a> Matcher<'a> {
     ) -> Result<Flown> {
         let run = self.triplet(
             scene,
-            [&cams[0], &cams[1], &cams[2]],
-            [&sfm[0], &sfm[1], &sfm[2]],
+            ([&cams[0], &cams[1], &cams[2]], [&sfm[0], &sfm[1], &sfm[2]]),
             1,
             Some(region),
             seed,
@@ -579,5 +544,5 @@ pub fn truly_positive(t: &PixelTruth, z: f32, k: f32) -> bool {
 }
 
 #[cfg(test)]
-#[path = "fly_tests.rs"]
+#[path = "reconstruct_tests.rs"]
 mod tests;

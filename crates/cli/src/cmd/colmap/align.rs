@@ -1,42 +1,12 @@
-//! `vpctl colmap ...`: inspect COLMAP sparse models, undistort them into a
-//! dense workspace.
+//! `vpctl colmap align`: georegister a model to known image positions (a
+//! CSV or the photos' EXIF GPS tags) and write it with its `frame.json`.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::Result;
-use clap::Subcommand;
 use vp_scene::colmap;
 use vp_scene::datum::VerticalDatum;
-
-/// COLMAP subcommands.
-#[derive(Debug, Subcommand)]
-pub enum ColmapCommand {
-    /// Print cameras, images, points and track statistics of a COLMAP sparse
-    /// model directory (cameras/images/points3D as .txt or .bin).
-    Info {
-        /// The model directory (e.g. `sparse/0`).
-        dir: PathBuf,
-    },
-    /// Undistort a model and its images into a dense workspace, as COLMAP's
-    /// `image_undistorter --output_type COLMAP` writes it: `images/`
-    /// (resampled into PINHOLE cameras), `sparse/` (binary model), `stereo/`
-    /// (patch-match.cfg, fusion.cfg). The layout `vpctl mvs run` reads; its
-    /// `sparse/` and `images/` are what `vpctl plan` and `labelgen` need.
-    /// Every COLMAP camera model but EQUIRECTANGULAR. Nothing is written
-    /// unless every image was undistorted.
-    Undistort(UndistortArgs),
-    /// Georegister a model: the similarity transform (scale, rotation,
-    /// translation) from its camera centres to known image positions in the
-    /// local ENU frame at the first position, robust to a few bad positions
-    /// (RANSAC, then least squares on the inliers), as COLMAP's
-    /// `model_aligner` does. The positions come from a CSV (--positions) or
-    /// from the photos' EXIF GPS tags (--exif). Writes the moved model and `frame.json` (the
-    /// geodetic origin, the transform, the residuals) to --out; prints the
-    /// residuals. `vpctl plan` and `labelgen` need that frame. Cameras on a
-    /// line (a single strip) need --gravity-from-views.
-    Align(AlignArgs),
-}
 
 /// Arguments of `vpctl colmap align`.
 #[derive(Debug, clap::Args)]
@@ -97,123 +67,6 @@ pub struct AlignArgs {
     pub gnss: Option<vp_scene::gnss::GnssClass>,
 }
 
-/// Arguments of `vpctl colmap undistort`.
-#[derive(Debug, clap::Args)]
-pub struct UndistortArgs {
-    /// The sparse model (e.g. `sparse/0`), with distorted cameras.
-    #[arg(
-        long = "colmap",
-        alias = "model",
-        value_name = "DIR",
-        required_unless_present = "opensfm"
-    )]
-    pub model: Option<PathBuf>,
-    /// Or an OpenSfM reconstruction (an OpenDroneMap project, its `opensfm`
-    /// folder or `reconstruction.json`); its geodetic reference becomes
-    /// `sparse/frame.json`.
-    #[arg(long, value_name = "DIR", conflicts_with = "model")]
-    pub opensfm: Option<PathBuf>,
-    /// The folder of the photos the model names.
-    #[arg(long)]
-    pub images: PathBuf,
-    /// The workspace folder to write (a new or empty folder, or an earlier
-    /// `colmap undistort` output with --force).
-    #[arg(long)]
-    pub out: PathBuf,
-    /// Replace an earlier workspace in --out (only the files vpctl wrote
-    /// there; other files stay).
-    #[arg(long)]
-    pub force: bool,
-    /// 0: crop to the pixels every ray covers (no black border, COLMAP's
-    /// default); 1: keep every input pixel (black corners).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 0.0)]
-    pub blank_pixels: f64,
-    /// Longest side of the undistorted images, pixels, as COLMAP's
-    /// `--max_image_size` (cameras and features scaled with them): e.g. 2000
-    /// runs dense stereo, prediction and planning on a 4000-pixel drone photo
-    /// at half resolution. Default: full size
-    #[arg(long, value_name = "PIXELS")]
-    pub max_image_size: Option<u32>,
-}
-
-pub fn run(cmd: ColmapCommand, out: &mut dyn Write) -> Result<()> {
-    match cmd {
-        ColmapCommand::Undistort(a) => undistort(&a, out),
-        ColmapCommand::Align(a) => align(&a, out),
-        ColmapCommand::Info { dir } => {
-            let format = colmap::detect_format(&dir)?;
-            let rec = colmap::read_model_as(&dir, format)?;
-            writeln!(out, "model: {} ({format:?})", dir.display())?;
-            writeln!(out, "cameras: {}", rec.cameras.len())?;
-            for cam in rec.cameras.values() {
-                writeln!(
-                    out,
-                    "  camera {}: {} {}x{} params {:?}",
-                    cam.id,
-                    cam.model.name(),
-                    cam.width,
-                    cam.height,
-                    cam.params
-                )?;
-            }
-            writeln!(out, "images: {}", rec.images.len())?;
-            writeln!(out, "points: {}", rec.points.len())?;
-            writeln!(out, "mean track length: {:.4}", rec.mean_track_length())?;
-            writeln!(
-                out,
-                "mean observations per image: {:.4}",
-                rec.mean_observations_per_image()
-            )?;
-            if let Some(e) = rec.mean_reprojection_error() {
-                writeln!(out, "mean reprojection error: {e:.4} px")?;
-            }
-            Ok(())
-        }
-    }
-}
-
-fn undistort(a: &UndistortArgs, out: &mut dyn Write) -> Result<()> {
-    if !(0.0..=1.0).contains(&a.blank_pixels) {
-        return Err(crate::cmd::UsageError(format!(
-            "--blank-pixels must lie in [0, 1], got {}",
-            a.blank_pixels
-        ))
-        .into());
-    }
-    if a.max_image_size == Some(0) {
-        return Err(crate::cmd::UsageError(
-            "--max-image-size must be at least 1 pixel (leave it out for full size)".into(),
-        )
-        .into());
-    }
-    let opts = colmap::UndistortOptions {
-        blank_pixels: a.blank_pixels,
-        max_image_size: a.max_image_size,
-        ..colmap::UndistortOptions::default()
-    };
-    let report = match (&a.model, &a.opensfm) {
-        (_, Some(p)) => {
-            vp_scene::opensfm::undistort_opensfm_workspace(p, &a.images, &a.out, &opts, a.force)?
-        }
-        (Some(dir), None) => colmap::undistort_workspace(dir, &a.images, &a.out, &opts, a.force)?,
-        (None, None) => anyhow::bail!("--colmap or --opensfm is required"),
-    };
-    for (d, u) in &report.cameras {
-        writeln!(
-            out,
-            "camera {}: {} {}x{} -> {} {}x{} params {:?}",
-            d.id, d.model, d.width, d.height, u.model, u.width, u.height, u.params
-        )?;
-    }
-    writeln!(
-        out,
-        "wrote {} undistorted images, sparse/ and stereo/ to {}",
-        report.n_images,
-        report.out.display()
-    )?;
-    Ok(())
-}
-
 /// What --positions or --exif gave: the positions, the file or folder they
 /// came from, their altitudes' datum and the take-off altitude if known.
 struct Positions<'a> {
@@ -267,7 +120,7 @@ fn read_positions<'a>(a: &'a AlignArgs, out: &mut dyn Write) -> Result<Positions
     }
 }
 
-fn align(a: &AlignArgs, out: &mut dyn Write) -> Result<()> {
+pub(super) fn align(a: &AlignArgs, out: &mut dyn Write) -> Result<()> {
     if !(a.max_error.is_finite() && a.max_error > 0.0) {
         return Err(crate::cmd::UsageError(format!(
             "--max-error must be a positive number of metres, got {}",

@@ -7,15 +7,15 @@ use vp_planner::{CameraConfig, GnssClass, PlannerConfig, SafetyConfig};
 use vp_scene::procedural::SiteParams;
 use vp_scene::surface::SurfaceParams;
 
-use super::config::{
+use super::{
     CampaignConfig, EvalConfig, GridBaseline, InitFlight, MatchingGate, SfmConfig, TrainingConfig,
 };
 use crate::error::{Result, SimError};
 use vp_mvs::MvsParams;
 
-use super::fly::MvsKind;
-use crate::mvs::MvsProfile;
+use super::MvsKind;
 use crate::render::RenderParams;
+use crate::virtual_mvs::MvsProfile;
 
 /// Names of the presets, for [`CampaignConfig::preset`].
 pub const PRESETS: [&str; 3] = ["demo", "quick", "paper"];

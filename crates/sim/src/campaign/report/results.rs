@@ -1,23 +1,19 @@
 //! The campaign's results: the Table-1 rows (mean and standard deviation
-//! over held-out sites), per-site scores, confidence curves, and the report
-//! directory (Markdown, CSV, JSON, plans, QGC missions, PNG plots, a
-//! glTF scene and an HTML page).
+//! over held-out sites), per-site scores, confidence curves, and their
+//! formatting as text (Markdown, CSV); the writers of the report folder
+//! (`super`) read them.
 
 use std::fmt::Write as _;
-use std::path::Path;
 
 use serde::Serialize;
-use vp_mission::{export_qgc, Autopilot, MissionOptions, QgcOptions};
-use vp_scene::outdir::OutDir;
 use vp_scene::plan::Plan;
 use vp_scene::{Aabb, Mesh};
 
-use super::acquired::AcquiredModel;
-use super::config::CampaignConfig;
-use super::curves::ConfidenceCurve;
-use super::eval::Scores;
-use super::training::TrainingStats;
-use crate::error::{Result, SimError};
+use crate::campaign::acquired::AcquiredModel;
+use crate::campaign::curves::ConfidenceCurve;
+use crate::campaign::eval::Scores;
+use crate::campaign::training::TrainingStats;
+use crate::config::CampaignConfig;
 
 /// One row of the table: a strategy's figures over the held-out sites.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -346,147 +342,4 @@ impl CampaignReport {
 
 fn fmt2(v: Option<&f64>) -> String {
     v.map_or_else(|| "-".into(), |x| format!("{x:.2}"))
-}
-
-fn io_err(path: &Path, e: std::io::Error) -> SimError {
-    SimError::Scene(vp_scene::SceneError::Io {
-        path: path.to_path_buf(),
-        source: e,
-    })
-}
-
-fn write(path: &Path, text: &str) -> Result<()> {
-    std::fs::write(path, text).map_err(|e| io_err(path, e))
-}
-
-/// Writes the report folder `out`: `table.md`, `table.csv`,
-/// `report.json`, `curves.csv`, `config.toml`, `plans/<strategy>/iter<i>.json`
-/// and `.plan` (QGroundControl missions via vp-mission),
-/// `plans/<strategy>/iter<i>-acquired/` (what the iteration planned from,
-/// see [`super::acquired`]), the PNG plots
-/// (see [`super::plot`]), `scene.glb` (see [`super::scene`]) and
-/// `report.html` (see [`super::html`]), through [`OutDir`]: built beside
-/// the folder and swapped in, so a failure leaves no partial report, and
-/// only the files of an earlier report are replaced (`out` was checked
-/// before the campaign: see [`OutDir::check`]).
-pub fn write_report(report: &CampaignReport, out: &OutDir) -> Result<()> {
-    out.write(|dir| fill(report, dir))
-}
-
-/// The paragraph of `table.md` on the `iter<i>-acquired` folders, with a
-/// command that plans one again (None without triplet strategies).
-fn acquired_recipe(report: &CampaignReport) -> Option<String> {
-    // The example: a strategy with prediction if there is one.
-    let acquired_example = report.artifacts.as_ref().and_then(|a| {
-        let with = |conf: bool| {
-            a.strategies.iter().find(|s| {
-                s.acquired
-                    .first()
-                    .is_some_and(|m| m.confidence.is_empty() != conf)
-            })
-        };
-        with(true).or_else(|| with(false)).map(|s| {
-            let predicted = !s.acquired[0].confidence.is_empty();
-            let flag = if predicted {
-                " --confidence-dir $A/confidence"
-            } else {
-                ""
-            };
-            (s.name.clone(), flag)
-        })
-    });
-    acquired_example.map(|(name, conf_flag)| {
-        format!(
-            "\n`plans/<strategy>/iter<i>.json` and `.plan`: each iteration's plan (vpctl, \
-             QGroundControl). `plans/<strategy>/iter<i>-acquired/`: what that iteration planned \
-             from: `sparse/` (the COLMAP model of the images acquired so far, with \
-             `frame.json`), `confidence/` (their predicted `.vpconf`, strategies with \
-             prediction), `mesh.ply` (the planning mesh), `roi.json`. To plan an iteration \
-             again by hand (comparable, not identical: the campaign's planner also had the \
-             fused dense points as free-space observations):\n\n```sh\n\
-             A=plans/{name}/iter1-acquired\n\
-             vpctl plan --mesh $A/mesh.ply --colmap $A/sparse{conf_flag} --roi $A/roi.json \
-             --config config.toml --out again.json\n```\n"
-        )
-    })
-}
-
-fn fill(report: &CampaignReport, dir: &Path) -> Result<()> {
-    let mut md = String::from("# vpctl campaign report\n\n");
-    let _ = writeln!(
-        md,
-        "Held-out sites (never trained on): {:?}. {}, percent.\n",
-        report.config.held_out_seeds,
-        report.table_caption()
-    );
-    md.push_str(&report.table_markdown());
-    if let Some(p) = super::f_vs_np::paragraph(report) {
-        md.push_str("\n## F against NP on this run\n\n");
-        md.push_str(&p);
-        md.push('\n');
-    }
-    md.push_str("\n## Learned confidence against the MVS's measured success\n\n```\n");
-    md.push_str(&report.curves_summary());
-    md.push_str("```\n");
-    if let Some(t) = &report.training {
-        md.push_str("\n## Label quality (labelgen against the renderer's truth)\n\n");
-        md.push_str(&t.label_quality.markdown());
-    }
-    md.push_str("\nPlots: `confidence_<material>.png` (learned: blue, measured: red, x: angle 0-45 deg, y: 0-1), ");
-    md.push_str("`plan_<strategy>.png` (top view of the plan), `fulfillment_<strategy>.png` (per-face f, red 0 to green 1).\n");
-    md.push_str("\n`report.html`: this report as one self-contained page with its plots. `scene.glb`: the site in 3D (mesh, initial flight and planned cameras as frusta, flight paths) for any glTF viewer.\n");
-    if let Some(recipe) = acquired_recipe(report) {
-        md.push_str(&recipe);
-    }
-    write(&dir.join("table.md"), &md)?;
-    write(&dir.join("table.csv"), &report.table_csv())?;
-    let json = serde_json::to_string_pretty(report)
-        .map_err(|e| SimError::Campaign(format!("report to JSON: {e}")))?;
-    write(&dir.join("report.json"), &json)?;
-    write(&dir.join("config.toml"), &report.config.to_toml()?)?;
-    let mut csv = String::from("material,angle_deg,learned,measured,measured_pixels\n");
-    for c in &report.curves {
-        for (b, a) in c.angle_deg.iter().enumerate() {
-            let m = c.measured[b];
-            let m = if m.is_finite() {
-                format!("{m:.4}")
-            } else {
-                String::new()
-            };
-            let _ = writeln!(
-                csv,
-                "{},{a},{:.4},{m},{}",
-                c.material, c.learned[b], c.measured_pixels[b]
-            );
-        }
-    }
-    write(&dir.join("curves.csv"), &csv)?;
-    super::plot::write_curve_plots(&report.curves, dir)?;
-    if let Some(a) = &report.artifacts {
-        let plans = dir.join("plans");
-        for s in &a.strategies {
-            if s.plans.is_empty() {
-                continue;
-            }
-            let sd = plans.join(&s.name);
-            std::fs::create_dir_all(&sd).map_err(|e| io_err(&sd, e))?;
-            for (i, p) in s.plans.iter().enumerate() {
-                let base = sd.join(format!("iter{}", i + 1));
-                p.save(&base.with_extension("json"), true)?;
-                let qgc = export_qgc(
-                    p,
-                    &MissionOptions::for_autopilot(Autopilot::Px4),
-                    &QgcOptions::default(),
-                )?;
-                write(&base.with_extension("plan"), &qgc)?;
-            }
-            for (i, a) in s.acquired.iter().enumerate() {
-                a.write(&sd.join(format!("iter{}-acquired", i + 1)))?;
-            }
-        }
-        super::plot::write_site_plots(a, dir)?;
-    }
-    super::scene::write_scene_glb(report, dir)?;
-    // Last: the page embeds the PNG views written above.
-    super::html::write_html(report, dir)
 }

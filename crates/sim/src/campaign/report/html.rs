@@ -11,7 +11,7 @@ use std::path::Path;
 use base64::Engine as _;
 
 use super::f_vs_np;
-use super::report::CampaignReport;
+use super::results::CampaignReport;
 use super::svg::{escape, LinePlot, Series};
 use crate::error::Result;
 

@@ -1,8 +1,11 @@
-//! Tests of the matcher (`fly.rs`).
+//! Tests of the matcher (`reconstruct.rs`).
 
 use super::*;
 use crate::campaign::MatchingGate;
+use crate::sfm::SparseCandidates;
+use vp_scene::raycast::RayCaster;
 use vp_scene::Material;
+use vp_scene::Mesh;
 
 fn stats(matchable: f64, nonflat: f64, angle: f64) -> GateStats {
     GateStats {
@@ -71,7 +74,7 @@ fn nadir_grid_over_ground_reconstructs_most_pixels() {
             max: nalgebra::Point3::new(61.0, 61.0, 1.0),
         };
         let m = Matcher::new(&cfg).unwrap();
-        let sfm = crate::campaign::world::sfm_cameras(&cams, &cfg, 7);
+        let sfm = crate::sfm::sfm_cameras(&cams, &cfg, 7);
         let flown = m
             .image_set(&scene, (&cams, &sfm), &ids, &region, 5)
             .unwrap();
@@ -137,7 +140,14 @@ fn the_matcher_matches_with_the_sfm_poses() {
     let m = Matcher::new(&cfg).unwrap();
     let mut curves = CurveAccumulator::new(cfg.training.forest.bins.clone());
     let fl = m
-        .fly_triplet(&scene, cams, sfm, [0, 1, 2], &whole_plane(), 5, &mut curves)
+        .fly_triplet(
+            &scene,
+            (cams, sfm),
+            [0, 1, 2],
+            &whole_plane(),
+            5,
+            &mut curves,
+        )
         .unwrap();
     assert_eq!(fl.sfm, sfm.to_vec(), "the flown set keeps its SfM poses");
     assert!(fl.fused.len() > 100, "{} fused points", fl.fused.len());
@@ -173,8 +183,10 @@ fn the_depth_range_comes_from_sparse_points_not_the_renderer() {
         let run = m
             .triplet(
                 &scene,
-                [&cams[0], &cams[1], &cams[2]],
-                [&cams[0], &cams[1], &cams[2]],
+                (
+                    [&cams[0], &cams[1], &cams[2]],
+                    [&cams[0], &cams[1], &cams[2]],
+                ),
                 1,
                 None,
                 5,

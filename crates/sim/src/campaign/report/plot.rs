@@ -8,8 +8,8 @@ use vp_planner::output::{render_top_view, TopView};
 use vp_scene::plan::{Flight, Plan};
 use vp_scene::raster::{draw_text, save_rgb, text_width, RgbImage, GLYPH_PX as GLYPH};
 
-use super::curves::ConfidenceCurve;
-use super::report::SiteArtifacts;
+use super::results::SiteArtifacts;
+use crate::campaign::curves::ConfidenceCurve;
 use crate::error::Result;
 
 const W: u32 = 480;

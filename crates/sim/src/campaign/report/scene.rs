@@ -10,7 +10,7 @@ use vp_planner::output::{write_plan_glb, SceneView};
 use vp_scene::plan::Plan;
 use vp_scene::Camera;
 
-use super::report::CampaignReport;
+use super::results::CampaignReport;
 use crate::error::Result;
 
 /// Depth of the camera frusta, metres (as `vpctl plan`'s PLY and GLB).

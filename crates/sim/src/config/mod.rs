@@ -12,12 +12,33 @@ use vp_planner::PlannerConfig;
 use vp_scene::procedural::SiteParams;
 use vp_scene::surface::SurfaceParams;
 
+mod presets;
+mod strategy;
+
+pub use presets::PRESETS;
+pub use strategy::Strategy;
+
 use crate::error::{Result, SimError};
 use vp_mvs::MvsParams;
 
-use super::fly::MvsKind;
-use crate::mvs::MvsProfile;
 use crate::render::RenderParams;
+use crate::virtual_mvs::MvsProfile;
+
+/// Which multi-view stereo reconstructs the flown and training images.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum MvsKind {
+    /// vp-mvs (PatchMatch) on the rendered images: the experiment.
+    #[default]
+    Patchmatch,
+    /// vp-mvs's semi-global matcher (`[patchmatch.sgm]` parameters) on the
+    /// rendered images: the second matcher of the paper's claim that
+    /// confidence depends on the matcher (SURE-like, narrow angles best).
+    Sgm,
+    /// The virtual MVS of `profile` and `gate`: success drawn from planted
+    /// curves. A fast stand-in for unit tests only.
+    Virtual,
+}
 
 /// Everything a campaign needs. See the module docs.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -177,7 +198,7 @@ pub struct GridBaseline {
 #[serde(default, deny_unknown_fields)]
 pub struct SfmConfig {
     /// Standard deviation of the SfM model's georeferencing shift per
-    /// axis, metres (one shift for all its images; see `world::sfm_camera`).
+    /// axis, metres (one shift for all its images; see `sfm::sfm_camera`).
     pub position_noise_m: f64,
     /// Standard deviation of the SfM model's georeferencing rotation per
     /// axis, degrees (one rotation about the origin for all its images).
@@ -310,11 +331,8 @@ impl CampaignConfig {
     }
 
     /// The strategies, parsed.
-    pub fn parsed_strategies(&self) -> Result<Vec<super::strategies::Strategy>> {
-        self.strategies
-            .iter()
-            .map(|s| super::strategies::Strategy::parse(s))
-            .collect()
+    pub fn parsed_strategies(&self) -> Result<Vec<Strategy>> {
+        self.strategies.iter().map(|s| Strategy::parse(s)).collect()
     }
 
     /// Checks ranges and the leave-one-site-out rule; the error names the key.
@@ -375,7 +393,7 @@ impl CampaignConfig {
         if t.levels.is_empty()
             || t.levels
                 .iter()
-                .any(|&l| !(1..=crate::mvs::MAX_LEVEL).contains(&l))
+                .any(|&l| !(1..=crate::virtual_mvs::MAX_LEVEL).contains(&l))
         {
             return bad(format!(
                 "training.levels = {:?}: need levels in 1..=6",
@@ -472,103 +490,7 @@ fn overlay(base: &mut serde_json::Value, given: serde_json::Value) {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Regression (found by the reader fuzzing of `tests/fuzz`): `nan` in a
-    /// campaign config became a JSON `null` on the way to the overrides and
-    /// was reported as "invalid type: null, expected f64", without a key.
-    /// Regression (found by the long fuzz run of `tests/fuzz`): an array
-    /// one element too long, which the TOML parse lets through, was
-    /// reported without its section.
-    #[test]
-    fn too_long_array_names_its_section() {
-        let text = CampaignConfig::demo().to_toml().unwrap().replacen(
-            "distance_m = [8.0, 20.0]",
-            "distance_m = [80.0, 45.0, 20.0]",
-            1,
-        );
-        assert!(text.contains("[80.0, 45.0, 20.0]"));
-        let m = CampaignConfig::from_toml(&text, Path::new("c.toml"))
-            .unwrap_err()
-            .to_string();
-        assert!(
-            m.contains("c.toml") && m.contains("configuration: ["),
-            "{m}"
-        );
-    }
-
-    #[test]
-    fn nan_in_a_config_names_the_key() {
-        let text = CampaignConfig::demo().to_toml().unwrap().replacen(
-            "angles_deg = [0.0,",
-            "angles_deg = [nan,",
-            1,
-        );
-        assert!(text.contains("[nan,"));
-        let e = CampaignConfig::from_toml(&text, Path::new("c.toml")).unwrap_err();
-        let m = e.to_string();
-        assert!(
-            m.contains("c.toml") && m.contains("angles_deg[0] = NaN: must be a finite number"),
-            "{m}"
-        );
-    }
-
-    #[test]
-    fn presets_round_trip_through_toml_and_validate() {
-        for c in [
-            CampaignConfig::demo(),
-            CampaignConfig::paper(),
-            CampaignConfig::quick(),
-        ] {
-            c.validate().unwrap();
-            let text = c.to_toml().unwrap();
-            let back = CampaignConfig::from_toml(&text, Path::new("x.toml")).unwrap();
-            assert_eq!(back, c);
-        }
-        // An empty file is the demo.
-        assert_eq!(
-            CampaignConfig::from_toml("", Path::new("e.toml")).unwrap(),
-            CampaignConfig::demo()
-        );
-    }
-
-    #[test]
-    fn refuses_unknown_keys_and_training_on_the_held_out_site() {
-        let e = CampaignConfig::from_toml("sed = 3\n", Path::new("typo.toml")).unwrap_err();
-        let m = e.to_string();
-        assert!(m.contains("typo.toml") && m.contains("sed"), "{m}");
-        let e = CampaignConfig::from_toml(
-            "held_out_seeds = [101]\n[training]\nsite_seeds = [101, 102]\n",
-            Path::new("c.toml"),
-        )
-        .unwrap_err();
-        assert!(e.to_string().contains("never be a training site"), "{e}");
-        let e = CampaignConfig::from_toml("strategies = [\"G5x4\"]\n", Path::new("s.toml"))
-            .unwrap_err();
-        assert!(e.to_string().contains("G5x4"), "{e}");
-    }
-
-    #[test]
-    fn a_partial_section_keeps_the_demo_values_of_its_other_keys() {
-        let c = CampaignConfig::from_toml(
-            "[planner]\ngsd_m = 0.08\n[site]\nn_trees_at_rock = 3\n",
-            Path::new("p.toml"),
-        )
-        .unwrap();
-        let demo = CampaignConfig::demo();
-        assert!((c.planner.gsd_m - 0.08).abs() < 1e-12);
-        assert_eq!(c.planner.camera, demo.planner.camera);
-        assert_eq!(c.planner.n_triangles, demo.planner.n_triangles);
-        assert_eq!(c.site.n_trees_at_rock, 3);
-        assert_eq!(c.site.target_faces, demo.site.target_faces);
-        // A wrong type still names the line.
-        let e = CampaignConfig::from_toml("[planner]\ngsd_m = \"x\"\n", Path::new("t.toml"))
-            .unwrap_err();
-        assert!(e.to_string().contains("line 2"), "{e}");
-    }
-}
+mod tests;
 
 #[cfg(test)]
-#[path = "config_keys_tests.rs"]
 mod keys_tests;

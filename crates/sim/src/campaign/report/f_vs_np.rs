@@ -8,7 +8,7 @@
 
 use std::fmt::Write as _;
 
-use super::report::{CampaignReport, TableRow};
+use super::results::{CampaignReport, TableRow};
 
 /// Where the campaigns that test the paper's claim are written up.
 pub const FINDINGS: &str = "docs/campaign-findings.md in the vpctl repository";
