@@ -8,6 +8,7 @@ use pyo3::types::PyDict;
 use vp_sim::campaign::{self, CampaignConfig};
 
 use crate::convert;
+use crate::progress::Progress;
 use crate::errors::{value_error, IntoPy};
 
 /// The configuration: a preset, changed by a dict, or a TOML file.
@@ -41,9 +42,8 @@ fn campaign_config<'py>(
 /// Runs a closed-loop campaign (train the forest on training sites, fly and
 /// evaluate every strategy on the held-out sites) and returns the table:
 /// one dict per strategy (coverage, f_res, f_unc, f, triplet success, images,
-/// rock coverage; mean and std over sites). `progress(line)` hears each
-/// step; by default (`None`) each step is a line on `sys.stderr`, and
-/// `progress=False` is silent. The GIL is released while the campaign runs
+/// rock coverage; mean and std over sites). `progress`: see
+/// [`crate::progress`] (by default each step is a line on `sys.stderr`). The GIL is released while the campaign runs
 /// (minutes for "demo").
 #[pyfunction]
 #[pyo3(signature = (config = None, preset = "demo", progress = None))]
@@ -54,47 +54,10 @@ fn run_campaign<'py>(
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let cfg = self::config(config, preset)?;
-    let progress: Option<Py<PyAny>> = match progress {
-        None => Some(default_progress(py)?),
-        Some(p) if p.bind(py).is_instance_of::<pyo3::types::PyBool>() => {
-            if p.bind(py).is_truthy()? {
-                Some(default_progress(py)?)
-            } else {
-                None
-            }
-        }
-        Some(p) => {
-            if !p.bind(py).is_callable() {
-                return Err(crate::errors::type_error(
-                    "progress: expected a callable taking one str, None (log lines on stderr) \
-                     or False (silent)",
-                ));
-            }
-            Some(p)
-        }
-    };
-    let mut callback_error: Option<PyErr> = None;
-    let report = py.detach(|| {
-        campaign::run_campaign(&cfg, &mut |line: &str| {
-            if let (Some(cb), None) = (&progress, &callback_error) {
-                // Only the callback itself runs with the GIL.
-                if let Err(e) = Python::attach(|py| cb.call1(py, (line,)).map(drop)) {
-                    callback_error = Some(e);
-                }
-            }
-        })
-    });
-    if let Some(e) = callback_error {
-        return Err(e);
-    }
+    let mut progress = Progress::from_arg(py, progress)?;
+    let report = py.detach(|| campaign::run_campaign(&cfg, &mut |line: &str| progress.line(line)));
+    progress.finish()?;
     convert::to_py(py, &report.py()?.rows)
-}
-
-/// Progress as log lines on `sys.stderr` (`[vpctl] <step>`), flushed.
-fn default_progress(py: Python<'_>) -> PyResult<Py<PyAny>> {
-    let code = c"import sys\ndef progress(line):\n    print('[vpctl]', line, file=sys.stderr, flush=True)\n";
-    let m = PyModule::from_code(py, code, c"vpctl_progress.py", c"vpctl_progress")?;
-    Ok(m.getattr("progress")?.unbind())
 }
 
 /// Registers the campaign functions in `vpctl.sim`.

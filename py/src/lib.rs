@@ -23,6 +23,7 @@ mod labelgen;
 mod mission;
 mod mvs;
 mod planner;
+mod progress;
 mod scene;
 mod sim;
 

@@ -17,6 +17,7 @@ use vp_mvs::{
 
 use crate::convert::{self, image2, image3};
 use crate::errors::{value_error, IntoPy};
+use crate::progress::Progress;
 use crate::scene::PyCamera;
 
 /// The parameters of a run: `params` (any subset of `vpctl mvs defaults`),
@@ -49,7 +50,8 @@ fn params_with(
 /// writes `stereo/depth_maps`, `stereo/normal_maps` and `fused.ply` into the
 /// workspace; returns the summary as a dict.
 #[pyfunction]
-#[pyo3(signature = (workspace, images = None, depth_range = None, params = None, seed = None, force = false, algorithm = None))]
+#[pyo3(signature = (workspace, images = None, depth_range = None, params = None, seed = None, force = false, algorithm = None, progress = None))]
+#[allow(clippy::too_many_arguments)]
 fn run_workspace<'py>(
     py: Python<'py>,
     workspace: PathBuf,
@@ -59,7 +61,9 @@ fn run_workspace<'py>(
     seed: Option<u64>,
     force: bool,
     algorithm: Option<String>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let mut progress = Progress::from_arg(py, progress)?;
     let mut req = WorkspaceRequest::new(workspace);
     req.options = RunOptions {
         images,
@@ -67,9 +71,9 @@ fn run_workspace<'py>(
         params: params_with(params, seed, algorithm.as_deref())?,
     };
     req.force = force;
-    let summary = py
-        .detach(|| vp_mvs::reconstruct_workspace(&req, &mut |_| {}))
-        .map_err(|e| crate::errors::mvs(&e))?;
+    let summary = py.detach(|| vp_mvs::reconstruct_workspace(&req, &mut |l| progress.line(l)));
+    progress.finish()?;
+    let summary = summary.map_err(|e| crate::errors::mvs(&e))?;
     let d = PyDict::new(py);
     d.set_item("reconstructed", summary.reconstructed)?;
     d.set_item("geometric_valid_share", summary.geometric_valid_share)?;
@@ -83,7 +87,8 @@ fn run_workspace<'py>(
 /// Every triplet is checked before the first reconstruction. Returns
 /// `{triplet id: {level: [share of pixels with a geometric depth per image]}}`.
 #[pyfunction]
-#[pyo3(signature = (workspace, triplets, out, levels = vec![1], depth_range = None, params = None, seed = None, force = false, algorithm = None))]
+#[pyo3(signature = (workspace, triplets, out, levels = vec![1], depth_range = None, params = None, seed = None, force = false, algorithm = None, progress = None))]
+#[allow(clippy::too_many_arguments)]
 fn run_triplets(
     py: Python<'_>,
     workspace: PathBuf,
@@ -95,7 +100,9 @@ fn run_triplets(
     seed: Option<u64>,
     force: bool,
     algorithm: Option<String>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<SetShares> {
+    let mut progress = Progress::from_arg(py, progress)?;
     let params = params_with(params, seed, algorithm.as_deref())?;
     let sets = py
         .detach(|| vp_labelgen::triplets::read_image_sets(&triplets))
@@ -110,8 +117,9 @@ fn run_triplets(
     req.depth_range = depth_range;
     req.params = params;
     req.force = force;
-    py.detach(|| vp_mvs::reconstruct_image_sets(&req, &mut |_| {}))
-        .map_err(|e| crate::errors::mvs(&e))
+    let shares = py.detach(|| vp_mvs::reconstruct_image_sets(&req, &mut |l| progress.line(l)));
+    progress.finish()?;
+    shares.map_err(|e| crate::errors::mvs(&e))
 }
 
 /// Depth (H, W), normal (H, W, 3) and cost (H, W) arrays of one map.
@@ -138,7 +146,7 @@ fn map_arrays(py: Python<'_>, m: DepthNormalMap) -> PyResult<MapArrays<'_>> {
 /// arrays, geometrically filtered (`filtered`) or photometric, or `None`
 /// for an image without sources.
 #[pyfunction]
-#[pyo3(signature = (images, cameras, depth_ranges, sources = None, params = None, seed = None, filtered = true, algorithm = None))]
+#[pyo3(signature = (images, cameras, depth_ranges, sources = None, params = None, seed = None, filtered = true, algorithm = None, progress = None))]
 #[allow(clippy::too_many_arguments)]
 fn patch_match<'py>(
     py: Python<'py>,
@@ -150,7 +158,9 @@ fn patch_match<'py>(
     seed: Option<u64>,
     filtered: bool,
     algorithm: Option<String>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<Vec<Option<MapArrays<'py>>>> {
+    let mut progress = Progress::from_arg(py, progress)?;
     let p = params_with(params, seed, algorithm.as_deref())?;
     let n = images.len();
     if cameras.len() != n {
@@ -183,9 +193,9 @@ fn patch_match<'py>(
             sources.len()
         )));
     }
-    let out = py
-        .detach(|| vp_mvs::reconstruct(&views, &sources, &p, &mut |_| {}))
-        .map_err(|e| crate::errors::mvs(&e))?;
+    let out = py.detach(|| vp_mvs::reconstruct(&views, &sources, &p, &mut |l| progress.line(l)));
+    progress.finish()?;
+    let out = out.map_err(|e| crate::errors::mvs(&e))?;
     let maps = if filtered {
         out.geometric
     } else {

@@ -12,6 +12,7 @@ use vp_sim::{MvsProfile, RenderParams, VirtualMvs};
 
 use crate::convert::{self, image2, rgb_array};
 use crate::errors::{value_error, IntoPy};
+use crate::progress::Progress;
 use crate::scene::{PyCamera, PyMesh, PyRayCaster};
 
 /// Renders `camera`'s view of `mesh` (per-material solid textures, sun
@@ -110,7 +111,8 @@ impl PyVirtualMvs {
 /// COLMAP model `sparse/` with its `frame.json`, byte for byte as the CLI.
 /// Returns {images_dir, images, sparse_dir, points, min_views}.
 #[pyfunction]
-#[pyo3(signature = (plans, site, out, exact = false, output_type = "txt", max_points = 20_000, force = false))]
+#[pyo3(signature = (plans, site, out, exact = false, output_type = "txt", max_points = 20_000, force = false, progress = None))]
+#[allow(clippy::too_many_arguments)]
 fn fly<'py>(
     py: Python<'py>,
     plans: Vec<PathBuf>,
@@ -120,6 +122,7 @@ fn fly<'py>(
     output_type: &str,
     max_points: usize,
     force: bool,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let binary = match output_type {
         "txt" => false,
@@ -134,9 +137,10 @@ fn fly<'py>(
     req.options = FlyOptions { exact, max_points };
     req.binary = binary;
     req.force = force;
-    let s = py
-        .detach(|| vp_sim::flight::write_flight(&req, &mut |_| {}))
-        .py()?;
+    let mut progress = Progress::from_arg(py, progress)?;
+    let s = py.detach(|| vp_sim::flight::write_flight(&req, &mut |l| progress.line(l)));
+    progress.finish()?;
+    let s = s.py()?;
     let d = PyDict::new(py);
     d.set_item("images_dir", s.images_dir)?;
     d.set_item("images", s.images)?;

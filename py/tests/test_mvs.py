@@ -186,3 +186,30 @@ def test_patch_match_errors_name_the_argument(site):
         vpctl.mvs.patch_match([images[0], images[1][:10], images[2]], cams, (5.0, 50.0))
     with pytest.raises(ValueError, match="source"):
         vpctl.mvs.patch_match(images, cams, (5.0, 50.0), sources=[[1], [7], [0]])
+
+
+def test_progress_lines_go_to_stderr_a_callable_or_nowhere(site, capfd):
+    """A long call says where it is, as the CLI does (issue 40): by default
+    `[vpctl] <line>` on stderr, each line to a callable, nothing with
+    ``progress=False``; an exception in the callable reaches the caller."""
+    cams, renders = rendered_triplet(site, size=(32, 24))
+    images = [r["rgb"] for r in renders]
+    args = (images, cams, (5.0, 50.0))
+    kw = {"sources": [[1, 2], [0, 2], [0, 1]], "params": {"iterations": 1}, "seed": 1}
+    capfd.readouterr()
+    vpctl.mvs.patch_match(*args, **kw)
+    default = [l for l in capfd.readouterr().err.splitlines() if l.startswith("[vpctl] ")]
+    assert default, "no progress line on stderr by default"
+    heard = []
+    vpctl.mvs.patch_match(*args, **kw, progress=heard.append)
+    assert heard == [l[len("[vpctl] "):] for l in default]
+    vpctl.mvs.patch_match(*args, **kw, progress=False)
+    assert "[vpctl]" not in capfd.readouterr().err
+
+    def fails(line):
+        raise RuntimeError("stop here")
+
+    with pytest.raises(RuntimeError, match="stop here"):
+        vpctl.mvs.patch_match(*args, **kw, progress=fails)
+    with pytest.raises(TypeError, match="progress"):
+        vpctl.mvs.patch_match(*args, **kw, progress=42)

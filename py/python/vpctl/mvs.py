@@ -26,7 +26,8 @@ def _algorithm(value):
 
 
 def reconstruct(workspace, *, images=None, triplets=None, levels=(1,), out=None,
-                depth_range=None, params=None, seed=None, force=False, algorithm=None):
+                depth_range=None, params=None, seed=None, force=False, algorithm=None,
+                progress=None):
     """Dense multi-view stereo (vp-mvs on the CPU: PatchMatch, or
     semi-global matching with ``algorithm="sgm"``) on a COLMAP dense
     workspace, writing exactly the files ``vpctl mvs run`` writes for the
@@ -53,6 +54,8 @@ def reconstruct(workspace, *, images=None, triplets=None, levels=(1,), out=None,
     ``force``: overwrite ``fused.ply``, or replace an earlier output in
     ``out`` (only the files vpctl wrote there, as ``vpctl mvs run``; a
     non-empty folder vpctl did not write is refused with ``ValueError``).
+    ``progress``: each step as a line on ``sys.stderr`` (``None``, the
+    default), nothing (``False``), or passed to a callable taking one str.
 
     Raises ``FileNotFoundError`` for a missing workspace, triplet file or
     image, ``FileExistsError`` for existing output without ``force`` and
@@ -75,7 +78,8 @@ def reconstruct(workspace, *, images=None, triplets=None, levels=(1,), out=None,
             if isinstance(images, (str, bytes)):
                 raise ValueError(f"images: expected a list of image names, got {images!r}")
             images = [str(n) for n in images]
-        return _native_mvs.run_workspace(ws, images, depth_range, params, seed, force, algorithm)
+        return _native_mvs.run_workspace(ws, images, depth_range, params, seed, force, algorithm,
+                                         progress)
     if images is not None:
         raise ValueError("images: not used with triplets (each triplet names its images)")
     if out is None:
@@ -87,11 +91,11 @@ def reconstruct(workspace, *, images=None, triplets=None, levels=(1,), out=None,
         raise ValueError(f"levels: expected pyramid levels >= 1 (1 = full size), got {levels!r}")
     tri = _existing(triplets, "triplets", "file")
     return _native_mvs.run_triplets(ws, tri, _os.fspath(out), levels, depth_range, params, seed, force,
-                                    algorithm)
+                                    algorithm, progress)
 
 
 def patch_match(images, cameras, depth_ranges, *, sources=None, params=None, seed=None,
-                filtered=True, algorithm=None):
+                filtered=True, algorithm=None, progress=None):
     """PatchMatch multi-view stereo on images in memory (vp-mvs's
     ``reconstruct``: PatchMatch per image, the geometric pass and filter).
 
@@ -126,4 +130,4 @@ def patch_match(images, cameras, depth_ranges, *, sources=None, params=None, see
     if sources is not None:
         sources = [[int(s) for s in src] for src in sources]
     return _native_mvs.patch_match(images, cameras, depth_ranges, sources, params, seed, bool(filtered),
-                                   _algorithm(algorithm))
+                                   _algorithm(algorithm), progress)

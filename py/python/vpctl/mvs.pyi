@@ -1,7 +1,7 @@
 """Dense multi-view stereo on the CPU (vp-mvs: PatchMatch or semi-global matching) on a COLMAP dense workspace."""
 
 from os import PathLike
-from typing import Any, Literal, Mapping, Optional, Sequence, Union, final
+from typing import Any, Callable, Literal, Mapping, Optional, Sequence, Union, final
 
 import numpy as np
 import numpy.typing as npt
@@ -27,11 +27,13 @@ def reconstruct(
     seed: Optional[int] = None,
     force: bool = False,
     algorithm: Optional[Literal["patchmatch", "sgm"]] = None,
+    progress: Union[Callable[[str], Any], bool, None] = None,
 ) -> dict[str, Any]:
     """Runs ``vpctl mvs run`` on `workspace` (with `triplets` and `out`:
     ``--triplets --levels --out``; `algorithm`: ``--algorithm``) and returns
     its summary; writes the same files, byte for byte, for the same inputs
-    and seed."""
+    and seed. `progress`: lines on stderr (None), silent (False) or a
+    callable taking each line."""
     ...
 
 def patch_match(
@@ -44,6 +46,7 @@ def patch_match(
     seed: Optional[int] = None,
     filtered: bool = True,
     algorithm: Optional[Literal["patchmatch", "sgm"]] = None,
+    progress: Union[Callable[[str], Any], bool, None] = None,
 ) -> list[Optional[tuple[npt.NDArray[np.float32], npt.NDArray[np.float32], npt.NDArray[np.float32]]]]:
     """PatchMatch on images in memory: per image (depth (H, W), normal
     (H, W, 3), cost (H, W)) float32 arrays, geometrically filtered when

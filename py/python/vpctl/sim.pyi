@@ -44,6 +44,7 @@ def fly(
     output_type: str = "txt",
     max_points: int = 20000,
     force: bool = False,
+    progress: Union[Callable[[str], Any], bool, None] = None,
 ) -> dict[str, Any]: ...
 def campaign_config(
     config: Union[Mapping[str, Any], str, PathLike[str], None] = None, preset: str = "demo"
