@@ -8,8 +8,8 @@ use pyo3::types::PyDict;
 use vp_sim::campaign::{self, CampaignConfig};
 
 use crate::convert;
-use crate::progress::Progress;
 use crate::errors::{value_error, IntoPy};
+use crate::progress::Progress;
 
 /// The configuration: a preset, changed by a dict, or a TOML file.
 fn config(obj: Option<&Bound<'_, PyAny>>, preset_name: &str) -> PyResult<CampaignConfig> {
