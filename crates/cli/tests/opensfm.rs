@@ -118,13 +118,11 @@ fn an_odm_project_plans_as_its_colmap_twin() {
     let d = dir.path();
     let site = plan_fixture(d);
     add_points(d, &site.mesh);
-    // Exact positions: the twins then plan with the same small clearance.
-    // (Under standard GNSS's 12.8 m margin the candidate set leaves two
-    // triplets of equal gain, to 3e-15, and the 1e-15 rounding between the
-    // readers picks either: a tie, not a reader difference.)
-    let mut cfg = std::fs::read_to_string(d.join("plan.toml")).unwrap();
-    cfg.push_str("[safety]\ngnss = \"rtk\"\n");
-    std::fs::write(d.join("plan.toml"), cfg).unwrap();
+    // The fixture's config plans with exact positions (no position
+    // margin): the twins then plan with the same small clearance. (Under
+    // standard GNSS's margin the candidate set left two triplets of equal
+    // gain, to 3e-15, and the 1e-15 rounding between the readers picked
+    // either: a tie, not a reader difference.)
     as_opensfm(&d.join("model"), &d.join("odm"));
     // The same cameras, points and tracks read back from either.
     let a = colmap::read_model(&d.join("model")).unwrap();
