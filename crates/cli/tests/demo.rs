@@ -2,20 +2,14 @@
 //! model reuse and exit codes.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
 use vp_scene::colmap::{read_model, ModelFrame, Reconstruction};
 use vp_scene::plan::Plan;
 use vp_scene::raster::ConfidenceImage;
 
 mod common;
-
-fn vpctl(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vpctl"))
-        .args(args)
-        .output()
-        .expect("vpctl runs")
-}
+use common::vpctl;
 
 fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()

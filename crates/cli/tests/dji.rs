@@ -4,17 +4,13 @@
 //! written. The README's "fly it" commands are the ones run here.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Command;
 
 use vp_scene::plan::{GeodeticOrigin, Home, Plan, PlannedView, Role, VerticalDatum};
 use vp_test_support::python::litchi_python;
 
-fn vpctl(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vpctl"))
-        .args(args)
-        .output()
-        .expect("vpctl runs")
-}
+mod common;
+use common::vpctl;
 
 fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()

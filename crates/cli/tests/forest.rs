@@ -2,19 +2,13 @@
 //! confidence images and exit codes on seeded synthetic textures.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use vp_forest::synthetic::{label_image, texture_image};
 use vp_scene::raster::{load_rgb, save_rgb, ConfidenceImage, Label, PreviewLayout};
 
 mod common;
-
-fn vpctl(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vpctl"))
-        .args(args)
-        .output()
-        .expect("vpctl runs")
-}
+use common::vpctl;
 
 fn text(o: &Output) -> String {
     format!(

@@ -4,15 +4,9 @@
 //! no silent empty success. Each test names the habit it guards.
 
 use std::path::Path;
-use std::process::{Command, Output};
 
-fn vpctl(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vpctl"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("vpctl runs")
-}
+mod common;
+use common::vpctl_in as vpctl;
 
 fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()

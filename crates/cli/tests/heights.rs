@@ -4,16 +4,11 @@
 //! `mission export` wrote every waypoint 10-18 m below the launch point.
 
 use std::path::Path;
-use std::process::{Command, Output};
 
 use vp_scene::plan::{GeodeticOrigin, Home, Plan, PlannedView, Role, VerticalDatum};
 
-fn vpctl(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vpctl"))
-        .args(args)
-        .output()
-        .expect("vpctl runs")
-}
+mod common;
+use common::vpctl;
 
 fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()

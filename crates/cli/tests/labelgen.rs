@@ -2,7 +2,7 @@
 //! model, mesh and per-triplet depth maps written the way a user has them.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use nalgebra::Point3;
 use vp_labelgen::io::depth_map_path;
@@ -15,13 +15,7 @@ use vp_scene::raycast::RayCaster;
 use vp_scene::{Camera, Intrinsics};
 
 mod common;
-
-fn vpctl(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vpctl"))
-        .args(args)
-        .output()
-        .expect("vpctl runs")
-}
+use common::vpctl;
 
 fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()

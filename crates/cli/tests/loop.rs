@@ -2,17 +2,10 @@
 //! -> predict -> plan -> sim fly`) run as written, and `sim fly`'s outputs.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
 mod common;
-
-fn vpctl(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vpctl"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("vpctl runs")
-}
+use common::vpctl_in as vpctl;
 
 fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()

@@ -1,17 +1,12 @@
 //! `vpctl mission ...` against a simulated vehicle on loopback.
 
 use std::path::Path;
-use std::process::{Command, Output};
 
 use vp_mission::sim_vehicle::{spawn_udp_vehicle, VehicleConfig};
 use vp_scene::plan::{GeodeticOrigin, Home, Plan, PlannedView, Role};
 
-fn vpctl(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vpctl"))
-        .args(args)
-        .output()
-        .expect("vpctl runs")
-}
+mod common;
+use common::vpctl;
 
 /// A plan of one triplet around a point 20 m above the origin.
 fn write_plan(path: &Path) {

@@ -1,20 +1,14 @@
 //! `vpctl plan`, `vpctl plan grid` and `vpctl config --defaults` as a user runs them.
 
 mod common;
+use common::vpctl;
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use common::plan_fixture as fixture;
 use vp_scene::colmap;
 use vp_scene::plan::{Plan, Role};
-
-fn vpctl(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vpctl"))
-        .args(args)
-        .output()
-        .expect("vpctl runs")
-}
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()

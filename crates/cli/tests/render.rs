@@ -1,13 +1,9 @@
 //! `vpctl sim render`: images, depth maps and exit codes.
 
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn vpctl(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vpctl"))
-        .args(args)
-        .output()
-        .expect("vpctl runs")
-}
+mod common;
+use common::vpctl;
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()

@@ -7,18 +7,13 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 use std::time::Instant;
 
 use vp_scene::colmap::{read_depth_map, read_model};
 use vp_scene::raster::{Label, LabelImage};
 
-fn vpctl(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vpctl"))
-        .args(args)
-        .output()
-        .expect("vpctl runs")
-}
+mod common;
+use common::vpctl;
 
 /// Runs `vpctl`, asserts exit 0 and returns stdout.
 fn ok(args: &[&str]) -> String {
