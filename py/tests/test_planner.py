@@ -28,11 +28,16 @@ def planning(site, tmp_path_factory):
         "n_triplets": 2,
         "flight_volume": fv.tolist(),
         "camera": CAMERA,
+        # The model's cameras are the true ones and the vehicle flies
+        # exactly: no position margin (standard GNSS's 12.8 m leaves no
+        # position in this small flight volume), as the CLI tests' fixture.
+        "safety": {"gnss": {"horizontal_m": 0.0, "vertical_m": 0.0}, "tracking_m": 0.0},
     }
     toml = "\n".join(
-        [f"{k} = {v}" for k, v in cfg.items() if k not in ("flight_volume", "camera")]
+        [f"{k} = {v}" for k, v in cfg.items() if k not in ("flight_volume", "camera", "safety")]
         + [f"flight_volume = {fv.tolist()}", "[camera]"]
         + [f"{k} = {v}" for k, v in CAMERA.items()]
+        + ["[safety]", "gnss = { horizontal_m = 0.0, vertical_m = 0.0 }", "tracking_m = 0.0"]
     )
     (root / "plan.toml").write_text(toml + "\n")
     initial = vpctl.planner.plan_grid(site.mesh, roi=footprint, height=50.0, overlap=0.8,
