@@ -207,19 +207,13 @@ pub fn mesh_through(sim: &Sim3, mesh: &Mesh) -> Mesh {
 /// drawn on the georeferenced model, as a user draws it.
 pub fn aabb_through(sim: &Sim3, aabb: &Aabb) -> Aabb {
     let (a, b) = (aabb.min, aabb.max);
-    let mut out = Aabb {
-        min: Point3::from(Vector3::repeat(f64::INFINITY)),
-        max: Point3::from(Vector3::repeat(f64::NEG_INFINITY)),
-    };
+    let mut out = Aabb::empty();
     for i in 0..8 {
-        let c = Point3::new(
+        out.grow(&sim.apply(&Point3::new(
             if i & 1 == 0 { a.x } else { b.x },
             if i & 2 == 0 { a.y } else { b.y },
             if i & 4 == 0 { a.z } else { b.z },
-        );
-        let p = sim.apply(&c);
-        out.min = out.min.inf(&p);
-        out.max = out.max.sup(&p);
+        )));
     }
     out
 }

@@ -71,6 +71,8 @@ pub struct EvalRow {
 /// The whole evaluation: rows and per-fold totals.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct ForestEvaluation {
+    /// The campaign's matcher (`mvs` of the config, lowercase).
+    pub matcher: String,
     /// One row per (fold, material, angle bin) with pixels.
     pub rows: Vec<EvalRow>,
     /// Per forest size and fold (held-out site seed): totals over its rows.
@@ -156,13 +158,12 @@ pub fn evaluate_to_dir(
         e => e,
     })?;
     dir.write(|stage| -> Result<()> {
-        let matcher = format!("{:?}", cfg.mvs).to_lowercase();
         let bins = &cfg.training.forest.bins;
         for (name, text) in [
             ("forest_eval.csv", eval.csv()),
             (
                 "angle_success.csv",
-                angle_fall::csv(&matcher, &eval.success, bins),
+                angle_fall::csv(&eval.matcher, &eval.success, bins),
             ),
             ("summary.txt", eval.summary()),
         ] {
@@ -213,6 +214,7 @@ pub fn evaluate_forest(
     let k_sigma = t.labels.k_sigma as f32;
     let matcher = format!("{:?}", cfg.mvs).to_lowercase();
     let mut out = ForestEvaluation {
+        matcher: matcher.clone(),
         stats,
         success,
         fall,
