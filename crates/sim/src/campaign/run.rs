@@ -4,6 +4,7 @@
 use nalgebra::Point3;
 use vp_forest::Forest;
 use vp_planner::grid::{grid_views, GridParams};
+use vp_planner::oblique::oblique_views;
 use vp_scene::plan::{Plan, Role};
 use vp_scene::{Aabb, Camera};
 
@@ -28,6 +29,8 @@ use vp_scene::hash::mix64;
 /// Source tags of image ids: init, grid, then one per strategy.
 const SOURCE_INIT: u64 = 0;
 const SOURCE_GRID: u64 = 1;
+/// The oblique baseline's source tag, above any strategy's (`2 + i`).
+const SOURCE_OBLIQUE: u64 = 0xFFFF;
 /// Flies a flight that is not a set of triplets (the initial images, the
 /// Grid): checks its path (waypoints in order, from its first) against the
 /// truth and reconstructs it with SfM's estimates `sfm` of its cameras:
@@ -74,21 +77,18 @@ fn fly_flight(
     Ok((flown, check))
 }
 
+/// The ROI's footprint plus the Grid's margin, at the ground's lowest point.
+fn grid_footprint(world: &World, cfg: &CampaignConfig) -> Aabb {
+    let m = cfg.grid.margin_m;
+    let z = world.ground_min_z();
+    Aabb {
+        min: Point3::new(world.roi.min.x - m, world.roi.min.y - m, z),
+        max: Point3::new(world.roi.max.x + m, world.roi.max.y + m, z),
+    }
+}
+
 /// The Grid baseline's cameras: nadir lawnmower over the ROI footprint plus margin.
 fn grid_cameras(world: &World, cfg: &CampaignConfig) -> Result<Vec<Camera>> {
-    let m = cfg.grid.margin_m;
-    let fp = Aabb {
-        min: Point3::new(
-            world.roi.min.x - m,
-            world.roi.min.y - m,
-            world.ground_min_z(),
-        ),
-        max: Point3::new(
-            world.roi.max.x + m,
-            world.roi.max.y + m,
-            world.ground_min_z(),
-        ),
-    };
     let params = GridParams {
         height_m: cfg.grid.height_m,
         gsd_m: None,
@@ -98,7 +98,29 @@ fn grid_cameras(world: &World, cfg: &CampaignConfig) -> Result<Vec<Camera>> {
         yaw_deg: 0.0,
         role: Role::Grid,
     };
-    let views = grid_views(&fp, &params, world.intrinsics)?;
+    let views = grid_views(&grid_footprint(world, cfg), &params, world.intrinsics)?;
+    Ok(views
+        .iter()
+        .map(|v| v.to_camera(world.intrinsics))
+        .collect())
+}
+
+/// The oblique baseline's cameras (`[grid] oblique`): five routes over the
+/// Grid's footprint at its height, 45 deg down, with at most as many
+/// images as the largest of `strategies` flies, so that the comparison
+/// with planned triplets is at an equal image count.
+fn oblique_cameras(
+    world: &World,
+    cfg: &CampaignConfig,
+    strategies: &[Strategy],
+) -> Result<Vec<Camera>> {
+    let budget = strategies
+        .iter()
+        .map(|s| 3 * s.iterations * s.per_iteration)
+        .max()
+        .unwrap_or(0);
+    let fp = grid_footprint(world, cfg);
+    let views = oblique_views(&fp, cfg.grid.height_m, -45.0, world.intrinsics, budget)?;
     Ok(views
         .iter()
         .map(|v| v.to_camera(world.intrinsics))
@@ -235,17 +257,31 @@ fn run_site(
         run_seed,
     )?;
 
+    let mut baselines = vec![
+        ("Init", init_flown, init_check, init_cams, Role::Initial),
+        ("Grid", grid_flown, grid_check, grid_cams, Role::Grid),
+    ];
+    if cfg.grid.oblique {
+        let planned = oblique_cameras(&world, cfg, strategies)?;
+        let (cams, _) = fly_with_error(cfg, &planned, run_seed ^ 3);
+        let sfm = sfm_cameras(&cams, cfg, sfm_seed);
+        let (flown, check) = fly_flight(
+            &mut site,
+            ("Oblique", &cams, &sfm),
+            SOURCE_OBLIQUE,
+            run_seed,
+        )?;
+        baselines.push(("Oblique", flown, check, cams, Role::Grid));
+    }
     let mut scores: Vec<(String, Scores)> = Vec::new();
     let mut maps: Vec<StrategyArtifacts> = Vec::new();
-    for (name, flown, check, cams, role) in [
-        ("Init", &init_flown, &init_check, &init_cams, Role::Initial),
-        ("Grid", &grid_flown, &grid_check, &grid_cams, Role::Grid),
-    ] {
+    for (name, flown, check, cams, role) in &baselines {
         let (s, f) = evaluate(&em, &refs(flown), cfg)?;
-        scores.push((name.into(), with_check(s, check)));
-        let plans = vec![plan_of(&world, cams, role)];
-        maps.push(artifacts(name.into(), f, plans, Vec::new()));
+        scores.push(((*name).into(), with_check(s, check)));
+        let plans = vec![plan_of(&world, cams, *role)];
+        maps.push(artifacts((*name).into(), f, plans, Vec::new()));
     }
+    let (_, grid_flown, grid_check, _, _) = &baselines[1];
     let mut combos = Vec::new();
     for (i, st) in strategies.iter().enumerate() {
         let run = run_strategy(&mut site, st, 2 + i as u64, &known, keep_artifacts)?;
@@ -253,7 +289,7 @@ fn run_site(
         let s = with_check(s, &run.check);
         (site.progress)(&strategy_line(seed, &st.name, &s));
         scores.push((st.name.clone(), s));
-        let mut union = refs(&grid_flown);
+        let mut union = refs(grid_flown);
         union.extend(run.flown.iter());
         let (cs, cf) = evaluate(&em, &union, cfg)?;
         let cs = with_check(cs, &grid_check.merged(&run.check));

@@ -191,6 +191,12 @@ pub struct GridBaseline {
     pub overlap: f64,
     /// Margin added around the ROI footprint, metres.
     pub margin_m: f64,
+    /// Also fly the industry's oblique pattern (`Oblique` in Table 1):
+    /// the nadir grid plus four routes at 45 deg down toward the four
+    /// headings, at this height and margin, with as many images as the
+    /// largest triplet strategy flies (or the most that five routes at
+    /// one overlap allow within that count; see `vp_planner::oblique`).
+    pub oblique: bool,
 }
 
 /// The simulated structure from motion.
@@ -410,6 +416,11 @@ impl CampaignConfig {
                 "grid: overlap {} must be in [0, 0.99) and height {} positive",
                 self.grid.overlap, self.grid.height_m
             ));
+        }
+        if self.grid.oblique && self.strategies.is_empty() {
+            return bad(
+                "grid: oblique = true flies as many images as the largest strategy, but strategies is empty".into(),
+            );
         }
         let e = &self.eval;
         if !(e.split_edge_m >= 0.01)

@@ -127,6 +127,7 @@ impl CampaignConfig {
                 height_m: 25.0,
                 overlap: 0.8,
                 margin_m: 6.0,
+                oblique: false,
             },
             sfm: SfmConfig {
                 position_noise_m: 0.05,
