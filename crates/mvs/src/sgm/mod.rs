@@ -59,6 +59,29 @@ impl std::fmt::Display for Algorithm {
     }
 }
 
+/// Which right-image winner a left pixel's disparity is checked against
+/// (the left-right consistency check).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LeftRight {
+    /// Hirschmüller (PAMI 2008, sec. 3.4): the right pixel's own winner,
+    /// the smallest aggregated sum along its whole epipolar line; a left
+    /// pixel is kept when its disparity is within `lr_max_diff` of it.
+    Hirschmuller,
+    /// OpenCV StereoSGBM's rule: a right pixel takes the disparity of the
+    /// unique left winner with the smallest sum that lands on it (none: no
+    /// check), and a left pixel is dropped only when the right pixels at
+    /// both the floor and the ceiling of its sub-pixel disparity disagree
+    /// by more than `lr_max_diff`. It keeps more pixels where the
+    /// disparity changes by more than 1 px per pixel (slanted surfaces
+    /// seen from wide angles). The default: with it vp-mvs's matcher is
+    /// within gate G0's 10 points of StereoSGBM on converging pairs up to
+    /// 45 deg, with Hirschmüller's rule 13.8 points below at 35-45 deg
+    /// (docs/campaign-findings.md, "Gate G0").
+    #[default]
+    Opencv,
+}
+
 /// Parameters of the semi-global matcher (the `[sgm]` table of a config).
 /// The defaults are published ones, not tuned here: census 9x7, P1 = 10,
 /// P2 = 120, 8 paths, uniqueness 0.95 and a left-right tolerance of 1 px
@@ -84,6 +107,8 @@ pub struct SgmParams {
     pub uniqueness: f32,
     /// Largest left-right disparity difference, pixels.
     pub lr_max_diff: u32,
+    /// Which right winner the left-right check compares with.
+    pub left_right: LeftRight,
     /// Speckle filter: connected regions of at most this many pixels are
     /// dropped (0 disables).
     pub speckle_size: u32,
@@ -113,6 +138,7 @@ impl Default for SgmParams {
             paths: 8,
             uniqueness: 0.95,
             lr_max_diff: 1,
+            left_right: LeftRight::Opencv,
             speckle_size: 100,
             speckle_range: 2.0,
             max_disparities: 512,
@@ -175,7 +201,7 @@ impl SgmParams {
     /// The `[sgm]` table of the defaults, each field after its doc line.
     pub(crate) fn defaults_toml() -> String {
         let d = SgmParams::default();
-        let fields: [(&str, &str, String); 12] = [
+        let fields: [(&str, &str, String); 13] = [
             (
                 "census_width",
                 "Census window width, pixels (odd).",
@@ -206,6 +232,14 @@ impl SgmParams {
                 "lr_max_diff",
                 "Left-right check: largest disparity difference, pixels.",
                 d.lr_max_diff.to_string(),
+            ),
+            (
+                "left_right",
+                "Left-right check against \"hirschmuller\" (the right pixel's own winner) or \"opencv\" (the best left winner landing on it).",
+                format!("\"{}\"", match d.left_right {
+                    LeftRight::Hirschmuller => "hirschmuller",
+                    LeftRight::Opencv => "opencv",
+                }),
             ),
             (
                 "speckle_size",

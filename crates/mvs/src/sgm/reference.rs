@@ -6,7 +6,7 @@
 //! vectorised census and the AVX2 code generation against.
 
 use super::matching::{step, RectifiedPair};
-use super::SgmParams;
+use super::{LeftRight, SgmParams};
 
 const BIG: u16 = 0x4000;
 
@@ -130,6 +130,7 @@ pub(crate) fn winners(sum: &[u16], pair: &RectifiedPair, params: &SgmParams) -> 
     let (w, nd) = (pair.width, pair.n_disp);
     let mut disp = vec![f32::NAN; w * pair.height];
     for y in 0..pair.height {
+        let mut offers: Vec<Option<(u32, usize)>> = vec![None; w];
         let row = &sum[y * w * nd..(y + 1) * w * nd];
         let argmin = |s: &mut dyn Iterator<Item = u16>| {
             let mut best = (u16::MAX, 0);
@@ -156,7 +157,15 @@ pub(crate) fn winners(sum: &[u16], pair: &RectifiedPair, params: &SgmParams) -> 
                 .iter()
                 .enumerate()
                 .all(|(k, &v)| k.abs_diff(best) <= 1 || min <= params.uniqueness * f32::from(v));
-            if !unique || rbest.abs_diff(best) > params.lr_max_diff as usize {
+            if !unique {
+                continue;
+            }
+            if params.left_right == LeftRight::Opencv {
+                // The right pixel's offer: the unique left winner with the
+                // smallest sum landing on it, ties to the smaller disparity.
+                let offer = (u32::from(s[best]), best);
+                offers[xr] = Some(offers[xr].map_or(offer, |o: (u32, usize)| o.min(offer)));
+            } else if rbest.abs_diff(best) > params.lr_max_diff as usize {
                 continue;
             }
             let mut d = best as f32;
@@ -168,6 +177,22 @@ pub(crate) fn winners(sum: &[u16], pair: &RectifiedPair, params: &SgmParams) -> 
                 }
             }
             disp[y * w + x] = d;
+        }
+        if params.left_right == LeftRight::Opencv {
+            let tol = params.lr_max_diff as usize;
+            for x in 0..w {
+                let d = disp[y * w + x];
+                if d.is_nan() {
+                    continue;
+                }
+                let disagrees = |k: usize| match x.checked_sub(k).and_then(|xr| offers.get(xr)) {
+                    Some(Some((_, r))) => r.abs_diff(k) > tol,
+                    _ => false,
+                };
+                if disagrees(d.floor() as usize) && disagrees(d.ceil() as usize) {
+                    disp[y * w + x] = f32::NAN;
+                }
+            }
         }
     }
     disp

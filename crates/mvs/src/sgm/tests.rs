@@ -331,11 +331,16 @@ fn fast_matcher_equals_the_reference_bit_for_bit() {
                     "costs {w}x{h}x{nd}"
                 );
             }
-            for paths in [4, 8] {
+            for (paths, left_right) in [
+                (4, LeftRight::Hirschmuller),
+                (8, LeftRight::Hirschmuller),
+                (8, LeftRight::Opencv),
+            ] {
                 let params = SgmParams {
                     paths,
                     census_width: cw as u32,
                     census_height: ch as u32,
+                    left_right,
                     ..SgmParams::default()
                 };
                 let sum = super::reference::aggregate(&cost, w, h, nd, &params);
@@ -503,8 +508,9 @@ fn fingerprint(values: &[f32]) -> u64 {
 fn matcher_output_is_unchanged_on_rendered_pairs() {
     // The fingerprints of the rectified disparities and the depth maps of
     // rendered pairs at 6, 20 and 40 deg as the matcher of main at
-    // fb2517a gave them: speed work must keep the output bit for bit (an
-    // experiment runs on it). 8 paths, then 4.
+    // fb2517a gave them (Hirschmüller's left-right rule, the default until
+    // gate G0 chose OpenCV's): speed work must keep the output bit for bit
+    // (an experiment runs on it). 8 paths, then 4.
     let want: [(f64, u32, u64, u64); 4] = [
         (
             6.0,
@@ -537,6 +543,7 @@ fn matcher_output_is_unchanged_on_rendered_pairs() {
         let mut params = sgm_params();
         params.sgm.paths = paths;
         params.sgm.max_disparities = 1024;
+        params.sgm.left_right = LeftRight::Hirschmuller;
         let (rv, sv) = (&views[0], &views[1]);
         let rect = Rectification::new(&rv.camera, &sv.camera, rv.depth_range, 1024).unwrap();
         let (left, left_valid) = rect.resample(&rv.camera, &rv.grey, false);

@@ -4,18 +4,16 @@
 use rayon::prelude::*;
 
 use super::matching::RectifiedPair;
-use super::SgmParams;
+use super::{LeftRight, SgmParams};
 
 /// Winner-take-all over one row's aggregated sums (`w * nd`) with
 /// Hirschmüller's checks: uniqueness (the best sum at most `uniqueness`
 /// times every sum two or more disparities away), parabola sub-pixel fit,
 /// and left-right consistency against the right image's winners taken
-/// from the same sums. The right winner is Hirschmüller's (PAMI 2008,
-/// sec. 3.4): the smallest sum along the right pixel's whole epipolar
-/// line. OpenCV's StereoSGBM differs here: a right pixel takes the
-/// disparity of the best left winner landing on it (none: no check), and
-/// a left pixel is rejected only when the right pixels at both the floor
-/// and the ceiling of its disparity disagree, which keeps more pixels
+/// from the same sums, by `params.left_right`: Hirschmüller's right
+/// winner (PAMI 2008, sec. 3.4: the smallest sum along the right pixel's
+/// whole epipolar line) or OpenCV StereoSGBM's (the best left winner
+/// landing on it, [`winner_row_best_left`]), which keeps more pixels
 /// where the disparity changes by more than 1 px per pixel (wide angles;
 /// docs/performance.md). Writes the disparity index (fractional) of each
 /// left pixel of row y into `out`, NaN where rejected.
@@ -67,6 +65,9 @@ pub(crate) fn winner_row_with<F: Fn(&[u16]) -> (usize, u16)>(
     pick: F,
 ) {
     const STRIDE: usize = 16;
+    if params.left_right == LeftRight::Opencv {
+        return winner_row_best_left(row, y, pair, params, held, out, pick);
+    }
     let (w, nd) = (pair.width, pair.n_disp);
     // Right pixel xr's best disparity, the first smallest of left pixel
     // xr + k's sum at index k over k. Each right pixel holds (sum << 16 |
@@ -125,6 +126,78 @@ pub(crate) fn winner_row_with<F: Fn(&[u16]) -> (usize, u16)>(
             }
         }
         *o = d;
+    }
+}
+
+/// [`winner_row_with`] under [`LeftRight::Opencv`]: first every left
+/// pixel's unique winner (uniqueness and sub-pixel fit as there), each
+/// offered to the right pixel it lands on, which keeps the offer with the
+/// smallest sum (ties: the smaller disparity); then a left pixel is
+/// dropped when the right pixels at the floor and at the ceiling of its
+/// disparity both hold an offer that differs from it by more than
+/// `lr_max_diff`. `held` holds the offers (sum << 16 | disparity).
+#[allow(clippy::inline_always)]
+#[inline(always)]
+fn winner_row_best_left<F: Fn(&[u16]) -> (usize, u16)>(
+    row: &[u16],
+    y: usize,
+    pair: &RectifiedPair,
+    params: &SgmParams,
+    held: &mut Vec<u32>,
+    out: &mut [f32],
+    pick: F,
+) {
+    let (w, nd) = (pair.width, pair.n_disp);
+    held.clear();
+    held.resize(w, u32::MAX);
+    for (x, o) in out.iter_mut().enumerate() {
+        *o = f32::NAN;
+        if !pair.left_valid[y * w + x] {
+            continue;
+        }
+        let s = &row[x * nd..(x + 1) * nd];
+        let (best, smallest) = pick(s);
+        if best > x || !pair.right_valid[y * w + x - best] {
+            continue;
+        }
+        let min = f32::from(s[best]);
+        let rival = if smallest == u16::MAX {
+            f32::INFINITY
+        } else {
+            f32::from(smallest)
+        };
+        if min > params.uniqueness * rival {
+            continue;
+        }
+        let offer = &mut held[x - best];
+        *offer = (*offer).min(u32::from(s[best]) << 16 | best as u32);
+        let mut d = best as f32;
+        if best > 0 && best + 1 < nd {
+            let (a, b, c) = (f32::from(s[best - 1]), min, f32::from(s[best + 1]));
+            let denom = a + c - 2.0 * b;
+            if denom > 0.0 {
+                d += (a - c) / (2.0 * denom);
+            }
+        }
+        *o = d;
+    }
+    let tolerance = params.lr_max_diff as usize;
+    for (x, o) in out.iter_mut().enumerate() {
+        if o.is_nan() {
+            continue;
+        }
+        // The right pixel at disparity k disagrees when it holds an offer
+        // more than the tolerance away (no offer, or outside the image:
+        // no evidence against the left pixel).
+        let disagrees = |k: usize| {
+            x.checked_sub(k)
+                .and_then(|xr| held.get(xr))
+                .is_some_and(|&h| h != u32::MAX && ((h & 0xFFFF) as usize).abs_diff(k) > tolerance)
+        };
+        let (lo, hi) = (o.floor() as usize, o.ceil() as usize);
+        if disagrees(lo) && disagrees(hi) {
+            *o = f32::NAN;
+        }
     }
 }
 
