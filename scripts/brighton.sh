@@ -98,7 +98,7 @@ min_registered="${MIN_REGISTERED:-$(((n_photos + 1) / 2))}"
 model="" registered=0
 for m in "$out"/sparse/*/; do
   [ -d "$m" ] || continue
-  n=$("$vpctl" colmap info "$m" | awk '/^images:/ {print $2}') || n=0
+  n=$("$vpctl" colmap info "$m" 2>/dev/null | awk '/^images:/ {print $2}') || n=0
   if [ "${n:-0}" -gt "$registered" ]; then model="${m%/}" registered="$n"; fi
 done
 echo "COLMAP registered $registered of $n_photos photos (${model:-no model})"
