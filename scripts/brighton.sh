@@ -17,7 +17,8 @@
 # .vpforest to reuse; default: train the simulator forest the demo trains,
 # `vpctl sim train` on `vpctl sim config --preset ${FOREST_PRESET:-demo}`),
 # MAX_FEATURES (SIFT features per photo, COLMAP's default 8192; exhaustive
-# matching time grows with its square), MVS_CONFIG (a `vpctl mvs run --config` TOML), PLAN_CONFIG (a `vpctl plan
+# matching time grows with its square), MIN_REGISTERED (fewest photos
+# COLMAP must register, default half of them), MVS_CONFIG (a `vpctl mvs run --config` TOML), PLAN_CONFIG (a `vpctl plan
 # --config` TOML; default below: the FC300S camera, 5 m safety distance).
 #
 # Every step prints its wall time, peak memory (GNU time) and output size.
@@ -49,11 +50,13 @@ fi
 mkdir -p "$out"
 out="$(cd "$out" && pwd)"
 log="$out/steps.tsv"
-printf 'step\twall_s\tpeak_mib\toutput\tsize\n' >"$log"
+printf 'step\twall_s\tcpu_s\tpeak_mib\toutput\tsize\n' >"$log"
 export QT_QPA_PLATFORM=offscreen
 
 # step NAME OUTPUT CMD...: runs CMD under GNU time, its output in
-# $out/logs/NAME.log; prints and records wall time, peak RSS and OUTPUT's size.
+# $out/logs/NAME.log; prints and records wall time, CPU time (user + system,
+# all threads: on a shared machine the wall time is the load's, the CPU time
+# the step's own), peak RSS and OUTPUT's size.
 mkdir -p "$out/logs"
 step() {
   local name="$1" output="$2"
@@ -63,12 +66,13 @@ step() {
     tail -n 20 "$out/logs/$name.log" >&2
     exit 1
   fi
-  local wall peak bytes
+  local wall cpu peak bytes
   wall=$(awk -F': ' '/Elapsed \(wall clock\)/ {n = split($2, p, ":"); s = 0; for (i = 1; i <= n; i++) s = s * 60 + p[i]; print s}' "$out/logs/$name.time")
+  cpu=$(awk -F': ' '/(User|System) time \(seconds\)/ {s += $2} END {printf "%.1f", s}' "$out/logs/$name.time")
   peak=$(awk -F': ' '/Maximum resident set size/ {printf "%.0f", $2 / 1024}' "$out/logs/$name.time")
   bytes=$(du -sh "$output" 2>/dev/null | cut -f1)
-  printf '%-22s %8.1f s %7s MiB  %s %s\n' "$name" "$wall" "$peak" "$(basename "$output")" "$bytes"
-  printf '%s\t%s\t%s\t%s\t%s\n' "$name" "$wall" "$peak" "$(basename "$output")" "$bytes" >>"$log"
+  printf '%-12s %8.1f s wall %8.1f s CPU %7s MiB  %s %s\n' "$name" "$wall" "$cpu" "$peak" "$(basename "$output")" "$bytes"
+  printf '%s\t%s\t%s\t%s\t%s\t%s\n' "$name" "$wall" "$cpu" "$peak" "$(basename "$output")" "$bytes" >>"$log"
 }
 
 # 1. COLMAP SfM on the CPU: one OPENCV camera for all photos (one drone, one
@@ -84,9 +88,30 @@ mkdir -p "$out/sparse"
 step mapper "$out/sparse" colmap mapper \
   --database_path "$out/database.db" --image_path "$photos" --output_path "$out/sparse"
 
+# The mapper may split a flight into several models (sparse/0, sparse/1, ...)
+# and need not number the largest 0: the recipe goes on with the model that
+# registered the most photos, and stops here when that is fewer than
+# MIN_REGISTERED (default: half the photos) -- a plan from a fragment of the
+# flight would silently leave the rest of the site out.
+n_photos=$(find "$photos" -maxdepth 1 -type f -iname '*.jp*g' | wc -l)
+min_registered="${MIN_REGISTERED:-$(((n_photos + 1) / 2))}"
+model="" registered=0
+for m in "$out"/sparse/*/; do
+  [ -d "$m" ] || continue
+  n=$("$vpctl" colmap info "$m" 2>/dev/null | awk '/^images:/ {print $2}') || n=0
+  if [ "${n:-0}" -gt "$registered" ]; then model="${m%/}" registered="$n"; fi
+done
+echo "COLMAP registered $registered of $n_photos photos (${model:-no model})"
+if [ "$registered" -lt "$min_registered" ]; then
+  echo "COLMAP registered $registered of $n_photos photos, fewer than $min_registered" \
+    "(MIN_REGISTERED): too little overlap or too few features; try MAX_FEATURES=8192," \
+    "a larger SIZE, or check the photos in $out/logs/mapper.log" >&2
+  exit 2
+fi
+
 # 2. vpctl: georegister with the photos' EXIF GPS (altitudes above mean sea
 # level, the take-off altitude from DJI's XMP), undistort at SIZE px.
-step align "$out/aligned" "$vpctl" colmap align --colmap "$out/sparse/0" --exif "$photos" --out "$out/aligned"
+step align "$out/aligned" "$vpctl" colmap align --colmap "$model" --exif "$photos" --out "$out/aligned"
 step undistort "$out/dense/images" "$vpctl" colmap undistort --colmap "$out/aligned" --images "$photos" \
   --out "$out/dense" --max-image-size "$size"
 mvs_config=()
@@ -104,14 +129,35 @@ fi
 step predict "$out/conf" "$vpctl" predict --forest "$forest" --out "$out/conf" --no-previews "$out/dense/images"
 
 # 4. The plan: the FC300S at full size (the drone's own camera), a GSD and
-# accuracy the 40 m grid nearly gives, 5 m from the reconstructed surface;
-# the take-off point on the mesh below the first photo.
+# accuracy the 40 m grid nearly gives, 5 m from the reconstructed surface.
+# Space no photo observed counts as free (the paper's rule, not vpctl's
+# default "occupied"): the first photos of the Brighton flight look down on
+# a tree canopy, where dense stereo keeps a depth on 0-10 % of the pixels,
+# and with unobserved space as an obstacle the take-off point there has no
+# clear way up.
+# The take-off point: where `colmap align --exif` found DJI's take-off
+# altitude (GPS altitude less the XMP's RelativeAltitude, in frame.json),
+# at that altitude below the first photo (photos do not record where the
+# drone took off: fly with --home where you stand instead) -- on Brighton
+# the mesh has no surface below the first photo (the canopy); without that
+# altitude, on the mesh below the first photo.
+home=(--home-from-first-image)
+frame="$out/aligned/frame.json"
+takeoff=$(awk -F': *' '/"takeoff_alt_m"/ {gsub(/[ ,]/, "", $2); print $2}' "$frame")
+if [ -n "$takeoff" ] && [ "$takeoff" != null ]; then
+  lat=$(awk -F': *' '/"lat_deg"/ {gsub(/[ ,]/, "", $2); print $2; exit}' "$frame")
+  lon=$(awk -F': *' '/"lon_deg"/ {gsub(/[ ,]/, "", $2); print $2; exit}' "$frame")
+  datum=$(awk -F': *' '/"vertical_datum"/ {gsub(/[ ,"]/, "", $2); print $2}' "$frame")
+  home=(--home "$lat,$lon,$takeoff${datum:+,$datum}")
+  echo "home: ${home[1]} (first photo's position, DJI's take-off altitude)"
+fi
 plan_config="${PLAN_CONFIG:-$out/plan.toml}"
 if [ -z "${PLAN_CONFIG:-}" ]; then
   cat >"$plan_config" <<'EOF'
 gsd_m = 0.01
 accuracy_m = 0.02
 safety_distance_m = 5.0
+unknown_space = "free"
 [camera]
 width = 4000
 height = 2250
@@ -119,10 +165,10 @@ focal_px = 2985.0
 EOF
 fi
 step plan "$out/plan.json" "$vpctl" plan --mesh "$out/site.ply" --colmap "$out/dense/sparse" \
-  --confidence-dir "$out/conf" --config "$plan_config" --home-from-first-image \
+  --confidence-dir "$out/conf" --config "$plan_config" "${home[@]}" \
   --out "$out/plan.json" --glb "$out/plan.glb"
 step export-plan "$out/mission.plan" "$vpctl" mission export "$out/plan.json" --out "$out/mission.plan"
 step export-kmz "$out/mission.kmz" "$vpctl" mission export "$out/plan.json" --out "$out/mission.kmz" --drone m3e
 
-total=$(awk -F'\t' 'NR > 1 {s += $2} END {printf "%.1f", s}' "$log")
-echo "total: $total s at $size px; steps in $log"
+total=$(awk -F'\t' 'NR > 1 {w += $2; c += $3} END {printf "%.1f s wall, %.1f s CPU", w, c}' "$log")
+echo "total: $total at $size px; steps in $log"

@@ -45,6 +45,12 @@ cargo test --locked --workspace --test udp_loopback -- --ignored --nocapture
 echo "== long runs: 1000 uploads through links that duplicate every packet and 30 % of them"
 cargo test --locked --workspace --test duplicate_storms -- --ignored --nocapture --test-threads 1
 
+echo "== long runs: a real drone flight end to end (Brighton Beach, COLMAP SfM at 800 px to a .plan and a .kmz; its step times)"
+# Skips in one line where ../shared/data/brighton-beach is absent (a clone
+# without shared/); where the photos are there, a missing COLMAP fails.
+# Debug build, as the test step above built it (vp-mvs is optimised in it too).
+VP_REQUIRE_COLMAP=1 cargo test --locked --workspace --test brighton -- --ignored --nocapture
+
 echo "== long runs: the campaign on vp-mvs, its measured findings on a held-out site, determinism (release)"
 # --workspace (not -p vp-sim): the same feature set as the bench step below,
 # which then reuses this release build instead of compiling everything again.
