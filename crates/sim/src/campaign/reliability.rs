@@ -185,22 +185,19 @@ fn dot(img: &mut RgbImage, (x, y): (f64, f64), c: Rgb<u8>) {
     }
 }
 
-/// The reliability diagram of `r` for `matcher`: mean predicted confidence
-/// (x) against the share labelled positive (y) per confidence bin, pooled
-/// over all angles (black) and per angle group (colours), the diagonal of a
-/// calibrated forest (grey), and the pooled pixel count per bin as bars
-/// along the bottom (tallest bar: the most populated bin, its count printed).
-pub fn plot(matcher: &str, r: &Reliability) -> RgbImage {
-    let mut img = RgbImage::from_pixel(W, H, Rgb([255, 255, 255]));
+/// Plot coordinates of (confidence, success).
+fn to(p: f64, o: f64) -> (f64, f64) {
     let (x0, y1, x1, y0) = AREA;
-    let to = |p: f64, o: f64| {
-        (
-            x0 + (x1 - x0) * p.clamp(0.0, 1.0),
-            y0 + (y1 - y0) * o.clamp(0.0, 1.0),
-        )
-    };
-    let grey = Rgb([200, 200, 200]);
-    let pooled = r.pooled();
+    (
+        x0 + (x1 - x0) * p.clamp(0.0, 1.0),
+        y0 + (y1 - y0) * o.clamp(0.0, 1.0),
+    )
+}
+
+/// The count bars of `pooled` (scaled to the most populated bin, whose
+/// count is returned) and the axes' ticks and labels.
+fn frame(img: &mut RgbImage, pooled: &[Cell; CONF_BINS]) -> u64 {
+    let (x0, _, _, y0) = AREA;
     let max_n = pooled.iter().map(|c| c.n).max().unwrap_or(0).max(1);
     let bar = Rgb([225, 225, 225]);
     for (b, c) in pooled.iter().enumerate() {
@@ -210,38 +207,38 @@ pub fn plot(matcher: &str, r: &Reliability) -> RgbImage {
             to((b + 1) as f64 / CONF_BINS as f64, 0.0).0 - 2.0,
         );
         for y in 0..h.round() as i64 {
-            line(&mut img, (xa, y0 - y as f64), (xb, y0 - y as f64), bar);
+            line(img, (xa, y0 - y as f64), (xb, y0 - y as f64), bar);
         }
     }
     for k in 0..=10 {
         let v = f64::from(k) / 10.0;
         let (x, _) = to(v, 0.0);
         let (_, y) = to(0.0, v);
-        line(&mut img, (x, y0), (x, y0 + 4.0), BLACK);
-        line(&mut img, (x0 - 4.0, y), (x0, y), BLACK);
-        if k % 5 == 0 {
-            let l = if k == 10 {
-                "1".to_string()
-            } else {
-                format!(".{k}")
-            };
-            let l = if k == 0 { "0".to_string() } else { l };
-            text(
-                &mut img,
-                x as i64 - text_width(&l) / 2,
-                y0 as i64 + 8,
-                &l,
-                BLACK,
-            );
-            text(
-                &mut img,
-                x0 as i64 - text_width(&l) - 8,
-                y as i64 - 4,
-                &l,
-                BLACK,
-            );
-        }
+        line(img, (x, y0), (x, y0 + 4.0), BLACK);
+        line(img, (x0 - 4.0, y), (x0, y), BLACK);
+        let l = match k {
+            0 => "0",
+            5 => ".5",
+            10 => "1",
+            _ => continue,
+        };
+        text(img, x as i64 - text_width(l) / 2, y0 as i64 + 8, l, BLACK);
+        text(img, x0 as i64 - text_width(l) - 8, y as i64 - 4, l, BLACK);
     }
+    max_n
+}
+
+/// The reliability diagram of `r` for `matcher`: mean predicted confidence
+/// (x) against the share labelled positive (y) per confidence bin, pooled
+/// over all angles (black) and per angle group (colours), the diagonal of a
+/// calibrated forest (grey), and the pooled pixel count per bin as bars
+/// along the bottom (tallest bar: the most populated bin, its count printed).
+pub fn plot(matcher: &str, r: &Reliability) -> RgbImage {
+    let mut img = RgbImage::from_pixel(W, H, Rgb([255, 255, 255]));
+    let (x0, y1, x1, y0) = AREA;
+    let grey = Rgb([200, 200, 200]);
+    let pooled = r.pooled();
+    let max_n = frame(&mut img, &pooled);
     line(&mut img, to(0.0, 0.0), to(1.0, 1.0), grey);
     line(&mut img, (x0, y0), (x1, y0), BLACK);
     line(&mut img, (x0, y0), (x0, y1), BLACK);
@@ -282,7 +279,7 @@ pub fn plot(matcher: &str, r: &Reliability) -> RgbImage {
     let axis = "predicted confidence";
     text(
         &mut img,
-        ((x0 + x1) / 2.0) as i64 - text_width(axis) / 2,
+        f64::midpoint(x0, x1) as i64 - text_width(axis) / 2,
         y0 as i64 + 22,
         axis,
         BLACK,
