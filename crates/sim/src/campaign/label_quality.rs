@@ -11,9 +11,11 @@
 //! Per material and per angle bin too (issue 34, item 3): a pixel's bin is
 //! its true triangulation angle in its triplet (the renderer's, not
 //! labelgen's estimate from SfM's poses), so the labelled share of a bin has
-//! every surface pixel of that angle below it; surface pixels that not all
-//! three views see (or beyond the last bin) have no bin and are counted in
-//! a row of their own.
+//! every surface pixel of that angle below it. Two more rows per material:
+//! pixels all three views see at an angle beyond the last bin (a bin from
+//! gamma_max to 180 deg), and pixels that not all three views see (no
+//! angle; the truth has no uncertainty bound there, so only a negative
+//! label can be correct).
 
 use std::fmt::Write as _;
 
@@ -44,8 +46,8 @@ pub struct MaterialCounts {
 pub struct AngleCell {
     /// Material name.
     pub material: String,
-    /// Bin of the true triangulation angle; None: not seen by all three
-    /// views of the triplet, or beyond the last bin.
+    /// Bin of the true triangulation angle (the bin count: beyond the last
+    /// bin); None: not seen by all three views of the triplet.
     pub angle_bin: Option<usize>,
     /// The bin's range, degrees (0, 0 without a bin).
     pub angle_deg: (f32, f32),
@@ -59,7 +61,7 @@ pub struct LabelQuality {
     /// Counts per material, in `Material::ALL` order.
     pub materials: Vec<(String, MaterialCounts)>,
     /// Counts per material and angle bin: material-major, the bins in
-    /// order, then the pixels without a bin.
+    /// order, then beyond the last bin, then the pixels without an angle.
     pub by_angle: Vec<AngleCell>,
 }
 
@@ -82,16 +84,19 @@ impl LabelQuality {
                 .map(|m| (m.name().to_string(), MaterialCounts::default()))
                 .collect();
         }
-        let slots = bins.len() + 1;
+        let nb = bins.len();
+        let slots = nb + 2;
         if self.by_angle.len() != Material::ALL.len() * slots {
             self.by_angle = Material::ALL
                 .iter()
                 .flat_map(|m| {
                     (0..slots).map(|b| AngleCell {
                         material: m.name().to_string(),
-                        angle_bin: (b < bins.len()).then_some(b),
-                        angle_deg: if b < bins.len() {
+                        angle_bin: (b <= nb).then_some(b),
+                        angle_deg: if b < nb {
                             (bins.edges()[b], bins.edges()[b + 1])
+                        } else if b == nb {
+                            (bins.gamma_max(), 180.0)
                         } else {
                             (0.0, 0.0)
                         },
@@ -111,7 +116,7 @@ impl LabelQuality {
             let bin = if t.status == PixelStatus::NotVisible {
                 None
             } else {
-                bins.bin_of(t.angle_deg)
+                Some(bins.bin_of(t.angle_deg).unwrap_or(nb))
             };
             let l = label.label((i % w) as u32, (i / w) as u32);
             let truly = truly_positive(t, z, k_sigma);
@@ -163,8 +168,9 @@ impl LabelQuality {
     }
 
     /// `label_quality.csv`: one line per material and angle bin with
-    /// surface pixels (`angle_bin` "none": not seen by all three views, or
-    /// beyond the last bin); its counts add up to [`LabelQuality::total`].
+    /// surface pixels (the bin past the last: beyond gamma_max; `angle_bin`
+    /// "none": not seen by all three views); its counts add up to
+    /// [`LabelQuality::total`].
     pub fn csv(&self) -> String {
         let mut s = String::from(
             "material,angle_bin,angle_lo,angle_hi,surface_pixels,labelled,labelled_share,correct,\

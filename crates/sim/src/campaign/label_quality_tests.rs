@@ -18,12 +18,14 @@ fn truth(material: Option<Material>, status: PixelStatus, depth: f32, angle: f32
     }
 }
 
-/// A 4-pixel image: a ground pixel at 12 deg reconstructed right but
+/// A 5-pixel image: a ground pixel at 12 deg reconstructed right but
 /// labelled negative (a mislabel), a rock pixel at 33 deg labelled positive
 /// with a wrong depth (a mislabelled positive), a grass pixel only two
-/// views see (no angle) left unlabelled, and sky.
+/// views see (no angle) left unlabelled, sky, and a rock pixel at 50 deg
+/// labelled positive and right.
 fn tiny() -> LabelQuality {
-    let mut label = LabelImage::new(4, 1);
+    let mut label = LabelImage::new(5, 1);
+    label.set(4, 0, Label::Positive, 50.0).unwrap();
     label.set(0, 0, Label::Negative, 12.0).unwrap();
     label.set(1, 0, Label::Positive, 33.0).unwrap();
     let truth = [
@@ -36,8 +38,9 @@ fn tiny() -> LabelQuality {
         truth(Some(Material::Rock), PixelStatus::Outlier, 11.0, 33.0),
         truth(Some(Material::Grass), PixelStatus::NotVisible, 0.0, 0.0),
         truth(None, PixelStatus::NoSurface, 0.0, 0.0),
+        truth(Some(Material::Rock), PixelStatus::Reconstructed, 10.0, 50.0),
     ];
-    let depth = [10.0, 11.0, 0.0, 0.0];
+    let depth = [10.0, 11.0, 0.0, 0.0, 10.0];
     let mut q = LabelQuality::default();
     q.add(&label, &truth, &depth, 3.0, &AngleBins::paper());
     q
@@ -70,8 +73,14 @@ fn a_mislabelled_pixel_lands_in_its_material_and_angle_bin() {
     );
     let grass = cell(&q, "grass", None);
     assert_eq!((grass.surface, grass.labelled), (1, 0));
+    let wide = cell(&q, "rock", Some(9));
+    assert_eq!(
+        (wide.labelled, wide.correct),
+        (1, 1),
+        "beyond 45 deg: its own bin"
+    );
     let counted: u64 = q.by_angle.iter().map(|a| a.counts.surface).sum();
-    assert_eq!(counted, 3, "sky is no surface");
+    assert_eq!(counted, 4, "sky is no surface");
 
     let csv = q.csv();
     assert!(
@@ -83,7 +92,12 @@ fn a_mislabelled_pixel_lands_in_its_material_and_angle_bin() {
         "{csv}"
     );
     let (header, rows) = q.angle_cells();
-    assert_eq!(header.len(), 11, "material, 9 bins, no angle: {header:?}");
+    assert_eq!(
+        header.len(),
+        12,
+        "material, 9 bins, beyond, no angle: {header:?}"
+    );
+    assert_eq!(header[10], "45-180 deg");
     assert_eq!(rows.len(), 3, "{rows:?}");
     assert_eq!(rows[0][3], "0.0 / 100.0", "{rows:?}");
 }
