@@ -93,12 +93,10 @@ impl LabelQuality {
                     (0..slots).map(|b| AngleCell {
                         material: m.name().to_string(),
                         angle_bin: (b <= nb).then_some(b),
-                        angle_deg: if b < nb {
-                            (bins.edges()[b], bins.edges()[b + 1])
-                        } else if b == nb {
-                            (bins.gamma_max(), 180.0)
-                        } else {
-                            (0.0, 0.0)
+                        angle_deg: match b.cmp(&nb) {
+                            std::cmp::Ordering::Less => (bins.edges()[b], bins.edges()[b + 1]),
+                            std::cmp::Ordering::Equal => (bins.gamma_max(), 180.0),
+                            std::cmp::Ordering::Greater => (0.0, 0.0),
                         },
                         counts: MaterialCounts::default(),
                     })
