@@ -84,6 +84,12 @@ fn quick_demo_prints_the_table_and_writes_the_report() {
         assert!(stdout.contains(row), "{row} missing from\n{stdout}");
     }
     assert!(stdout.contains("spearman"), "{stdout}");
+    // Issue 34, item 7: the curves measured apart on the flown triplets and
+    // on the random set no planner chose.
+    assert!(
+        stdout.contains("measured on the random triplets"),
+        "{stdout}"
+    );
     assert!(stdout.contains("Label quality"), "{stdout}");
     // The report: table, CSV with one line per row, plots, plans and missions.
     let md = std::fs::read_to_string(out.join("table.md")).unwrap();
@@ -93,6 +99,7 @@ fn quick_demo_prints_the_table_and_writes_the_report() {
     for f in [
         "report.json",
         "curves.csv",
+        "label_quality.csv",
         "config.toml",
         "confidence_rock.png",
         "plan_F1x2.png",

@@ -483,6 +483,79 @@ fn sim_evaluate_scores_each_held_out_site_and_refuses_a_single_site() {
     assert!(printed.starts_with(&summary), "{printed}\n---\n{summary}");
 
     check_angle_success(&out, &summary);
+    check_reliability_and_label_quality(&out, pixels);
+
+    // Same config and seed: the same bytes, file by file.
+    let again = dir.path().join("eval-again");
+    let o = vpctl(&[
+        "sim",
+        "evaluate",
+        "--config",
+        two.to_str().unwrap(),
+        "--out",
+        again.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let mut names: Vec<_> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    names.sort();
+    assert!(names.len() >= 7, "{names:?}");
+    for n in names {
+        assert!(
+            std::fs::read(out.join(&n)).unwrap() == std::fs::read(again.join(&n)).unwrap(),
+            "{n:?} differs between two runs of one config"
+        );
+    }
+}
+
+/// `reliability.csv` (one line per forest, angle group and confidence bin:
+/// its pixels are every labelled pixel scored, `pixels`, the diagram's PNG
+/// beside it) and `label_quality.csv` (per material and angle bin, labelled
+/// within surface, correct within labelled) of `vpctl sim evaluate` in `out`.
+fn check_reliability_and_label_quality(out: &Path, pixels: u64) {
+    let rel = std::fs::read_to_string(out.join("reliability.csv")).unwrap();
+    let mut lines = rel.lines();
+    assert_eq!(
+        lines.next(),
+        Some(
+            "matcher,forest,angle_lo,angle_hi,conf_lo,conf_hi,pixels,mean_confidence,\
+             label_success,truth_success"
+        )
+    );
+    let mut sum = 0u64;
+    for l in lines {
+        let f: Vec<&str> = l.split(',').collect();
+        assert_eq!(f.len(), 10, "{l}");
+        sum += f[6].parse::<u64>().unwrap();
+        let (lo, hi): (f64, f64) = (f[4].parse().unwrap(), f[5].parse().unwrap());
+        let mean: f64 = f[7].parse().unwrap();
+        assert!(mean >= lo - 1e-4 && mean <= hi + 1e-4, "{l}");
+        assert!(out
+            .join(format!("reliability_{}_{}.png", f[0], f[1]))
+            .is_file());
+    }
+    assert_eq!(sum, pixels, "the diagram holds every scored pixel once");
+    let q = std::fs::read_to_string(out.join("label_quality.csv")).unwrap();
+    assert!(q.starts_with(
+        "material,angle_bin,angle_lo,angle_hi,surface_pixels,labelled,labelled_share,correct,"
+    ));
+    let mut labelled = 0u64;
+    for l in q.lines().skip(1) {
+        let f: Vec<u64> = [4, 5, 7, 9, 10]
+            .iter()
+            .map(|&i| l.split(',').nth(i).unwrap().parse().unwrap())
+            .collect();
+        assert!(
+            f[1] <= f[0] && f[2] <= f[1] && f[4] <= f[3] && f[3] <= f[1],
+            "{l}"
+        );
+        labelled += f[1];
+    }
+    assert!(labelled >= pixels, "{labelled} labelled, {pixels} scored");
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("data:image/png;base64,") && html.contains("label-quality-angle"));
 }
 
 /// `angle_success.csv` of `vpctl sim evaluate` in `out`: the matcher's

@@ -2,11 +2,16 @@
 //! angle bin (the paper's Fig. 4), and the Spearman rank correlation between
 //! them.
 //!
-//! Measured: over every training and flown triplet, the pixels all three
-//! cameras see, binned by their triangulation angle; the share whose depth
-//! is within the uncertainty bound of the true depth (`k_sigma` sigma, as a
-//! positive label claims). Learned: the forest's mean predicted confidence
-//! per bin over the held-out images' pixels of the material.
+//! Measured: over a set of triplets, the pixels all three cameras see,
+//! binned by their triangulation angle; the share whose depth is within the
+//! uncertainty bound of the true depth (`k_sigma` sigma, as a positive label
+//! claims). Two sets, reported side by side (issue 34, item 7): the flown
+//! triplets (the planners chose them, so they lean toward the angles each
+//! planner favoured), and a fixed random set on each held-out site that no
+//! planner chose, the same for every strategy (out of sample: neither
+//! trained on nor planned; see [`super::training::measure_out_of_sample`]).
+//! Learned: the forest's mean predicted confidence per bin over the
+//! held-out images' pixels of the material.
 
 use serde::Serialize;
 use vp_scene::raster::{AngleBins, ConfidenceImage};
@@ -38,11 +43,18 @@ pub struct ConfidenceCurve {
     pub measured: Vec<f64>,
     /// Measured pixels per bin.
     pub measured_pixels: Vec<u64>,
+    /// The same measured on the fixed random triplets no planner chose
+    /// (NaN for a bin without pixels; all NaN when no random set was flown).
+    pub measured_random: Vec<f64>,
+    /// Their pixels per bin.
+    pub measured_random_pixels: Vec<u64>,
     /// Grid nodes averaged for `learned`.
     pub samples: u64,
     /// Spearman rank correlation of `learned` and `measured` over the bins
     /// with measured pixels.
     pub spearman: f64,
+    /// The same against `measured_random`.
+    pub spearman_random: f64,
 }
 
 impl CurveAccumulator {
@@ -110,8 +122,22 @@ impl CurveAccumulator {
             .collect()
     }
 
-    /// The curves of every material with learned samples.
+    /// The curves of every material with learned samples, without a
+    /// random set.
     pub fn curves(&self) -> Vec<ConfidenceCurve> {
+        self.curves_with(None)
+    }
+
+    /// The curves of every material with learned samples; `random`: the
+    /// measurements of the random triplets no planner chose.
+    pub fn curves_with(&self, random: Option<&CurveAccumulator>) -> Vec<ConfidenceCurve> {
+        let share = |b: &(u64, u64)| {
+            if b.1 > 0 {
+                b.0 as f64 / b.1 as f64
+            } else {
+                f64::NAN
+            }
+        };
         let centres: Vec<f64> = (0..self.bins.len())
             .map(|b| f64::from(self.bins.centre(b)))
             .collect();
@@ -121,29 +147,20 @@ impl CurveAccumulator {
             .filter(|(_, (l, _))| l.first().is_some_and(|b| b.1 > 0))
             .map(|(m, (l, meas))| {
                 let learned: Vec<f64> = l.iter().map(|b| b.0 / b.1 as f64).collect();
-                let measured: Vec<f64> = meas
-                    .iter()
-                    .map(|b| {
-                        if b.1 > 0 {
-                            b.0 as f64 / b.1 as f64
-                        } else {
-                            f64::NAN
-                        }
-                    })
-                    .collect();
-                let (a, b): (Vec<f64>, Vec<f64>) = learned
-                    .iter()
-                    .zip(&measured)
-                    .filter(|(_, m)| m.is_finite())
-                    .map(|(l, m)| (*l, *m))
-                    .unzip();
+                let measured: Vec<f64> = meas.iter().map(share).collect();
+                let empty = vec![(0, 0); meas.len()];
+                let rand = random.map_or(&empty, |r| &r.measured[*m as usize]);
+                let measured_random: Vec<f64> = rand.iter().map(share).collect();
                 ConfidenceCurve {
                     material: m.name().to_string(),
                     angle_deg: centres.clone(),
-                    spearman: spearman(&a, &b),
+                    spearman: spearman_finite(&learned, &measured),
+                    spearman_random: spearman_finite(&learned, &measured_random),
                     learned,
                     measured,
                     measured_pixels: meas.iter().map(|b| b.1).collect(),
+                    measured_random,
+                    measured_random_pixels: rand.iter().map(|b| b.1).collect(),
                     samples: l[0].1,
                 }
             })
@@ -151,11 +168,37 @@ impl CurveAccumulator {
     }
 }
 
+/// Spearman rank correlation of `learned` and `measured` over the bins
+/// where `measured` has pixels (is finite).
+fn spearman_finite(learned: &[f64], measured: &[f64]) -> f64 {
+    let (a, b): (Vec<f64>, Vec<f64>) = learned
+        .iter()
+        .zip(measured)
+        .filter(|(_, m)| m.is_finite())
+        .map(|(l, m)| (*l, *m))
+        .unzip();
+    spearman(&a, &b)
+}
+
 /// Per angle bin, the Spearman rank correlation between the learned and the
 /// measured confidence across materials: whether the forest ranks materials
 /// (rock above grass, ...) as the MVS's measured behaviour does. (angle,
 /// rho) pairs; materials without measured pixels in a bin are left out.
+/// Measured on the flown triplets; [`material_ranking_random`] on the
+/// random set.
 pub fn material_ranking(curves: &[ConfidenceCurve]) -> Vec<(f64, f64)> {
+    ranking_by(curves, |c| &c.measured)
+}
+
+/// [`material_ranking`] against the random triplets no planner chose.
+pub fn material_ranking_random(curves: &[ConfidenceCurve]) -> Vec<(f64, f64)> {
+    ranking_by(curves, |c| &c.measured_random)
+}
+
+fn ranking_by(
+    curves: &[ConfidenceCurve],
+    measured: fn(&ConfidenceCurve) -> &Vec<f64>,
+) -> Vec<(f64, f64)> {
     let Some(first) = curves.first() else {
         return Vec::new();
     };
@@ -163,8 +206,8 @@ pub fn material_ranking(curves: &[ConfidenceCurve]) -> Vec<(f64, f64)> {
         .map(|b| {
             let (l, t): (Vec<f64>, Vec<f64>) = curves
                 .iter()
-                .filter(|c| c.measured[b].is_finite())
-                .map(|c| (c.learned[b], c.measured[b]))
+                .filter(|c| measured(c)[b].is_finite())
+                .map(|c| (c.learned[b], measured(c)[b]))
                 .unzip();
             (first.angle_deg[b], spearman(&l, &t))
         })

@@ -31,6 +31,7 @@ use vp_scene::{Material, SceneError};
 use super::angle_fall::{self, angle_fall, AngleFall, SiteSuccess};
 use super::curves::CurveAccumulator;
 use super::reconstruct::truly_positive;
+use super::reliability::{self, Reliability};
 use super::training::{label_site, LabelledView, TrainingStats};
 use crate::config::CampaignConfig;
 use crate::error::{Result, SimError};
@@ -83,6 +84,8 @@ pub struct ForestEvaluation {
     pub success: Vec<SiteSuccess>,
     /// Its fall from 5-15 to 35-45 deg on ground and rock (stop rule G1).
     pub fall: Option<AngleFall>,
+    /// Per forest size, the reliability diagram over every fold's pixels.
+    pub reliability: Vec<Reliability>,
 }
 
 /// The narrow and wide angle ranges of the stop rule G1, degrees, and its
@@ -140,8 +143,10 @@ impl Tally {
 
 /// `vpctl sim evaluate`: evaluates the campaign of the config file `config`
 /// ([`evaluate_forest`]) and writes `out/forest_eval.csv`,
-/// `out/angle_success.csv` and `out/summary.txt` (the output folder rules of [`OutDir`]; nothing is
-/// written when the evaluation fails).
+/// `out/angle_success.csv`, `out/reliability.csv` with one
+/// `reliability_<matcher>_<forest>.png` per forest size, `out/label_quality.csv`,
+/// `out/summary.txt` and `out/report.html` (the output folder rules of
+/// [`OutDir`]; nothing is written when the evaluation fails).
 pub fn evaluate_to_dir(
     config: &Path,
     sizes: &[(usize, usize)],
@@ -165,12 +170,17 @@ pub fn evaluate_to_dir(
                 "angle_success.csv",
                 angle_fall::csv(&eval.matcher, &eval.success, bins),
             ),
+            (
+                "reliability.csv",
+                reliability::csv(&eval.matcher, &eval.reliability),
+            ),
+            ("label_quality.csv", eval.stats.label_quality.csv()),
             ("summary.txt", eval.summary()),
         ] {
             let p = stage.join(name);
             std::fs::write(&p, text).map_err(|e| SceneError::io(&p, e))?;
         }
-        Ok(())
+        super::report::eval_html::write(&eval, stage)
     })?;
     Ok(eval)
 }
@@ -229,6 +239,7 @@ pub fn evaluate_forest(
         };
         params.validate()?;
         let size = format!("{n_trees}x{max_depth}");
+        let mut diagram = Reliability::new(&size, bins);
         for (i, &fold) in t.site_seeds.iter().enumerate() {
             let train: Vec<&LabelledView> = sites
                 .iter()
@@ -246,7 +257,7 @@ pub fn evaluate_forest(
             }
             let forest = vp_forest::train(&set, &params, mix64(cfg.seed ^ 0x666f_7265_7374))?;
             let base = angle_only(&train, bins);
-            let cells = score_site(&forest, &sites[i], &base, bins, k_sigma)?;
+            let cells = score_site(&forest, &sites[i], &base, k_sigma, &mut diagram)?;
             let mut total = Tally::default();
             for (&(m, bin), c) in &cells {
                 total.add(c);
@@ -277,19 +288,22 @@ pub fn evaluate_forest(
             ));
             out.folds.push((size.clone(), fold, total));
         }
+        out.reliability.push(diagram);
     }
     Ok(out)
 }
 
 /// Scores the labelled pixels of one held-out site's `views` with `forest`
-/// and the angle-only baseline `base`: running sums per (material, angle bin).
+/// and the angle-only baseline `base`: running sums per (material, angle bin),
+/// and every pixel into the reliability `diagram`.
 fn score_site(
     forest: &vp_forest::Forest,
     views: &[LabelledView],
     base: &[f64],
-    bins: &vp_scene::raster::AngleBins,
     k_sigma: f32,
+    diagram: &mut Reliability,
 ) -> Result<BTreeMap<(usize, usize), Tally>> {
+    let bins = forest.bins();
     let mut cells: BTreeMap<(usize, usize), Tally> = BTreeMap::new();
     for v in views {
         let scored = forest.score_labels(&v.image, &v.label)?;
@@ -313,6 +327,7 @@ fn score_site(
             c.positive += u64::from(positive);
             c.brier += (f64::from(s.confidence) - y).powi(2);
             c.brier_angle_only += (base[bin] - y).powi(2);
+            diagram.add(bin, s.confidence, positive, truly);
         }
     }
     Ok(cells)
@@ -422,6 +437,15 @@ impl ForestEvaluation {
                 all.brier_skill(),
                 100.0 * all.share(all.positive.max(all.n - all.positive)),
             );
+            if let Some(r) = self.reliability.iter().find(|r| r.forest == size) {
+                let _ = writeln!(
+                    out,
+                    "  calibration error (ECE, 10 confidence bins, against the labels): {:.3} \
+                     ({})",
+                    r.ece(),
+                    r.file_name(&self.matcher)
+                );
+            }
         }
         if let Some(f) = &self.fall {
             out.push_str(&f.summary());

@@ -34,6 +34,7 @@ mod gate;
 pub mod images;
 pub mod label_quality;
 pub mod reconstruct;
+pub mod reliability;
 pub mod report;
 mod run;
 pub mod seen;

@@ -17,7 +17,7 @@ use super::reconstruct::{Flown, Matcher};
 use super::report::{aggregate, CampaignReport, SiteArtifacts, SiteResult, StrategyArtifacts};
 use super::site::{fly_with_error, image_id, SiteRun};
 use super::strategy_run::{run_strategy, Known};
-use super::training::train_forest_with_stats;
+use super::training::{measure_out_of_sample, train_forest_with_stats};
 use crate::config::CampaignConfig;
 use crate::config::MvsKind;
 use crate::config::Strategy;
@@ -199,7 +199,7 @@ fn run_site(
     strategies: &[Strategy],
     seed: u64,
     keep_artifacts: bool,
-    curves: &mut CurveAccumulator,
+    (curves, random): (&mut CurveAccumulator, &mut CurveAccumulator),
     progress: &mut dyn FnMut(&str),
 ) -> Result<(SiteResult, Option<SiteArtifacts>)> {
     let world = World::new(cfg, seed)?;
@@ -209,6 +209,10 @@ fn run_site(
         "held-out site {seed}: {} faces, {} evaluation faces in the ROI",
         world.site.mesh.n_faces(),
         em.len()
+    ));
+    let n = measure_out_of_sample(&world.scene(), &world.site, &matcher, cfg, seed, random)?;
+    progress(&format!(
+        "  site {seed}: {n} random triplets (no planner's) measured for the out-of-sample curves"
     ));
     let run_seed = mix64(cfg.seed ^ mix64(seed ^ 0x7369_7465));
 
@@ -310,27 +314,28 @@ fn run_site(
     Ok((SiteResult { seed, scores }, artifacts))
 }
 
-/// Runs the campaign with a trained forest (see [`run_campaign`]); the
-/// measured curves then come from the flown triplets only.
+/// Runs the campaign with a trained forest (see [`run_campaign`]).
 pub fn run_campaign_with_forest(
     cfg: &CampaignConfig,
     forest: &Forest,
     progress: &mut dyn FnMut(&str),
 ) -> Result<CampaignReport> {
-    let curves = CurveAccumulator::new(forest.bins().clone());
-    fly_held_out(cfg, forest, curves, progress)
+    fly_held_out(cfg, forest, progress)
 }
 
-/// Flies and evaluates every held-out site; `curves` may hold the training
-/// triplets' measurements already.
+/// Flies and evaluates every held-out site. The measured curves: of the
+/// flown triplets and, apart, of each site's fixed random triplets (issue
+/// 34, item 7); the training triplets' measurements are left out of both
+/// (the forest learned from them: in sample).
 fn fly_held_out(
     cfg: &CampaignConfig,
     forest: &Forest,
-    mut curves: CurveAccumulator,
     progress: &mut dyn FnMut(&str),
 ) -> Result<CampaignReport> {
     cfg.validate()?;
     let strategies = cfg.parsed_strategies()?;
+    let mut curves = CurveAccumulator::new(forest.bins().clone());
+    let mut random = CurveAccumulator::new(forest.bins().clone());
     let mut sites = Vec::new();
     let mut artifacts = None;
     for (i, &seed) in cfg.held_out_seeds.iter().enumerate() {
@@ -340,7 +345,7 @@ fn fly_held_out(
             &strategies,
             seed,
             i == 0,
-            &mut curves,
+            (&mut curves, &mut random),
             progress,
         )?;
         sites.push(r);
@@ -348,11 +353,12 @@ fn fly_held_out(
             artifacts = a;
         }
     }
-    let curves = curves.curves();
+    let curves = curves.curves_with(Some(&random));
     Ok(CampaignReport {
         rows: aggregate(&sites),
         sites,
         material_ranking: super::curves::material_ranking(&curves),
+        material_ranking_random: super::curves::material_ranking_random(&curves),
         curves,
         training: None,
         config: cfg.clone(),
@@ -370,23 +376,24 @@ pub fn run_campaign(
     Ok(run_campaign_trained(cfg, None, progress)?.0)
 }
 
-/// [`run_campaign`] with a forest trained before (`Some`: no training, the
-/// measured curves come from the flown triplets only) or trained here
-/// (`None`); returns the report and the forest flown with.
+/// [`run_campaign`] with a forest trained before (`Some`: no training) or
+/// trained here (`None`); returns the report and the forest flown with.
+/// Either way the measured curves leave the training triplets out.
 pub fn run_campaign_trained(
     cfg: &CampaignConfig,
     forest: Option<Forest>,
     progress: &mut dyn FnMut(&str),
 ) -> Result<(CampaignReport, Forest)> {
-    let (forest, stats, curves) = if let Some(f) = forest {
-        let curves = CurveAccumulator::new(f.bins().clone());
-        (f, None, curves)
+    let (forest, stats) = if let Some(f) = forest {
+        (f, None)
     } else {
-        let mut curves = CurveAccumulator::new(cfg.training.forest.bins.clone());
-        let (f, s) = train_forest_with_stats(cfg, &mut curves, progress)?;
-        (f, Some(s), curves)
+        // The training triplets' success is what the forest learned from:
+        // measured in sample, so not part of the campaign's curves.
+        let mut in_sample = CurveAccumulator::new(cfg.training.forest.bins.clone());
+        let (f, s) = train_forest_with_stats(cfg, &mut in_sample, progress)?;
+        (f, Some(s))
     };
-    let mut report = fly_held_out(cfg, &forest, curves, progress)?;
+    let mut report = fly_held_out(cfg, &forest, progress)?;
     report.training = stats;
     Ok((report, forest))
 }

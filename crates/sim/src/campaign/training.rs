@@ -94,6 +94,69 @@ fn random_triplet(
     Some([cams[0], cams[1], cams[2]])
 }
 
+/// Tag of the random stream of the out-of-sample triplets.
+const OUT_OF_SAMPLE_TAG: u64 = 0x006f_6f73_616d;
+
+/// The fixed random triplets of held-out site `seed` on which the measured
+/// curves are measured out of sample (issue 34, item 7): drawn as training
+/// triplets are, at the training camera, from the campaign seed and the
+/// site's seed only. No planner chose them, no forest trained on them, and
+/// every strategy of a campaign is compared against the same set.
+pub(crate) fn out_of_sample_triplets(
+    site: &Site,
+    caster: &RayCaster,
+    cfg: &CampaignConfig,
+    seed: u64,
+) -> Result<Vec<[Camera; 3]>> {
+    let t = &cfg.training;
+    let k = Intrinsics::from_hfov(t.width, t.height, t.hfov_deg)?;
+    let mut rng = ChaCha8Rng::seed_from_u64(mix64(cfg.seed ^ mix64(seed ^ OUT_OF_SAMPLE_TAG)));
+    let per_site = t.triplets_per_site;
+    let mut out = Vec::with_capacity(per_site);
+    let mut attempts = 0;
+    while out.len() < per_site && attempts < 20 * per_site {
+        attempts += 1;
+        if let Some(cams) = random_triplet(site, caster, k, cfg, &mut rng) {
+            out.push(cams);
+        }
+    }
+    Ok(out)
+}
+
+/// Reconstructs the [`out_of_sample_triplets`] of held-out site `seed`
+/// with `matcher` on SfM's poses at every training level, as training does,
+/// and adds what they measured to `curves` (only there); returns how many
+/// triplets were flown.
+pub(crate) fn measure_out_of_sample(
+    scene: &Scene<'_>,
+    site: &Site,
+    matcher: &Matcher,
+    cfg: &CampaignConfig,
+    seed: u64,
+    curves: &mut CurveAccumulator,
+) -> Result<usize> {
+    let triplets = out_of_sample_triplets(site, scene.caster, cfg, seed)?;
+    for (n, cams) in triplets.iter().enumerate() {
+        let sfm = cams.each_ref().map(|c| sfm_camera(c, cfg, seed));
+        for &level in &cfg.training.levels {
+            let tseed = mix64(
+                cfg.seed
+                    ^ OUT_OF_SAMPLE_TAG
+                    ^ mix64(seed ^ mix64((n as u64) << 8 | u64::from(level))),
+            );
+            matcher.triplet(
+                scene,
+                ([&cams[0], &cams[1], &cams[2]], [&sfm[0], &sfm[1], &sfm[2]]),
+                level,
+                None,
+                tseed,
+                curves,
+            )?;
+        }
+    }
+    Ok(triplets.len())
+}
+
 /// One triplet at one level: its images, truth and depth maps (in the true
 /// cameras, for the label quality).
 type LevelRun = ([RgbImage; 3], [Vec<PixelTruth>; 3], [DepthMap; 3]);
@@ -203,7 +266,7 @@ pub(crate) fn label_site(
         }
     };
     let labels = generate_labels(&recs, meshes.as_ref(), &t.labels)?;
-    let out = labelled_views(labels, runs, stats, t.labels.k_sigma as f32)?;
+    let out = labelled_views(labels, runs, stats, t.labels.k_sigma as f32, &t.forest.bins)?;
     stats.sites += 1;
     Ok(out)
 }
@@ -215,6 +278,7 @@ fn labelled_views(
     mut runs: BTreeMap<String, LevelRun>,
     stats: &mut TrainingStats,
     k_sigma: f32,
+    bins: &vp_scene::raster::AngleBins,
 ) -> Result<Vec<LabelledView>> {
     let mut out = Vec::with_capacity(3 * labels.len());
     for rl in labels {
@@ -229,7 +293,7 @@ fn labelled_views(
         {
             stats
                 .label_quality
-                .add(&label, &truth, &depth.data, k_sigma);
+                .add(&label, &truth, &depth.data, k_sigma, bins);
             stats.positives += label.count(Label::Positive);
             stats.negatives += label.count(Label::Negative);
             out.push(LabelledView {

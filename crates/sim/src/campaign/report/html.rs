@@ -20,7 +20,7 @@ const PALETTE: [&str; 8] = [
     "#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf",
 ];
 
-const STYLE: &str = "body{font-family:system-ui,sans-serif;margin:24px;color:#222;max-width:1400px}\
+pub(super) const STYLE: &str = "body{font-family:system-ui,sans-serif;margin:24px;color:#222;max-width:1400px}\
 h1{font-size:1.5em}h2{font-size:1.2em;margin-top:1.6em}\
 table{border-collapse:collapse;font-size:14px}caption{text-align:left;padding:4px 0;color:#555}\
 th,td{border:1px solid #bbb;padding:4px 8px;text-align:right}th{background:#eef}\
@@ -92,6 +92,18 @@ pub fn report_html(report: &CampaignReport, figures: &[Figure]) -> String {
             &header,
             rows.iter().map(<[String; 5]>::as_slice),
         );
+        let (header, rows) = t.label_quality.angle_cells();
+        let header: Vec<&str> = header.iter().map(String::as_str).collect();
+        cell_table(
+            &mut h,
+            "label-quality-angle",
+            Some(
+                "Per true triangulation angle: correct % / labelled % of surface (no angle: \
+                 not seen by all three views); counts in label_quality.csv",
+            ),
+            &header,
+            rows.iter().map(Vec::as_slice),
+        );
     }
     h.push_str(
         "<h2>Files beside this page</h2>\n<p><code>table.csv</code>, <code>report.json</code>, \
@@ -114,7 +126,7 @@ fn table(h: &mut String, report: &CampaignReport) {
 }
 
 /// An HTML table with a header row; the first column names the row.
-fn cell_table<'a>(
+pub(super) fn cell_table<'a>(
     h: &mut String,
     id: &str,
     caption: Option<&str>,
@@ -255,7 +267,8 @@ fn planning_curves(h: &mut String, report: &CampaignReport) {
 }
 
 /// Per material, the forest's learned confidence (solid) against vp-mvs's
-/// measured success (dashed) over the triangulation angle.
+/// measured success (dashed) over the triangulation angle: on the flown
+/// triplets (red) and on the fixed random triplets no planner chose (green).
 fn confidence_curves(h: &mut String, report: &CampaignReport) {
     if report.curves.is_empty() {
         return;
@@ -265,7 +278,10 @@ fn confidence_curves(h: &mut String, report: &CampaignReport) {
     );
     for c in &report.curves {
         let pts = |v: &[f64]| c.angle_deg.iter().copied().zip(v.iter().copied()).collect();
-        let title = format!("{} (spearman {:+.2})", c.material, c.spearman);
+        let title = format!(
+            "{} (spearman {:+.2} flown, {:+.2} random)",
+            c.material, c.spearman, c.spearman_random
+        );
         let plot = LinePlot {
             title: &title,
             x_label: "triangulation angle (deg)",
@@ -282,10 +298,16 @@ fn confidence_curves(h: &mut String, report: &CampaignReport) {
                     points: pts(&c.learned),
                 },
                 Series {
-                    label: "measured".into(),
+                    label: "measured, flown".into(),
                     colour: "#dc2828",
                     dashed: true,
                     points: pts(&c.measured),
+                },
+                Series {
+                    label: "measured, random set".into(),
+                    colour: "#1e963c",
+                    dashed: true,
+                    points: pts(&c.measured_random),
                 },
             ],
         };
@@ -355,10 +377,14 @@ mod tests {
                 learned: vec![0.5, 0.7],
                 measured: vec![f64::NAN, 0.6],
                 measured_pixels: vec![0, 10],
+                measured_random: vec![0.4, f64::NAN],
+                measured_random_pixels: vec![5, 0],
                 samples: 3,
                 spearman: 1.0,
+                spearman_random: 0.0,
             }],
             material_ranking: Vec::new(),
+            material_ranking_random: Vec::new(),
             training: None,
             config: CampaignConfig::quick(),
             artifacts: None,
@@ -375,7 +401,9 @@ mod tests {
         let html = report_html(&r, std::slice::from_ref(&figure));
         assert!(html.contains("<td>Init</td><td>51.0</td>"), "{html}");
         assert!(html.contains("<td>G+F&lt;1&gt;</td>"), "names are escaped");
-        assert!(html.contains("<svg") && html.contains("rock (spearman +1.00)"));
+        assert!(
+            html.contains("<svg") && html.contains("rock (spearman +1.00 flown, +0.00 random)")
+        );
         assert!(html.contains("src=\"data:image/png;base64,iVBORw==\""));
         // Self-contained: nothing to fetch (the SVG namespace is a name, not a load).
         let no_ns = html.replace("xmlns=\"http://www.w3.org/2000/svg\"", "");

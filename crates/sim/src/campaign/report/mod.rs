@@ -12,6 +12,7 @@ use vp_scene::outdir::OutDir;
 
 use crate::error::{Result, SimError};
 
+pub mod eval_html;
 pub mod f_vs_np;
 pub mod html;
 pub mod plot;
@@ -106,8 +107,14 @@ fn fill(report: &CampaignReport, dir: &Path) -> Result<()> {
     if let Some(t) = &report.training {
         md.push_str("\n## Label quality (labelgen against the renderer's truth)\n\n");
         md.push_str(&t.label_quality.markdown());
+        md.push_str(
+            "\nPer true triangulation angle (correct % / labelled % of surface; no angle: not \
+             seen by all three views of the triplet; counts in `label_quality.csv`):\n\n",
+        );
+        md.push_str(&t.label_quality.angle_markdown());
+        write(&dir.join("label_quality.csv"), &t.label_quality.csv())?;
     }
-    md.push_str("\nPlots: `confidence_<material>.png` (learned: blue, measured: red, x: angle 0-45 deg, y: 0-1), ");
+    md.push_str("\nPlots: `confidence_<material>.png` (learned: blue, measured on the flown triplets: red, on the random triplets no planner chose: green, x: angle 0-45 deg, y: 0-1), ");
     md.push_str("`plan_<strategy>.png` (top view of the plan), `fulfillment_<strategy>.png` (per-face f, red 0 to green 1).\n");
     md.push_str("\n`report.html`: this report as one self-contained page with its plots. `scene.glb`: the site in 3D (mesh, initial flight and planned cameras as frusta, flight paths) for any glTF viewer.\n");
     if let Some(recipe) = acquired_recipe(report) {
@@ -119,19 +126,27 @@ fn fill(report: &CampaignReport, dir: &Path) -> Result<()> {
         .map_err(|e| SimError::Campaign(format!("report to JSON: {e}")))?;
     write(&dir.join("report.json"), &json)?;
     write(&dir.join("config.toml"), &report.config.to_toml()?)?;
-    let mut csv = String::from("material,angle_deg,learned,measured,measured_pixels\n");
+    let mut csv = String::from(
+        "material,angle_deg,learned,measured,measured_pixels,measured_random,measured_random_pixels\n",
+    );
+    let share = |m: f64| {
+        if m.is_finite() {
+            format!("{m:.4}")
+        } else {
+            String::new()
+        }
+    };
     for c in &report.curves {
         for (b, a) in c.angle_deg.iter().enumerate() {
-            let m = c.measured[b];
-            let m = if m.is_finite() {
-                format!("{m:.4}")
-            } else {
-                String::new()
-            };
             let _ = writeln!(
                 csv,
-                "{},{a},{:.4},{m},{}",
-                c.material, c.learned[b], c.measured_pixels[b]
+                "{},{a},{:.4},{},{},{},{}",
+                c.material,
+                c.learned[b],
+                share(c.measured[b]),
+                c.measured_pixels[b],
+                share(c.measured_random[b]),
+                c.measured_random_pixels[b]
             );
         }
     }

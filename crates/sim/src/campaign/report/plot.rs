@@ -18,13 +18,13 @@ const MARGIN: u32 = 30;
 /// Largest angle on the x axis, degrees.
 const X_MAX: f64 = 45.0;
 
-fn put(img: &mut RgbImage, x: i64, y: i64, c: Rgb<u8>) {
+pub(crate) fn put(img: &mut RgbImage, x: i64, y: i64, c: Rgb<u8>) {
     if x >= 0 && y >= 0 && x < i64::from(img.width()) && y < i64::from(img.height()) {
         img.put_pixel(x as u32, y as u32, c);
     }
 }
 
-fn line(img: &mut RgbImage, a: (f64, f64), b: (f64, f64), c: Rgb<u8>) {
+pub(crate) fn line(img: &mut RgbImage, a: (f64, f64), b: (f64, f64), c: Rgb<u8>) {
     let n = (b.0 - a.0).abs().max((b.1 - a.1).abs()).ceil().max(1.0) as usize;
     for i in 0..=n {
         let s = i as f64 / n as f64;
@@ -35,15 +35,18 @@ fn line(img: &mut RgbImage, a: (f64, f64), b: (f64, f64), c: Rgb<u8>) {
     }
 }
 
-const BLACK: Rgb<u8> = Rgb([0, 0, 0]);
+pub(crate) const BLACK: Rgb<u8> = Rgb([0, 0, 0]);
 const TRUTH: Rgb<u8> = Rgb([220, 40, 40]);
 const LEARNED: Rgb<u8> = Rgb([40, 70, 220]);
+/// Measured on the random triplets no planner chose.
+const RANDOM: Rgb<u8> = Rgb([30, 150, 60]);
 
-fn text(img: &mut RgbImage, x: i64, y: i64, s: &str, c: Rgb<u8>) {
+pub(crate) fn text(img: &mut RgbImage, x: i64, y: i64, s: &str, c: Rgb<u8>) {
     draw_text(img, x, y, s, c);
 }
 
-/// One material's learned (blue) and true (red) confidence over the angle,
+/// One material's learned (blue) and measured confidence over the angle, on
+/// the flown triplets (red) and on the random set (green),
 /// with its title, axis labels and legend.
 pub fn curve_plot(c: &ConfidenceCurve) -> RgbImage {
     let mut img = RgbImage::from_pixel(W, H, Rgb([255, 255, 255]));
@@ -84,7 +87,8 @@ pub fn curve_plot(c: &ConfidenceCurve) -> RgbImage {
     text(&mut img, x0 as i64, 8, &title, BLACK);
     let legend_x = x1 as i64 - text_width("learned");
     text(&mut img, legend_x, y1 as i64 + 6, "learned", LEARNED);
-    text(&mut img, legend_x, y1 as i64 + 18, "measured", TRUTH);
+    text(&mut img, legend_x, y1 as i64 + 18, "flown", TRUTH);
+    text(&mut img, legend_x, y1 as i64 + 30, "random", RANDOM);
     let axis = "angle (deg)";
     text(
         &mut img,
@@ -99,7 +103,11 @@ pub fn curve_plot(c: &ConfidenceCurve) -> RgbImage {
             y0 + (y1 - y0) * v.clamp(0.0, 1.0),
         )
     };
-    for (vals, colour) in [(&c.measured, TRUTH), (&c.learned, LEARNED)] {
+    for (vals, colour) in [
+        (&c.measured_random, RANDOM),
+        (&c.measured, TRUTH),
+        (&c.learned, LEARNED),
+    ] {
         for i in 1..vals.len() {
             // A bin without measured pixels breaks the line.
             if !(vals[i - 1].is_finite() && vals[i].is_finite()) {

@@ -105,6 +105,8 @@ pub struct CampaignReport {
     /// Per angle bin (deg), the rank correlation across materials of learned
     /// against true confidence.
     pub material_ranking: Vec<(f64, f64)>,
+    /// The same against the random triplets no planner chose.
+    pub material_ranking_random: Vec<(f64, f64)>,
     /// What training did (None when the forest was loaded).
     pub training: Option<TrainingStats>,
     /// The configuration that produced it.
@@ -309,29 +311,37 @@ impl CampaignReport {
     /// materials; as text lines.
     pub fn curves_summary(&self) -> String {
         let mut t = String::new();
-        let ranking: Vec<String> = self
-            .material_ranking
-            .iter()
-            .map(|(a, r)| format!("{a:.1} deg {r:+.2}"))
-            .collect();
-        let _ = writeln!(
-            t,
-            "ranking of materials, learned vs measured, per bin: {}",
-            ranking.join(", ")
-        );
+        for (set, ranking) in [
+            ("flown triplets", &self.material_ranking),
+            ("random triplets", &self.material_ranking_random),
+        ] {
+            let ranking: Vec<String> = ranking
+                .iter()
+                .map(|(a, r)| format!("{a:.1} deg {r:+.2}"))
+                .collect();
+            let _ = writeln!(
+                t,
+                "ranking of materials, learned vs measured on the {set}, per bin: {}",
+                ranking.join(", ")
+            );
+        }
         for c in &self.curves {
             let _ = writeln!(
                 t,
-                "{:<7} spearman {:+.2} over {} bins ({} samples, {} measured pixels): learned {} -> {}, measured {} -> {} from {:.1} to {:.1} deg",
+                "{:<7} spearman {:+.2} flown ({} pixels), {:+.2} random set ({} pixels), over {} bins ({} samples): learned {} -> {}, measured flown {} -> {}, random {} -> {} from {:.1} to {:.1} deg",
                 c.material,
                 c.spearman,
+                c.measured_pixels.iter().sum::<u64>(),
+                c.spearman_random,
+                c.measured_random_pixels.iter().sum::<u64>(),
                 c.angle_deg.len(),
                 c.samples,
-                c.measured_pixels.iter().sum::<u64>(),
                 fmt2(c.learned.first()),
                 fmt2(c.learned.last()),
                 fmt2(c.measured.first()),
                 fmt2(c.measured.last()),
+                fmt2(c.measured_random.first()),
+                fmt2(c.measured_random.last()),
                 c.angle_deg.first().copied().unwrap_or(0.0),
                 c.angle_deg.last().copied().unwrap_or(0.0),
             );
