@@ -8,9 +8,10 @@ use pyo3::prelude::*;
 use pyo3::types::PyAnyMethods;
 use serde::de::DeserializeOwned;
 use serde::Serialize;
+use vp_scene::plan::{GeodeticOrigin, VerticalDatum};
 use vp_scene::raster::{Label, LabelImage, RgbImage};
 
-use crate::errors::{type_error, value_error};
+use crate::errors::{type_error, value_error, IntoPy};
 
 /// Any array-like (a numpy array of any numeric dtype or layout, a list,
 /// a tuple) as a C-contiguous numpy array of `dtype` of `shape`: the one
@@ -436,4 +437,25 @@ pub fn to_py<'py, T: Serialize>(py: Python<'py>, value: &T) -> PyResult<Bound<'p
     let text =
         serde_json::to_string(value).map_err(|e| value_error(format!("not serialisable: {e}")))?;
     py.import("json")?.call_method1("loads", (text,))
+}
+
+/// `home=(lat, lon, alt)` or `(lat, lon, alt, "egm96" | "ellipsoid" | "takeoff")`;
+/// any other shape is a `ValueError` "home: expected {expected}" (the
+/// planner's `home=` also takes "first_image" and says so).
+pub(crate) fn home_of(
+    home: Option<&Bound<'_, PyAny>>,
+    expected: &str,
+) -> PyResult<Option<(GeodeticOrigin, Option<VerticalDatum>)>> {
+    let Some(home) = home.filter(|h| !h.is_none()) else {
+        return Ok(None);
+    };
+    let (lat, lon, alt, datum) = if let Ok((lat, lon, alt)) = home.extract::<(f64, f64, f64)>() {
+        (lat, lon, alt, None)
+    } else {
+        let (lat, lon, alt, d) = home
+            .extract::<(f64, f64, f64, String)>()
+            .map_err(|_| value_error(format!("home: expected {expected}")))?;
+        (lat, lon, alt, Some(d.parse::<VerticalDatum>().py()?))
+    };
+    Ok(Some((GeodeticOrigin::new(lat, lon, alt).py()?, datum)))
 }

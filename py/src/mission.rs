@@ -17,8 +17,9 @@ use vp_mission::{
     ConnectOptions, ExportFormat, Mission, MissionItem, MissionOptions,
 };
 use vp_scene::fsio;
-use vp_scene::plan::{GeodeticOrigin, Plan, VerticalDatum};
+use vp_scene::plan::{GeodeticOrigin, Plan};
 
+use crate::convert::home_of;
 use crate::errors::{value_error, IntoPy};
 use crate::planner::PyPlan;
 
@@ -38,27 +39,6 @@ struct Keywords {
     speed: Option<f32>,
     takeoff: f32,
     rtl: bool,
-}
-
-/// `home=(lat, lon, alt)` or `(lat, lon, alt, "egm96" | "ellipsoid" | "takeoff")`;
-/// any other shape is a `ValueError` "home: expected {expected}" (the
-/// planner's `home=` also takes "first_image" and says so).
-pub(crate) fn home_of(
-    home: Option<&Bound<'_, PyAny>>,
-    expected: &str,
-) -> PyResult<Option<(GeodeticOrigin, Option<VerticalDatum>)>> {
-    let Some(home) = home.filter(|h| !h.is_none()) else {
-        return Ok(None);
-    };
-    let (lat, lon, alt, datum) = if let Ok((lat, lon, alt)) = home.extract::<(f64, f64, f64)>() {
-        (lat, lon, alt, None)
-    } else {
-        let (lat, lon, alt, d) = home
-            .extract::<(f64, f64, f64, String)>()
-            .map_err(|_| value_error(format!("home: expected {expected}")))?;
-        (lat, lon, alt, Some(d.parse::<VerticalDatum>().py()?))
-    };
-    Ok(Some((GeodeticOrigin::new(lat, lon, alt).py()?, datum)))
 }
 
 /// Mission options for `plan` as `vpctl mission` builds them from its flags

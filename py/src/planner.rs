@@ -322,7 +322,7 @@ fn home_spec(home: Option<&Bound<'_, PyAny>>) -> PyResult<HomeSpec> {
         };
     }
     let expected = "(lat, lon, alt), (lat, lon, alt, datum) or \"first_image\"";
-    Ok(match crate::mission::home_of(Some(home), expected)? {
+    Ok(match crate::convert::home_of(Some(home), expected)? {
         Some((position, datum)) => HomeSpec::At { position, datum },
         None => HomeSpec::Unset,
     })

@@ -79,7 +79,10 @@ def test_fly_writes_the_cli_flight_byte_for_byte(tmp_path):
     """vpctl.sim.fly is the front door `vpctl sim fly` calls: the same plan
     and site give the same images, COLMAP model and frame.json, byte for
     byte (noisy SfM poses included), and the same refusals."""
-    (tmp_path / "site.toml").write_text("[site]\nseed = 3\ntarget_faces = 8000\nsize = 40.0\n")
+    # The camera stated: `plan` fills a missing one from the planner's
+    # defaults, `sim fly` from the demo preset.
+    (tmp_path / "site.toml").write_text("[site]\nseed = 3\ntarget_faces = 8000\nsize = 40.0\n"
+                                        "[planner.camera]\nwidth = 240\nheight = 160\nfocal_px = 320.0\n")
     run_cli("scene", "generate", "--config", tmp_path / "site.toml", "--out", tmp_path / "site.ply")
     run_cli("plan", "grid", "--mesh", tmp_path / "site.ply", "--config", tmp_path / "site.toml",
             "--height", "35", "--overlap", "0.6", "--out", tmp_path / "g.json")

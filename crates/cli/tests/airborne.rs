@@ -35,7 +35,10 @@ fn an_airborne_origin_from_align_flies_every_waypoint_at_its_true_height() {
     let d = dir.path();
     std::fs::write(
         d.join("site.toml"),
-        "[site]\nseed = 3\ntarget_faces = 8000\nsize = 40.0\n",
+        // The camera stated: `plan` fills a missing one from the planner's
+        // defaults, `sim fly` from the demo preset.
+        "[site]\nseed = 3\ntarget_faces = 8000\nsize = 40.0\n\
+         [planner.camera]\nwidth = 240\nheight = 160\nfocal_px = 320.0\n",
     )
     .unwrap();
     fly_a_grid(d);

@@ -397,3 +397,32 @@ fn a_typo_in_any_config_section_is_refused_with_line_column_and_valid_keys() {
         assert!(!out.exists(), "[{section}]");
     }
 }
+
+/// Issue 32: `scene generate --config` took the campaign's `[site]` through
+/// the simulator's campaign config, so the keys a file left out took the
+/// demo preset's site (44 m, 8 trees, a 12 m rock), not the site's own
+/// documented defaults. It reads the `[site]` section alone now.
+#[test]
+fn scene_generate_config_takes_the_sites_own_defaults() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("c.toml");
+    std::fs::write(&cfg, "seed = 1\n[site]\nseed = 3\n").unwrap();
+    let out = dir.path().join("site.ply");
+    let o = vpctl(&[
+        "scene",
+        "generate",
+        "--config",
+        cfg.to_str().unwrap(),
+        "--faces",
+        "5000",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let half = vp_scene::procedural::SiteParams::default().size / 2.0;
+    let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        stdout.contains(&format!("flight volume: [{:.2}, {:.2},", -half, -half)),
+        "{stdout}"
+    );
+}

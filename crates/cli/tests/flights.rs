@@ -39,7 +39,8 @@ fn site(dir: &Path) -> (Mesh, String, Point3<f64>) {
     std::fs::write(dir.join("rtk.toml"), "[safety]\ngnss = \"rtk\"\n").unwrap();
     std::fs::write(
         dir.join("site.toml"),
-        "[site]\nseed = 7\ntarget_faces = 6000\nsize = 40.0\n",
+        "[site]\nseed = 7\ntarget_faces = 6000\nsize = 40.0\n\
+         [planner.camera]\nwidth = 240\nheight = 160\nfocal_px = 320.0\n",
     )
     .unwrap();
     let o = vpctl(

@@ -16,7 +16,8 @@ fn text(b: &[u8]) -> String {
 fn site(dir: &Path) {
     std::fs::write(
         dir.join("site.toml"),
-        "[site]\nseed = 5\ntarget_faces = 8000\nsize = 40.0\n",
+        "[site]\nseed = 5\ntarget_faces = 8000\nsize = 40.0\n\
+         [planner.camera]\nwidth = 240\nheight = 160\nfocal_px = 320.0\n",
     )
     .unwrap();
     let o = vpctl(

@@ -83,7 +83,8 @@ fn sim_fly_writes_exact_binary_models_with_points_seen_twice() {
     let d = dir.path();
     std::fs::write(
         d.join("site.toml"),
-        "[site]\nseed = 3\ntarget_faces = 8000\nsize = 40.0\n",
+        "[site]\nseed = 3\ntarget_faces = 8000\nsize = 40.0\n\
+         [planner.camera]\nwidth = 240\nheight = 160\nfocal_px = 320.0\n",
     )
     .unwrap();
     let o = vpctl(
@@ -191,7 +192,8 @@ fn sim_fly_never_deletes_what_it_did_not_write() {
     std::fs::create_dir(d.join("in")).unwrap();
     std::fs::write(
         d.join("in/site.toml"),
-        "[site]\nseed = 3\ntarget_faces = 8000\nsize = 40.0\n",
+        "[site]\nseed = 3\ntarget_faces = 8000\nsize = 40.0\n\
+         [planner.camera]\nwidth = 240\nheight = 160\nfocal_px = 320.0\n",
     )
     .unwrap();
     let o = vpctl(

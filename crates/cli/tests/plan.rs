@@ -393,3 +393,71 @@ fn a_dropped_triplet_is_replaced_and_the_summary_counts_only_what_is_flown() {
     let (a, b) = (its[0].f_before, its[its.len() - 1].f_after);
     assert!(out.contains(&format!("mean f: {a:.4} -> {b:.4}")), "{out}");
 }
+
+/// Issue 32: `plan --config` read a campaign file through the simulator's
+/// campaign config, so a key the file left out took the demo preset's value
+/// (a 240 x 160 px camera, 4 m safety distance, 0.5 m margin) instead of the
+/// planner's documented default. It reads the `[planner]` section alone now,
+/// and a typo anywhere in the file is still refused.
+#[test]
+fn a_campaign_files_planner_section_takes_the_planners_defaults() {
+    let dir = tempfile::tempdir().unwrap();
+    fixture(dir.path());
+    let p = |f: &str| dir.path().join(f).to_str().unwrap().to_string();
+    let grid = |config: &str| {
+        vpctl(&[
+            "plan",
+            "grid",
+            "--mesh",
+            &p("site.ply"),
+            "--config",
+            &p(config),
+            "--height",
+            "30",
+            "--overlap",
+            "0.5",
+            "--out",
+            &p("g.json"),
+            "--force",
+        ])
+    };
+    std::fs::write(
+        dir.path().join("c.toml"),
+        "[site]\nseed = 2\n[planner]\nn_triangles = 300\n",
+    )
+    .unwrap();
+    let o = grid("c.toml");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
+    let d = vp_planner::PlannerConfig::default();
+    assert!(
+        stdout.contains(&format!(
+            "safety {:.2} + margin {:.2}",
+            d.safety_distance_m, d.geometry_margin_m
+        )),
+        "{stdout}"
+    );
+    // The planner's default camera: its footprint at 30 m, half overlap.
+    let k = d.camera;
+    let across = 30.0 * f64::from(k.width.min(k.height)) / k.focal_px * 0.5;
+    let along = 30.0 * f64::from(k.width.max(k.height)) / k.focal_px * 0.5;
+    assert!(
+        [across, along]
+            .iter()
+            .any(|s| stdout.contains(&format!("lines {s:.1} m apart"))),
+        "{stdout}"
+    );
+    // A typo in another section of the campaign file is still refused.
+    std::fs::write(
+        dir.path().join("t.toml"),
+        "[planner]\nn_triangles = 300\n[render]\nsizee = 3\n",
+    )
+    .unwrap();
+    let o = grid("t.toml");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("t.toml: line 4: column 1: unknown field `sizee`"),
+        "{}",
+        stderr(&o)
+    );
+}

@@ -126,6 +126,31 @@ fn grid(dir: &Path, roi: &[&str], out: &str) -> std::process::Output {
     vpctl(&args)
 }
 
+/// Writes the area `ll` as Google Earth's KML and QGIS's GeoJSON, plans
+/// with each through `run(area file, plan file)` and checks both give the
+/// same plan bytes; returns the stdout of the KML run (plan in `kml.json`).
+fn kml_and_geojson_plan_alike(
+    d: &Path,
+    ll: &[[f64; 2]],
+    run: impl Fn(&Path, &Path) -> std::process::Output,
+) -> String {
+    std::fs::write(d.join("area.kml"), google_earth_kml("Rock", ll)).unwrap();
+    std::fs::write(d.join("area.geojson"), qgis_geojson("Rock", ll)).unwrap();
+    let mut stdout = String::new();
+    for (area, out) in [("area.kml", "kml.json"), ("area.geojson", "geojson.json")] {
+        let o = run(&d.join(area), &d.join(out));
+        assert!(o.status.success(), "{area}: {}", stderr(&o));
+        if stdout.is_empty() {
+            stdout = common::stdout(&o);
+        }
+    }
+    assert_eq!(
+        std::fs::read(d.join("kml.json")).unwrap(),
+        std::fs::read(d.join("geojson.json")).unwrap()
+    );
+    stdout
+}
+
 #[test]
 fn a_kml_area_limits_the_grid_and_geojson_gives_the_same_plan() {
     let dir = tempfile::tempdir().unwrap();
@@ -133,18 +158,12 @@ fn a_kml_area_limits_the_grid_and_geojson_gives_the_same_plan() {
     let site = plan_fixture(d);
     let xy = area_xy(&site);
     let ll = lon_lat(&xy);
-    std::fs::write(d.join("area.kml"), google_earth_kml("Rock", &ll)).unwrap();
-    std::fs::write(d.join("area.geojson"), qgis_geojson("Rock", &ll)).unwrap();
-    let kml = d.join("area.kml");
-    let o = grid(d, &["--roi-polygon", s(&kml)], "kml.json");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let gj = d.join("area.geojson");
-    let o = grid(d, &["--roi-polygon", s(&gj)], "geojson.json");
-    assert!(o.status.success(), "{}", stderr(&o));
+    kml_and_geojson_plan_alike(d, &ll, |area, out| {
+        let out = out.file_name().unwrap().to_str().unwrap();
+        grid(d, &["--roi-polygon", s(area)], out)
+    });
     let o = grid(d, &[], "all.json");
     assert!(o.status.success(), "{}", stderr(&o));
-    let a = std::fs::read(d.join("kml.json")).unwrap();
-    assert_eq!(a, std::fs::read(d.join("geojson.json")).unwrap());
     // Nadir photos: the grid's photo centres lie over the area (its
     // footprint's bounds, the faces inside reach a little past the
     // corners), and fewer than over the whole site.
@@ -183,11 +202,8 @@ fn a_kml_area_makes_the_planned_views_look_at_it() {
     ];
     let heights = format!("{},{}", b.min.z, b.max.z);
     let ll = lon_lat(&xy);
-    std::fs::write(d.join("area.kml"), google_earth_kml("Rock", &ll)).unwrap();
-    std::fs::write(d.join("area.geojson"), qgis_geojson("Rock", &ll)).unwrap();
-    let run = |area: &str, out: &str| {
+    let summary = kml_and_geojson_plan_alike(d, &ll, |area, out| {
         let (mesh, model, cfg) = (d.join("site.ply"), d.join("model"), d.join("plan.toml"));
-        let (area, out) = (d.join(area), d.join(out));
         vpctl(&[
             "plan",
             "--mesh",
@@ -197,23 +213,14 @@ fn a_kml_area_makes_the_planned_views_look_at_it() {
             "--config",
             s(&cfg),
             "--roi-polygon",
-            s(&area),
+            s(area),
             "--roi-heights",
             &heights,
             "--out",
-            s(&out),
+            s(out),
             "--no-timings",
         ])
-    };
-    let o = run("area.kml", "kml.json");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let summary = common::stdout(&o);
-    let o = run("area.geojson", "geojson.json");
-    assert!(o.status.success(), "{}", stderr(&o));
-    assert_eq!(
-        std::fs::read(d.join("kml.json")).unwrap(),
-        std::fs::read(d.join("geojson.json")).unwrap()
-    );
+    });
     // Every triplet member's optical axis meets the site inside the area
     // (grown by 3 m: a triplet looks at a patch, not a point).
     let plan = Plan::load(&d.join("kml.json")).unwrap();
@@ -283,20 +290,15 @@ fn bad_areas_exit_2_with_the_file_named_and_nothing_written() {
     }
     std::fs::write(d.join("area.kml"), google_earth_kml("Rock", &ll)).unwrap();
     let before = snapshot(d);
-    let mut cases: Vec<(String, Vec<String>, &str)> = files
-        .iter()
-        .map(|(n, _, why)| ((*n).to_string(), vec![], *why))
-        .collect();
-    cases.push(("photos.kmz".into(), vec![], "no .kml document"));
+    // (file, whether the grid is given its origin, what the error says)
+    let mut cases: Vec<(&str, bool, &str)> =
+        files.iter().map(|(n, _, why)| (*n, true, *why)).collect();
+    cases.push(("photos.kmz", true, "no .kml document"));
     // A grid without a georeference: the area cannot be placed.
-    cases.push((
-        "area.kml".into(),
-        vec!["no-origin".into()],
-        "no geodetic origin",
-    ));
-    for (file, flags, why) in &cases {
+    cases.push(("area.kml", false, "no geodetic origin"));
+    for &(file, georeferenced, why) in &cases {
         let area = d.join(file);
-        let o = if flags.is_empty() {
+        let o = if georeferenced {
             grid(d, &["--roi-polygon", s(&area)], "out.json")
         } else {
             let (mesh, out) = (d.join("site.ply"), d.join("out.json"));
@@ -313,10 +315,7 @@ fn bad_areas_exit_2_with_the_file_named_and_nothing_written() {
         };
         let err = stderr(&o);
         assert_eq!(o.status.code(), Some(2), "{file}: {err}");
-        assert!(
-            err.contains(file.as_str()) && err.contains(why),
-            "{file}: {err}"
-        );
+        assert!(err.contains(file) && err.contains(why), "{file}: {err}");
         assert!(snapshot(d) == before, "{file}: files were written");
     }
     // A model without frame.json, planned as local ENU: no georeference.

@@ -120,6 +120,19 @@ impl TrainParams {
 /// Deepest tree vpctl trains or loads; far beyond the paper's 20.
 pub(crate) const MAX_DEPTH_LIMIT: usize = 40;
 
+/// `vpctl forest train --params` (the whole file) and a campaign's
+/// `[training.forest]`; missing keys take [`TrainParams::default`].
+impl vp_scene::config_file::ConfigSection for TrainParams {
+    type Error = ForestError;
+
+    fn check(&self, place: &str) -> Result<()> {
+        self.validate().map_err(|e| match e {
+            ForestError::InvalidParams(m) => ForestError::InvalidParams(format!("{place}: {m}")),
+            other => other,
+        })
+    }
+}
+
 impl TrainParams {
     /// Checks every parameter, naming the first one out of range.
     pub fn validate(&self) -> Result<()> {

@@ -58,19 +58,27 @@ impl Default for LabelParams {
     }
 }
 
+/// `vpctl labelgen --params` (the whole file) and a campaign's
+/// `[training.labels]`; missing keys take [`LabelParams::default`].
+impl vp_scene::config_file::ConfigSection for LabelParams {
+    type Error = LabelgenError;
+
+    fn check(&self, place: &str) -> Result<()> {
+        self.validate().map_err(|e| match e {
+            LabelgenError::InvalidArgument(m) => {
+                LabelgenError::InvalidArgument(format!("{place}: {m}"))
+            }
+            other => other,
+        })
+    }
+}
+
 impl LabelParams {
     /// Reads a TOML parameter file (any subset of the keys; the rest keep
     /// their defaults) and validates it. The old JSON form is refused with a
     /// message saying so.
     pub fn load(path: &std::path::Path) -> Result<Self> {
-        let params: LabelParams = vp_scene::config_file::load_toml(path)?;
-        params.validate().map_err(|e| match e {
-            LabelgenError::InvalidArgument(m) => {
-                LabelgenError::InvalidArgument(format!("{}: {m}", path.display()))
-            }
-            other => other,
-        })?;
-        Ok(params)
+        vp_scene::config_file::load_section(path, "")
     }
 
     /// Checks every value is in its valid range.

@@ -13,10 +13,11 @@ use std::time::Duration;
 
 use serde_json::Value;
 use vp_mission::{
-    build_mission, connect, qgc, upload_over, Autopilot, ConnectOptions, Mission, MissionItem,
-    MissionOptions, ProtocolConfig,
+    build_mission, connect, qgc, upload_over, Autopilot, ConnectOptions, Mission, MissionOptions,
+    ProtocolConfig,
 };
 use vp_scene::plan::Plan;
+use vp_test_support::mission_json::items_from_json;
 use vp_test_support::plans;
 use vp_test_support::python::mavsdk_python;
 
@@ -43,35 +44,6 @@ fn mission() -> Mission {
     let mut opts = MissionOptions::for_autopilot(Autopilot::Px4);
     opts.speed_m_s = Some(5.0);
     build_mission(&plan(), &opts).unwrap()
-}
-
-fn json_f32(v: &Value) -> f32 {
-    v.as_f64().map_or(f32::NAN, |x| x as f32)
-}
-
-/// The items of a JSON line from the script, in our type.
-fn items_from_json(v: &Value) -> Vec<MissionItem> {
-    use mavlink::dialects::common::{MavCmd, MavFrame};
-    use num_traits::FromPrimitive;
-    v["items"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|it| MissionItem {
-            command: MavCmd::from_u64(it["command"].as_u64().unwrap()).unwrap(),
-            frame: MavFrame::from_u64(it["frame"].as_u64().unwrap()).unwrap(),
-            params: [
-                json_f32(&it["param1"]),
-                json_f32(&it["param2"]),
-                json_f32(&it["param3"]),
-                json_f32(&it["param4"]),
-            ],
-            x: it["x"].as_i64().unwrap() as i32,
-            y: it["y"].as_i64().unwrap() as i32,
-            z: json_f32(&it["z"]),
-            autocontinue: it["autocontinue"].as_u64() == Some(1),
-        })
-        .collect()
 }
 
 struct Peer(Child);
@@ -120,7 +92,7 @@ fn upload_to_mavsdk_mission_raw_server() {
     let line = out.next().unwrap().unwrap();
     let v: Value = serde_json::from_str(&line).unwrap();
     assert_eq!(v["result"], "SUCCESS", "{line}");
-    let got = items_from_json(&v);
+    let got = items_from_json(&v["items"]);
     vp_mission::compare_items(&m.items, &got, Autopilot::Px4).unwrap();
     println!(
         "MAVSDK MissionRawServer accepted {} items in {:?} ({} resends)",
@@ -155,7 +127,7 @@ fn mavsdk_imports_the_qgc_plan() {
     assert!(out.status.success(), "importer failed: {stdout}");
     let line = stdout.lines().last().unwrap();
     let v: Value = serde_json::from_str(line).unwrap();
-    let got = items_from_json(&v);
+    let got = items_from_json(&v["items"]);
     let m = build_mission(&plan(), &MissionOptions::for_autopilot(Autopilot::Px4)).unwrap();
     // MAVSDK adds nothing and drops nothing: same commands, positions, params.
     vp_mission::compare_items(&m.items, &got, Autopilot::Px4).unwrap();

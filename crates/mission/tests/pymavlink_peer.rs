@@ -16,9 +16,10 @@ use std::time::Duration;
 use serde_json::Value;
 use vp_mission::sim_vehicle::{spawn_udp_vehicle, VehicleConfig};
 use vp_mission::{
-    build_mission, upload, Autopilot, ConnectOptions, Mission, MissionError, MissionItem,
-    MissionOptions, ProtocolConfig, SigningKey,
+    build_mission, upload, Autopilot, ConnectOptions, Mission, MissionError, MissionOptions,
+    ProtocolConfig, SigningKey,
 };
+use vp_test_support::mission_json::items_from_json;
 use vp_test_support::plans;
 
 const KEY: &str = "5f0c1e7a9b3d2c4e6f8a1b3c5d7e9f0a2b4c6d8e0f1a3b5c7d9e1f2a4b6c8d0e";
@@ -116,33 +117,6 @@ impl Drop for PyVehicle {
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
-}
-
-fn json_f32(v: &Value) -> f32 {
-    v.as_f64().map_or(f32::NAN, |x| x as f32)
-}
-
-fn items_from_json(v: &Value) -> Vec<MissionItem> {
-    use mavlink::dialects::common::{MavCmd, MavFrame};
-    use num_traits::FromPrimitive;
-    v.as_array()
-        .unwrap()
-        .iter()
-        .map(|it| MissionItem {
-            command: MavCmd::from_u64(it["command"].as_u64().unwrap()).unwrap(),
-            frame: MavFrame::from_u64(it["frame"].as_u64().unwrap()).unwrap(),
-            params: [
-                json_f32(&it["param1"]),
-                json_f32(&it["param2"]),
-                json_f32(&it["param3"]),
-                json_f32(&it["param4"]),
-            ],
-            x: it["x"].as_i64().unwrap() as i32,
-            y: it["y"].as_i64().unwrap() as i32,
-            z: json_f32(&it["z"]),
-            autocontinue: it["autocontinue"].as_u64() == Some(1),
-        })
-        .collect()
 }
 
 #[test]

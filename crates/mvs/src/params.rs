@@ -119,6 +119,20 @@ impl Default for MvsParams {
     }
 }
 
+/// `vpctl mvs --config` (the whole file) and a campaign's `[patchmatch]`;
+/// missing keys take [`MvsParams::default`].
+impl vp_scene::config_file::ConfigSection for MvsParams {
+    type Error = MvsError;
+
+    fn check(&self, place: &str) -> Result<()> {
+        // `place` is the file, or the file and section; the error names the file.
+        self.validate().map_err(|e| MvsError::Config {
+            path: place.into(),
+            message: e.to_string(),
+        })
+    }
+}
+
 impl MvsParams {
     /// Checks the ranges; the error names the parameter and its value.
     pub fn validate(&self) -> Result<()> {
@@ -204,12 +218,7 @@ impl MvsParams {
     pub fn from_toml(text: &str, path: &std::path::Path) -> Result<Self> {
         // The one reader of every vpctl config: file, line, column, and the
         // valid keys when a key is unknown.
-        let p: MvsParams = vp_scene::config_file::parse_toml(text, path)?;
-        p.validate().map_err(|e| MvsError::Config {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
-        Ok(p)
+        vp_scene::config_file::read_section(text, path, "")
     }
 
     /// The defaults as TOML, each field preceded by its documentation.

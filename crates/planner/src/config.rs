@@ -8,6 +8,7 @@
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
+use vp_scene::config_file::{read_section, ConfigSection};
 use vp_scene::flight_time::FlightParams;
 use vp_scene::plan::AltitudeLimits;
 use vp_scene::raster::AngleBins;
@@ -238,18 +239,28 @@ reserve_s = 120.0        # kept back from max_flight_time_s
 # max_flight_time_s = 1500.0 # one battery; splits the plan into flights (--max-flight-time)
 "#;
 
+/// `vpctl plan --config`: a planner file, or the `[planner]` section of a
+/// campaign config; missing keys take [`PlannerConfig::default`].
+impl ConfigSection for PlannerConfig {
+    type Error = PlannerError;
+
+    fn check(&self, place: &str) -> Result<()> {
+        self.validate()
+            .map_err(|e| PlannerError::Config(format!("{place}: {e}")))
+    }
+}
+
 impl PlannerConfig {
     /// The defaults as a commented TOML file (parses back to `Default`).
     pub fn default_toml() -> &'static str {
         DEFAULT_TOML
     }
 
-    /// Parses TOML text; `path` only names the source in errors.
+    /// Parses TOML text (the whole file is the planner's section); `path`
+    /// only names the source in errors. Missing keys take
+    /// [`PlannerConfig::default`].
     pub fn from_toml(text: &str, path: &Path) -> Result<Self> {
-        let cfg: PlannerConfig = vp_scene::config_file::parse_toml(text, path)?;
-        cfg.validate()
-            .map_err(|e| PlannerError::Config(format!("{}: {e}", path.display())))?;
-        Ok(cfg)
+        read_section(text, path, "")
     }
 
     /// Reads and validates a TOML config file.

@@ -23,24 +23,12 @@ use crate::fsio;
 use crate::geodesy::LocalFrame;
 use crate::plan::GeodeticOrigin;
 use crate::roi::Roi;
+use crate::roi_kml::Candidate;
 
 /// Farthest a polygon corner may lie from the plan's origin, metres: a
 /// plan spans a site, not a region; farther, the area was drawn somewhere
 /// else (or its latitude and longitude are swapped).
 pub const MAX_DISTANCE_M: f64 = 10_000.0;
-
-/// One polygon found in a file, before the checks.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub(crate) struct Candidate {
-    /// Placemark `<name>` or feature property `name`.
-    pub name: Option<String>,
-    /// Where it is in the file, for messages.
-    pub place: String,
-    /// Outer boundary, (lon, lat) degrees.
-    pub outer: Vec<[f64; 2]>,
-    /// Inner boundaries, (lon, lat) degrees.
-    pub holes: Vec<Vec<[f64; 2]>>,
-}
 
 /// A checked polygon in longitude/latitude degrees (WGS84), as read from
 /// a file.

@@ -12,7 +12,19 @@ use quick_xml::events::Event;
 use quick_xml::Reader;
 
 use crate::error::{Location, Result, SceneError};
-use crate::roi_file::Candidate;
+
+/// One polygon found in a file (KML, KMZ or GeoJSON), before the checks.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub(crate) struct Candidate {
+    /// Placemark `<name>` or feature property `name`.
+    pub name: Option<String>,
+    /// Where it is in the file, for messages.
+    pub place: String,
+    /// Outer boundary, (lon, lat) degrees.
+    pub outer: Vec<[f64; 2]>,
+    /// Inner boundaries, (lon, lat) degrees.
+    pub holes: Vec<Vec<[f64; 2]>>,
+}
 
 /// The `.kml` document inside a KMZ archive: `doc.kml` at the root (the
 /// KML 2.2 rule), else the first `.kml` entry.

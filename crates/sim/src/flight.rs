@@ -5,16 +5,16 @@
 //!
 //! The world is a campaign's site ([`CampaignConfig::site`], its own seed);
 //! the camera is the campaign's `planner.camera`; the lighting its `render`
-//! section. Poses and points are what the campaign's simulated SfM gives
-//! ([`crate::sfm::sfm_camera`], [`crate::sfm::point_noise`] with `sfm` noise), or
-//! exact. The sparse points are surface points (face centroids, thinned to
-//! at most [`FlyOptions::max_points`]) that at least `sfm.min_views` images
-//! see, each with its track, as SfM triangulates them.
+//! section. Poses and points are what the campaign's one SfM simulator
+//! gives ([`crate::sfm`]: [`crate::sfm::sfm_camera`] poses with `sfm`
+//! noise, or exact): the world's sparse candidates
+//! ([`crate::sfm::SparseCandidates`], `sfm.points_per_m2`) that a feature
+//! detector fires on in at least `sfm.min_views` rendered images, thinned
+//! to at most [`FlyOptions::max_points`], each with its track.
 
 use std::path::{Path, PathBuf};
 
 use nalgebra::Point3;
-use vp_labelgen::synthetic::sparse_model;
 use vp_scene::colmap::{self, ModelFrame, Reconstruction};
 use vp_scene::gnss::GnssClass;
 use vp_scene::outdir::OutDir;
@@ -25,7 +25,8 @@ use vp_scene::{Camera, SceneError};
 use crate::config::CampaignConfig;
 use crate::error::{Result, SimError};
 use crate::render::render;
-use crate::sfm::{point_noise, sfm_camera};
+use crate::sfm::features::FeatureMask;
+use crate::sfm::sfm_camera;
 use crate::world::World;
 use vp_scene::hash::mix64;
 
@@ -34,8 +35,8 @@ use vp_scene::hash::mix64;
 pub struct FlyOptions {
     /// Exact poses and points instead of the campaign's SfM noise.
     pub exact: bool,
-    /// Largest number of sparse points written (surface points are thinned
-    /// evenly to this many before the visibility test).
+    /// Largest number of sparse points written (SfM's points are thinned
+    /// evenly to this many).
     pub max_points: usize,
 }
 
@@ -114,35 +115,43 @@ pub fn fly(
             named.push((name, cam));
         }
     }
-    // Candidate surface points: face centroids, thinned evenly.
-    let mesh = &world.site.mesh;
-    let stride = mesh.n_faces().div_ceil(opts.max_points.max(1)).max(1);
-    let points: Vec<Point3<f64>> = (0..mesh.n_faces())
-        .step_by(stride)
-        .map(|f| mesh.face_centroid(f))
+    // SfM as the campaign simulates it (one SfM simulator): the world's
+    // sparse candidates that a feature detector fires on in at least
+    // `sfm.min_views` of the rendered images, thinned evenly to
+    // `max_points`, at SfM's noisy positions (exact with `--exact`).
+    let features: Vec<FeatureMask> = images
+        .iter()
+        .map(|(_, rgb)| FeatureMask::detect(rgb))
         .collect();
-    let mut model = sparse_model(&named, &world.caster, &points);
+    let views: Vec<(&Camera, &FeatureMask)> = named.iter().map(|(_, c)| c).zip(&features).collect();
     let min_views = cfg.sfm.min_views.max(2);
-    model.points.retain(|_, p| p.track.len() >= min_views);
-    let kept: std::collections::BTreeSet<u64> = model.points.keys().copied().collect();
-    for img in model.images.values_mut() {
-        for p2 in &mut img.points2d {
-            if p2.point3d_id.is_some_and(|id| !kept.contains(&id)) {
-                p2.point3d_id = None;
-            }
-        }
+    let sigma = if opts.exact {
+        0.0
+    } else {
+        cfg.sfm.point_noise_m
+    };
+    let tracks = world
+        .candidates
+        .tracks(&world.caster, &views, min_views, sigma);
+    let candidate_points = world.candidates.len();
+    let stride = tracks.len().div_ceil(opts.max_points.max(1)).max(1);
+    let mut model = Reconstruction::default();
+    let ids: Vec<u32> = named
+        .iter()
+        .map(|(name, cam)| model.add_pinhole_image(name, cam))
+        .collect();
+    for (i, xyz, seen) in tracks.into_iter().step_by(stride) {
+        // Observed where the feature fired: the true point in the true image.
+        let truth = world.candidates.points[i].0;
+        let observations: Vec<_> = seen
+            .iter()
+            .filter_map(|&v| named[v].1.project(&truth).map(|xy| (ids[v], xy)))
+            .collect();
+        model.add_point(xyz, &observations)?;
     }
     if !opts.exact {
         for (img, (_, cam)) in model.images.values_mut().zip(&named) {
             img.cam_from_world = sfm_camera(cam, cfg, cfg.seed).cam_from_world();
-        }
-        let sigma = cfg.sfm.point_noise_m;
-        if sigma > 0.0 {
-            let s = mix64(cfg.seed ^ 0x0073_7061_7273);
-            for p in model.points.values_mut() {
-                let n = point_noise(s, &p.xyz, sigma);
-                p.xyz += n;
-            }
         }
     }
     let mut frame = ModelFrame {
@@ -164,7 +173,7 @@ pub fn fly(
         images,
         model,
         frame,
-        candidate_points: points.len(),
+        candidate_points,
     })
 }
 
@@ -258,7 +267,12 @@ pub struct FlightSummary {
 /// [`OutDir`], so a failure leaves no partial folder. Two plans with the
 /// same file stem are refused (their image names would clash).
 pub fn write_flight(req: &FlightRequest, progress: &mut dyn FnMut(&str)) -> Result<FlightSummary> {
-    let cfg = CampaignConfig::load(&req.site)?;
+    let text = vp_scene::fsio::read_text(&req.site)?;
+    let mut cfg = CampaignConfig::from_toml(&text, &req.site)?;
+    // The site is the one `vpctl scene generate --config` makes from the
+    // same file: its `[site]` section with the site's own defaults, so the
+    // world flown is the mesh a user plans on.
+    cfg.site = vp_scene::config_file::read_section(&text, &req.site, "site")?;
     let inputs: Vec<&Path> = req
         .plans
         .iter()
@@ -339,7 +353,10 @@ mod tests {
         .unwrap();
         assert_eq!(f.images.len(), 3);
         assert_eq!(f.model.images.len(), 3);
-        assert!(f.model.points.len() > 100, "{}", f.model.points.len());
+        // SfM's points: `sfm.points_per_m2` (0.5) candidates on ~150 m^2 seen
+        // by two or more of these small images where a corner fires (24 at
+        // the time of writing; face centroids gave hundreds before).
+        assert!(f.model.points.len() > 10, "{}", f.model.points.len());
         assert!(f.model.points.values().all(|p| p.track.len() >= 2));
         f.model.validate().unwrap();
         assert_eq!(f.model.images[&1].name, "grid_0000.png");

@@ -281,5 +281,5 @@ fn print_summary(forest: &Forest, out: &mut dyn Write) -> Result<()> {
 }
 
 fn read_params(path: &Path) -> Result<TrainParams> {
-    Ok(vp_scene::config_file::load_toml(path)?)
+    Ok(vp_scene::config_file::load_section(path, "")?)
 }

@@ -90,7 +90,8 @@ struct Common {
     #[arg(long, requires = "roi_polygon", allow_hyphen_values = true, value_parser = floats::<2>, value_name = "MIN,MAX")]
     roi_heights: Option<[f64; 2]>,
     /// Planner configuration (TOML; `vpctl config --defaults` prints one),
-    /// or a campaign config (`vpctl sim config`), whose `[planner]` section is used.
+    /// or a campaign config (`vpctl sim config`), whose `[planner]` section is used;
+    /// missing keys take the planner's defaults.
     #[arg(long)]
     config: Option<PathBuf>,
     /// WGS84 position of the local origin: lat,lon,alt (degrees, metres).

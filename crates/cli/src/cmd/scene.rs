@@ -28,7 +28,8 @@ pub enum SceneCommand {
         faces: Option<usize>,
         /// Campaign config (TOML): the site is its `[site]` section
         /// (`vpctl sim config > site.toml`), the world `vpctl sim fly --site`
-        /// flies in. `--seed` and `--faces` override it.
+        /// flies in; missing keys take the site's defaults.
+        /// `--seed` and `--faces` override it.
         #[arg(long)]
         config: Option<PathBuf>,
         /// Output mesh; the extension picks the file type (.ply or .obj).
@@ -86,7 +87,13 @@ pub fn run(cmd: SceneCommand, out: &mut dyn Write) -> Result<()> {
             let format = output_mesh_format(&path, format)?;
             fsio::check_output_file(&path, force)?;
             let mut params = match &config {
-                Some(c) => vp_sim::campaign::CampaignConfig::load(c)?.site,
+                // The `[site]` section with the site's own defaults; the
+                // rest of the campaign file is checked for typos only.
+                Some(c) => {
+                    let text = fsio::read_text(c)?;
+                    vp_sim::campaign::CampaignConfig::check_keys(&text, c)?;
+                    vp_scene::config_file::read_section::<SiteParams>(&text, c, "site")?
+                }
                 None => SiteParams {
                     seed: 1,
                     ..SiteParams::default()

@@ -7,13 +7,13 @@
 
 use std::path::Path;
 
-use nalgebra::{Isometry3, Matrix3, Point3, Translation3, Vector3};
+use nalgebra::{Isometry3, Point3, Translation3, Vector3};
 use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 
 use super::reconstruction::Reconstruction;
 pub use super::strip::StripFit;
-use super::strip::{fit_strip, strip_view};
+use super::strip::{fit_strip, mean_and_scatter, strip_view};
 use crate::error::{Result, SceneError};
 use crate::sim3::{umeyama, Sim3};
 
@@ -54,19 +54,6 @@ impl Default for AlignParams {
             gravity_from_views: false,
         }
     }
-}
-
-/// Centroid and scatter matrix (sum of outer products of the centred
-/// points) of a non-empty point set.
-pub(super) fn mean_and_scatter(points: &[Point3<f64>]) -> (Vector3<f64>, Matrix3<f64>) {
-    let n = points.len() as f64;
-    let m = points.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / n;
-    let mut cov = Matrix3::zeros();
-    for p in points {
-        let a = p.coords - m;
-        cov += a * a.transpose();
-    }
-    (m, cov)
 }
 
 /// How far a point set is from a line: the second singular value of the

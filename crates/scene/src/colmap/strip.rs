@@ -4,11 +4,23 @@
 //! (nadir or oblique) fix it: the rotation that turns their mean viewing
 //! direction as far down as possible.
 
-use nalgebra::{Point3, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, Point3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
-use super::align::mean_and_scatter;
 use crate::sim3::Sim3;
+
+/// Centroid and scatter matrix (sum of outer products of the centred
+/// points) of a non-empty point set.
+pub(super) fn mean_and_scatter(points: &[Point3<f64>]) -> (Vector3<f64>, Matrix3<f64>) {
+    let n = points.len() as f64;
+    let m = points.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / n;
+    let mut cov = Matrix3::zeros();
+    for p in points {
+        let a = p.coords - m;
+        cov += a * a.transpose();
+    }
+    (m, cov)
+}
 
 /// Centroid and unit principal direction of a point set.
 fn principal_axis(points: &[Point3<f64>]) -> (Vector3<f64>, Vector3<f64>) {

@@ -98,6 +98,19 @@ impl Default for SiteParams {
     }
 }
 
+/// `vpctl scene generate --config`: the `[site]` section of a campaign
+/// config; missing keys take [`SiteParams::default`].
+impl crate::config_file::ConfigSection for SiteParams {
+    type Error = SceneError;
+
+    fn check(&self, place: &str) -> Result<()> {
+        self.validate().map_err(|e| match e {
+            SceneError::InvalidArgument(m) => SceneError::InvalidArgument(format!("{place}: {m}")),
+            other => other,
+        })
+    }
+}
+
 impl SiteParams {
     /// Checks the ranges; the error names the parameter and its value.
     pub fn validate(&self) -> Result<()> {

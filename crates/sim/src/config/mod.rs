@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 use vp_forest::TrainParams;
 use vp_labelgen::LabelParams;
 use vp_planner::PlannerConfig;
+use vp_scene::config_file::ConfigSection;
 use vp_scene::procedural::SiteParams;
 use vp_scene::surface::SurfaceParams;
 
@@ -39,6 +40,9 @@ pub enum MvsKind {
     /// curves. A fast stand-in for unit tests only.
     Virtual,
 }
+
+/// The sections only the virtual MVS (`mvs = "virtual"`) reads.
+const VIRTUAL_ONLY: [&str; 2] = ["profile", "gate"];
 
 /// Everything a campaign needs. See the module docs.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -269,60 +273,74 @@ impl Default for CampaignConfig {
     }
 }
 
+/// The campaign config file as a whole (section `""`): missing keys take
+/// the demo preset's values ([`CampaignConfig::default`]).
+impl ConfigSection for CampaignConfig {
+    type Error = SimError;
+
+    fn check(&self, place: &str) -> Result<()> {
+        self.validate().map_err(|e| match e {
+            SimError::InvalidArgument(m) if !place.is_empty() => {
+                SimError::InvalidArgument(format!("{place}: {m}"))
+            }
+            other => other,
+        })
+    }
+}
+
 impl CampaignConfig {
     /// Parses a TOML text; `path` names the file in errors. Every missing
     /// key, at any depth, takes the demo's value: a `[planner]` section that
-    /// names only `gsd_m` keeps the demo's camera, not the planner crate's.
+    /// names only `gsd_m` keeps the demo's camera, not the planner crate's
+    /// (`vpctl plan --config` reads that section on its own, with the
+    /// planner's defaults).
     pub fn from_toml(text: &str, path: &Path) -> Result<Self> {
-        // Parsed on its own first: syntax, type and unknown-key errors keep
-        // their line and column.
-        vp_scene::config_file::parse_toml::<CampaignConfig>(text, path)?;
-        // The overrides go through JSON, which has no NaN or infinity: name
-        // such a value's key here rather than fail later on a `null`.
-        let table: toml::Table = vp_scene::config_file::parse_toml(text, path)?;
-        if let Some((key, v)) = first_non_finite(&toml::Value::Table(table), String::new()) {
-            return Err(SimError::InvalidArgument(format!(
-                "{}: {key} = {v}: must be a finite number",
-                path.display()
-            )));
-        }
-        let given: serde_json::Value = vp_scene::config_file::parse_toml(text, path)?;
-        Self::demo()
-            .with_overrides(given)
-            .map_err(|e| SimError::InvalidArgument(format!("{}: {e}", path.display())))
+        let cfg: Self = vp_scene::config_file::read_section_over(&Self::demo(), text, path, "")?;
+        let given: toml::Table = vp_scene::config_file::parse_toml(text, path)?;
+        cfg.refuse_unused_virtual(|k| given.contains_key(k), &format!("{}: ", path.display()))?;
+        Ok(cfg)
     }
 
     /// This configuration with `overrides` laid over it key by key,
     /// descending into tables present in both (arrays and values are
-    /// replaced whole), then validated: what a TOML file and a Python dict
-    /// that name only the keys they change both go through.
+    /// replaced whole), then validated: what Python's dicts that name only
+    /// the keys they change go through.
     pub fn with_overrides(&self, overrides: serde_json::Value) -> Result<Self> {
-        let mut merged = serde_json::to_value(self)
-            .map_err(|e| SimError::InvalidArgument(format!("configuration: {e}")))?;
-        let base = merged.clone();
-        // Kept to name the section at fault if the merged value is refused.
-        let sections: Vec<(String, serde_json::Value)> = overrides
-            .as_object()
-            .map(|o| o.iter().map(|(k, v)| (k.clone(), v.clone())).collect())
-            .unwrap_or_default();
-        overlay(&mut merged, overrides);
-        let cfg: CampaignConfig = serde_json::from_value(merged).map_err(|e| {
-            // serde_json's error has no path: find the section at fault by
-            // laying the overrides over the base one section at a time.
-            let section = sections.iter().find_map(|(k, v)| {
-                let mut one = base.clone();
-                overlay(&mut one, serde_json::json!({ k.clone(): v.clone() }));
-                serde_json::from_value::<CampaignConfig>(one)
-                    .is_err()
-                    .then(|| k.clone())
-            });
-            match section {
-                Some(k) => SimError::InvalidArgument(format!("configuration: [{k}]: {e}")),
-                None => SimError::InvalidArgument(format!("configuration: {e}")),
-            }
-        })?;
-        cfg.validate()?;
+        let given = overrides.clone();
+        let cfg: Self = vp_scene::config_file::with_overrides(self, overrides, "")?;
+        cfg.refuse_unused_virtual(|k| given.get(k).is_some(), "")?;
         Ok(cfg)
+    }
+
+    /// `[profile]` and `[gate]` describe the virtual MVS only: given with
+    /// another matcher they would read as planted truth that nothing uses,
+    /// so naming them is an error (issue 34, item 6).
+    fn refuse_unused_virtual(&self, given: impl Fn(&str) -> bool, place: &str) -> Result<()> {
+        if self.mvs == MvsKind::Virtual {
+            return Ok(());
+        }
+        for key in VIRTUAL_ONLY {
+            if given(key) {
+                let mvs = toml::Value::try_from(self.mvs)
+                    .map(|v| v.to_string())
+                    .unwrap_or_default();
+                return Err(SimError::InvalidArgument(format!(
+                    "{place}[{key}] configures the virtual MVS, but this config runs mvs = {mvs}, \
+                     which does not use it: remove [{key}] or set mvs = \"virtual\""
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Checks that every key of the TOML `text` is a campaign config key
+    /// (unknown keys refused with file, line, column and table), taking no
+    /// value: what `scene generate` and `plan` do before reading their
+    /// own section of a campaign file, so a typo elsewhere in it is not
+    /// silently ignored either.
+    pub fn check_keys(text: &str, path: &Path) -> Result<()> {
+        vp_scene::config_file::parse_toml::<CampaignConfig>(text, path)?;
+        Ok(())
     }
 
     /// Reads and parses a TOML file.
@@ -330,10 +348,31 @@ impl CampaignConfig {
         Self::from_toml(&vp_scene::fsio::read_text(path)?, path)
     }
 
-    /// The configuration as a complete TOML file (every key written out).
+    /// The configuration as a complete TOML file: every key that runs
+    /// written out. `[profile]` and `[gate]` are written only with
+    /// `mvs = "virtual"`, the one matcher that uses them.
     pub fn to_toml(&self) -> Result<String> {
-        toml::to_string(self)
-            .map_err(|e| SimError::InvalidArgument(format!("configuration to TOML: {e}")))
+        let text = toml::to_string(self)
+            .map_err(|e| SimError::InvalidArgument(format!("configuration to TOML: {e}")))?;
+        if self.mvs == MvsKind::Virtual {
+            return Ok(text);
+        }
+        // The serializer writes each table as a `[header]` line and its
+        // keys (arrays inline), in field order: drop the virtual MVS's
+        // tables line by line, which keeps the order of the rest (a
+        // `toml::Table` would sort the sections).
+        let mut out = String::with_capacity(text.len());
+        let mut dropping = false;
+        for line in text.split_inclusive('\n') {
+            if let Some(name) = line.strip_prefix('[') {
+                let top = name.split(['.', ']']).next().unwrap_or("");
+                dropping = VIRTUAL_ONLY.contains(&top);
+            }
+            if !dropping {
+                out.push_str(line);
+            }
+        }
+        Ok(out)
     }
 
     /// The strategies, parsed.
@@ -458,45 +497,6 @@ impl SfmConfig {
             return bad("dense_min_points must be at least 1");
         }
         Ok(())
-    }
-}
-
-/// Writes every key of `given` over `base`, descending into objects present
-/// in both (arrays and values are replaced whole).
-/// The dotted key (with `[i]` for array elements) and value of the first
-/// NaN or infinite float in `v`.
-fn first_non_finite(v: &toml::Value, key: String) -> Option<(String, f64)> {
-    match v {
-        toml::Value::Float(f) if !f.is_finite() => Some((key, *f)),
-        toml::Value::Table(t) => t.iter().find_map(|(k, v)| {
-            let key = if key.is_empty() {
-                k.clone()
-            } else {
-                format!("{key}.{k}")
-            };
-            first_non_finite(v, key)
-        }),
-        toml::Value::Array(a) => a
-            .iter()
-            .enumerate()
-            .find_map(|(i, v)| first_non_finite(v, format!("{key}[{i}]"))),
-        _ => None,
-    }
-}
-
-fn overlay(base: &mut serde_json::Value, given: serde_json::Value) {
-    match (base, given) {
-        (serde_json::Value::Object(b), serde_json::Value::Object(g)) => {
-            for (key, value) in g {
-                match b.get_mut(&key) {
-                    Some(slot) => overlay(slot, value),
-                    None => {
-                        b.insert(key, value);
-                    }
-                }
-            }
-        }
-        (slot, value) => *slot = value,
     }
 }
 

@@ -27,11 +27,12 @@ fn too_long_array_names_its_section() {
 
 #[test]
 fn nan_in_a_config_names_the_key() {
-    let text = CampaignConfig::demo().to_toml().unwrap().replacen(
-        "angles_deg = [0.0,",
-        "angles_deg = [nan,",
-        1,
-    );
+    let mut virt = CampaignConfig::demo();
+    virt.mvs = MvsKind::Virtual;
+    let text = virt
+        .to_toml()
+        .unwrap()
+        .replacen("angles_deg = [0.0,", "angles_deg = [nan,", 1);
     assert!(text.contains("[nan,"));
     let e = CampaignConfig::from_toml(&text, Path::new("c.toml")).unwrap_err();
     let m = e.to_string();
@@ -93,4 +94,61 @@ fn a_partial_section_keeps_the_demo_values_of_its_other_keys() {
     let e =
         CampaignConfig::from_toml("[planner]\ngsd_m = \"x\"\n", Path::new("t.toml")).unwrap_err();
     assert!(e.to_string().contains("line 2"), "{e}");
+}
+
+/// Issue 34, item 6: the demo runs vp-mvs, and its printed config held the
+/// virtual MVS's planted `[profile.*]` curves and `[gate]`, which a reader
+/// takes for truth the run uses. They are written only with
+/// `mvs = "virtual"`, and naming them beside another matcher is refused.
+#[test]
+fn the_virtual_mvs_sections_appear_only_where_it_runs() {
+    let demo = CampaignConfig::demo();
+    assert_eq!(demo.mvs, MvsKind::Patchmatch);
+    let text = demo.to_toml().unwrap();
+    let table: toml::Table = toml::from_str(&text).unwrap();
+    for key in ["profile", "gate"] {
+        assert!(!table.contains_key(key), "[{key}] in the demo's config");
+    }
+    assert!(table.contains_key("patchmatch"));
+    // The other sections keep their order (that of the fields).
+    let at = |h: &str| text.find(&format!("\n[{h}]\n")).unwrap();
+    assert!(at("patchmatch.sgm") < at("render") && at("render") < at("training"));
+    let mut virt = demo.clone();
+    virt.mvs = MvsKind::Virtual;
+    let table: toml::Table = toml::from_str(&virt.to_toml().unwrap()).unwrap();
+    assert!(table.contains_key("profile") && table.contains_key("gate"));
+    // Back from the file: the demo's values, whether written or not.
+    assert_eq!(
+        CampaignConfig::from_toml(&text, Path::new("d.toml")).unwrap(),
+        demo
+    );
+    // Beside patchmatch or sgm, [profile] or [gate] is an error naming
+    // the section, the matcher and the fix.
+    let with_profile =
+        virt.to_toml()
+            .unwrap()
+            .replacen("mvs = \"virtual\"", "mvs = \"patchmatch\"", 1);
+    for (text, key) in [
+        (with_profile.as_str(), "profile"),
+        ("mvs = \"sgm\"\n[gate]\nenabled = false\n", "gate"),
+    ] {
+        let m = CampaignConfig::from_toml(text, Path::new("p.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            m.contains(&format!("p.toml: [{key}] configures the virtual MVS"))
+                && m.contains("set mvs = \"virtual\""),
+            "{m}"
+        );
+    }
+    let over = serde_json::json!({ "gate": { "enabled": false } });
+    assert!(demo.with_overrides(over.clone()).is_err());
+    assert!(virt.with_overrides(over).is_ok());
+    // With the virtual MVS they are read.
+    let c = CampaignConfig::from_toml(
+        "mvs = \"virtual\"\n[gate]\nenabled = false\n",
+        Path::new("v.toml"),
+    )
+    .unwrap();
+    assert!(!c.gate.enabled);
 }

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Result};
 use vp_planner::{HomeSpec, PlanOutputs, PlannerConfig, RoiSpec};
+use vp_scene::config_file::read_section;
 use vp_scene::fsio;
 use vp_scene::plan::GeodeticOrigin;
 use vp_scene::roi::Roi;
@@ -120,24 +121,15 @@ pub(super) fn parse_roi(arg: &str) -> Result<Roi> {
 
 /// A planner config, or a campaign config's `[planner]` section (a file
 /// with a `[site]` or `[planner]` table), so that the config `sim fly
-/// --site` flies with plans with the same camera.
+/// --site` flies with plans with the same camera. Missing keys take the
+/// planner's defaults (never the simulator's demo preset); a campaign
+/// file's other sections are checked for unknown keys only.
 pub fn load_planner_config(path: &Path) -> Result<PlannerConfig> {
     let text = fsio::read_text(path)?;
     let table: toml::Table = vp_scene::config_file::parse_toml(&text, path)?;
     if table.contains_key("planner") || table.contains_key("site") {
-        let mut planner = vp_sim::campaign::CampaignConfig::from_toml(&text, path)?.planner;
-        // The campaign presets' simulated drone flies RTK; a real mission
-        // planned with such a file takes its GNSS class from the file itself
-        // or from the model's frame.json, never from the simulator's preset.
-        let stated = table
-            .get("planner")
-            .and_then(|p| p.get("safety"))
-            .and_then(|s| s.get("gnss"))
-            .is_some();
-        if !stated {
-            planner.safety.gnss = None;
-        }
-        return Ok(planner);
+        vp_sim::campaign::CampaignConfig::check_keys(&text, path)?;
+        return Ok(read_section(&text, path, "planner")?);
     }
-    Ok(PlannerConfig::from_toml(&text, path)?)
+    Ok(read_section(&text, path, "")?)
 }

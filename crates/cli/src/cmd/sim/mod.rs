@@ -48,7 +48,9 @@ pub enum SimCommand {
         plans: Vec<PathBuf>,
         /// Campaign config (TOML) whose `[site]`, `[render]`, `[sfm]` and
         /// `[planner.camera]` sections describe the world and the camera
-        /// (`vpctl sim config > site.toml`); missing keys take the demo's values.
+        /// (`vpctl sim config > site.toml`); missing `[site]` keys take the
+        /// site's defaults (the mesh `scene generate --config` writes), other
+        /// missing keys the demo's values.
         #[arg(long, visible_alias = "config")]
         site: PathBuf,
         /// Output directory (images/, sparse/).
