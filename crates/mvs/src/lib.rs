@@ -56,7 +56,7 @@ pub use job::{
 };
 pub use params::MvsParams;
 pub use patchmatch::{patch_match, DepthNormalMap};
-pub use sgm::{semi_global, Algorithm, SgmParams};
+pub use sgm::{semi_global, Algorithm, LeftRight, PairAgreement, SgmParams};
 pub use sources::frustum_sources;
 pub use view::{GreyImage, View};
 pub use workspace::{run_image_set, run_workspace, RunOptions, RunSummary, Workspace};

@@ -18,6 +18,7 @@
 //! order: the same inputs give the same bytes for any thread count.
 
 mod costs;
+mod fusion;
 pub(crate) mod matching;
 pub(crate) mod rectify;
 #[cfg(test)]
@@ -36,6 +37,7 @@ use crate::error::{MvsError, Result};
 use crate::params::MvsParams;
 use crate::patchmatch::DepthNormalMap;
 use crate::view::View;
+use fusion::PairDepth;
 use matching::RectifiedPair;
 use rectify::{Rectification, RectifyError};
 
@@ -82,6 +84,25 @@ pub enum LeftRight {
     Opencv,
 }
 
+/// How the multi-baseline fusion decides that two pairs agree on a
+/// pixel's depth ([`fusion`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PairAgreement {
+    /// Within `pair_depth_tolerance` of each other, relative to the depth.
+    /// In disparity that is 1 % of each pair's disparity: a few hundredths
+    /// of a pixel for a narrow pair, more than one for a wide one, so it
+    /// rejects narrow-angle pixels most (docs/campaign-findings.md, "G1
+    /// again, and why SGM rose").
+    #[default]
+    Relative,
+    /// Within `pair_tolerance_px` pixels of disparity in the reference's
+    /// narrowest pair (its focal length times baseline over the depth):
+    /// the same test in image space at every baseline, as SURE's
+    /// consistency check and COLMAP's geometric filter work in pixels.
+    Pixels,
+}
+
 /// Parameters of the semi-global matcher (the `[sgm]` table of a config).
 /// The defaults are published ones, not tuned here: census 9x7, P1 = 10,
 /// P2 = 120, 8 paths, uniqueness 0.95 and a left-right tolerance of 1 px
@@ -124,8 +145,13 @@ pub struct SgmParams {
     /// keeps one (fewer when fewer pairs gave a depth there).
     pub min_agreeing_pairs: u32,
     /// Multi-baseline fusion: relative depth difference within which two
-    /// pairs agree.
+    /// pairs agree (`pair_agreement = "relative"`).
     pub pair_depth_tolerance: f32,
+    /// Multi-baseline fusion: how two pairs' depths agree.
+    pub pair_agreement: PairAgreement,
+    /// Multi-baseline fusion: disparity difference, pixels of the narrowest
+    /// pair, within which two pairs agree (`pair_agreement = "pixels"`).
+    pub pair_tolerance_px: f32,
 }
 
 impl Default for SgmParams {
@@ -144,6 +170,8 @@ impl Default for SgmParams {
             max_disparities: 512,
             min_agreeing_pairs: 2,
             pair_depth_tolerance: 0.01,
+            pair_agreement: PairAgreement::Relative,
+            pair_tolerance_px: 1.0,
         }
     }
 }
@@ -195,13 +223,19 @@ impl SgmParams {
                 self.pair_depth_tolerance
             ));
         }
+        if !(self.pair_tolerance_px > 0.0 && self.pair_tolerance_px.is_finite()) {
+            return bad(format!(
+                "sgm.pair_tolerance_px = {} must be > 0",
+                self.pair_tolerance_px
+            ));
+        }
         Ok(())
     }
 
     /// The `[sgm]` table of the defaults, each field after its doc line.
     pub(crate) fn defaults_toml() -> String {
         let d = SgmParams::default();
-        let fields: [(&str, &str, String); 13] = [
+        let fields: [(&str, &str, String); 15] = [
             (
                 "census_width",
                 "Census window width, pixels (odd).",
@@ -263,8 +297,21 @@ impl SgmParams {
             ),
             (
                 "pair_depth_tolerance",
-                "Multi-baseline fusion: relative depth difference of agreeing pairs.",
+                "Multi-baseline fusion: relative depth difference of agreeing pairs (pair_agreement = \"relative\").",
                 format!("{:?}", d.pair_depth_tolerance),
+            ),
+            (
+                "pair_agreement",
+                "Multi-baseline fusion: pairs agree in \"relative\" depth or in \"pixels\" of the narrowest pair's disparity.",
+                format!("\"{}\"", match d.pair_agreement {
+                    PairAgreement::Relative => "relative",
+                    PairAgreement::Pixels => "pixels",
+                }),
+            ),
+            (
+                "pair_tolerance_px",
+                "Multi-baseline fusion: disparity difference of agreeing pairs, pixels (pair_agreement = \"pixels\").",
+                format!("{:?}", d.pair_tolerance_px),
             ),
         ];
         let mut s = String::from(
@@ -353,7 +400,7 @@ fn pair_depth(
     reference: usize,
     source: usize,
     params: &MvsParams,
-) -> Result<Vec<f32>> {
+) -> Result<PairDepth> {
     let (rv, sv) = (&views[reference], &views[source]);
     let sgm = &params.sgm;
     let rect = match Rectification::new(
@@ -367,7 +414,10 @@ fn pair_depth(
             // No row structure for this pair: it gives no depth, the
             // others still may.
             let (w, h) = rv.size();
-            return Ok(vec![0.0; w * h]);
+            return Ok(PairDepth {
+                depth: vec![0.0; w * h],
+                focal_baseline: None,
+            });
         }
         Err(RectifyError::TooManyDisparities(n)) => {
             return Err(MvsError::InvalidArgument(format!(
@@ -390,7 +440,10 @@ fn pair_depth(
         n_disp: rect.n_disp,
     };
     let disp = matching::match_pair(&pair, sgm);
-    Ok(back_to_depth(&disp, &rect, rv))
+    Ok(PairDepth {
+        depth: back_to_depth(&disp, &rect, rv),
+        focal_baseline: Some(rect.f * rect.baseline),
+    })
 }
 
 /// Depth on the reference's own pixels from the rectified disparities:
@@ -446,34 +499,6 @@ fn back_to_depth(disp: &[f32], rect: &Rectification, view: &View) -> Vec<f32> {
     out
 }
 
-/// Multi-baseline fusion of one pixel's pair depths (zeros are "none"):
-/// the median of the largest group of mutually close depths, `None` when
-/// the group is smaller than `min_agree` (capped at the number of depths).
-fn fuse_pixel(depths: &mut Vec<f32>, min_agree: usize, tol: f32) -> Option<f32> {
-    depths.retain(|&d| d > 0.0);
-    if depths.is_empty() {
-        return None;
-    }
-    depths.sort_by(f32::total_cmp);
-    // Sorted: each depth's group is a contiguous run around it.
-    let mut best = (0, 0, 0);
-    for (i, &d) in depths.iter().enumerate() {
-        let first = depths
-            .iter()
-            .position(|&e| (e - d).abs() <= tol * d)
-            .unwrap_or(i);
-        let last = depths
-            .iter()
-            .rposition(|&e| (e - d).abs() <= tol * d)
-            .unwrap_or(i);
-        if last + 1 - first > best.2 {
-            best = (first, last, last + 1 - first);
-        }
-    }
-    let (first, last, n) = best;
-    (n >= min_agree.min(depths.len())).then(|| depths[first + (last - first) / 2])
-}
-
 /// Semi-global matching of `views[reference]` against each of `sources`
 /// (at most `max_sources`), fused over the pairs into one depth map with
 /// normals from the depth gradient. `cost` is 0 for every pixel: SGM has
@@ -492,22 +517,12 @@ pub fn semi_global(
 ) -> Result<DepthNormalMap> {
     params.sgm.validate()?;
     let (w, h) = views[reference].size();
-    let pairs: Vec<Vec<f32>> = sources
+    let pairs: Vec<PairDepth> = sources
         .iter()
         .take(params.max_sources)
         .map(|&s| pair_depth(views, reference, s, params))
         .collect::<Result<_>>()?;
-    let min_agree = params.sgm.min_agreeing_pairs as usize;
-    let tol = params.sgm.pair_depth_tolerance;
-    let mut depth = vec![0.0f32; w * h];
-    depth.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        let mut at = Vec::with_capacity(pairs.len());
-        for (x, o) in row.iter_mut().enumerate() {
-            at.clear();
-            at.extend(pairs.iter().map(|p| p[y * w + x]));
-            *o = fuse_pixel(&mut at, min_agree, tol).unwrap_or(0.0);
-        }
-    });
+    let depth = fusion::fuse(&pairs, (w, h), &params.sgm);
     let normal = normals(&views[reference], &depth);
     Ok(DepthNormalMap {
         width: w as u32,

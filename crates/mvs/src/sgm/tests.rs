@@ -451,18 +451,6 @@ fn sgm_reconstruction_is_the_same_with_one_and_two_threads() {
 }
 
 #[test]
-fn fuse_pixel_keeps_the_agreeing_median() {
-    let mut d = vec![10.0, 10.05, 0.0, 14.0];
-    assert_eq!(fuse_pixel(&mut d, 2, 0.01), Some(10.0));
-    let mut d = vec![10.0, 14.0];
-    assert_eq!(fuse_pixel(&mut d, 2, 0.01), None);
-    let mut d = vec![0.0, 14.0];
-    assert_eq!(fuse_pixel(&mut d, 2, 0.01), Some(14.0));
-    let mut d = vec![0.0, 0.0];
-    assert_eq!(fuse_pixel(&mut d, 2, 0.01), None);
-}
-
-#[test]
 fn sgm_table_round_trips_and_unknown_keys_are_refused() {
     let text = MvsParams::defaults_toml();
     assert!(text.contains("\n[sgm]\n"), "{text}");
