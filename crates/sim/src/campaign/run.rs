@@ -127,6 +127,20 @@ fn oblique_cameras(
         .collect())
 }
 
+/// Flies the oblique baseline (see [`oblique_cameras`]) with the vehicle's
+/// position error and reconstructs it: its flights, path check and cameras.
+fn fly_oblique(
+    site: &mut SiteRun<'_>,
+    strategies: &[Strategy],
+    (run_seed, sfm_seed): (u64, u64),
+) -> Result<(Vec<Flown>, PathCheck, Vec<Camera>)> {
+    let planned = oblique_cameras(site.world, site.cfg, strategies)?;
+    let (cams, _) = fly_with_error(site.cfg, &planned, run_seed ^ 3);
+    let sfm = sfm_cameras(&cams, site.cfg, sfm_seed);
+    let (flown, check) = fly_flight(site, ("Oblique", &cams, &sfm), SOURCE_OBLIQUE, run_seed)?;
+    Ok((flown, check, cams))
+}
+
 /// A plan holding `cams` as views of `role` (for the report's missions).
 fn plan_of(world: &World, cams: &[Camera], role: Role) -> Plan {
     let mut p = Plan::new(Some(world.site.origin));
@@ -192,6 +206,31 @@ fn artifacts(
     }
 }
 
+/// The site model's georeference (the similarity from the true world into
+/// the model's frame, and its rms residual): the initial flight's cameras
+/// `init` aligned to their GNSS `tags`, or the identity without flight error.
+fn georeference(
+    world: &World,
+    cfg: &CampaignConfig,
+    (init, tags): (&[Camera], &[Point3<f64>]),
+    run_seed: u64,
+    progress: &mut dyn FnMut(&str),
+) -> Result<(vp_scene::sim3::Sim3, f64)> {
+    if !cfg.flight_error.enabled {
+        return Ok((crate::gnss::identity_sim3(), 0.0));
+    }
+    let al = crate::gnss::georeference(init, tags, run_seed)?;
+    let roi_centre = nalgebra::center(&world.roi.min, &world.roi.max);
+    progress(&format!(
+        "  site {}: initial flight aligned to its {} GNSS positions: rms residual {:.2} m, the model {:.2} m off the truth at the ROI's centre",
+        world.site.params.seed,
+        cfg.flight_error.gnss.label(),
+        al.rms_m,
+        (al.sim3.apply(&roi_centre) - roi_centre).norm()
+    ));
+    Ok((al.sim3, al.rms_m))
+}
+
 /// Flies and evaluates every strategy on one held-out site.
 fn run_site(
     cfg: &CampaignConfig,
@@ -219,19 +258,7 @@ fn run_site(
     // The initial flight flown with the vehicle's position error; the
     // model of its images is georeferenced from their GNSS tags.
     let (init_cams, init_tags) = fly_with_error(cfg, &init_cameras(&world, cfg), run_seed ^ 1);
-    let georef = if cfg.flight_error.enabled {
-        let al = crate::gnss::georeference(&init_cams, &init_tags, run_seed)?;
-        let roi_centre = nalgebra::center(&world.roi.min, &world.roi.max);
-        progress(&format!(
-            "  site {seed}: initial flight aligned to its {} GNSS positions: rms residual {:.2} m, the model {:.2} m off the truth at the ROI's centre",
-            cfg.flight_error.gnss.label(),
-            al.rms_m,
-            (al.sim3.apply(&roi_centre) - roi_centre).norm()
-        ));
-        (al.sim3, al.rms_m)
-    } else {
-        (crate::gnss::identity_sim3(), 0.0)
-    };
+    let georef = georeference(&world, cfg, (&init_cams, &init_tags), run_seed, progress)?;
     // One SfM model of the site: every image of every flight is registered
     // in it, with one georeferencing error.
     let sfm_seed = mix64(run_seed ^ 0x0073_666d);
@@ -266,15 +293,7 @@ fn run_site(
         ("Grid", grid_flown, grid_check, grid_cams, Role::Grid),
     ];
     if cfg.grid.oblique {
-        let planned = oblique_cameras(&world, cfg, strategies)?;
-        let (cams, _) = fly_with_error(cfg, &planned, run_seed ^ 3);
-        let sfm = sfm_cameras(&cams, cfg, sfm_seed);
-        let (flown, check) = fly_flight(
-            &mut site,
-            ("Oblique", &cams, &sfm),
-            SOURCE_OBLIQUE,
-            run_seed,
-        )?;
+        let (flown, check, cams) = fly_oblique(&mut site, strategies, (run_seed, sfm_seed))?;
         baselines.push(("Oblique", flown, check, cams, Role::Grid));
     }
     let mut scores: Vec<(String, Scores)> = Vec::new();
@@ -287,8 +306,11 @@ fn run_site(
     }
     let (_, grid_flown, grid_check, _, _) = &baselines[1];
     let mut combos = Vec::new();
+    let (mut triplets, mut rock_errors) = (Vec::new(), Vec::new());
     for (i, st) in strategies.iter().enumerate() {
-        let run = run_strategy(&mut site, st, 2 + i as u64, &known, keep_artifacts)?;
+        let mut run = run_strategy(&mut site, st, 2 + i as u64, &known, keep_artifacts)?;
+        triplets.append(&mut run.outcomes);
+        rock_errors.push((st.name.clone(), std::mem::take(&mut run.rock_errors)));
         let (s, f) = evaluate(&em, &refs(&run.flown), cfg)?;
         let s = with_check(s, &run.check);
         (site.progress)(&strategy_line(seed, &st.name, &s));
@@ -311,7 +333,13 @@ fn run_site(
         centroids: em.centroids.clone(),
         strategies: maps,
     });
-    Ok((SiteResult { seed, scores }, artifacts))
+    let result = SiteResult {
+        seed,
+        scores,
+        triplets,
+        rock_errors,
+    };
+    Ok((result, artifacts))
 }
 
 /// Runs the campaign with a trained forest (see [`run_campaign`]).
