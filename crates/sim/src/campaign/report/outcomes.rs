@@ -122,11 +122,13 @@ pub fn f_vs_np_angles(all: &[StrategyOutcomes<'_>]) -> Vec<String> {
             )
         } else {
             format!(
-                "{} and {}: planned-angle histograms differ by {} of {} / {} triplets.",
+                "{} and {}: the planned-angle histograms differ by {} triplets ({} flew {}, {} flew {}).",
                 f.name,
                 np.name,
                 diff.div_ceil(2),
+                f.name,
                 f.triplets.len(),
+                np.name,
                 np.triplets.len()
             )
         });
@@ -343,7 +345,7 @@ pub fn depth_error_csv(all: &[StrategyOutcomes<'_>]) -> String {
 
 const W: u32 = 480;
 const H: u32 = 320;
-const MARGIN: u32 = 34;
+const MARGIN: u32 = 44;
 const BAR: Rgb<u8> = Rgb([90, 110, 170]);
 const OVERFLOW: Rgb<u8> = Rgb([150, 150, 150]);
 const SIGMA: Rgb<u8> = Rgb([220, 40, 40]);
@@ -395,8 +397,17 @@ pub fn depth_error_plot(name: &str, h: &DepthErrorHistogram) -> RgbImage {
             BLACK,
         );
     }
+    // The y axis: the share of the pixels in the tallest bin.
     let peak_label = format!("{:.0} %", 100.0 * peak / total);
-    text(&mut img, 2, y1 as i64 - 4, &peak_label, BLACK);
+    let label_x = x0 as i64 - text_width(&peak_label) - 4;
+    text(&mut img, label_x, y1 as i64 - 4, &peak_label, BLACK);
+    text(
+        &mut img,
+        x0 as i64 - text_width("0") - 4,
+        y0 as i64 - 4,
+        "0",
+        BLACK,
+    );
     let title = format!("{name}: rock depth error, {} px", h.pixels);
     text(&mut img, x0 as i64, 8, &title, BLACK);
     let axis = "error (m)";
