@@ -180,7 +180,7 @@ pub fn rock_cells(all: &[StrategyOutcomes<'_>]) -> (Vec<String>, Vec<Vec<String>
         "strategy",
         "rock px with depth",
         "with 1 sigma",
-        "median 1 sigma (cm)",
+        "median 1 sigma (mm)",
         "within 1 sigma %",
         "within ±0.5 m %",
     ]
@@ -192,8 +192,8 @@ pub fn rock_cells(all: &[StrategyOutcomes<'_>]) -> (Vec<String>, Vec<Vec<String>
             let h = &s.rock;
             let median = match h.median_sigma_m() {
                 None => "-".to_string(),
-                Some(m) if m.is_infinite() => "> 200".to_string(),
-                Some(m) => format!("{:.1}", 100.0 * m),
+                Some(m) if m.is_infinite() => "> 2000".to_string(),
+                Some(m) => format!("{:.1}", 1000.0 * m),
             };
             let inside = h.counts[1..=N_ERROR_BINS].iter().sum::<u64>();
             let inside = if h.pixels == 0 {
@@ -447,3 +447,7 @@ pub fn write_files(report: &CampaignReport, dir: &Path) -> Result<()> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+#[path = "outcomes_tests.rs"]
+mod tests;
