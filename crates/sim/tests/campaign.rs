@@ -129,7 +129,9 @@ fn same_config_and_seed_give_the_same_table_bytes() {
     // Issue 34, item 4: every triplet strategy's flown triplets and rock
     // depth errors are in the report (and so in the bytes compared below).
     for site in &a.sites {
-        assert_eq!(site.rock_errors.len(), cfg.strategies.len());
+        // Init, Grid, Oblique, then each triplet strategy.
+        assert_eq!(site.rock_errors.len(), 3 + cfg.strategies.len());
+        assert!(site.rock_errors.iter().all(|(_, h)| h.pixels > 0));
         for st in &cfg.strategies {
             assert!(site.triplets.iter().any(|t| &t.strategy == st), "{st}");
         }

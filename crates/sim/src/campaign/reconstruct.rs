@@ -28,7 +28,7 @@ use super::curves::CurveAccumulator;
 use super::depth_maps::{depth_in_truth, depth_of, zero_depth};
 use super::gate::gate_stats;
 pub use super::gate::GateStats;
-use super::triplet_outcomes::{in_region, rock_errors, DepthErrorHistogram};
+use super::triplet_outcomes::{in_region, reference_rock_errors, rock_errors, DepthErrorHistogram};
 use crate::config::{CampaignConfig, MvsKind};
 use crate::error::{Result, SimError};
 use crate::render::{render, RenderParams};
@@ -82,8 +82,7 @@ pub struct Flown {
     pub success: bool,
     /// The gate's view (virtual MVS only).
     pub gate: Option<GateStats>,
-    /// The depth errors of its rock pixels in the ROI (flown triplets;
-    /// empty for a Grid reference).
+    /// The depth errors of its reference images' rock pixels in the ROI.
     pub rock_errors: DepthErrorHistogram,
 }
 
@@ -448,6 +447,9 @@ impl<'a> Matcher<'a> {
                     data: Vec::new(),
                 });
             }
+            let sigma_px = self.cfg.training.labels.sigma_px;
+            let rock =
+                reference_rock_errors(scene, &renders[r], &in_truth, &group_cams, region, sigma_px);
             flown.push(Flown {
                 ids: group_ids,
                 cams: group_cams,
@@ -457,7 +459,7 @@ impl<'a> Matcher<'a> {
                 success: self.succeeded(&stats),
                 stats,
                 gate: None,
-                rock_errors: DepthErrorHistogram::default(),
+                rock_errors: rock,
             });
         }
         Ok(flown)

@@ -18,6 +18,7 @@ use super::report::{aggregate, CampaignReport, SiteArtifacts, SiteResult, Strate
 use super::site::{fly_with_error, image_id, SiteRun};
 use super::strategy_run::{run_strategy, Known};
 use super::training::{measure_out_of_sample, train_forest_with_stats};
+use super::triplet_outcomes::DepthErrorHistogram;
 use crate::config::CampaignConfig;
 use crate::config::MvsKind;
 use crate::config::Strategy;
@@ -188,6 +189,15 @@ fn with_check(mut scores: Scores, check: &PathCheck) -> Scores {
     scores
 }
 
+/// The depth errors of the rock pixels of every reconstruction in `flown`.
+fn merged_rock_errors(flown: &[Flown]) -> DepthErrorHistogram {
+    let mut h = DepthErrorHistogram::default();
+    for f in flown {
+        h.merge(&f.rock_errors);
+    }
+    h
+}
+
 fn refs(v: &[Flown]) -> Vec<&Flown> {
     v.iter().collect()
 }
@@ -298,7 +308,9 @@ fn run_site(
     }
     let mut scores: Vec<(String, Scores)> = Vec::new();
     let mut maps: Vec<StrategyArtifacts> = Vec::new();
+    let (mut triplets, mut rock_errors) = (Vec::new(), Vec::new());
     for (name, flown, check, cams, role) in &baselines {
+        rock_errors.push(((*name).to_string(), merged_rock_errors(flown)));
         let (s, f) = evaluate(&em, &refs(flown), cfg)?;
         scores.push(((*name).into(), with_check(s, check)));
         let plans = vec![plan_of(&world, cams, *role)];
@@ -306,7 +318,6 @@ fn run_site(
     }
     let (_, grid_flown, grid_check, _, _) = &baselines[1];
     let mut combos = Vec::new();
-    let (mut triplets, mut rock_errors) = (Vec::new(), Vec::new());
     for (i, st) in strategies.iter().enumerate() {
         let mut run = run_strategy(&mut site, st, 2 + i as u64, &known, keep_artifacts)?;
         triplets.append(&mut run.outcomes);

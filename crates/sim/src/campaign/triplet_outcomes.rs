@@ -13,8 +13,13 @@ use serde::Serialize;
 use vp_scene::colmap::DepthMap;
 use vp_scene::{Aabb, Camera, Material};
 
+use vp_scene::raycast::FACE_VISIBILITY_EPSILON;
+use vp_scene::triangulation::{point_covariance, sigma_along};
+
 use super::reconstruct::OutputStats;
+use crate::render::Rendered;
 use crate::virtual_mvs::{PixelStatus, PixelTruth};
+use crate::world::Scene;
 
 /// One flown triplet of a strategy on a held-out site.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -132,17 +137,66 @@ pub const ERROR_BIN_M: f64 = 0.02;
 pub const ERROR_RANGE_M: f64 = 0.5;
 /// Bins inside the range.
 pub const N_ERROR_BINS: usize = 50;
-/// Resolution of the median 1 sigma, metres (a histogram of 1 mm bins
-/// keeps the report small and the median exact to it).
-const SIGMA_BIN_M: f64 = 0.001;
-/// 1 sigma is binned up to 2 m; above, one overflow bin.
-const N_SIGMA_BINS: usize = 2000;
+/// Resolution of the 1 sigma figures, metres: 1 mm bins keep the report
+/// small and its quantiles exact to 1 mm.
+const MM: f64 = 0.001;
+/// Lengths are binned up to 2 m; above, one overflow bin.
+const N_MM_BINS: usize = 2000;
+
+/// Non-negative lengths in 1 mm bins up to 2 m, the last bin open-ended.
+#[derive(Debug, Clone, PartialEq)]
+struct MmHistogram(Vec<u64>);
+
+impl MmHistogram {
+    fn new() -> Self {
+        MmHistogram(vec![0; N_MM_BINS + 1])
+    }
+
+    fn add(&mut self, v: f64) {
+        self.0[((v.max(0.0) / MM).floor() as usize).min(N_MM_BINS)] += 1;
+    }
+
+    fn merge(&mut self, other: &MmHistogram) {
+        for (a, b) in self.0.iter_mut().zip(&other.0) {
+            *a += b;
+        }
+    }
+
+    /// The `q` quantile of the `n` values added: the centre of the bin
+    /// holding the `ceil(q n)`-th smallest (at least the first); infinite
+    /// above 2 m, None without values.
+    fn quantile(&self, q: f64, n: u64) -> Option<f64> {
+        if n == 0 {
+            return None;
+        }
+        let rank = ((q * n as f64).ceil() as u64).clamp(1, n);
+        let mut seen = 0;
+        for (b, &c) in self.0.iter().enumerate() {
+            seen += c;
+            if seen >= rank {
+                return Some(if b == N_MM_BINS {
+                    f64::INFINITY
+                } else {
+                    (b as f64 + 0.5) * MM
+                });
+            }
+        }
+        None
+    }
+}
+
+/// The share of a normal distribution within 1 sigma of its mean: the
+/// paper's Fig. 6 draws the error bound that holds this share of the
+/// measurements.
+pub const ONE_SIGMA_SHARE: f64 = 0.683;
 
 /// The paper's Fig. 6 for one strategy: the signed depth error
 /// (reconstructed minus true depth, along the true camera's axis: positive
 /// behind the surface) of the rock pixels in the ROI that have a depth,
-/// binned, with the pixels' first-order 1 sigma (`sigma_px` pixels of
-/// image noise through the triplet's three cameras, as labelgen's bound).
+/// binned, with two 1 sigma bounds: the paper's, the |error| that 68.3 %
+/// of the pixels stay within (measured), and the first-order one that
+/// labelgen predicts per pixel (`sigma_px` pixels of image noise through
+/// the cameras that see the point).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct DepthErrorHistogram {
     /// Pixels binned.
@@ -155,10 +209,13 @@ pub struct DepthErrorHistogram {
     pub with_sigma: u64,
     /// Of `with_sigma`, those whose |error| is at most their 1 sigma.
     pub within_sigma: u64,
-    /// 1 sigma of the `with_sigma` pixels in 1 mm bins, the last one
-    /// open-ended (for the median; not in `report.json`).
+    /// 1 sigma of the `with_sigma` pixels (for the median; not in
+    /// `report.json`).
     #[serde(skip)]
-    sigma_counts: Vec<u64>,
+    sigma_mm: MmHistogram,
+    /// |error| of the pixels (for the measured bound; not in `report.json`).
+    #[serde(skip)]
+    abs_error_mm: MmHistogram,
 }
 
 impl Default for DepthErrorHistogram {
@@ -168,7 +225,8 @@ impl Default for DepthErrorHistogram {
             counts: vec![0; N_ERROR_BINS + 2],
             with_sigma: 0,
             within_sigma: 0,
-            sigma_counts: vec![0; N_SIGMA_BINS + 1],
+            sigma_mm: MmHistogram::new(),
+            abs_error_mm: MmHistogram::new(),
         }
     }
 }
@@ -201,11 +259,12 @@ impl DepthErrorHistogram {
     pub fn add(&mut self, e: f64, sigma: Option<f64>) {
         self.pixels += 1;
         self.counts[Self::bin_of(e)] += 1;
+        self.abs_error_mm
+            .add(if e.is_nan() { f64::INFINITY } else { e.abs() });
         if let Some(s) = sigma.filter(|s| s.is_finite() && *s > 0.0) {
             self.with_sigma += 1;
             self.within_sigma += u64::from(e.abs() <= s);
-            let b = ((s / SIGMA_BIN_M).floor() as usize).min(N_SIGMA_BINS);
-            self.sigma_counts[b] += 1;
+            self.sigma_mm.add(s);
         }
     }
 
@@ -217,31 +276,22 @@ impl DepthErrorHistogram {
         for (a, b) in self.counts.iter_mut().zip(&other.counts) {
             *a += b;
         }
-        for (a, b) in self.sigma_counts.iter_mut().zip(&other.sigma_counts) {
-            *a += b;
-        }
+        self.sigma_mm.merge(&other.sigma_mm);
+        self.abs_error_mm.merge(&other.abs_error_mm);
     }
 
-    /// Median 1 sigma of the pixels that have one, metres: the centre of
-    /// the 1 mm bin holding the middle pixel (the lower one of an even
-    /// count); infinite when it lies above 2 m, None without such pixels.
+    /// Median predicted 1 sigma of the pixels that have one, metres: the
+    /// centre of the 1 mm bin holding the middle pixel (the lower one of an
+    /// even count); infinite when it lies above 2 m, None without such pixels.
     pub fn median_sigma_m(&self) -> Option<f64> {
-        if self.with_sigma == 0 {
-            return None;
-        }
-        let middle = self.with_sigma.div_ceil(2);
-        let mut seen = 0;
-        for (b, &c) in self.sigma_counts.iter().enumerate() {
-            seen += c;
-            if seen >= middle {
-                return Some(if b == N_SIGMA_BINS {
-                    f64::INFINITY
-                } else {
-                    (b as f64 + 0.5) * SIGMA_BIN_M
-                });
-            }
-        }
-        None
+        self.sigma_mm.quantile(0.5, self.with_sigma)
+    }
+
+    /// The paper's 1 sigma bound, metres: the |error| that
+    /// [`ONE_SIGMA_SHARE`] of the pixels stay within (the centre of its
+    /// 1 mm bin; infinite above 2 m, None without pixels).
+    pub fn measured_bound_m(&self) -> Option<f64> {
+        self.abs_error_mm.quantile(ONE_SIGMA_SHARE, self.pixels)
     }
 
     /// Share of the pixels with a 1 sigma whose error is within it (NaN
@@ -305,6 +355,59 @@ pub fn rock_errors(
             let sigma = (t.sigma_depth > 0.0).then_some(f64::from(t.sigma_depth));
             h.add(f64::from(z) - f64::from(t.true_depth), sigma);
         }
+    }
+    h
+}
+
+/// The rock pixels of one Grid reference (true camera `cams[0]`, its
+/// sources `cams[1..]`) whose true surface (the render `truth`) lies in
+/// `region` and that have a depth (`depth`, expressed in the true camera),
+/// as a [`DepthErrorHistogram`]. A pixel's 1 sigma: `sigma_px` pixels
+/// through the reference and the sources that see its true point (in
+/// frame, not occluded), as for a triplet; none when no source sees it.
+pub fn reference_rock_errors(
+    scene: &Scene<'_>,
+    truth: &Rendered,
+    depth: &DepthMap,
+    cams: &[Camera],
+    region: &Aabb,
+    sigma_px: f64,
+) -> DepthErrorHistogram {
+    let mut h = DepthErrorHistogram::default();
+    let Some((reference, sources)) = cams.split_first() else {
+        return h;
+    };
+    let w = reference.intrinsics.width as usize;
+    for (i, (&z, &t)) in depth.data.iter().zip(&truth.depth.data).enumerate() {
+        let face = truth.face_id.get(i).copied().unwrap_or(u32::MAX);
+        if z <= 0.0
+            || t <= 0.0
+            || face == u32::MAX
+            || scene.mesh.material(face as usize) != Some(Material::Rock)
+        {
+            continue;
+        }
+        let px = Point2::new((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
+        let p = reference.unproject(&px, f64::from(t));
+        if !region.contains(&p) {
+            continue;
+        }
+        let (_, d) = reference.ray(&px);
+        let mut n = scene.mesh.face_normal(face as usize);
+        if n.dot(&d) > 0.0 {
+            n = -n;
+        }
+        // Lifted off the face towards the reference, as the triplets' truth.
+        let lifted = p + n * FACE_VISIBILITY_EPSILON;
+        let seeing = sources.iter().filter(|c| {
+            c.project_in_frame(&p).is_some() && !scene.caster.occluded(&c.center(), &lifted)
+        });
+        let cams: Vec<&Camera> = std::iter::once(reference).chain(seeing).collect();
+        let sigma = (cams.len() >= 2)
+            .then(|| point_covariance(cams, &p, sigma_px))
+            .flatten()
+            .map(|cov| sigma_along(&cov, &d) * d.dot(&reference.axis()));
+        h.add(f64::from(z) - f64::from(t), sigma);
     }
     h
 }

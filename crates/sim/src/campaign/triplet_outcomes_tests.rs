@@ -121,6 +121,24 @@ fn the_one_sigma_figures_count_only_pixels_with_a_sigma() {
 }
 
 #[test]
+fn the_papers_bound_holds_68_percent_of_the_errors() {
+    // |errors| 0.5, 1.5, ..., 9.5 mm: 68.3 % of 10 is the 7th smallest.
+    let mut h = DepthErrorHistogram::default();
+    for k in 0..10 {
+        let e = (f64::from(k) + 0.5) * 1e-3;
+        h.add(if k % 2 == 0 { e } else { -e }, None);
+    }
+    assert!(close(h.measured_bound_m().unwrap(), 0.0065));
+    // Of 3 (1.5, 2.5, 3.5 mm): the 3rd.
+    let mut h = DepthErrorHistogram::default();
+    for e in [0.0015, -0.0025, 0.0035] {
+        h.add(e, None);
+    }
+    assert!(close(h.measured_bound_m().unwrap(), 0.0035));
+    assert!(DepthErrorHistogram::default().measured_bound_m().is_none());
+}
+
+#[test]
 fn rock_errors_take_rock_pixels_with_a_depth_in_the_region() {
     let k = Intrinsics::from_hfov(4, 1, 60.0).unwrap();
     let cam = Camera::from_yaw_pitch(

@@ -22,17 +22,21 @@ use crate::campaign::triplet_outcomes::{
 };
 use crate::error::Result;
 
-/// One triplet strategy's flown triplets and rock depth errors over the sites.
+/// One flight's (a baseline's or a triplet strategy's) flown triplets and
+/// rock depth errors over the sites.
 pub struct StrategyOutcomes<'a> {
     /// Strategy name.
     pub name: String,
+    /// Whether it is a triplet strategy (planned triplets; not a baseline).
+    pub planned: bool,
     /// Its flown triplets, site by site in flight order.
     pub triplets: Vec<&'a TripletOutcome>,
     /// Its rock pixels' depth errors, merged over the sites.
     pub rock: DepthErrorHistogram,
 }
 
-/// The triplet strategies of `report` in table order, pooled over sites.
+/// The flights of `report` with rock depth errors (baselines, then the
+/// triplet strategies) in table order, pooled over sites.
 pub fn by_strategy(report: &CampaignReport) -> Vec<StrategyOutcomes<'_>> {
     let mut out: Vec<StrategyOutcomes<'_>> = Vec::new();
     for site in &report.sites {
@@ -40,6 +44,7 @@ pub fn by_strategy(report: &CampaignReport) -> Vec<StrategyOutcomes<'_>> {
             let i = out.iter().position(|s| &s.name == name).unwrap_or_else(|| {
                 out.push(StrategyOutcomes {
                     name: name.clone(),
+                    planned: report.config.strategies.contains(name),
                     triplets: Vec::new(),
                     rock: DepthErrorHistogram::default(),
                 });
@@ -52,6 +57,11 @@ pub fn by_strategy(report: &CampaignReport) -> Vec<StrategyOutcomes<'_>> {
         }
     }
     out
+}
+
+/// The triplet strategies of `all`.
+fn planned<'a, 'b>(all: &'b [StrategyOutcomes<'a>]) -> Vec<&'b StrategyOutcomes<'a>> {
+    all.iter().filter(|s| s.planned).collect()
 }
 
 /// Bins of the angle histogram: 0-45 deg, or up to the largest planned angle.
@@ -82,8 +92,8 @@ pub fn angle_cells(all: &[StrategyOutcomes<'_>]) -> (Vec<String>, Vec<Vec<String
         format!("{lo:.0}-{:.0}", lo + ANGLE_BIN_DEG)
     }));
     header.extend(["no angle".to_string(), "triplets".to_string()]);
-    let rows = all
-        .iter()
+    let rows = planned(all)
+        .into_iter()
         .map(|s| {
             let h = angle_histogram(s.triplets.iter().filter_map(|t| t.planned_angle_deg), n);
             let mut r = vec![s.name.clone()];
@@ -106,7 +116,8 @@ pub fn f_vs_np_angles(all: &[StrategyOutcomes<'_>]) -> Vec<String> {
         angle_histogram(s.triplets.iter().filter_map(|t| t.planned_angle_deg), n)
     };
     let mut lines = Vec::new();
-    for f in all {
+    let all = planned(all);
+    for f in &all {
         let Some(shape) = f.name.strip_prefix('F') else {
             continue;
         };
@@ -152,8 +163,8 @@ pub fn share_cells(all: &[StrategyOutcomes<'_>]) -> (Vec<String>, Vec<Vec<String
             format!("success ≥ {:.0} %", 100.0 * t)
         }
     }));
-    let rows = all
-        .iter()
+    let rows = planned(all)
+        .into_iter()
         .map(|s| {
             let shares: Vec<f64> = s.triplets.iter().map(|t| t.within_share()).collect();
             let mut r = vec![s.name.clone(), s.triplets.len().to_string()];
@@ -173,15 +184,17 @@ pub fn share_cells(all: &[StrategyOutcomes<'_>]) -> (Vec<String>, Vec<Vec<String
     (header, rows)
 }
 
-/// Fig. 6 in figures: rock pixels with a depth, with a 1 sigma, the median
-/// 1 sigma, the share within it, and the share of errors within ±0.5 m.
+/// Fig. 6 in figures: rock pixels with a depth, the paper's bound (the
+/// |error| 68.3 % of them stay within), the pixels with a predicted 1
+/// sigma, its median, the share within it, and the share within ±0.5 m.
 pub fn rock_cells(all: &[StrategyOutcomes<'_>]) -> (Vec<String>, Vec<Vec<String>>) {
     let header = [
         "strategy",
         "rock px with depth",
-        "with 1 sigma",
-        "median 1 sigma (mm)",
-        "within 1 sigma %",
+        "68.3 % within (mm)",
+        "with predicted sigma",
+        "median predicted 1 sigma (mm)",
+        "within predicted 1 sigma %",
         "within ±0.5 m %",
     ]
     .map(String::from)
@@ -190,7 +203,7 @@ pub fn rock_cells(all: &[StrategyOutcomes<'_>]) -> (Vec<String>, Vec<Vec<String>
         .iter()
         .map(|s| {
             let h = &s.rock;
-            let median = match h.median_sigma_m() {
+            let mm = |m: Option<f64>| match m {
                 None => "-".to_string(),
                 Some(m) if m.is_infinite() => "> 2000".to_string(),
                 Some(m) => format!("{:.1}", 1000.0 * m),
@@ -204,8 +217,9 @@ pub fn rock_cells(all: &[StrategyOutcomes<'_>]) -> (Vec<String>, Vec<Vec<String>
             vec![
                 s.name.clone(),
                 h.pixels.to_string(),
+                mm(h.measured_bound_m()),
                 h.with_sigma.to_string(),
-                median,
+                mm(h.median_sigma_m()),
                 pct(h.within_sigma_share()),
                 pct(inside),
             ]
@@ -224,12 +238,12 @@ fn markdown_table(md: &mut String, (header, rows): (Vec<String>, Vec<Vec<String>
 
 const ANGLE_NOTE: &str = "Planned triangulation angle (the angle bin centre each flown triplet was planned for), triplets per 5 deg bin over the held-out sites:";
 const SHARE_NOTE: &str = "Each flown triplet's share of its ROI pixels within the 24 cm rule (percent; min, quartiles, max over the triplets), and the share of triplets (percent) with more than 0 pixels, or at least 1, 10 or 25 % of them, within it. Every triplet in `triplets.csv`.";
-const ROCK_NOTE: &str = "The paper's Fig. 6: the signed depth error (reconstructed minus true depth along the true camera's axis) of the flown triplets' rock pixels in the ROI that have a depth, against each pixel's first-order 1 sigma (1 px image noise through the triplet's three cameras; only pixels all three see have one). Histograms in 2 cm bins over ±0.5 m in `depth_error_rock.csv` and `depth_error_rock_<strategy>.png`.";
+const ROCK_NOTE: &str = "The paper's Fig. 6: the signed depth error (reconstructed minus true depth along the true camera's axis) of the rock pixels in the ROI that have a depth, per flight (the Grid's and the initial flight's reference images, each strategy's flown triplets), with the paper's 1 sigma bound (the |error| 68.3 % of the pixels stay within) and the first-order 1 sigma predicted per pixel (1 px image noise through the cameras that see the point: all three of a triplet, a Grid reference and its sources that see it; a pixel no other camera sees has none). Histograms in 2 cm bins over ±0.5 m in `depth_error_rock.csv` and `depth_error_rock_<strategy>.png`.";
 
 /// The report's section in Markdown (None without triplet strategies).
 pub fn markdown(report: &CampaignReport) -> Option<String> {
     let all = by_strategy(report);
-    if all.is_empty() {
+    if planned(&all).is_empty() {
         return None;
     }
     let mut md = format!("{ANGLE_NOTE}\n\n");
@@ -248,7 +262,7 @@ pub fn markdown(report: &CampaignReport) -> Option<String> {
 /// without triplet strategies).
 pub fn html(report: &CampaignReport, figures: &[Figure]) -> String {
     let all = by_strategy(report);
-    if all.is_empty() {
+    if planned(&all).is_empty() {
         return String::new();
     }
     let mut h = String::from("<h2>The outcome per triplet</h2>\n");
@@ -311,11 +325,11 @@ pub fn triplets_csv(all: &[StrategyOutcomes<'_>]) -> String {
     t
 }
 
-/// `depth_error_rock.csv`: per triplet strategy, one row per error bin
-/// (the first and last open-ended), with the strategy's 1 sigma figures.
+/// `depth_error_rock.csv`: per flight, one row per error bin (the first
+/// and last open-ended), with the flight's 1 sigma figures.
 pub fn depth_error_csv(all: &[StrategyOutcomes<'_>]) -> String {
     let mut t = String::from(
-        "strategy,bin,error_lo_m,error_hi_m,pixels,share,strategy_pixels,with_sigma,within_sigma,median_sigma_m\n",
+        "strategy,bin,error_lo_m,error_hi_m,pixels,share,strategy_pixels,bound_683_m,with_sigma,within_sigma,median_sigma_m\n",
     );
     for s in all {
         let h = &s.rock;
@@ -328,12 +342,13 @@ pub fn depth_error_csv(all: &[StrategyOutcomes<'_>]) -> String {
             };
             let _ = writeln!(
                 t,
-                "{},{b},{},{},{c},{},{},{},{},{}",
+                "{},{b},{},{},{c},{},{},{},{},{},{}",
                 s.name,
                 csv_num(lo),
                 csv_num(hi),
                 csv_num(share),
                 h.pixels,
+                h.measured_bound_m().map_or(String::new(), csv_num),
                 h.with_sigma,
                 h.within_sigma,
                 h.median_sigma_m().map_or(String::new(), csv_num),
@@ -349,9 +364,11 @@ const MARGIN: u32 = 44;
 const BAR: Rgb<u8> = Rgb([90, 110, 170]);
 const OVERFLOW: Rgb<u8> = Rgb([150, 150, 150]);
 const SIGMA: Rgb<u8> = Rgb([220, 40, 40]);
+const BOUND: Rgb<u8> = Rgb([20, 140, 60]);
 
 /// Fig. 6 of one strategy: the share of rock pixels per 2 cm error bin
-/// over ±0.5 m (grey bars at the ends: beyond), the median 1 sigma as red
+/// over ±0.5 m (grey bars at the ends: beyond), the paper's bound (68.3 %
+/// of the errors within) as green and the median predicted 1 sigma as red
 /// lines either side of 0.
 pub fn depth_error_plot(name: &str, h: &DepthErrorHistogram) -> RgbImage {
     let mut img = RgbImage::from_pixel(W, H, Rgb([255, 255, 255]));
@@ -378,9 +395,11 @@ pub fn depth_error_plot(name: &str, h: &DepthErrorHistogram) -> RgbImage {
     // x of an error inside the range: the inner slots span ±ERROR_RANGE_M.
     let at =
         |e: f64| x0 + slot * (1.0 + (e + ERROR_RANGE_M) / (2.0 * ERROR_RANGE_M) * (slots - 2.0));
-    if let Some(s) = h.median_sigma_m().filter(|s| *s < ERROR_RANGE_M) {
-        for e in [-s, s] {
-            line(&mut img, (at(e), y0), (at(e), y1), SIGMA);
+    for (bound, colour) in [(h.measured_bound_m(), BOUND), (h.median_sigma_m(), SIGMA)] {
+        if let Some(s) = bound.filter(|s| *s < ERROR_RANGE_M) {
+            for e in [-s, s] {
+                line(&mut img, (at(e), y0), (at(e), y1), colour);
+            }
         }
     }
     line(&mut img, (x0, y0), (x1, y0), BLACK);
@@ -409,7 +428,7 @@ pub fn depth_error_plot(name: &str, h: &DepthErrorHistogram) -> RgbImage {
         BLACK,
     );
     let title = format!("{name}: rock depth error, {} px", h.pixels);
-    text(&mut img, x0 as i64, 8, &title, BLACK);
+    text(&mut img, x0 as i64, 4, &title, BLACK);
     let axis = "error (m)";
     text(
         &mut img,
@@ -418,14 +437,35 @@ pub fn depth_error_plot(name: &str, h: &DepthErrorHistogram) -> RgbImage {
         axis,
         BLACK,
     );
-    let legend = "median 1 sigma";
-    text(
-        &mut img,
-        x1 as i64 - text_width(legend),
-        y1 as i64 + 4,
-        legend,
-        SIGMA,
-    );
+    // A bound beyond the axis is named, not drawn.
+    let off = |b: Option<f64>| {
+        if b.is_some_and(|b| b >= ERROR_RANGE_M) {
+            " > 0.5 m"
+        } else {
+            ""
+        }
+    };
+    let legends = [
+        (
+            format!("68.3 % within{}", off(h.measured_bound_m())),
+            BOUND,
+            16,
+        ),
+        (
+            format!("median predicted 1 sigma{}", off(h.median_sigma_m())),
+            SIGMA,
+            28,
+        ),
+    ];
+    for (legend, colour, y) in legends {
+        text(
+            &mut img,
+            x1 as i64 - text_width(&legend),
+            y,
+            &legend,
+            colour,
+        );
+    }
     img
 }
 
@@ -433,7 +473,7 @@ pub fn depth_error_plot(name: &str, h: &DepthErrorHistogram) -> RgbImage {
 /// `dir` (nothing without triplet strategies).
 pub fn write_files(report: &CampaignReport, dir: &Path) -> Result<()> {
     let all = by_strategy(report);
-    if all.is_empty() {
+    if planned(&all).is_empty() {
         return Ok(());
     }
     let write = |name: &str, text: &str| {

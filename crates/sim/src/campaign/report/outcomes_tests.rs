@@ -40,7 +40,12 @@ fn report(with_triplets: bool) -> CampaignReport {
         scores: Vec::new(),
         triplets: if with_triplets { triplets } else { Vec::new() },
         rock_errors: if with_triplets {
-            vec![("F1x2".into(), f), ("NP1x2".into(), np)]
+            let grid = errors(&[(0.0005, None)]);
+            vec![
+                ("Grid".into(), grid),
+                ("F1x2".into(), f),
+                ("NP1x2".into(), np),
+            ]
         } else {
             Vec::new()
         },
@@ -61,13 +66,13 @@ fn report(with_triplets: bool) -> CampaignReport {
             site(
                 7,
                 seven,
-                errors(&[(0.01, Some(0.0205))]),
-                errors(&[(-0.6, None)]),
+                errors(&[(0.0105, Some(0.0205))]),
+                errors(&[(-0.6005, None)]),
             ),
             site(
                 8,
                 eight,
-                errors(&[(0.03, Some(0.0205))]),
+                errors(&[(0.0305, Some(0.0205))]),
                 DepthErrorHistogram::default(),
             ),
         ],
@@ -85,7 +90,11 @@ fn outcomes_are_pooled_over_sites_per_strategy_in_table_order() {
     let r = report(true);
     let all = by_strategy(&r);
     let names: Vec<&str> = all.iter().map(|s| s.name.as_str()).collect();
-    assert_eq!(names, ["F1x2", "NP1x2"]);
+    assert_eq!(names, ["Grid", "F1x2", "NP1x2"]);
+    let planned: Vec<bool> = all.iter().map(|s| s.planned).collect();
+    assert_eq!(planned, [false, true, true]);
+    assert!(all[0].triplets.is_empty() && all[0].rock.pixels == 2);
+    let all = &all[1..];
     let sites: Vec<(u64, u32)> = all[0]
         .triplets
         .iter()
@@ -151,23 +160,26 @@ fn the_rock_table_and_csvs_hold_fig6_and_every_triplet() {
     let r = report(true);
     let all = by_strategy(&r);
     let (_, rows) = rock_cells(&all);
-    // F: errors 1 cm (within its 20.5 mm sigma) and 3 cm (not).
-    assert_eq!(rows[0], ["F1x2", "2", "2", "20.5", "50.0", "100.0"]);
+    // F: errors 10.5 mm (within its 20.5 mm sigma) and 30.5 mm (not);
+    // 68.3 % of 2 pixels is the 2nd smallest |error|.
+    assert_eq!(rows[1], ["F1x2", "2", "30.5", "2", "20.5", "50.0", "100.0"]);
+    // The Grid: one pixel 0.5 mm off on each site, without a sigma.
+    assert_eq!(rows[0], ["Grid", "2", "0.5", "0", "-", "-", "100.0"]);
     // NP: one pixel 60 cm in front, seen by one camera only: no sigma.
-    assert_eq!(rows[1], ["NP1x2", "1", "0", "-", "-", "0.0"]);
+    assert_eq!(rows[2], ["NP1x2", "1", "600.5", "0", "-", "-", "0.0"]);
     let csv = triplets_csv(&all);
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines.len(), 1 + 6);
     assert_eq!(lines[1], "F1x2,7,1,0,27.50,100,50,50,0.5000,0.5000,true");
     assert_eq!(lines[6], "NP1x2,8,1,0,,0,0,0,0.0000,0.0000,false");
     let err = depth_error_csv(&all);
-    assert_eq!(err.lines().count(), 1 + 2 * 52);
+    assert_eq!(err.lines().count(), 1 + 3 * 52);
     assert!(
-        err.contains("\nF1x2,0,-inf,-0.5000,0,0.0000,2,2,1,0.0205\n"),
+        err.contains("\nF1x2,0,-inf,-0.5000,0,0.0000,2,0.0305,2,1,0.0205\n"),
         "{err}"
     );
     assert!(
-        err.contains("\nNP1x2,0,-inf,-0.5000,1,1.0000,1,0,0,\n"),
+        err.contains("\nNP1x2,0,-inf,-0.5000,1,1.0000,1,0.6005,0,0,\n"),
         "{err}"
     );
     let md = markdown(&r).unwrap();

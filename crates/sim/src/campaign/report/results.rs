@@ -66,8 +66,9 @@ pub struct SiteResult {
     /// Every flown triplet of every triplet strategy, strategies in table
     /// order, each in flight order.
     pub triplets: Vec<TripletOutcome>,
-    /// Per triplet strategy (table order), the depth errors of its flown
-    /// triplets' rock pixels (the paper's Fig. 6).
+    /// Per flight (Init, Grid, Oblique with `grid.oblique`, then each
+    /// triplet strategy; table order), the depth errors of its
+    /// reconstructions' rock pixels (the paper's Fig. 6).
     pub rock_errors: Vec<(String, DepthErrorHistogram)>,
 }
 
