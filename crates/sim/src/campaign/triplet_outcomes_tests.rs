@@ -191,3 +191,88 @@ fn rock_errors_take_rock_pixels_with_a_depth_in_the_region() {
         6
     );
 }
+
+/// A Grid reference over a rock plane, its depths 5 cm behind the truth:
+/// every rock pixel in the region counts; a pixel has a 1 sigma exactly
+/// where a source sees its point, and a wider baseline gives a smaller one.
+#[test]
+fn a_grid_reference_has_a_sigma_where_a_source_sees_the_point() {
+    use crate::render::{render, RenderParams};
+    use crate::sfm::SparseCandidates;
+    use vp_scene::raycast::RayCaster;
+
+    // 1 px is 14 cm at 20 m: the sigmas stay well under 2 m.
+    const W: u32 = 160;
+    const H: u32 = 120;
+    let cfg = crate::config::CampaignConfig::quick();
+    let rock = crate::test_scenes::uniform_plane(60.0, Material::Rock);
+    let caster = RayCaster::new(&rock);
+    let candidates = SparseCandidates::new(&rock, cfg.sfm.points_per_m2, 11);
+    let scene = Scene {
+        mesh: &rock,
+        caster: &caster,
+        texture_seed: 3,
+        candidates: &candidates,
+    };
+    let k = Intrinsics::from_hfov(W, H, 60.0).unwrap();
+    let down = std::f64::consts::FRAC_PI_2;
+    let at = |x: f64, pitch: f64| Camera::from_yaw_pitch(k, Point3::new(x, 0.0, 20.0), 0.0, pitch);
+    let reference = at(0.0, -down);
+    let truth = render(&rock, &caster, &reference, &RenderParams::default()).unwrap();
+    let behind = DepthMap {
+        data: truth
+            .depth
+            .data
+            .iter()
+            .map(|&t| if t > 0.0 { t + 0.05 } else { 0.0 })
+            .collect(),
+        ..truth.depth.clone()
+    };
+    let region = Aabb {
+        min: Point3::new(-30.0, -30.0, -1.0),
+        max: Point3::new(30.0, 30.0, 1.0),
+    };
+    let errors = |cams: &[Camera], region: &Aabb| {
+        reference_rock_errors(&scene, &truth, &behind, cams, region, 1.0)
+    };
+    let near = at(4.0, -down);
+    let h = errors(&[reference, near], &region);
+    assert_eq!(h.pixels, u64::from(W * H));
+    assert_eq!(h.counts[DepthErrorHistogram::bin_of(0.05)], h.pixels);
+    // The pixels whose ground point the source (4 m aside) has in frame.
+    let seen = (0..W * H)
+        .filter(|&i| {
+            let px = Point2::new(f64::from(i % W) + 0.5, f64::from(i / W) + 0.5);
+            let p = reference.unproject(&px, f64::from(truth.depth.data[i as usize]));
+            near.project_in_frame(&p).is_some()
+        })
+        .count() as u64;
+    assert!(seen > 0 && seen < h.pixels, "{seen}");
+    assert_eq!(h.with_sigma, seen);
+    // Twice the baseline, a smaller first-order sigma.
+    let far = errors(&[reference, at(8.0, -down)], &region);
+    assert!(far.median_sigma_m().unwrap() < h.median_sigma_m().unwrap());
+    // No source, or one looking up: no sigma. Ground, or outside the
+    // region: not counted.
+    assert_eq!(errors(&[reference], &region).with_sigma, 0);
+    assert_eq!(errors(&[reference, at(0.0, down)], &region).with_sigma, 0);
+    let away = Aabb {
+        min: Point3::new(40.0, 40.0, -1.0),
+        max: Point3::new(50.0, 50.0, 1.0),
+    };
+    assert_eq!(errors(&[reference, near], &away).pixels, 0);
+    let ground = crate::test_scenes::uniform_plane(60.0, Material::Ground);
+    let ground_scene = Scene {
+        mesh: &ground,
+        ..scene
+    };
+    let h = reference_rock_errors(
+        &ground_scene,
+        &truth,
+        &behind,
+        &[reference, near],
+        &region,
+        1.0,
+    );
+    assert_eq!(h.pixels, 0);
+}
