@@ -103,30 +103,48 @@ pub(crate) fn winner_row_with<F: Fn(&[u16]) -> (usize, u16)>(
         if best > x || !pair.right_valid[y * w + x - best] {
             continue;
         }
-        let min = f32::from(s[best]);
-        // Every sum two or more disparities away passes the ratio test
-        // exactly when the smallest of them does (f32 products are
-        // monotone).
-        let rival = if smallest == u16::MAX {
-            f32::INFINITY
-        } else {
-            f32::from(smallest)
-        };
-        let unique = min <= params.uniqueness * rival;
+        let unique = is_unique(s, best, smallest, params.uniqueness);
         let right_best = (held[w - 1 - (x - best)] & 0xFFFF) as usize;
         if !unique || right_best.abs_diff(best) > params.lr_max_diff as usize {
             continue;
         }
-        let mut d = best as f32;
-        if best > 0 && best + 1 < nd {
-            let (a, b, c) = (f32::from(s[best - 1]), min, f32::from(s[best + 1]));
-            let denom = a + c - 2.0 * b;
-            if denom > 0.0 {
-                d += (a - c) / (2.0 * denom);
-            }
-        }
-        *o = d;
+        *o = subpixel(s, best);
     }
+}
+
+/// The uniqueness test: the winner's sum `s[best]` at most `uniqueness`
+/// times `smallest`, the smallest sum two or more disparities away (every
+/// such sum passes the ratio test exactly when the smallest of them does:
+/// f32 products are monotone).
+#[allow(clippy::inline_always)]
+#[inline(always)]
+fn is_unique(s: &[u16], best: usize, smallest: u16, uniqueness: f32) -> bool {
+    let rival = if smallest == u16::MAX {
+        f32::INFINITY
+    } else {
+        f32::from(smallest)
+    };
+    f32::from(s[best]) <= uniqueness * rival
+}
+
+/// The winner's disparity refined by the parabola through its sum and its
+/// two neighbours' (none at the ends of the range, or on a flat top).
+#[allow(clippy::inline_always)]
+#[inline(always)]
+fn subpixel(s: &[u16], best: usize) -> f32 {
+    let mut d = best as f32;
+    if best > 0 && best + 1 < s.len() {
+        let (a, b, c) = (
+            f32::from(s[best - 1]),
+            f32::from(s[best]),
+            f32::from(s[best + 1]),
+        );
+        let denom = a + c - 2.0 * b;
+        if denom > 0.0 {
+            d += (a - c) / (2.0 * denom);
+        }
+    }
+    d
 }
 
 /// [`winner_row_with`] under [`LeftRight::Opencv`]: first every left
@@ -160,26 +178,12 @@ fn winner_row_best_left<F: Fn(&[u16]) -> (usize, u16)>(
         if best > x || !pair.right_valid[y * w + x - best] {
             continue;
         }
-        let min = f32::from(s[best]);
-        let rival = if smallest == u16::MAX {
-            f32::INFINITY
-        } else {
-            f32::from(smallest)
-        };
-        if min > params.uniqueness * rival {
+        if !is_unique(s, best, smallest, params.uniqueness) {
             continue;
         }
         let offer = &mut held[x - best];
         *offer = (*offer).min(u32::from(s[best]) << 16 | best as u32);
-        let mut d = best as f32;
-        if best > 0 && best + 1 < nd {
-            let (a, b, c) = (f32::from(s[best - 1]), min, f32::from(s[best + 1]));
-            let denom = a + c - 2.0 * b;
-            if denom > 0.0 {
-                d += (a - c) / (2.0 * denom);
-            }
-        }
-        *o = d;
+        *o = subpixel(s, best);
     }
     let tolerance = params.lr_max_diff as usize;
     for (x, o) in out.iter_mut().enumerate() {

@@ -21,17 +21,15 @@
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
-use std::path::Path;
 
 use vp_forest::TrainingSet;
-use vp_scene::outdir::OutDir;
 use vp_scene::raster::Label;
-use vp_scene::{Material, SceneError};
+use vp_scene::Material;
 
-use super::angle_fall::{self, angle_fall, AngleFall, SiteSuccess};
+use super::angle_fall::{angle_fall, AngleFall, SiteSuccess};
 use super::curves::CurveAccumulator;
 use super::reconstruct::truly_positive;
-use super::reliability::{self, Reliability};
+use super::reliability::Reliability;
 use super::training::{label_site, LabelledView, TrainingStats};
 use crate::config::CampaignConfig;
 use crate::error::{Result, SimError};
@@ -139,50 +137,6 @@ impl Tally {
     pub fn brier_skill(&self) -> f64 {
         1.0 - self.brier / self.brier_angle_only.max(1e-12)
     }
-}
-
-/// `vpctl sim evaluate`: evaluates the campaign of the config file `config`
-/// ([`evaluate_forest`]) and writes `out/forest_eval.csv`,
-/// `out/angle_success.csv`, `out/reliability.csv` with one
-/// `reliability_<matcher>_<forest>.png` per forest size, `out/label_quality.csv`,
-/// `out/summary.txt` and `out/report.html` (the output folder rules of
-/// [`OutDir`]; nothing is written when the evaluation fails).
-pub fn evaluate_to_dir(
-    config: &Path,
-    sizes: &[(usize, usize)],
-    out: &Path,
-    force: bool,
-    progress: &mut dyn FnMut(&str),
-) -> Result<ForestEvaluation> {
-    let cfg = CampaignConfig::load(config)?;
-    let dir = OutDir::check(out, "sim evaluate", &[config], force)?;
-    let eval = evaluate_forest(&cfg, sizes, progress).map_err(|e| match e {
-        SimError::InvalidArgument(m) => {
-            SimError::InvalidArgument(format!("{}: {m}", config.display()))
-        }
-        e => e,
-    })?;
-    dir.write(|stage| -> Result<()> {
-        let bins = &cfg.training.forest.bins;
-        for (name, text) in [
-            ("forest_eval.csv", eval.csv()),
-            (
-                "angle_success.csv",
-                angle_fall::csv(&eval.matcher, &eval.success, bins),
-            ),
-            (
-                "reliability.csv",
-                reliability::csv(&eval.matcher, &eval.reliability),
-            ),
-            ("label_quality.csv", eval.stats.label_quality.csv()),
-            ("summary.txt", eval.summary()),
-        ] {
-            let p = stage.join(name);
-            std::fs::write(&p, text).map_err(|e| SceneError::io(&p, e))?;
-        }
-        super::report::eval_html::write(&eval, stage)
-    })?;
-    Ok(eval)
 }
 
 /// Runs the leave-one-site-out evaluation of `cfg`'s training campaign;

@@ -30,6 +30,7 @@ pub mod curves;
 mod depth_maps;
 pub mod eval;
 pub mod evaluate;
+mod evaluate_dir;
 mod gate;
 pub mod images;
 pub mod label_quality;
@@ -52,7 +53,8 @@ pub use crate::config::{
 };
 pub use curves::ConfidenceCurve;
 pub use eval::Scores;
-pub use evaluate::{evaluate_forest, evaluate_to_dir, ForestEvaluation};
+pub use evaluate::{evaluate_forest, ForestEvaluation};
+pub use evaluate_dir::evaluate_to_dir;
 pub use label_quality::LabelQuality;
 pub use report::{f_vs_np, html, plot, scene};
 pub use report::{write_report, CampaignReport, SiteResult, TableRow};

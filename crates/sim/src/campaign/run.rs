@@ -26,6 +26,7 @@ use crate::error::Result;
 use crate::sfm::sfm_cameras;
 use crate::world::World;
 use vp_scene::hash::mix64;
+use vp_scene::sim3::Sim3;
 
 /// Source tags of image ids: init, grid, then one per strategy.
 const SOURCE_INIT: u64 = 0;
@@ -216,24 +217,22 @@ fn artifacts(
     }
 }
 
-/// The site model's georeference (the similarity from the true world into
-/// the model's frame, and its rms residual): the initial flight's cameras
-/// `init` aligned to their GNSS `tags`, or the identity without flight error.
-fn georeference(
+/// The initial flight's model georeferenced from its GNSS tags (the
+/// identity without flight error): the similarity and its rms residual.
+fn georeference_init(
     world: &World,
     cfg: &CampaignConfig,
-    (init, tags): (&[Camera], &[Point3<f64>]),
-    run_seed: u64,
+    (cams, tags): (&[Camera], &[Point3<f64>]),
+    (seed, run_seed): (u64, u64),
     progress: &mut dyn FnMut(&str),
-) -> Result<(vp_scene::sim3::Sim3, f64)> {
+) -> Result<(Sim3, f64)> {
     if !cfg.flight_error.enabled {
         return Ok((crate::gnss::identity_sim3(), 0.0));
     }
-    let al = crate::gnss::georeference(init, tags, run_seed)?;
+    let al = crate::gnss::georeference(cams, tags, run_seed)?;
     let roi_centre = nalgebra::center(&world.roi.min, &world.roi.max);
     progress(&format!(
-        "  site {}: initial flight aligned to its {} GNSS positions: rms residual {:.2} m, the model {:.2} m off the truth at the ROI's centre",
-        world.site.params.seed,
+        "  site {seed}: initial flight aligned to its {} GNSS positions: rms residual {:.2} m, the model {:.2} m off the truth at the ROI's centre",
         cfg.flight_error.gnss.label(),
         al.rms_m,
         (al.sim3.apply(&roi_centre) - roi_centre).norm()
@@ -268,7 +267,13 @@ fn run_site(
     // The initial flight flown with the vehicle's position error; the
     // model of its images is georeferenced from their GNSS tags.
     let (init_cams, init_tags) = fly_with_error(cfg, &init_cameras(&world, cfg), run_seed ^ 1);
-    let georef = georeference(&world, cfg, (&init_cams, &init_tags), run_seed, progress)?;
+    let georef = georeference_init(
+        &world,
+        cfg,
+        (&init_cams, &init_tags),
+        (seed, run_seed),
+        progress,
+    )?;
     // One SfM model of the site: every image of every flight is registered
     // in it, with one georeferencing error.
     let sfm_seed = mix64(run_seed ^ 0x0073_666d);

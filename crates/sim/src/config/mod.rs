@@ -278,12 +278,13 @@ impl Default for CampaignConfig {
 impl ConfigSection for CampaignConfig {
     type Error = SimError;
 
+    /// Every validation error names the file and section, whichever layer
+    /// found it (the site's own checks report a scene error).
     fn check(&self, place: &str) -> Result<()> {
         self.validate().map_err(|e| match e {
-            SimError::InvalidArgument(m) if !place.is_empty() => {
-                SimError::InvalidArgument(format!("{place}: {m}"))
-            }
-            other => other,
+            _ if place.is_empty() => e,
+            SimError::InvalidArgument(m) => SimError::InvalidArgument(format!("{place}: {m}")),
+            other => SimError::InvalidArgument(format!("{place}: {other}")),
         })
     }
 }
