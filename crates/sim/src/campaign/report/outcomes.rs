@@ -64,6 +64,9 @@ fn planned<'a, 'b>(all: &'b [StrategyOutcomes<'a>]) -> Vec<&'b StrategyOutcomes<
     all.iter().filter(|s| s.planned).collect()
 }
 
+/// The angle histogram spans at least the planner's usual 0-45 deg.
+const ANGLE_SPAN_DEG: f64 = 45.0;
+
 /// Bins of the angle histogram: 0-45 deg, or up to the largest planned angle.
 fn angle_bins(all: &[StrategyOutcomes<'_>]) -> usize {
     let max = all
@@ -71,9 +74,10 @@ fn angle_bins(all: &[StrategyOutcomes<'_>]) -> usize {
         .flat_map(|s| s.triplets.iter().filter_map(|t| t.planned_angle_deg))
         .filter(|a| a.is_finite())
         .fold(0.0f64, f64::max);
-    ((max / ANGLE_BIN_DEG).floor() as usize + 1).max(9)
+    ((max / ANGLE_BIN_DEG).floor() as usize + 1).max((ANGLE_SPAN_DEG / ANGLE_BIN_DEG) as usize)
 }
 
+/// A share as percent text ("-" for NaN: nothing to share).
 fn pct(x: f64) -> String {
     if x.is_nan() {
         "-".into()
