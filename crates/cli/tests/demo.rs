@@ -54,6 +54,92 @@ fn assert_acquired_model(dir: &Path, n_images: usize, predicted: bool) -> Recons
     rec
 }
 
+/// The triplets of a plan file: distinct triplet ids of its triplet views.
+fn planned_triplets(plan: &Path) -> usize {
+    let p = Plan::load(plan).unwrap();
+    let mut ids: Vec<u32> = p
+        .waypoints
+        .iter()
+        .filter(|w| w.role == vp_scene::plan::Role::TripletMember)
+        .filter_map(|w| w.triplet_id)
+        .collect();
+    ids.sort_unstable();
+    ids.dedup();
+    ids.len()
+}
+
+/// Issue 34, item 4: `triplets.csv` holds one row per flown triplet (as
+/// many as the one held-out site's plans hold), each with consistent
+/// counts, success falls as the threshold rises, and `depth_error_rock.csv`
+/// holds each flight's 52 bins adding up to its pixels; the report shows
+/// both and draws Fig. 6 per flight.
+fn check_triplet_outcomes(out: &Path, strategies: &[&str]) {
+    let csv = std::fs::read_to_string(out.join("triplets.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next(),
+        Some("strategy,site,iteration,triplet,planned_angle_deg,roi_pixels,depth_pixels,within_pixels,depth_share,within_share,success")
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert!(rows.iter().all(|r| r.len() == 11), "{csv}");
+    for name in strategies {
+        let mine: Vec<&Vec<&str>> = rows.iter().filter(|r| r[0] == *name).collect();
+        let mut planned = 0;
+        for i in 1.. {
+            let p = out.join(format!("plans/{name}/iter{i}.json"));
+            if !p.is_file() {
+                break;
+            }
+            planned += planned_triplets(&p);
+        }
+        assert!(planned > 0, "{name}: no triplet planned");
+        assert_eq!(
+            mine.len(),
+            planned,
+            "{name}: one row per flown triplet\n{csv}"
+        );
+        let mut success = [0usize; 2];
+        for r in &mine {
+            let n: Vec<usize> = r[5..8].iter().map(|x| x.parse().unwrap()).collect();
+            assert!(n[2] <= n[1] && n[1] <= n[0], "{r:?}");
+            let angle: f64 = r[4].parse().expect("a planned angle");
+            assert!((0.0..=90.0).contains(&angle), "{r:?}");
+            let share: f64 = r[9].parse().unwrap();
+            success[0] += usize::from(n[2] > 0);
+            success[1] += usize::from(share >= 0.25);
+        }
+        assert!(success[0] >= success[1], "{name}: {success:?}");
+    }
+    let err = std::fs::read_to_string(out.join("depth_error_rock.csv")).unwrap();
+    assert!(err.starts_with("strategy,bin,error_lo_m,error_hi_m,pixels,share,"));
+    // Fig. 6 for the baselines too, as the paper's has the Grid.
+    for name in ["Init", "Grid"].iter().chain(strategies) {
+        let bins: Vec<Vec<&str>> = err
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').collect::<Vec<_>>())
+            .filter(|r| r[0] == *name)
+            .collect();
+        assert_eq!(bins.len(), 52, "{name}\n{err}");
+        assert_eq!((bins[0][2], bins[51][3]), ("-inf", "inf"));
+        let sum: u64 = bins.iter().map(|r| r[4].parse::<u64>().unwrap()).sum();
+        assert_eq!(sum, bins[0][6].parse::<u64>().unwrap(), "{name}");
+        let png = out.join(format!("depth_error_rock_{name}.png"));
+        assert!(png.is_file(), "{}", png.display());
+    }
+    let md = std::fs::read_to_string(out.join("table.md")).unwrap();
+    for s in [
+        "The outcome per triplet",
+        "success > 0 px",
+        "median predicted 1 sigma",
+        "68.3 % within",
+    ] {
+        assert!(md.contains(s), "{s} missing from table.md");
+    }
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("id=\"depth-error-rock\""));
+}
+
 /// The demo wrote plans but not what they were planned from: nobody could
 /// run `vpctl plan` on an iteration by hand.
 #[test]
@@ -126,6 +212,7 @@ fn quick_demo_prints_the_table_and_writes_the_report() {
         .as_array()
         .is_some_and(|a| !a.is_empty()));
     assert!(model.is_file());
+    check_triplet_outcomes(&out, &["F1x2", "NP1x2"]);
 
     // What iteration 1 planned from: the initial flight's COLMAP model, its
     // confidence, the planning mesh and the ROI.

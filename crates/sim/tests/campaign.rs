@@ -126,6 +126,16 @@ fn same_config_and_seed_give_the_same_table_bytes() {
         oblique.coverage_mean > 0.0,
         "the oblique images reconstruct"
     );
+    // Issue 34, item 4: every triplet strategy's flown triplets and rock
+    // depth errors are in the report (and so in the bytes compared below).
+    for site in &a.sites {
+        // Init, Grid, Oblique, then each triplet strategy.
+        assert_eq!(site.rock_errors.len(), 3 + cfg.strategies.len());
+        assert!(site.rock_errors.iter().all(|(_, h)| h.pixels > 0));
+        for st in &cfg.strategies {
+            assert!(site.triplets.iter().any(|t| &t.strategy == st), "{st}");
+        }
+    }
     let b = run_campaign(&cfg, &mut quiet).unwrap();
     assert_eq!(a.table_csv(), b.table_csv());
     assert_eq!(

@@ -42,6 +42,7 @@ pub mod seen;
 mod site;
 mod strategy_run;
 pub mod training;
+pub mod triplet_outcomes;
 
 // The configuration lives at the crate root (`crate::config`, shared with
 // `vpctl sim fly`); its old paths under `campaign` stay valid.

@@ -28,6 +28,7 @@ use super::curves::CurveAccumulator;
 use super::depth_maps::{depth_in_truth, depth_of, zero_depth};
 use super::gate::gate_stats;
 pub use super::gate::GateStats;
+use super::triplet_outcomes::{in_region, reference_rock_errors, rock_errors, DepthErrorHistogram};
 use crate::config::{CampaignConfig, MvsKind};
 use crate::error::{Result, SimError};
 use crate::render::{render, RenderParams};
@@ -81,6 +82,8 @@ pub struct Flown {
     pub success: bool,
     /// The gate's view (virtual MVS only).
     pub gate: Option<GateStats>,
+    /// The depth errors of its reference images' rock pixels in the ROI.
+    pub rock_errors: DepthErrorHistogram,
 }
 
 /// A triplet reconstructed at one pyramid level, with the renderer's truth.
@@ -104,6 +107,8 @@ pub struct TripletRun {
     pub stats: OutputStats,
     /// The gate's view (virtual MVS only).
     pub gate: Option<GateStats>,
+    /// The depth errors of its rock pixels in `region` (see [`rock_errors`]).
+    pub rock_errors: DepthErrorHistogram,
 }
 
 /// The campaign's MVS, as configured.
@@ -225,6 +230,7 @@ impl<'a> Matcher<'a> {
             (depth, in_truth, truth, None, fused)
         };
         let stats = self.measure(&level_cams, &depth_in_truth, &truth, region);
+        let rock_errors = rock_errors(&level_cams, &depth_in_truth, &truth, region);
         self.add_measured(&depth_in_truth, &truth, curves);
         Ok(TripletRun {
             depth,
@@ -235,6 +241,7 @@ impl<'a> Matcher<'a> {
             fused,
             stats,
             gate,
+            rock_errors,
         })
     }
 
@@ -308,16 +315,11 @@ impl<'a> Matcher<'a> {
         let tol = self.cfg.eval.depth_tolerance_m as f32;
         let mut s = OutputStats::default();
         for v in 0..3 {
-            let w = cams[v].intrinsics.width as usize;
             for (i, t) in truth[v].iter().enumerate() {
-                if t.status == PixelStatus::NoSurface {
+                if t.status == PixelStatus::NoSurface
+                    || !in_region(&cams[v], i, t.true_depth, region)
+                {
                     continue;
-                }
-                if let Some(r) = region {
-                    let px = Point2::new((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
-                    if !r.contains(&cams[v].unproject(&px, f64::from(t.true_depth))) {
-                        continue;
-                    }
                 }
                 s.pixels += 1;
                 let z = depth[v].data[i];
@@ -445,6 +447,9 @@ impl<'a> Matcher<'a> {
                     data: Vec::new(),
                 });
             }
+            let sigma_px = self.cfg.training.labels.sigma_px;
+            let rock =
+                reference_rock_errors(scene, &renders[r], &in_truth, &group_cams, region, sigma_px);
             flown.push(Flown {
                 ids: group_ids,
                 cams: group_cams,
@@ -454,6 +459,7 @@ impl<'a> Matcher<'a> {
                 success: self.succeeded(&stats),
                 stats,
                 gate: None,
+                rock_errors: rock,
             });
         }
         Ok(flown)
@@ -487,6 +493,7 @@ impl<'a> Matcher<'a> {
             fused: run.fused,
             stats: run.stats,
             gate: run.gate,
+            rock_errors: run.rock_errors,
         })
     }
 }

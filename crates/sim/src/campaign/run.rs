@@ -18,6 +18,7 @@ use super::report::{aggregate, CampaignReport, SiteArtifacts, SiteResult, Strate
 use super::site::{fly_with_error, image_id, SiteRun};
 use super::strategy_run::{run_strategy, Known};
 use super::training::{measure_out_of_sample, train_forest_with_stats};
+use super::triplet_outcomes::DepthErrorHistogram;
 use crate::config::CampaignConfig;
 use crate::config::MvsKind;
 use crate::config::Strategy;
@@ -128,6 +129,20 @@ fn oblique_cameras(
         .collect())
 }
 
+/// Flies the oblique baseline (see [`oblique_cameras`]) with the vehicle's
+/// position error and reconstructs it: its flights, path check and cameras.
+fn fly_oblique(
+    site: &mut SiteRun<'_>,
+    strategies: &[Strategy],
+    (run_seed, sfm_seed): (u64, u64),
+) -> Result<(Vec<Flown>, PathCheck, Vec<Camera>)> {
+    let planned = oblique_cameras(site.world, site.cfg, strategies)?;
+    let (cams, _) = fly_with_error(site.cfg, &planned, run_seed ^ 3);
+    let sfm = sfm_cameras(&cams, site.cfg, sfm_seed);
+    let (flown, check) = fly_flight(site, ("Oblique", &cams, &sfm), SOURCE_OBLIQUE, run_seed)?;
+    Ok((flown, check, cams))
+}
+
 /// A plan holding `cams` as views of `role` (for the report's missions).
 fn plan_of(world: &World, cams: &[Camera], role: Role) -> Plan {
     let mut p = Plan::new(Some(world.site.origin));
@@ -173,6 +188,15 @@ fn with_check(mut scores: Scores, check: &PathCheck) -> Scores {
     scores.min_clearance_m = check.min_clearance_m;
     scores.safety_violations = check.violations.len();
     scores
+}
+
+/// The depth errors of the rock pixels of every reconstruction in `flown`.
+fn merged_rock_errors(flown: &[Flown]) -> DepthErrorHistogram {
+    let mut h = DepthErrorHistogram::default();
+    for f in flown {
+        h.merge(&f.rock_errors);
+    }
+    h
 }
 
 fn refs(v: &[Flown]) -> Vec<&Flown> {
@@ -284,20 +308,14 @@ fn run_site(
         ("Grid", grid_flown, grid_check, grid_cams, Role::Grid),
     ];
     if cfg.grid.oblique {
-        let planned = oblique_cameras(&world, cfg, strategies)?;
-        let (cams, _) = fly_with_error(cfg, &planned, run_seed ^ 3);
-        let sfm = sfm_cameras(&cams, cfg, sfm_seed);
-        let (flown, check) = fly_flight(
-            &mut site,
-            ("Oblique", &cams, &sfm),
-            SOURCE_OBLIQUE,
-            run_seed,
-        )?;
+        let (flown, check, cams) = fly_oblique(&mut site, strategies, (run_seed, sfm_seed))?;
         baselines.push(("Oblique", flown, check, cams, Role::Grid));
     }
     let mut scores: Vec<(String, Scores)> = Vec::new();
     let mut maps: Vec<StrategyArtifacts> = Vec::new();
+    let (mut triplets, mut rock_errors) = (Vec::new(), Vec::new());
     for (name, flown, check, cams, role) in &baselines {
+        rock_errors.push(((*name).to_string(), merged_rock_errors(flown)));
         let (s, f) = evaluate(&em, &refs(flown), cfg)?;
         scores.push(((*name).into(), with_check(s, check)));
         let plans = vec![plan_of(&world, cams, *role)];
@@ -306,7 +324,9 @@ fn run_site(
     let (_, grid_flown, grid_check, _, _) = &baselines[1];
     let mut combos = Vec::new();
     for (i, st) in strategies.iter().enumerate() {
-        let run = run_strategy(&mut site, st, 2 + i as u64, &known, keep_artifacts)?;
+        let mut run = run_strategy(&mut site, st, 2 + i as u64, &known, keep_artifacts)?;
+        triplets.append(&mut run.outcomes);
+        rock_errors.push((st.name.clone(), std::mem::take(&mut run.rock_errors)));
         let (s, f) = evaluate(&em, &refs(&run.flown), cfg)?;
         let s = with_check(s, &run.check);
         (site.progress)(&strategy_line(seed, &st.name, &s));
@@ -329,7 +349,13 @@ fn run_site(
         centroids: em.centroids.clone(),
         strategies: maps,
     });
-    Ok((SiteResult { seed, scores }, artifacts))
+    let result = SiteResult {
+        seed,
+        scores,
+        triplets,
+        rock_errors,
+    };
+    Ok((result, artifacts))
 }
 
 /// Runs the campaign with a trained forest (see [`run_campaign`]).

@@ -18,6 +18,7 @@ use super::images::acquire;
 use super::reconstruct::Flown;
 use super::seen::SfmState;
 use super::site::{fly_with_error, image_id, name_hash, with_home, SiteRun, MESH_TOLERANCE_M};
+use super::triplet_outcomes::{DepthErrorHistogram, TripletOutcome};
 use crate::config::CampaignConfig;
 use crate::config::Strategy;
 use crate::error::{Result, SimError};
@@ -34,9 +35,36 @@ pub(super) struct StrategyRun {
     pub(super) acquired: Vec<AcquiredModel>,
     /// The flown paths against the true mesh.
     pub(super) check: PathCheck,
+    /// Every flown triplet's planned angle and outcome, in flight order.
+    pub(super) outcomes: Vec<TripletOutcome>,
+    /// The depth errors of the flown triplets' rock pixels (Fig. 6).
+    pub(super) rock_errors: DepthErrorHistogram,
 }
 
-/// One progress line per flown triplet: its planned angle bin and what came out.
+impl StrategyRun {
+    /// Keeps flown triplet `t` of `plan` (iteration `iteration` of
+    /// `strategy` on site `site`) with its outcome.
+    fn record(
+        &mut self,
+        strategy: &str,
+        (site, iteration): (u64, usize),
+        (plan, t): (&Plan, u32),
+        fl: Flown,
+    ) {
+        self.outcomes.push(TripletOutcome {
+            strategy: strategy.to_string(),
+            site,
+            iteration,
+            triplet: t,
+            planned_angle_deg: planned_angle(plan, t),
+            stats: fl.stats,
+            success: fl.success,
+        });
+        self.rock_errors.merge(&fl.rock_errors);
+        self.flown.push(fl);
+    }
+}
+
 /// One progress line per triplet the planner left out, with its reason.
 fn report_dropped(result: &vp_planner::PlanResult, progress: &mut dyn FnMut(&str)) {
     for (t, why) in result.dropped_triplets.iter().zip(&result.dropped_reasons) {
@@ -44,13 +72,17 @@ fn report_dropped(result: &vp_planner::PlanResult, progress: &mut dyn FnMut(&str
     }
 }
 
-fn triplet_line(plan: &Plan, t: u32, fl: &Flown, tolerance_m: f64) -> String {
-    let bin = plan
-        .waypoints
+/// The angle bin centre (degrees) triplet `t` of `plan` was planned for.
+fn planned_angle(plan: &Plan, t: u32) -> Option<f64> {
+    plan.waypoints
         .iter()
         .find(|w| w.triplet_id == Some(t))
         .and_then(|w| w.angle_bin_deg)
-        .unwrap_or(f64::NAN);
+}
+
+/// One progress line per flown triplet: its planned angle bin and what came out.
+fn triplet_line(plan: &Plan, t: u32, fl: &Flown, tolerance_m: f64) -> String {
+    let bin = planned_angle(plan, t).unwrap_or(f64::NAN);
     let s = &fl.stats;
     format!(
         "    triplet {t} ({bin:.1} deg): {}; {} ROI px, depth at {:.0} %, within {:.2} m of the truth at {:.0} %",
@@ -250,6 +282,8 @@ pub(super) fn run_strategy(
         plans: Vec::new(),
         acquired: Vec::new(),
         check: PathCheck::default(),
+        outcomes: Vec::new(),
+        rock_errors: DepthErrorHistogram::default(),
     };
     // Where the vehicle is: the end of the initial flight, then of each plan.
     let mut vehicle = init.acquired.last().map(|a| a.truth.center());
@@ -305,7 +339,7 @@ pub(super) fn run_strategy(
             )?;
             let tol = cfg.eval.depth_tolerance_m;
             (site.progress)(&triplet_line(&result.plan, *t, &fl, tol));
-            out.flown.push(fl);
+            out.record(&strategy.name, (site_seed, it + 1), (&result.plan, *t), fl);
         }
         (site.progress)(&format!(
             "  site {site_seed} {} iteration {}/{}: {} triplets planned ({} images with bridges, {} dropped as unreachable), {} of {} flown so far succeeded",

@@ -38,8 +38,9 @@ pub struct Figure {
     pub png: Vec<u8>,
 }
 
-/// The report page. `figures`: plan views to embed (see [`write_html`]).
-pub fn report_html(report: &CampaignReport, figures: &[Figure]) -> String {
+/// The report page. `figures`: plan views to embed; `fig6`: the depth
+/// error plots of the rock per triplet strategy (see [`write_html`]).
+pub fn report_html(report: &CampaignReport, figures: &[Figure], fig6: &[Figure]) -> String {
     let mut h = String::new();
     h.push_str("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">");
     // An empty icon: the browser asks for no /favicon.ico.
@@ -65,22 +66,11 @@ pub fn report_html(report: &CampaignReport, figures: &[Figure]) -> String {
     }
     planning_curves(&mut h, report);
     confidence_curves(&mut h, report);
+    h.push_str(&super::outcomes::html(report, fig6));
     if !figures.is_empty() {
         let seed = report.artifacts.as_ref().map_or(0, |a| a.seed);
-        let _ = writeln!(
-            h,
-            "<h2>Plan views (site {seed})</h2>\n<div class=\"plots\">"
-        );
-        let b64 = base64::engine::general_purpose::STANDARD;
-        for f in figures {
-            let _ = writeln!(
-                h,
-                "<figure><img alt=\"{c}\" src=\"data:image/png;base64,{}\"><figcaption>{c}</figcaption></figure>",
-                b64.encode(&f.png),
-                c = escape(&f.caption)
-            );
-        }
-        h.push_str("</div>\n");
+        let _ = writeln!(h, "<h2>Plan views (site {seed})</h2>");
+        figure_row(&mut h, figures);
     }
     if let Some(t) = &report.training {
         h.push_str("<h2>Label quality (labelgen against the renderer's truth)</h2>\n");
@@ -107,11 +97,31 @@ pub fn report_html(report: &CampaignReport, figures: &[Figure]) -> String {
     }
     h.push_str(
         "<h2>Files beside this page</h2>\n<p><code>table.csv</code>, <code>report.json</code>, \
-         <code>config.toml</code>, <code>curves.csv</code>, <code>plans/&lt;strategy&gt;/iter&lt;i&gt;.json</code> \
+         <code>config.toml</code>, <code>curves.csv</code>, <code>triplets.csv</code> (every flown \
+         triplet's planned angle and outcome), <code>depth_error_rock.csv</code> (Fig. 6's \
+         histograms), <code>plans/&lt;strategy&gt;/iter&lt;i&gt;.json</code> \
          and <code>.plan</code> (QGroundControl), the PNG plots, and <code>scene.glb</code>: the site's \
          mesh with every plan's cameras as frusta and its flight path, for any glTF viewer.</p>\n</body></html>\n",
     );
     h
+}
+
+/// `figures` side by side, each a PNG data URI with its caption.
+pub(super) fn figure_row(h: &mut String, figures: &[Figure]) {
+    if figures.is_empty() {
+        return;
+    }
+    h.push_str("<div class=\"plots\">\n");
+    let b64 = base64::engine::general_purpose::STANDARD;
+    for f in figures {
+        let _ = writeln!(
+            h,
+            "<figure><img alt=\"{c}\" src=\"data:image/png;base64,{}\"><figcaption>{c}</figcaption></figure>",
+            b64.encode(&f.png),
+            c = escape(&f.caption)
+        );
+    }
+    h.push_str("</div>\n");
 }
 
 fn table(h: &mut String, report: &CampaignReport) {
@@ -337,8 +347,20 @@ pub fn write_html(report: &CampaignReport, dir: &Path) -> Result<()> {
             }
         }
     }
+    let mut fig6 = Vec::new();
+    for s in super::outcomes::by_strategy(report) {
+        let file = format!("depth_error_rock_{}.png", super::plot::file_stem(&s.name));
+        let p = dir.join(&file);
+        if p.is_file() {
+            fig6.push(Figure {
+                caption: format!("{}: depth error on the rock ({file})", s.name),
+                png: vp_scene::fsio::read_file(&p)?,
+            });
+        }
+    }
     let path = dir.join("report.html");
-    vp_scene::fsio::write_file_atomic(&path, report_html(report, &figures).as_bytes())?;
+    let page = report_html(report, &figures, &fig6);
+    vp_scene::fsio::write_file_atomic(&path, page.as_bytes())?;
     Ok(())
 }
 
@@ -398,7 +420,7 @@ mod tests {
             caption: "plan".into(),
             png: vec![0x89, b'P', b'N', b'G'],
         };
-        let html = report_html(&r, std::slice::from_ref(&figure));
+        let html = report_html(&r, std::slice::from_ref(&figure), &[]);
         assert!(html.contains("<td>Init</td><td>51.0</td>"), "{html}");
         assert!(html.contains("<td>G+F&lt;1&gt;</td>"), "names are escaped");
         assert!(
@@ -408,7 +430,11 @@ mod tests {
         // Self-contained: nothing to fetch (the SVG namespace is a name, not a load).
         let no_ns = html.replace("xmlns=\"http://www.w3.org/2000/svg\"", "");
         assert!(!no_ns.contains("http") && !no_ns.contains("<script"));
-        assert_eq!(html, report_html(&r, &[figure]), "same report, same bytes");
+        assert_eq!(
+            html,
+            report_html(&r, &[figure], &[]),
+            "same report, same bytes"
+        );
     }
 
     #[test]
@@ -435,7 +461,7 @@ mod tests {
             },
         )];
         r.training = Some(training);
-        let html = report_html(&r, &[]);
+        let html = report_html(&r, &[], &[]);
         for term in [
             "<dt><code>cov</code></dt>",
             "<dt><code>f_res</code></dt>",

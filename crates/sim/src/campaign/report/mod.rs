@@ -15,6 +15,7 @@ use crate::error::{Result, SimError};
 pub mod eval_html;
 pub mod f_vs_np;
 pub mod html;
+pub mod outcomes;
 pub mod plot;
 pub mod results;
 pub mod scene;
@@ -101,6 +102,10 @@ fn fill(report: &CampaignReport, dir: &Path) -> Result<()> {
         md.push_str(&p);
         md.push('\n');
     }
+    if let Some(o) = outcomes::markdown(report) {
+        md.push_str("\n## The outcome per triplet\n\n");
+        md.push_str(&o);
+    }
     md.push_str("\n## Learned confidence against the MVS's measured success\n\n```\n");
     md.push_str(&report.curves_summary());
     md.push_str("```\n");
@@ -115,7 +120,8 @@ fn fill(report: &CampaignReport, dir: &Path) -> Result<()> {
         write(&dir.join("label_quality.csv"), &t.label_quality.csv())?;
     }
     md.push_str("\nPlots: `confidence_<material>.png` (learned: blue, measured on the flown triplets: red, on the random triplets no planner chose: green, x: angle 0-45 deg, y: 0-1), ");
-    md.push_str("`plan_<strategy>.png` (top view of the plan), `fulfillment_<strategy>.png` (per-face f, red 0 to green 1).\n");
+    md.push_str("`plan_<strategy>.png` (top view of the plan), `fulfillment_<strategy>.png` (per-face f, red 0 to green 1), `depth_error_rock_<strategy>.png` (Fig. 6: share of rock pixels per depth-error bin; green: the |error| 68.3 % of them stay within, red: the median predicted 1 sigma).\n");
+    md.push_str("\n`triplets.csv`: every flown triplet (strategy, site, iteration, triplet, planned angle, ROI pixels, with a depth, within the 24 cm rule, their shares, success). `depth_error_rock.csv`: Fig. 6's histograms per flight.\n");
     md.push_str("\n`report.html`: this report as one self-contained page with its plots. `scene.glb`: the site in 3D (mesh, initial flight and planned cameras as frusta, flight paths) for any glTF viewer.\n");
     if let Some(recipe) = acquired_recipe(report) {
         md.push_str(&recipe);
@@ -152,6 +158,7 @@ fn fill(report: &CampaignReport, dir: &Path) -> Result<()> {
     }
     write(&dir.join("curves.csv"), &csv)?;
     plot::write_curve_plots(&report.curves, dir)?;
+    outcomes::write_files(report, dir)?;
     if let Some(a) = &report.artifacts {
         let plans = dir.join("plans");
         for s in &a.strategies {

@@ -13,6 +13,7 @@ use crate::campaign::acquired::AcquiredModel;
 use crate::campaign::curves::ConfidenceCurve;
 use crate::campaign::eval::Scores;
 use crate::campaign::training::TrainingStats;
+use crate::campaign::triplet_outcomes::{DepthErrorHistogram, TripletOutcome};
 use crate::config::CampaignConfig;
 
 /// One row of the table: a strategy's figures over the held-out sites.
@@ -62,6 +63,13 @@ pub struct SiteResult {
     pub seed: u64,
     /// (strategy, scores) in table order.
     pub scores: Vec<(String, Scores)>,
+    /// Every flown triplet of every triplet strategy, strategies in table
+    /// order, each in flight order.
+    pub triplets: Vec<TripletOutcome>,
+    /// Per flight (Init, Grid, Oblique with `grid.oblique`, then each
+    /// triplet strategy; table order), the depth errors of its
+    /// reconstructions' rock pixels (the paper's Fig. 6).
+    pub rock_errors: Vec<(String, DepthErrorHistogram)>,
 }
 
 /// What the plots of one strategy need (first held-out site only).
