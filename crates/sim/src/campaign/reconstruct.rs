@@ -28,6 +28,7 @@ use super::curves::CurveAccumulator;
 use super::depth_maps::{depth_in_truth, depth_of, zero_depth};
 use super::gate::gate_stats;
 pub use super::gate::GateStats;
+pub use super::triplet_outcomes::OutputStats;
 use super::triplet_outcomes::{in_region, reference_rock_errors, rock_errors, DepthErrorHistogram};
 use crate::config::{CampaignConfig, MvsKind};
 use crate::error::{Result, SimError};
@@ -36,26 +37,6 @@ use crate::sfm::sparse_depth_ranges;
 use crate::sfm::FeatureMask;
 use crate::virtual_mvs::{level_camera, triplet_truth, PixelStatus, PixelTruth, VirtualMvs};
 use crate::world::Scene;
-
-/// What came out of one reconstruction, counted over its views' pixels.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
-pub struct OutputStats {
-    /// Pixels whose true surface point lies in the region counted (the
-    /// ROI for flights, anywhere for training).
-    pub pixels: usize,
-    /// Of them, pixels with any depth.
-    pub output: usize,
-    /// Of them, pixels whose depth is within `eval.depth_tolerance_m` of the
-    /// true depth (the paper's 24 cm rule).
-    pub measured: usize,
-}
-
-impl OutputStats {
-    /// Share of the pixels measured within the tolerance (0 without pixels).
-    pub fn measured_share(&self) -> f64 {
-        self.measured as f64 / self.pixels.max(1) as f64
-    }
-}
 
 /// One reconstructed image set: a flown triplet, or one reference image of
 /// the Grid with the sources it was matched against.

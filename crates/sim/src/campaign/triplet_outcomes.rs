@@ -17,10 +17,29 @@ use vp_scene::{Aabb, Camera, Material};
 use vp_scene::raycast::FACE_VISIBILITY_EPSILON;
 use vp_scene::triangulation::{point_covariance, sigma_along};
 
-use super::reconstruct::OutputStats;
 use crate::render::Rendered;
 use crate::virtual_mvs::{PixelStatus, PixelTruth};
 use crate::world::Scene;
+
+/// What came out of one reconstruction, counted over its views' pixels.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
+pub struct OutputStats {
+    /// Pixels whose true surface point lies in the region counted (the
+    /// ROI for flights, anywhere for training).
+    pub pixels: usize,
+    /// Of them, pixels with any depth.
+    pub output: usize,
+    /// Of them, pixels whose depth is within `eval.depth_tolerance_m` of the
+    /// true depth (the paper's 24 cm rule).
+    pub measured: usize,
+}
+
+impl OutputStats {
+    /// Share of the pixels measured within the tolerance (0 without pixels).
+    pub fn measured_share(&self) -> f64 {
+        self.measured as f64 / self.pixels.max(1) as f64
+    }
+}
 
 /// One flown triplet of a strategy on a held-out site.
 #[derive(Debug, Clone, PartialEq, Serialize)]

@@ -11,7 +11,7 @@ use base64::Engine as _;
 use vp_scene::raster::encode_png;
 use vp_scene::SceneError;
 
-use super::html::{cell_table, STYLE};
+use super::page::{cell_table, STYLE};
 use super::svg::escape;
 use crate::campaign::evaluate::ForestEvaluation;
 use crate::campaign::reliability;

@@ -16,6 +16,7 @@ pub mod eval_html;
 pub mod f_vs_np;
 pub mod html;
 pub mod outcomes;
+pub mod page;
 pub mod plot;
 pub mod results;
 pub mod scene;

@@ -12,7 +12,7 @@ use std::path::Path;
 use image::Rgb;
 use vp_scene::raster::{save_rgb, text_width, RgbImage};
 
-use super::html::{cell_table, Figure};
+use super::page::{cell_table, figure_row, Figure};
 use super::plot::{file_stem, line, put, text, BLACK};
 use super::results::CampaignReport;
 use super::svg::escape;
@@ -276,7 +276,7 @@ pub fn html(report: &CampaignReport, figures: &[Figure]) -> String {
     }
     table(&mut h, "triplet-shares", SHARE_NOTE, share_cells(&all));
     table(&mut h, "depth-error-rock", ROCK_NOTE, rock_cells(&all));
-    super::html::figure_row(&mut h, figures);
+    figure_row(&mut h, figures);
     h
 }
 
