@@ -17,7 +17,6 @@
 //! compared with the renderer's depth.
 
 use nalgebra::Point2;
-use serde::Serialize;
 use vp_mvs::{MvsParams, View};
 use vp_scene::colmap::DepthMap;
 use vp_scene::raster::RgbImage;
