@@ -1,15 +1,14 @@
-//! The campaign's images: the initial flight over the ROI, and the renders
-//! of every acquired camera with its features and predicted confidence.
+//! The campaign's images: the initial flight over the ROI, and the shots
+//! of every acquired camera with their features and predicted confidence.
 
 use nalgebra::Point3;
 use vp_forest::Forest;
 use vp_scene::Camera;
 
 use super::curves::CurveAccumulator;
+use super::renders::Renders;
 use crate::config::CampaignConfig;
 use crate::error::{Result, SimError};
-use crate::render::render;
-use crate::sfm::FeatureMask;
 use crate::world::{Acquired, World};
 
 /// The initial flight: a nadir grid centred on the ROI (see [`crate::config::InitFlight`]).
@@ -36,13 +35,14 @@ pub fn init_cameras(world: &World, cfg: &CampaignConfig) -> Vec<Camera> {
     cams
 }
 
-/// Renders each camera's image (`cams`: true, `sfm`: SfM's estimate of
-/// the same), finds its features and predicts its confidence (when a
-/// forest is given); adds the learned confidence per material to `curves`.
+/// Takes each camera's shot from `renders` (`cams`: true, `sfm`: SfM's
+/// estimate of the same; a shot the matcher made before is not made
+/// again, and the shots stay there for a reconstruction after), keeps its
+/// features and predicts its confidence (when a forest is given); adds the
+/// learned confidence per material to `curves`.
 pub fn acquire(
-    world: &World,
-    cams: &[Camera],
-    sfm: &[Camera],
+    renders: &mut Renders<'_>,
+    (cams, sfm): (&[Camera], &[Camera]),
     forest: Option<&Forest>,
     cfg: &CampaignConfig,
     curves: &mut CurveAccumulator,
@@ -54,11 +54,12 @@ pub fn acquire(
             sfm.len()
         )));
     }
-    let mut rp = cfg.render.clone();
-    rp.texture_seed = world.site.params.seed;
+    let mesh = renders.scene().mesh;
+    let cam_refs: Vec<&Camera> = cams.iter().collect();
+    let shots = renders.shots(&cam_refs)?;
     let mut out = Vec::with_capacity(cams.len());
-    for (cam, sfm) in cams.iter().zip(sfm) {
-        let img = render(&world.site.mesh, &world.caster, cam, &rp)?;
+    for ((cam, sfm), shot) in cams.iter().zip(sfm).zip(shots) {
+        let img = &shot.image;
         let confidence = match forest {
             Some(forest) => {
                 let conf = forest
@@ -66,7 +67,7 @@ pub fn acquire(
                     .map_err(|e| {
                         SimError::InvalidArgument(format!("confidence prediction: {e}"))
                     })?;
-                curves.add_learned(&img, &world.site.mesh, &conf);
+                curves.add_learned(img, mesh, &conf);
                 Some(conf)
             }
             None => None,
@@ -74,7 +75,7 @@ pub fn acquire(
         out.push(Acquired {
             truth: *cam,
             sfm: *sfm,
-            features: FeatureMask::detect(&img.rgb),
+            features: shot.features.clone(),
             confidence,
         });
     }

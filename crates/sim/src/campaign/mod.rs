@@ -36,6 +36,7 @@ pub mod images;
 pub mod label_quality;
 pub mod reconstruct;
 pub mod reliability;
+pub mod renders;
 pub mod report;
 mod run;
 pub mod seen;

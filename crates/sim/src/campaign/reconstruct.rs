@@ -27,11 +27,11 @@ use super::curves::CurveAccumulator;
 use super::depth_maps::{depth_in_truth, depth_of, zero_depth};
 use super::gate::gate_stats;
 pub use super::gate::GateStats;
+use super::renders::Renders;
 pub use super::triplet_outcomes::OutputStats;
 use super::triplet_outcomes::{in_region, reference_rock_errors, rock_errors, DepthErrorHistogram};
 use crate::config::{CampaignConfig, MvsKind};
 use crate::error::{Result, SimError};
-use crate::render::{render, RenderParams};
 use crate::sfm::sparse_depth_ranges;
 use crate::sfm::FeatureMask;
 use crate::virtual_mvs::{level_camera, triplet_truth, PixelStatus, PixelTruth, VirtualMvs};
@@ -141,21 +141,15 @@ impl<'a> Matcher<'a> {
         p
     }
 
-    fn render_params(&self, scene: &Scene<'_>) -> RenderParams {
-        RenderParams {
-            texture_seed: scene.texture_seed,
-            ..self.cfg.render.clone()
-        }
-    }
-
     /// Reconstructs the triplet `cams` (true cameras, full resolution: the
     /// renders and the truth) with SfM's estimates `sfm` of them (the
     /// matching) at pyramid `level`; `region` limits the pixels the
     /// statistics count. Adds every pixel the three cameras see to
-    /// `curves`' measured side.
+    /// `curves`' measured side. The full-resolution shots come from
+    /// `renders` (kept there for whoever asks for them next).
     pub fn triplet(
         &self,
-        scene: &Scene<'_>,
+        renders: &mut Renders<'_>,
         (cams, sfm): ([&Camera; 3], [&Camera; 3]),
         level: u8,
         region: Option<&Aabb>,
@@ -172,19 +166,14 @@ impl<'a> Matcher<'a> {
             level_camera(sfm[1], level)?,
             level_camera(sfm[2], level)?,
         ];
-        let rp = self.render_params(scene);
-        let mut images = Vec::with_capacity(3);
-        let mut features = Vec::with_capacity(3);
-        for cam in cams {
-            let full = render(scene.mesh, scene.caster, cam, &rp)?;
-            features.push(FeatureMask::detect(&full.rgb));
-            images.push(image_at_level(&full.rgb, level));
-        }
-        let images: [RgbImage; 3] = images
-            .try_into()
-            .map_err(|_| SimError::Campaign("three renders expected".into()))?;
+        let scene = *renders.scene();
+        let shots = renders.shots(&cams)?;
+        let images: [RgbImage; 3] = [0, 1, 2].map(|v| image_at_level(&shots[v].image.rgb, level));
         // SfM of the triplet's full-resolution images.
-        let observed: Vec<(&Camera, &FeatureMask)> = cams.into_iter().zip(&features).collect();
+        let observed: Vec<(&Camera, &FeatureMask)> = cams
+            .into_iter()
+            .zip(shots.iter().map(|s| &s.features))
+            .collect();
         let sparse = scene.candidates.tracks(
             scene.caster,
             &observed,
@@ -193,12 +182,12 @@ impl<'a> Matcher<'a> {
         );
         let (depth, depth_in_truth, truth, gate, fused) = if let Some(mvs) = &self.virtual_mvs {
             let (depth, truth, gate) =
-                self.virtual_triplet(mvs, scene, cams, &level_cams, level, seed)?;
+                self.virtual_triplet(mvs, &scene, cams, &level_cams, level, seed)?;
             (depth.clone(), depth, truth, gate, Vec::new())
         } else {
             let ranges = sparse_depth_ranges(&sparse, &sfm);
             let (depth, truth, fused) = self.patchmatch_triplet(
-                scene,
+                &scene,
                 cams,
                 (&level_cams, &level_sfm),
                 &images,
@@ -338,10 +327,10 @@ impl<'a> Matcher<'a> {
     /// as the paper's Grid: every image a reference against its best
     /// overlapping neighbours (`patchmatch.max_sources`), one [`Flown`] per
     /// reference. An image SfM has no sparse point in is no reference.
-    /// vp-mvs only.
+    /// The shots come from `renders`. vp-mvs only.
     pub fn image_set(
         &self,
-        scene: &Scene<'_>,
+        renders: &mut Renders<'_>,
         (cams, sfm): (&[Camera], &[Camera]),
         ids: &[u64],
         region: &Aabb,
@@ -360,15 +349,11 @@ impl<'a> Matcher<'a> {
                 ids.len()
             )));
         }
-        let rp = self.render_params(scene);
-        let mut renders = Vec::with_capacity(cams.len());
-        let mut features = Vec::with_capacity(cams.len());
-        for cam in cams {
-            let r = render(scene.mesh, scene.caster, cam, &rp)?;
-            features.push(FeatureMask::detect(&r.rgb));
-            renders.push(r);
-        }
-        let observed: Vec<(&Camera, &FeatureMask)> = cams.iter().zip(&features).collect();
+        let scene = *renders.scene();
+        let cam_refs: Vec<&Camera> = cams.iter().collect();
+        let shots = renders.shots(&cam_refs)?;
+        let observed: Vec<(&Camera, &FeatureMask)> =
+            cams.iter().zip(shots.iter().map(|s| &s.features)).collect();
         let sparse = scene.candidates.tracks(
             scene.caster,
             &observed,
@@ -384,8 +369,9 @@ impl<'a> Matcher<'a> {
             .map(|r| r.unwrap_or((1.0, 2.0)))
             .collect();
         let mut views = Vec::with_capacity(cams.len());
-        for (i, (cam, r)) in sfm.iter().zip(&renders).enumerate() {
-            views.push(View::new(&format!("g{i}"), *cam, r.rgb.clone(), ranges[i])?);
+        for (i, (cam, shot)) in sfm.iter().zip(&shots).enumerate() {
+            let rgb = shot.image.rgb.clone();
+            views.push(View::new(&format!("g{i}"), *cam, rgb, ranges[i])?);
         }
         let params = self.params(seed);
         let mut sources = vp_mvs::frustum_sources(sfm, &ranges, &params);
@@ -412,7 +398,8 @@ impl<'a> Matcher<'a> {
             }
             let depth = depth_of(out.geometric[r].as_ref(), &sfm[r]);
             let in_truth = depth_in_truth(&depth, &sfm[r], &cams[r]);
-            let stats = grid_stats(&in_truth, &renders[r].depth, &cams[r], region, tol);
+            let truth = &shots[r].image;
+            let stats = grid_stats(&in_truth, &truth.depth, &cams[r], region, tol);
             let mut group_cams = vec![cams[r]];
             let mut group_sfm = vec![sfm[r]];
             let mut group_ids = vec![ids[r]];
@@ -429,7 +416,7 @@ impl<'a> Matcher<'a> {
             }
             let sigma_px = self.cfg.training.labels.sigma_px;
             let rock =
-                reference_rock_errors(scene, &renders[r], &in_truth, &group_cams, region, sigma_px);
+                reference_rock_errors(&scene, truth, &in_truth, &group_cams, region, sigma_px);
             flown.push(Flown {
                 ids: group_ids,
                 cams: group_cams,
@@ -446,10 +433,11 @@ impl<'a> Matcher<'a> {
     }
 
     /// Reconstructs one flown triplet at full resolution over the ROI
-    /// `region`: `cams` true, `sfm` SfM's estimates of them.
+    /// `region`: `cams` true, `sfm` SfM's estimates of them; the shots
+    /// come from `renders`.
     pub fn fly_triplet(
         &self,
-        scene: &Scene<'_>,
+        renders: &mut Renders<'_>,
         (cams, sfm): ([Camera; 3], [Camera; 3]),
         ids: [u64; 3],
         region: &Aabb,
@@ -457,7 +445,7 @@ impl<'a> Matcher<'a> {
         curves: &mut CurveAccumulator,
     ) -> Result<Flown> {
         let run = self.triplet(
-            scene,
+            renders,
             ([&cams[0], &cams[1], &cams[2]], [&sfm[0], &sfm[1], &sfm[2]]),
             1,
             Some(region),

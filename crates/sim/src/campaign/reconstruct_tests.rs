@@ -76,7 +76,13 @@ fn nadir_grid_over_ground_reconstructs_most_pixels() {
         let m = Matcher::new(&cfg).unwrap();
         let sfm = crate::sfm::sfm_cameras(&cams, &cfg, 7);
         let flown = m
-            .image_set(&scene, (&cams, &sfm), &ids, &region, 5)
+            .image_set(
+                &mut Renders::new(scene, &cfg),
+                (&cams, &sfm),
+                &ids,
+                &region,
+                5,
+            )
             .unwrap();
         let (mut px, mut out, mut ok) = (0, 0, 0);
         for f in &flown {
@@ -141,7 +147,7 @@ fn the_matcher_matches_with_the_sfm_poses() {
     let mut curves = CurveAccumulator::new(cfg.training.forest.bins.clone());
     let fl = m
         .fly_triplet(
-            &scene,
+            &mut Renders::new(scene, &cfg),
             (cams, sfm),
             [0, 1, 2],
             &whole_plane(),
@@ -182,7 +188,7 @@ fn the_depth_range_comes_from_sparse_points_not_the_renderer() {
         };
         let run = m
             .triplet(
-                &scene,
+                &mut Renders::new(scene, &cfg),
                 (
                     [&cams[0], &cams[1], &cams[2]],
                     [&cams[0], &cams[1], &cams[2]],

@@ -14,6 +14,7 @@ use super::curves::CurveAccumulator;
 use super::eval::{evaluate, EvalMesh, Scores};
 use super::images::{acquire, init_cameras};
 use super::reconstruct::{Flown, Matcher};
+use super::renders::Renders;
 use super::report::{aggregate, CampaignReport, SiteArtifacts, SiteResult, StrategyArtifacts};
 use super::site::{fly_with_error, image_id, SiteRun};
 use super::strategy_run::{run_strategy, Known};
@@ -38,7 +39,9 @@ const SOURCE_OBLIQUE: u64 = 0xFFFF;
 /// truth and reconstructs it with SfM's estimates `sfm` of its cameras:
 /// with vp-mvs as the paper's Grid, every image against its best
 /// overlapping neighbours; with the virtual MVS (triplets only), sliding
-/// triplets (i, i+1, i+2) along the flight in order.
+/// triplets (i, i+1, i+2) along the flight in order. Its shots come from
+/// `site.renders` (the initial flight's from acquiring it) and are dropped
+/// after: no later flight flies these cameras.
 fn fly_flight(
     site: &mut SiteRun<'_>,
     (name, cams, sfm): (&str, &[Camera], &[Camera]),
@@ -50,7 +53,6 @@ fn fly_flight(
     let path: Vec<Point3<f64>> = cams.iter().map(Camera::center).collect();
     let label = format!("site {} {name}", world.site.params.seed);
     site.check_path(&mut check, (None, &path), &label);
-    let scene = world.scene();
     let ids: Vec<u64> = (0..cams.len()).map(|i| image_id(source, i)).collect();
     // Real matchers reconstruct the whole image set, as a user's would;
     // the virtual MVS draws each triplet's outcome.
@@ -58,7 +60,7 @@ fn fly_flight(
         (0..cams.len().saturating_sub(2))
             .map(|i| {
                 matcher.fly_triplet(
-                    &scene,
+                    &mut site.renders,
                     (
                         [cams[i], cams[i + 1], cams[i + 2]],
                         [sfm[i], sfm[i + 1], sfm[i + 2]],
@@ -71,8 +73,10 @@ fn fly_flight(
             })
             .collect::<Result<Vec<_>>>()?
     } else {
-        matcher.image_set(&scene, (cams, sfm), &ids, &world.roi, mix64(seed ^ source))?
+        let seed = mix64(seed ^ source);
+        matcher.image_set(&mut site.renders, (cams, sfm), &ids, &world.roi, seed)?
     };
+    site.renders.clear();
     let tol = cfg.eval.depth_tolerance_m;
     let site_seed = world.site.params.seed;
     (site.progress)(&flight_line(site_seed, name, cams.len(), &flown, tol));
@@ -240,6 +244,28 @@ fn georeference_init(
     Ok((al.sim3, al.rms_m))
 }
 
+/// The initial flight: flown with the vehicle's position error, the model
+/// of its images georeferenced from their GNSS tags and registered in the
+/// site's SfM model (seed `sfm_seed`), the images acquired, then
+/// reconstructed (from the shots acquiring left in `site.renders`): what
+/// the strategies start from, its reconstructions, path check and cameras.
+fn fly_init(
+    site: &mut SiteRun<'_>,
+    (run_seed, sfm_seed): (u64, u64),
+) -> Result<(Known, Vec<Flown>, PathCheck, Vec<Camera>)> {
+    let (world, cfg) = (site.world, site.cfg);
+    let seed = world.site.params.seed;
+    let (cams, tags) = fly_with_error(cfg, &init_cameras(world, cfg), run_seed ^ 1);
+    let georef = georeference_init(world, cfg, (&cams, &tags), (seed, run_seed), site.progress)?;
+    let sfm = sfm_cameras(&cams, cfg, sfm_seed);
+    let forest = Some(site.forest);
+    let init = acquire(&mut site.renders, (&cams, &sfm), forest, cfg, site.curves)?;
+    let name = "initial flight";
+    let (flown, check) = fly_flight(site, (name, &cams, &sfm), SOURCE_INIT, run_seed)?;
+    let known = Known::new(world, cfg, init, &flown, sfm_seed, georef);
+    Ok((known, flown, check, cams))
+}
+
 /// Flies and evaluates every strategy on one held-out site.
 fn run_site(
     cfg: &CampaignConfig,
@@ -258,42 +284,24 @@ fn run_site(
         world.site.mesh.n_faces(),
         em.len()
     ));
-    let n = measure_out_of_sample(&world.scene(), &world.site, &matcher, cfg, seed, random)?;
-    progress(&format!(
-        "  site {seed}: {n} random triplets (no planner's) measured for the out-of-sample curves"
-    ));
-    let run_seed = mix64(cfg.seed ^ mix64(seed ^ 0x7369_7465));
-
-    // The initial flight flown with the vehicle's position error; the
-    // model of its images is georeferenced from their GNSS tags.
-    let (init_cams, init_tags) = fly_with_error(cfg, &init_cameras(&world, cfg), run_seed ^ 1);
-    let georef = georeference_init(
-        &world,
-        cfg,
-        (&init_cams, &init_tags),
-        (seed, run_seed),
-        progress,
-    )?;
-    // One SfM model of the site: every image of every flight is registered
-    // in it, with one georeferencing error.
-    let sfm_seed = mix64(run_seed ^ 0x0073_666d);
-    let init_sfm = sfm_cameras(&init_cams, cfg, sfm_seed);
-    let init = acquire(&world, &init_cams, &init_sfm, Some(forest), cfg, curves)?;
     let mut site = SiteRun {
         world: &world,
         matcher: &matcher,
         cfg,
         forest,
         curves,
+        renders: Renders::new(world.scene(), cfg),
         progress,
     };
-    let (init_flown, init_check) = fly_flight(
-        &mut site,
-        ("initial flight", &init_cams, &init_sfm),
-        SOURCE_INIT,
-        run_seed,
-    )?;
-    let known = Known::new(&world, cfg, init, &init_flown, sfm_seed, georef);
+    let n = measure_out_of_sample(&mut site.renders, &world.site, &matcher, cfg, seed, random)?;
+    (site.progress)(&format!(
+        "  site {seed}: {n} random triplets (no planner's) measured for the out-of-sample curves"
+    ));
+    let run_seed = mix64(cfg.seed ^ mix64(seed ^ 0x7369_7465));
+    // One SfM model of the site: every image of every flight is registered
+    // in it, with one georeferencing error.
+    let sfm_seed = mix64(run_seed ^ 0x0073_666d);
+    let (known, init_flown, init_check, init_cams) = fly_init(&mut site, (run_seed, sfm_seed))?;
     let (grid_cams, _) = fly_with_error(cfg, &grid_cameras(&world, cfg)?, run_seed ^ 2);
     let grid_sfm = sfm_cameras(&grid_cams, cfg, sfm_seed);
     let (grid_flown, grid_check) = fly_flight(

@@ -64,8 +64,9 @@ fn the_out_of_sample_triplets_depend_on_the_seeds_not_the_strategies() {
 
     let matcher = Matcher::new(&a).unwrap();
     let mut random = CurveAccumulator::new(a.training.forest.bins.clone());
-    let n =
-        measure_out_of_sample(&world.scene(), &world.site, &matcher, &a, 7, &mut random).unwrap();
+    let mut renders = crate::campaign::renders::Renders::new(world.scene(), &a);
+    let n = measure_out_of_sample(&mut renders, &world.site, &matcher, &a, 7, &mut random).unwrap();
+    assert!(renders.is_empty(), "no random triplet's shot is kept");
     assert_eq!(n, a.training.triplets_per_site);
     let visible: u64 = random.measured_rows(7).iter().map(|r| r.visible).sum();
     assert!(

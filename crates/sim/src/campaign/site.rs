@@ -1,7 +1,8 @@
 //! One held-out site as the campaign flies it: what every flight on it
 //! shares ([`SiteRun`]: the world, the matcher, the configuration, the
-//! forest, the measured curves and the progress sink, passed as one
-//! instead of as eight to ten arguments), and the helpers of its flights
+//! forest, the measured curves, the shots of the flight under way and the
+//! progress sink, passed as one instead of as eight to ten arguments), and
+//! the helpers of its flights
 //! that the runner (`run.rs`) and the strategies (`strategy_run.rs`) both use.
 
 use nalgebra::Point3;
@@ -12,6 +13,7 @@ use vp_scene::Camera;
 use super::crash::PathCheck;
 use super::curves::CurveAccumulator;
 use super::reconstruct::Matcher;
+use super::renders::Renders;
 use crate::config::CampaignConfig;
 use crate::world::World;
 use vp_scene::hash::mix64;
@@ -28,6 +30,10 @@ pub(super) struct SiteRun<'a> {
     pub(super) forest: &'a Forest,
     /// The learned and measured confidence curves, added to by every flight.
     pub(super) curves: &'a mut CurveAccumulator,
+    /// The shots of the flight under way: made once, for acquiring an
+    /// image and for reconstructing it, and cleared when its flight is
+    /// acquired and reconstructed.
+    pub(super) renders: Renders<'a>,
     /// Hears one line per step.
     pub(super) progress: &'a mut dyn FnMut(&str),
 }

@@ -319,6 +319,10 @@ pub(super) fn run_strategy(
         // SfM's estimates of the new images: the poses they are matched
         // with now and planned with in the next iteration.
         let new_sfm = sfm_cameras(&new_cams, cfg, known.sfm_seed);
+        // The triplets' shots are kept for acquiring the images after
+        // (`acquire` finds them and renders only the bridges); after the
+        // last iteration nothing is acquired, so nothing is kept.
+        let last = it + 1 == strategy.iterations;
         for (t, members) in &triplets {
             let &[a, b, c] = members.as_slice() else {
                 continue;
@@ -327,7 +331,7 @@ pub(super) fn run_strategy(
             next_index += 3;
             let ids = [i, i + 1, i + 2].map(|k| image_id(source, k));
             let fl = matcher.fly_triplet(
-                &world.scene(),
+                &mut site.renders,
                 (
                     [new_cams[a], new_cams[b], new_cams[c]],
                     [new_sfm[a], new_sfm[b], new_sfm[c]],
@@ -337,6 +341,9 @@ pub(super) fn run_strategy(
                 mix64(base ^ mix64(i as u64)),
                 site.curves,
             )?;
+            if last {
+                site.renders.clear();
+            }
             let tol = cfg.eval.depth_tolerance_m;
             (site.progress)(&triplet_line(&result.plan, *t, &fl, tol));
             out.record(&strategy.name, (site_seed, it + 1), (&result.plan, *t), fl);
@@ -354,10 +361,11 @@ pub(super) fn run_strategy(
         ));
         report_dropped(&result, site.progress);
         out.plans.push(with_home(result.plan, world));
-        let last = it + 1 == strategy.iterations;
         if !last {
             let pred = strategy.prediction.then_some(forest);
-            let new = acquire(world, &new_cams, &new_sfm, pred, cfg, site.curves)?;
+            let (cams, sfm) = (new_cams.as_slice(), new_sfm.as_slice());
+            let new = acquire(&mut site.renders, (cams, sfm), pred, cfg, site.curves)?;
+            site.renders.clear();
             known.sfm.add_images(world, &new);
             known
                 .names

@@ -23,6 +23,7 @@ use vp_scene::{Camera, Intrinsics};
 use super::curves::CurveAccumulator;
 use super::label_quality::LabelQuality;
 use super::reconstruct::Matcher;
+use super::renders::Renders;
 use crate::config::CampaignConfig;
 use crate::error::{Result, SimError};
 use crate::sfm::{sfm_camera, SparseCandidates};
@@ -126,16 +127,17 @@ pub(crate) fn out_of_sample_triplets(
 /// Reconstructs the [`out_of_sample_triplets`] of held-out site `seed`
 /// with `matcher` on SfM's poses at every training level, as training does,
 /// and adds what they measured to `curves` (only there); returns how many
-/// triplets were flown.
+/// triplets were flown. Each triplet is rendered once for all its levels
+/// (its shots are dropped after: `renders` holds three at most).
 pub(crate) fn measure_out_of_sample(
-    scene: &Scene<'_>,
+    renders: &mut Renders<'_>,
     site: &Site,
     matcher: &Matcher,
     cfg: &CampaignConfig,
     seed: u64,
     curves: &mut CurveAccumulator,
 ) -> Result<usize> {
-    let triplets = out_of_sample_triplets(site, scene.caster, cfg, seed)?;
+    let triplets = out_of_sample_triplets(site, renders.scene().caster, cfg, seed)?;
     for (n, cams) in triplets.iter().enumerate() {
         let sfm = cams.each_ref().map(|c| sfm_camera(c, cfg, seed));
         for &level in &cfg.training.levels {
@@ -145,7 +147,7 @@ pub(crate) fn measure_out_of_sample(
                     ^ mix64(seed ^ mix64((n as u64) << 8 | u64::from(level))),
             );
             matcher.triplet(
-                scene,
+                renders,
                 ([&cams[0], &cams[1], &cams[2]], [&sfm[0], &sfm[1], &sfm[2]]),
                 level,
                 None,
@@ -153,6 +155,7 @@ pub(crate) fn measure_out_of_sample(
                 curves,
             )?;
         }
+        renders.clear();
     }
     Ok(triplets.len())
 }
@@ -197,6 +200,8 @@ pub(crate) fn label_site(
     };
     let k = Intrinsics::from_hfov(t.width, t.height, t.hfov_deg)?;
     let matcher = Matcher::new(cfg)?;
+    // One render per training camera for all the levels, three at a time.
+    let mut renders = Renders::new(scene, cfg);
     let mut rng = ChaCha8Rng::seed_from_u64(mix64(cfg.seed ^ mix64(seed ^ 0x0074_7261_696e)));
     let mut recs = Vec::new();
     // Per reconstruction id: each view's image at the level and its truth.
@@ -215,7 +220,7 @@ pub(crate) fn label_site(
         for &level in &t.levels {
             let tseed = mix64(cfg.seed ^ mix64(seed ^ mix64((n as u64) << 8 | u64::from(level))));
             let run = matcher.triplet(
-                &scene,
+                &mut renders,
                 ([&cams[0], &cams[1], &cams[2]], [&sfm[0], &sfm[1], &sfm[2]]),
                 level,
                 None,
@@ -243,6 +248,7 @@ pub(crate) fn label_site(
             });
             runs.insert(id, (run.images, run.truth, run.depth_in_truth));
         }
+        renders.clear();
         n += 1;
         progress(&format!("training site {seed}: triplets ({n}/{per_site})"));
     }
