@@ -124,6 +124,13 @@ pub(crate) fn out_of_sample_triplets(
     Ok(out)
 }
 
+/// The matcher's seed for triplet `n` of site `site` at `level`: one
+/// formula for training and the out-of-sample set (whose campaign seed
+/// carries [`OUT_OF_SAMPLE_TAG`]), so that the two draws never share seeds.
+fn triplet_seed(campaign_seed: u64, site: u64, n: usize, level: u8) -> u64 {
+    mix64(campaign_seed ^ mix64(site ^ mix64((n as u64) << 8 | u64::from(level))))
+}
+
 /// Reconstructs the [`out_of_sample_triplets`] of held-out site `seed`
 /// with `matcher` on SfM's poses at every training level, as training does,
 /// and adds what they measured to `curves` (only there); returns how many
@@ -141,11 +148,7 @@ pub(crate) fn measure_out_of_sample(
     for (n, cams) in triplets.iter().enumerate() {
         let sfm = cams.each_ref().map(|c| sfm_camera(c, cfg, seed));
         for &level in &cfg.training.levels {
-            let tseed = mix64(
-                cfg.seed
-                    ^ OUT_OF_SAMPLE_TAG
-                    ^ mix64(seed ^ mix64((n as u64) << 8 | u64::from(level))),
-            );
+            let tseed = triplet_seed(cfg.seed ^ OUT_OF_SAMPLE_TAG, seed, n, level);
             matcher.triplet(
                 renders,
                 ([&cams[0], &cams[1], &cams[2]], [&sfm[0], &sfm[1], &sfm[2]]),
@@ -218,7 +221,7 @@ pub(crate) fn label_site(
         // SfM's estimate of the three poses: what vp-mvs and labelgen work with.
         let sfm = cams.each_ref().map(|c| sfm_camera(c, cfg, seed));
         for &level in &t.levels {
-            let tseed = mix64(cfg.seed ^ mix64(seed ^ mix64((n as u64) << 8 | u64::from(level))));
+            let tseed = triplet_seed(cfg.seed, seed, n, level);
             let run = matcher.triplet(
                 &mut renders,
                 ([&cams[0], &cams[1], &cams[2]], [&sfm[0], &sfm[1], &sfm[2]]),
