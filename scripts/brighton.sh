@@ -19,7 +19,9 @@
 # MAX_FEATURES (SIFT features per photo, COLMAP's default 8192; exhaustive
 # matching time grows with its square), MIN_REGISTERED (fewest photos
 # COLMAP must register, default half of them), MVS_CONFIG (a `vpctl mvs run --config` TOML), PLAN_CONFIG (a `vpctl plan
-# --config` TOML; default below: the FC300S camera, 5 m safety distance).
+# --config` TOML; default below: the FC300S camera, 5 m safety distance),
+# BRIGHTON_OWN_FOREST=1 (also train Brighton's own forest and score both
+# forests on held-out labels: step 5), HELDOUT (step 5's held-out photos).
 #
 # Every step prints its wall time, peak memory (GNU time) and output size.
 set -euo pipefail
@@ -169,6 +171,43 @@ step plan "$out/plan.json" "$vpctl" plan --mesh "$out/site.ply" --colmap "$out/d
   --out "$out/plan.json" --glb "$out/plan.glb"
 step export-plan "$out/mission.plan" "$vpctl" mission export "$out/plan.json" --out "$out/mission.plan"
 step export-kmz "$out/mission.kmz" "$vpctl" mission export "$out/plan.json" --out "$out/mission.kmz" --drone m3e
+
+# 5. Optional (BRIGHTON_OWN_FOREST=1; off by default, it costs about 2.5
+# times the `mvs` step): Brighton's own forest, trained on its own triplets
+# (the README's labelgen chain), and both forests scored with `vpctl forest
+# eval` on labels of photos the own forest never saw. The split is spatial:
+# HELDOUT (default the six photos of the flight's north-east third, more
+# than 45 m along the flight lines from the first photo) against the other
+# twelve. Each side gets its own sub-model (COLMAP's image_deleter, same
+# frame.json), so every triplet, and so every label, lies on one side.
+if [ "${BRIGHTON_OWN_FOREST:-0}" = 1 ]; then
+  heldout="${HELDOUT:-DJI_0022.JPG,DJI_0023.JPG,DJI_0024.JPG,DJI_0025.JPG,DJI_0034.JPG,DJI_0035.JPG}"
+  own="$out/own-forest"
+  mkdir -p "$own/train" "$own/heldout"
+  tr ',' '\n' <<<"$heldout" >"$own/heldout.txt"
+  (cd "$out/dense/images" && printf '%s\n' *) | grep -vxF -f "$own/heldout.txt" >"$own/train.txt"
+  for side in train heldout; do
+    # image_deleter removes the listed photos: each side's model drops the other's.
+    other=heldout
+    if [ "$side" = heldout ]; then other=train; fi
+    colmap image_deleter --input_path "$out/dense/sparse" --output_path "$own/$side" \
+      --image_names_path "$own/$other.txt" >"$out/logs/split-$side.log" 2>&1
+    cp "$out/dense/sparse/frame.json" "$own/$side/"
+    step "triplets-$side" "$own/$side-triplets.txt" "$vpctl" labelgen triplets \
+      --colmap "$own/$side" --out "$own/$side-triplets.txt"
+    step "mvs-$side" "$own/depth-$side" "$vpctl" mvs run --workspace "$out/dense" "${mvs_config[@]}" \
+      --triplets "$own/$side-triplets.txt" --levels 1,2,3 --out "$own/depth-$side"
+    step "labels-$side" "$own/labels-$side" "$vpctl" labelgen run --colmap "$own/$side" \
+      --triplets "$own/$side-triplets.txt" --depth-dir "$own/depth-$side" --out "$own/labels-$side"
+  done
+  step train-own "$own/brighton.vpforest" "$vpctl" train --images "$out/dense/images" \
+    --labels "$own/labels-train" --out "$own/brighton.vpforest"
+  for f in "$forest" "$own/brighton.vpforest"; do
+    echo "forest eval on the held-out labels ($(tr '\n' ' ' <"$own/heldout.txt")): $f"
+    "$vpctl" forest eval --forest "$f" --images "$out/dense/images" --labels "$own/labels-heldout" |
+      tee "$own/eval-$(basename "$f" .vpforest).txt"
+  done
+fi
 
 total=$(awk -F'\t' 'NR > 1 {w += $2; c += $3} END {printf "%.1f s wall, %.1f s CPU", w, c}' "$log")
 echo "total: $total at $size px; steps in $log"
