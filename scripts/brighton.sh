@@ -172,8 +172,8 @@ step plan "$out/plan.json" "$vpctl" plan --mesh "$out/site.ply" --colmap "$out/d
 step export-plan "$out/mission.plan" "$vpctl" mission export "$out/plan.json" --out "$out/mission.plan"
 step export-kmz "$out/mission.kmz" "$vpctl" mission export "$out/plan.json" --out "$out/mission.kmz" --drone m3e
 
-# 5. Optional (BRIGHTON_OWN_FOREST=1; off by default, it costs about 2.5
-# times the `mvs` step): Brighton's own forest, trained on its own triplets
+# 5. Optional (BRIGHTON_OWN_FOREST=1; off by default, it costs about 6
+# times the `mvs` step's CPU at 800 px, training most): Brighton's own forest, trained on its own triplets
 # (the README's labelgen chain), and both forests scored with `vpctl forest
 # eval` on labels of photos the own forest never saw. The split is spatial:
 # HELDOUT (default the six photos of the flight's north-east third, more
