@@ -16,6 +16,7 @@ use vp_labelgen::{
     io, LabelParams, LabelRunRequest, LabelSummary, MissingPartMeshes, TripletReconstruction,
 };
 use vp_mvs::MvsParams;
+use vp_scene::opensfm::ModelSource;
 
 use crate::convert;
 use crate::errors::{value_error, IntoPy};
@@ -151,7 +152,7 @@ impl PyLabelData {
         params: Option<&Bound<'_, PyAny>>,
         frame_unchecked: bool,
     ) -> PyResult<Self> {
-        let mut req = LabelRunRequest::new(model, triplets, depth_dir);
+        let mut req = LabelRunRequest::new(ModelSource::detect(&model), triplets, depth_dir);
         req.mesh = mesh;
         req.params = convert::from_py(params, "params")?;
         req.frame_unchecked = frame_unchecked;

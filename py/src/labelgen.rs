@@ -12,6 +12,7 @@ use vp_labelgen::{
 };
 use vp_labelgen::{TripletReconstruction, View};
 use vp_scene::fsio;
+use vp_scene::opensfm::ModelSource;
 
 use crate::convert::{self, label_arrays, points};
 use crate::errors::{value_error, IntoPy};
@@ -255,6 +256,8 @@ fn generate_labels(
 /// [--mesh --frame-unchecked --force]` ([`vp_labelgen::run_labelling`]):
 /// loads, labels and writes the label folder and `summary.json`; returns
 /// the summary. `params`: any subset of `vpctl labelgen defaults`.
+/// `model`: a COLMAP model folder or an OpenSfM reconstruction (told apart
+/// by their files, as `vpctl.planner.plan` does).
 #[pyfunction]
 #[pyo3(signature = (model, triplets, depth_dir, out, mesh = None, params = None, frame_unchecked = false, force = false))]
 fn run<'py>(
@@ -268,7 +271,7 @@ fn run<'py>(
     frame_unchecked: bool,
     force: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let mut req = LabelRunRequest::new(model, triplets, depth_dir);
+    let mut req = LabelRunRequest::new(ModelSource::detect(&model), triplets, depth_dir);
     req.mesh = mesh;
     req.params = convert::from_py(params, "params")?;
     req.frame_unchecked = frame_unchecked;

@@ -291,3 +291,57 @@ fn labelgen_run_never_deletes_what_it_did_not_write() {
     ];
     common::assert_output_guards(&f.root, &args, "depth");
 }
+
+/// Every `.vplabel` file under `dir`, by its path relative to `dir`.
+fn label_files(dir: &Path) -> std::collections::BTreeMap<PathBuf, Vec<u8>> {
+    common::snapshot(dir)
+        .into_iter()
+        .filter(|(p, _)| p.extension().is_some_and(|e| e == "vplabel"))
+        .collect()
+}
+
+/// An OpenDroneMap project's reconstruction (`--opensfm`, georeferenced by
+/// its own `reference_lla`, so with the frame checked) samples the same
+/// triplets and gives the same labels as its COLMAP twin.
+#[test]
+fn an_odm_project_labels_as_its_colmap_twin() {
+    let f = fixture();
+    common::opensfm::as_opensfm(&f.root.join("model"), &f.root.join("odm"));
+    for (flag, model, out) in [
+        ("--colmap", "model", "colmap.txt"),
+        ("--opensfm", "odm", "odm.txt"),
+    ] {
+        let o = call(
+            &[
+                "labelgen",
+                "triplets",
+                flag,
+                &f.p(model),
+                "--per-bin",
+                "3",
+                "--min-shared-points",
+                "5",
+                "--out",
+                &f.p(out),
+            ]
+            .map(String::from),
+        );
+        assert!(o.status.success(), "{flag}: {}", text(&o.stderr));
+    }
+    let colmap_list = std::fs::read(f.p("colmap.txt")).unwrap();
+    assert!(!colmap_list.is_empty());
+    assert_eq!(colmap_list, std::fs::read(f.p("odm.txt")).unwrap());
+
+    let o = call(&run_args(&f, "labels-colmap"));
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let mut args = run_args(&f, "labels-odm");
+    let at = args.iter().position(|a| a == "--colmap").unwrap();
+    args[at] = "--opensfm".into();
+    args[at + 1] = f.p("odm");
+    args.retain(|a| a != "--frame-unchecked");
+    let o = call(&args);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let colmap_labels = label_files(Path::new(&f.p("labels-colmap")));
+    assert_eq!(colmap_labels.len(), 24, "{:?}", colmap_labels.keys());
+    assert!(colmap_labels == label_files(Path::new(&f.p("labels-odm"))));
+}

@@ -14,9 +14,10 @@
 
 use std::path::{Path, PathBuf};
 
-use vp_scene::colmap;
 use vp_scene::io::ReadWarning;
+use vp_scene::opensfm::ModelSource;
 use vp_scene::outdir::OutDir;
+use vp_scene::Location;
 
 use crate::error::Result;
 use crate::{generate_labels, TripletReconstruction};
@@ -26,8 +27,10 @@ use crate::{io, triplets, LabelParams, LabelSummary, MissingPartMeshes, ReconLab
 #[derive(Debug, Clone)]
 #[non_exhaustive]
 pub struct LabelRunRequest {
-    /// The COLMAP model with the poses of every image (with `frame.json`).
-    pub model: PathBuf,
+    /// The sparse model with the poses of every image: a COLMAP model
+    /// (with `frame.json`) or an OpenSfM reconstruction (georeferenced by
+    /// its own reference), of the undistorted images the depth maps are of.
+    pub model: ModelSource,
     /// The triplet list (`vpctl labelgen triplets`).
     pub triplets: PathBuf,
     /// The depth folder: `<triplet id>/level<L>/<image>.geometric.bin`.
@@ -45,12 +48,12 @@ pub struct LabelRunRequest {
 impl LabelRunRequest {
     /// Default parameters, no mesh, the frame checked.
     pub fn new(
-        model: impl Into<PathBuf>,
+        model: ModelSource,
         triplets: impl Into<PathBuf>,
         depth_dir: impl Into<PathBuf>,
     ) -> Self {
         LabelRunRequest {
-            model: model.into(),
+            model,
             triplets: triplets.into(),
             depth_dir: depth_dir.into(),
             mesh: None,
@@ -61,9 +64,8 @@ impl LabelRunRequest {
 
     /// The files and folders the run reads (which its output may not hold).
     pub fn inputs(&self) -> Vec<&Path> {
-        [&self.model, &self.triplets, &self.depth_dir]
+        [self.model.path(), &self.triplets, &self.depth_dir]
             .into_iter()
-            .map(PathBuf::as_path)
             .chain(self.mesh.as_deref())
             .collect()
     }
@@ -85,17 +87,25 @@ pub struct LabelRun {
 /// the triplet list, the depth maps and the mesh. Errors name the file.
 pub fn load_label_run(req: &LabelRunRequest) -> Result<LabelRun> {
     req.params.validate()?;
-    let model = colmap::read_model(&req.model)?;
-    if !req.frame_unchecked {
-        colmap::check_frame(&req.model, &model)?;
-    }
+    // The same reading and frame check as `vpctl plan`'s, for either kind
+    // of model: an OpenSfM camera with distortion is refused there, naming
+    // the undistort step (the depth maps are of undistorted images).
+    let posed = req.model.read_posed(req.frame_unchecked)?;
+    let mut warnings: Vec<ReadWarning> = posed
+        .notes
+        .into_iter()
+        .map(|message| ReadWarning {
+            path: req.model.path().to_path_buf(),
+            location: Location::Header,
+            message,
+        })
+        .collect();
     let list = triplets::read_triplet_list(&req.triplets)?;
-    let reconstructions = io::load_reconstructions(&model, &list, &req.depth_dir)?;
-    let mut warnings = Vec::new();
+    let reconstructions = io::load_reconstructions(&posed.reconstruction, &list, &req.depth_dir)?;
     let meshes = match &req.mesh {
         Some(p) => {
             let (mesh, read) = vp_scene::io::read_mesh_with_warnings(p)?;
-            warnings = read;
+            warnings.extend(read);
             Some(MissingPartMeshes::new(&mesh, req.params.mesh_iterations))
         }
         None => None,

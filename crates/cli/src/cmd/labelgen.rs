@@ -7,7 +7,8 @@ use anyhow::Result;
 use clap::{Args, Subcommand};
 use vp_labelgen::triplets::{self, TripletParams};
 use vp_labelgen::{LabelOutput, LabelParams, LabelRunRequest};
-use vp_scene::{colmap, fsio};
+use vp_scene::fsio;
+use vp_scene::opensfm::ModelSource;
 
 /// Label-generation subcommands.
 #[derive(Debug, Subcommand)]
@@ -32,12 +33,40 @@ pub enum LabelgenCommand {
     Defaults,
 }
 
+/// The sparse model: `--colmap DIR` or `--opensfm DIR`, as `vpctl plan`
+/// takes it.
+#[derive(Debug, Args)]
+pub struct ModelArgs {
+    /// COLMAP sparse model folder (cameras, images, points3D; .bin or .txt).
+    #[arg(
+        long = "colmap",
+        alias = "model",
+        value_name = "DIR",
+        required_unless_present = "opensfm"
+    )]
+    colmap: Option<PathBuf>,
+    /// Or an OpenSfM reconstruction: an OpenDroneMap project folder, its
+    /// `opensfm` folder or `reconstruction.json`, georeferenced by its own
+    /// reference (no `colmap align`).
+    #[arg(long, value_name = "DIR", conflicts_with = "colmap")]
+    opensfm: Option<PathBuf>,
+}
+
+impl ModelArgs {
+    fn source(&self) -> ModelSource {
+        match (&self.colmap, &self.opensfm) {
+            (_, Some(dir)) => ModelSource::OpenSfm(dir.clone()),
+            // clap requires one of the two.
+            (dir, None) => ModelSource::Colmap(dir.clone().unwrap_or_default()),
+        }
+    }
+}
+
 /// Arguments of `labelgen triplets`.
 #[derive(Debug, Args)]
 pub struct TripletsArgs {
-    /// COLMAP sparse model folder (cameras, images, points3D; .bin or .txt).
-    #[arg(long = "colmap", alias = "model", value_name = "DIR")]
-    model: PathBuf,
+    #[command(flatten)]
+    model: ModelArgs,
     /// Triplets drawn per angle bin.
     #[arg(long, default_value_t = 10)]
     per_bin: usize,
@@ -67,12 +96,13 @@ pub struct TripletsArgs {
 /// Arguments of `labelgen run`.
 #[derive(Debug, Args)]
 pub struct RunArgs {
-    /// COLMAP sparse model folder with the poses of every image, aligned by
-    /// `vpctl colmap align` (its `frame.json` is checked).
-    #[arg(long = "colmap", alias = "model", value_name = "DIR")]
-    model: PathBuf,
-    /// Skip the frame check (`frame.json`, scale, gravity): only for a model
-    /// already in metric, gravity-aligned local ENU.
+    /// The model with the poses of every image, of the undistorted images
+    /// the depth maps are of: COLMAP's aligned by `vpctl colmap align` (its
+    /// `frame.json` is checked), OpenSfM's by its geodetic reference.
+    #[command(flatten)]
+    model: ModelArgs,
+    /// Skip the frame check (`frame.json` or the OpenSfM reference, scale,
+    /// gravity): only for a model already in metric, gravity-aligned local ENU.
     #[arg(long)]
     frame_unchecked: bool,
     /// Triplet list written by `vpctl labelgen triplets`.
@@ -111,7 +141,8 @@ pub fn run(cmd: LabelgenCommand, out: &mut dyn Write) -> Result<()> {
 
 fn sample(a: &TripletsArgs, out: &mut dyn Write) -> Result<()> {
     fsio::check_output_file(&a.out, a.force)?;
-    let model = colmap::read_model(&a.model)?;
+    let source = a.model.source();
+    let model = source.read()?;
     let params = TripletParams {
         per_bin: a.per_bin,
         seed: a.seed,
@@ -126,7 +157,7 @@ fn sample(a: &TripletsArgs, out: &mut dyn Write) -> Result<()> {
             "no triplet found in {} ({} images, {} points): no three images share {} points \
              (--min-shared-points) and {} of their points (--min-shared-share) at the \
              angles of the bins; lower those, or acquire images with more overlap",
-            a.model.display(),
+            source.path().display(),
             model.images.len(),
             model.points.len(),
             a.min_shared_points,
@@ -150,7 +181,7 @@ fn sample(a: &TripletsArgs, out: &mut dyn Write) -> Result<()> {
 }
 
 fn label(a: &RunArgs, out: &mut dyn Write) -> Result<()> {
-    let mut req = LabelRunRequest::new(&a.model, &a.triplets, &a.depth_dir);
+    let mut req = LabelRunRequest::new(a.model.source(), &a.triplets, &a.depth_dir);
     req.mesh.clone_from(&a.mesh);
     req.frame_unchecked = a.frame_unchecked;
     let output = LabelOutput {

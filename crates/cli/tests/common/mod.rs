@@ -1,6 +1,8 @@
 //! What the CLI test binaries share: running `vpctl` and the test data.
 #![allow(dead_code)]
 
+pub mod opensfm;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
