@@ -61,7 +61,7 @@ fn relative_errors(ws: &Path) -> Vec<f64> {
 }
 
 #[test]
-#[ignore = "about 95 s in release; scripts/test.sh runs it in its release step"]
+#[ignore = "about 2 min; scripts/test.sh runs it in its long-run steps"]
 fn vp_mvs_depth_agrees_with_colmap_sparse_points_on_real_photos() {
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/real-mvs/visp-cube");
     let tmp = tempfile::tempdir().unwrap();

@@ -1,6 +1,7 @@
 //! Issue 15's acceptance: the closed loop on vp-mvs, with nothing planted on
 //! the default path. The long runs are `#[ignore]`d and run in the named
-//! step of scripts/test.sh with `--release`. They assert what the measured
+//! step of scripts/test.sh (in the test profile, where vp-mvs is optimised
+//! as in release: Cargo.toml). They assert what the measured
 //! experiment shows (docs/campaign-findings.md), not the paper's findings
 //! that it does not reproduce.
 
@@ -42,7 +43,7 @@ fn the_default_path_runs_vp_mvs_not_the_planted_stand_in() {
 }
 
 #[test]
-#[ignore = "long: several minutes in release; run by scripts/test.sh"]
+#[ignore = "long: several minutes; run by scripts/test.sh"]
 fn measured_findings_hold_on_held_out_sites() {
     let cfg = findings_config();
     let r = run_campaign(&cfg, &mut |m| eprintln!("{m}")).unwrap();
@@ -105,7 +106,7 @@ fn measured_findings_hold_on_held_out_sites() {
 }
 
 #[test]
-#[ignore = "long in debug builds; run by scripts/test.sh"]
+#[ignore = "long: minutes; run by scripts/test.sh"]
 fn same_config_and_seed_give_the_same_table_bytes() {
     let mut cfg = CampaignConfig::quick();
     // Issue 35's baseline rides along: the industry's five-route oblique
