@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use crate::common::{jpeg_with_gps, scene_data, stderr, stdout, vpctl};
+use crate::common::{jpeg_with_exif, jpeg_with_gps, scene_data, stderr, stdout, vpctl};
 use crate::{scale_error, sfm_geodetic, sfm_positions};
 
 /// The `sfm` model (text) with its images renamed from `.png` to `.jpg`, in
@@ -201,4 +201,109 @@ fn colmap_align_exif_refuses_photos_without_enough_gps_with_exit_2_and_writes_no
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("cannot be used with"), "{}", stderr(&o));
     assert!(!out.exists(), "nothing written");
+}
+
+/// The `sfm` photos as a drone writes them: each with its camera model and
+/// DJI's height above take-off (the photo's GPS altitude minus
+/// `takeoff_alt[i]`), aligned with `colmap align --exif` into `out`.
+fn align_drone_photos(
+    dir: &Path,
+    cameras: [&str; 4],
+    takeoff_alt: [f64; 4],
+    out: &Path,
+) -> std::process::Output {
+    let model = sfm_model_with_jpgs(dir);
+    let geo = sfm_geodetic(&[[0.0; 3]; 4]);
+    let photos = dir.join("photos");
+    std::fs::create_dir_all(&photos).unwrap();
+    for (i, (_, g)) in geo.iter().enumerate() {
+        let rel = g.alt_m - takeoff_alt[i];
+        let bytes = jpeg_with_exif(
+            32,
+            24,
+            Some(lat_lon_alt(g)),
+            true,
+            Some(cameras[i]),
+            Some(rel),
+        );
+        std::fs::write(photos.join(format!("view_{i:02}.jpg")), bytes).unwrap();
+    }
+    vpctl(&[
+        "colmap",
+        "align",
+        "--colmap",
+        model.to_str().unwrap(),
+        "--exif",
+        photos.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ])
+}
+
+/// Issue 38's bad input: photos from two camera models in one folder (a
+/// phone's beside the drone's) are refused with exit 2, naming each model
+/// with its photos and the ways on, and nothing is written.
+#[test]
+fn colmap_align_exif_refuses_photos_of_two_camera_models() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("aligned");
+    let o = align_drone_photos(
+        dir.path(),
+        ["FC300S", "FC300S", "iPhone 12", "FC300S"],
+        [158.5; 4],
+        &out,
+    );
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("2 camera models")
+            && err.contains("FC300S: 3 (view_00.jpg, view_01.jpg, view_03.jpg)")
+            && err.contains("iPhone 12: 1 (view_02.jpg)")
+            && err.contains("--positions"),
+        "{err}"
+    );
+    assert!(!out.exists(), "a refused alignment wrote {}", out.display());
+}
+
+/// One take-off point: its altitude (the photos' GPS altitude minus their
+/// height above take-off) is recorded in frame.json. Photos from two
+/// take-off points 5.5-6 m apart in height: no one home is right for all, so
+/// none is recorded, and a warning says to give the home to `plan`.
+#[test]
+fn colmap_align_exif_records_one_take_off_point_and_not_two() {
+    let dir = tempfile::tempdir().unwrap();
+    let one = dir.path().join("one");
+    let o = align_drone_photos(
+        dir.path(),
+        ["FC300S"; 4],
+        [158.5, 158.6, 158.4, 158.5],
+        &one,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let t = vp_scene::colmap::ModelFrame::load(&one)
+        .unwrap()
+        .takeoff_alt_m
+        .expect("a take-off altitude");
+    // The median of the four, to the millimetre the EXIF altitude keeps.
+    assert!((t - 158.5).abs() < 2e-3, "{t}");
+    assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));
+
+    let two = dir.path().join("two");
+    let o = align_drone_photos(
+        dir.path(),
+        ["FC300S"; 4],
+        [158.5, 158.5, 164.5, 164.0],
+        &two,
+    );
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("no take-off altitude recorded")
+            && err.contains("158.50 m (view_00.jpg)")
+            && err.contains("164.50 m (view_02.jpg)")
+            && err.contains("plan --home"),
+        "{err}"
+    );
+    let frame = vp_scene::colmap::ModelFrame::load(&two).unwrap();
+    assert_eq!(frame.takeoff_alt_m, None);
 }

@@ -113,6 +113,20 @@ pub fn plan_fixture_seeded(dir: &Path, seed: u64) -> Site {
 /// as three RATIONALs (seconds to 1/10000"), GPSAltitudeRef and GPSAltitude
 /// (to the millimetre). `altitude: false` leaves both altitude tags out.
 pub fn jpeg_with_gps(width: u32, height: u32, gps: Option<[f64; 3]>, altitude: bool) -> Vec<u8> {
+    jpeg_with_exif(width, height, gps, altitude, None, None)
+}
+
+/// [`jpeg_with_gps`] (with GPS) plus the camera's EXIF `Model` in IFD0 and
+/// DJI's height above take-off in an XMP packet (APP1, Adobe's namespace
+/// header, `drone-dji:RelativeAltitude="+39.80"` as DJI writes it).
+pub fn jpeg_with_exif(
+    width: u32,
+    height: u32,
+    gps: Option<[f64; 3]>,
+    altitude: bool,
+    model: Option<&str>,
+    relative_alt_m: Option<f64>,
+) -> Vec<u8> {
     let pixels: Vec<u8> = (0..width * height)
         .map(|i| ((i % width) * 255 / width.max(1)) as u8)
         .collect();
@@ -124,18 +138,35 @@ pub fn jpeg_with_gps(width: u32, height: u32, gps: Option<[f64; 3]>, altitude: b
     let Some([lat, lon, alt]) = gps else {
         return jpeg;
     };
-    let tiff = exif_gps_tiff(lat, lon, alt, altitude);
+    let tiff = exif_gps_tiff(lat, lon, alt, altitude, model);
     let mut app1 = b"Exif\0\0".to_vec();
     app1.extend_from_slice(&tiff);
-    let mut out = vec![0xFF, 0xD8, 0xFF, 0xE1];
-    out.extend_from_slice(&u16::try_from(app1.len() + 2).unwrap().to_be_bytes());
-    out.extend_from_slice(&app1);
+    let mut out = vec![0xFF, 0xD8];
+    let mut segment = |body: &[u8]| {
+        out.extend_from_slice(&[0xFF, 0xE1]);
+        out.extend_from_slice(&u16::try_from(body.len() + 2).unwrap().to_be_bytes());
+        out.extend_from_slice(body);
+    };
+    segment(&app1);
+    if let Some(rel) = relative_alt_m {
+        let mut xmp = b"http://ns.adobe.com/xap/1.0/\0".to_vec();
+        xmp.extend_from_slice(
+            format!(
+                "<x:xmpmeta xmlns:x=\"adobe:ns:meta/\"><rdf:RDF \
+                 xmlns:rdf=\"http://www.w3.org/1999/02/22-rdf-syntax-ns#\"><rdf:Description \
+                 xmlns:drone-dji=\"http://www.dji.com/drone-dji/1.0/\" \
+                 drone-dji:RelativeAltitude=\"{rel:+.2}\"/></rdf:RDF></x:xmpmeta>"
+            )
+            .as_bytes(),
+        );
+        segment(&xmp);
+    }
     out.extend_from_slice(&jpeg[2..]);
     out
 }
 
 /// The TIFF structure of an EXIF block with a GPS IFD (see [`jpeg_with_gps`]).
-fn exif_gps_tiff(lat: f64, lon: f64, alt: f64, altitude: bool) -> Vec<u8> {
+fn exif_gps_tiff(lat: f64, lon: f64, alt: f64, altitude: bool, model: Option<&str>) -> Vec<u8> {
     // An entry's value: inline bytes, or rationals stored after the IFD.
     enum V {
         Inline([u8; 4]),
@@ -182,15 +213,37 @@ fn exif_gps_tiff(lat: f64, lon: f64, alt: f64, altitude: bool) -> Vec<u8> {
             V::Rationals(vec![((alt.abs() * 1000.0).round() as u32, 1000)]),
         ));
     }
+    // IFD0: the Model (0x0110, ASCII, NUL-terminated, stored after the
+    // GPS IFD's rationals) if given, then the GPS IFD pointer.
+    // Longer than 3 characters: shorter values would be stored inline.
+    let model = model.map(|m| [m.as_bytes(), &[0]].concat());
+    assert!(
+        model.as_ref().is_none_or(|m| m.len() > 4),
+        "a model name of 4+ characters"
+    );
+    let ifd0_entries = 1 + u16::from(model.is_some());
     let ifd0_at = 8u32;
-    let gps_at = ifd0_at + 2 + 12 + 4;
+    let gps_at = ifd0_at + 2 + 12 * u32::from(ifd0_entries) + 4;
     let mut data_at = gps_at + 2 + 12 * gps.len() as u32 + 4;
+    let rationals: u32 = gps
+        .iter()
+        .map(|e| match &e.3 {
+            V::Rationals(r) => 8 * r.len() as u32,
+            V::Inline(_) => 0,
+        })
+        .sum();
+    let model_at = data_at + rationals;
     let mut t = Vec::new();
     t.extend_from_slice(b"MM");
     t.extend_from_slice(&42u16.to_be_bytes());
     t.extend_from_slice(&ifd0_at.to_be_bytes());
-    // IFD0: one entry, the GPS IFD pointer.
-    t.extend_from_slice(&1u16.to_be_bytes());
+    t.extend_from_slice(&ifd0_entries.to_be_bytes());
+    if let Some(m) = &model {
+        t.extend_from_slice(&0x0110u16.to_be_bytes());
+        t.extend_from_slice(&ASCII.to_be_bytes());
+        t.extend_from_slice(&(m.len() as u32).to_be_bytes());
+        t.extend_from_slice(&model_at.to_be_bytes());
+    }
     t.extend_from_slice(&0x8825u16.to_be_bytes());
     t.extend_from_slice(&LONG.to_be_bytes());
     t.extend_from_slice(&1u32.to_be_bytes());
@@ -217,6 +270,7 @@ fn exif_gps_tiff(lat: f64, lon: f64, alt: f64, altitude: bool) -> Vec<u8> {
     }
     t.extend_from_slice(&0u32.to_be_bytes());
     t.extend_from_slice(&tail);
+    t.extend_from_slice(model.as_deref().unwrap_or_default());
     t
 }
 

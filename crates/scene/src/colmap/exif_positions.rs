@@ -3,6 +3,7 @@
 //! `kamadak-exif` (JPEG, TIFF, PNG, WebP, HEIF). The alternative to a
 //! positions CSV for [`align_to_positions`](super::align_to_positions).
 
+use std::collections::BTreeMap;
 use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
@@ -35,15 +36,30 @@ pub struct ExifPositions {
     pub takeoff_alt_m: Option<f64>,
     /// How many photos gave a relative altitude.
     pub with_relative_alt: usize,
+    /// The lowest and the highest take-off altitude of single photos (name,
+    /// metres), where they lie more than [`TAKEOFF_SPREAD_M`] apart: then
+    /// the photos come from more than one take-off point (or a barometer
+    /// drifted), and [`ExifPositions::takeoff_alt_m`] is `None`, since no
+    /// one value is the home of all of them.
+    pub takeoff_spread: Option<[(String, f64); 2]>,
 }
+
+/// How far apart (metres) the take-off altitudes of single photos may lie
+/// and still be one take-off point. Within one flight they agree to a few
+/// decimetres (the Brighton Beach flight: 0.00 m over 18 photos, DJI's
+/// barometric heights); a second take-off point a few metres up a slope is
+/// above this, and 2 m is well inside the 5 m safety distance.
+pub const TAKEOFF_SPREAD_M: f64 = 2.0;
 
 /// Reads the EXIF GPS position (WGS84 degrees, metres above sea level) of
 /// every photo under `dir` (by extension: JPEG, TIFF, PNG, WebP, HEIF).
 /// Photos without EXIF, without GPS tags or with unusable ones (no altitude,
 /// no hemisphere, out of range) are listed in [`ExifPositions::skipped`]
 /// with the reason. An error when `dir` cannot be read, when a photo cannot
-/// be read at the operating-system level, or when no photo has a position
-/// (the message lists what was wrong with each).
+/// be read at the operating-system level, when no photo has a position
+/// (the message lists what was wrong with each), or when the photos with a
+/// position come from more than one camera model (EXIF `Model`): their
+/// altitudes need not share a datum nor their heights a take-off point.
 pub fn read_positions_exif(dir: &Path) -> Result<ExifPositions> {
     if !dir.is_dir() {
         return Err(SceneError::io(
@@ -56,20 +72,33 @@ pub fn read_positions_exif(dir: &Path) -> Result<ExifPositions> {
     files.sort();
     let mut out = ExifPositions::default();
     let mut takeoff = Vec::new();
+    let mut cameras: BTreeMap<String, Vec<String>> = BTreeMap::new();
     for (name, path) in &files {
         match read_one(path)? {
-            Ok(g) => {
+            Ok((g, camera)) => {
                 if let Some(rel) = dji_relative_altitude(path)? {
-                    takeoff.push(g.alt_m - rel);
+                    takeoff.push((g.alt_m - rel, name.clone()));
+                }
+                if let Some(camera) = camera {
+                    cameras.entry(camera).or_default().push(name.clone());
                 }
                 out.positions.push((name.clone(), g));
             }
             Err(why) => out.skipped.push((name.clone(), why)),
         }
     }
+    if cameras.len() > 1 {
+        return Err(mixed_cameras(dir, &cameras));
+    }
     out.with_relative_alt = takeoff.len();
-    takeoff.sort_by(f64::total_cmp);
-    out.takeoff_alt_m = takeoff.get(takeoff.len() / 2).copied();
+    takeoff.sort_by(|a, b| a.0.total_cmp(&b.0));
+    if let (Some(lo), Some(hi)) = (takeoff.first(), takeoff.last()) {
+        if hi.0 - lo.0 > TAKEOFF_SPREAD_M {
+            out.takeoff_spread = Some([(lo.1.clone(), lo.0), (hi.1.clone(), hi.0)]);
+        } else {
+            out.takeoff_alt_m = Some(takeoff[takeoff.len() / 2].0);
+        }
+    }
     if out.positions.is_empty() {
         let listed: Vec<String> = out
             .skipped
@@ -92,6 +121,28 @@ pub fn read_positions_exif(dir: &Path) -> Result<ExifPositions> {
         )));
     }
     Ok(out)
+}
+
+/// The refusal of photos from more than one camera model, naming each
+/// model with its photos and the two ways on.
+fn mixed_cameras(dir: &Path, cameras: &BTreeMap<String, Vec<String>>) -> SceneError {
+    let list: Vec<String> = cameras
+        .iter()
+        .map(|(camera, names)| {
+            let shown: Vec<&str> = names.iter().take(3).map(String::as_str).collect();
+            let more = if names.len() > 3 { ", ..." } else { "" };
+            format!("{camera}: {} ({}{more})", names.len(), shown.join(", "))
+        })
+        .collect();
+    SceneError::InvalidArgument(format!(
+        "{}: photos with GPS from {} camera models ({}); their GPS altitudes need not share \
+         a datum nor their heights a take-off point, so they are not aligned together: \
+         align with one camera's photos (move the others to another folder), or give every \
+         position in one datum with --positions CSV --datum DATUM",
+        dir.display(),
+        cameras.len(),
+        list.join("; ")
+    ))
 }
 
 fn collect_photos(
@@ -130,9 +181,10 @@ fn collect_photos(
     Ok(())
 }
 
-/// The position of one photo: `Err(SceneError)` when the file cannot be
-/// read, `Ok(Err(reason))` when it has no usable GPS position.
-fn read_one(path: &Path) -> Result<std::result::Result<GeodeticOrigin, String>> {
+/// The position of one photo and its camera (EXIF `Make` and `Model`, where
+/// written): `Err(SceneError)` when the file cannot be read, `Ok(Err(reason))`
+/// when it has no usable GPS position.
+fn read_one(path: &Path) -> Result<std::result::Result<(GeodeticOrigin, Option<String>), String>> {
     let file = std::fs::File::open(path).map_err(|e| SceneError::io(path, e))?;
     let exif = match exif::Reader::new().read_from_container(&mut BufReader::new(file)) {
         Ok(exif) => exif,
@@ -140,7 +192,31 @@ fn read_one(path: &Path) -> Result<std::result::Result<GeodeticOrigin, String>> 
         Err(exif::Error::NotFound(_)) => return Ok(Err("no EXIF data".into())),
         Err(e) => return Ok(Err(format!("EXIF unreadable ({e})"))),
     };
-    Ok(gps_position(&exif))
+    Ok(gps_position(&exif).map(|g| (g, camera_model(&exif))))
+}
+
+/// `Make Model` from the primary IFD (either alone where the other is
+/// missing), or `None` when neither is written.
+fn camera_model(exif: &exif::Exif) -> Option<String> {
+    let text = |tag: Tag| match exif.get_field(tag, In::PRIMARY).map(|f| &f.value) {
+        Some(Value::Ascii(parts)) => {
+            let t: Vec<String> = parts
+                .iter()
+                .map(|p| {
+                    String::from_utf8_lossy(p)
+                        .trim_matches(['\0', ' '])
+                        .to_string()
+                })
+                .filter(|p| !p.is_empty())
+                .collect();
+            (!t.is_empty()).then(|| t.join(" "))
+        }
+        _ => None,
+    };
+    match (text(Tag::Make), text(Tag::Model)) {
+        (Some(make), Some(model)) => Some(format!("{make} {model}")),
+        (one, other) => one.or(other),
+    }
 }
 
 /// DJI writes its XMP packet near the start of the file, in the first

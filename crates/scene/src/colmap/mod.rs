@@ -47,7 +47,7 @@ pub use depth::{
     parse_depth_map, parse_normal_map, read_depth_map, read_normal_map, write_depth_map,
     write_normal_map, DepthMap, DepthStats, NormalMap,
 };
-pub use exif_positions::{read_positions_exif, ExifPositions};
+pub use exif_positions::{read_positions_exif, ExifPositions, TAKEOFF_SPREAD_M};
 pub use frame::{
     check_frame, check_frame_of, read_positions_csv, FrameCheck, ModelFrame, FRAME_FILE,
 };

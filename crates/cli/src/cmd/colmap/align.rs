@@ -98,6 +98,16 @@ fn read_positions<'a>(a: &'a AlignArgs, out: &mut dyn Write) -> Result<Positions
             for (name, why) in &found.skipped {
                 writeln!(out, "  skipped {name}: {why}")?;
             }
+            if let Some([(low, low_m), (high, high_m)]) = &found.takeoff_spread {
+                eprintln!(
+                    "warning: no take-off altitude recorded: the photos' GPS altitude minus \
+                     their height above take-off runs from {low_m:.2} m ({low}) to {high_m:.2} m \
+                     ({high}), more than {} m apart: more than one take-off point, or a \
+                     barometer that drifted. Give the next mission's home yourself: `vpctl \
+                     plan --home LAT,LON,ALT,DATUM` at the point you will take off from",
+                    colmap::TAKEOFF_SPREAD_M
+                );
+            }
             let datum = a.datum.unwrap_or(VerticalDatum::Egm96);
             // The relative altitudes say where the ground of the take-off
             // is, in the datum of the GPS altitudes; with heights that are
