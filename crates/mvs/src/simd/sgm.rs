@@ -144,25 +144,19 @@ impl SgmSimd {
     }
 
     /// `sgm::matching::census_row` at this level.
-    pub(crate) fn census_row(
-        self,
-        job: &crate::sgm::matching::CensusRow,
-        lo_bits: &mut [u32],
-        hi_bits: &mut [u32],
-        out: &mut [u64],
-    ) {
+    pub(crate) fn census_row(self, job: &crate::sgm::matching::CensusRow, out: &mut [u64]) {
         match self {
-            SgmSimd::Scalar => crate::sgm::matching::census_row(job, lo_bits, hi_bits, out),
+            SgmSimd::Scalar => crate::sgm::matching::census_row(job, out),
             SgmSimd::Avx2(_) => {
                 #[cfg(target_arch = "x86_64")]
                 // SAFETY: an `Avx2` token exists only if `detect` found
                 // AVX2 on this CPU, the one feature `x86::sgm_census_row`
                 // is compiled for; its body is safe code.
                 unsafe {
-                    x86::sgm_census_row(job, lo_bits, hi_bits, out);
+                    x86::sgm_census_row(job, out);
                 }
                 #[cfg(not(target_arch = "x86_64"))]
-                crate::sgm::matching::census_row(job, lo_bits, hi_bits, out);
+                crate::sgm::matching::census_row(job, out);
             }
             SgmSimd::Avx512(_) => {
                 #[cfg(target_arch = "x86_64")]
@@ -170,10 +164,10 @@ impl SgmSimd {
                 // every feature `x86::sgm_census_row_512` is compiled for;
                 // its body is safe code.
                 unsafe {
-                    x86::sgm_census_row_512(job, lo_bits, hi_bits, out);
+                    x86::sgm_census_row_512(job, out);
                 }
                 #[cfg(not(target_arch = "x86_64"))]
-                crate::sgm::matching::census_row(job, lo_bits, hi_bits, out);
+                crate::sgm::matching::census_row(job, out);
             }
         }
     }
@@ -334,24 +328,14 @@ mod x86 {
 
     /// The safe scalar census row, inlined here and so compiled for AVX2.
     #[target_feature(enable = "avx2")]
-    pub(super) fn sgm_census_row(
-        job: &crate::sgm::matching::CensusRow,
-        lo_bits: &mut [u32],
-        hi_bits: &mut [u32],
-        out: &mut [u64],
-    ) {
-        crate::sgm::matching::census_row(job, lo_bits, hi_bits, out);
+    pub(super) fn sgm_census_row(job: &crate::sgm::matching::CensusRow, out: &mut [u64]) {
+        crate::sgm::matching::census_row(job, out);
     }
 
     /// The safe scalar census row compiled for AVX-512.
     #[target_feature(enable = "avx2,popcnt,avx512f,avx512bw,avx512vl,avx512vpopcntdq")]
-    pub(super) fn sgm_census_row_512(
-        job: &crate::sgm::matching::CensusRow,
-        lo_bits: &mut [u32],
-        hi_bits: &mut [u32],
-        out: &mut [u64],
-    ) {
-        crate::sgm::matching::census_row(job, lo_bits, hi_bits, out);
+    pub(super) fn sgm_census_row_512(job: &crate::sgm::matching::CensusRow, out: &mut [u64]) {
+        crate::sgm::matching::census_row(job, out);
     }
 
     /// The safe scalar cost row compiled for AVX-512 (`vpopcntq`).
@@ -376,9 +360,9 @@ mod x86 {
         st: &mut crate::sgm::matching::PassState,
         out: &mut [u16],
     ) {
-        crate::sgm::matching::pass_row_with(job, st, out, |c, q, m, p1, p2, cur, o| {
+        crate::sgm::matching::pass_row_with(job, st, out, |c, q, m, p1, p2, cur, o, e| {
             // A closure inherits this function's target features.
-            step4_512(c, q, m, p1, p2, cur, o)
+            step4_512(c, q, m, p1, p2, cur, o, e)
         });
     }
 
@@ -412,8 +396,14 @@ mod x86 {
     /// lanes a vector: the same wrapping u16 additions and unsigned
     /// minima, term for term, so the same results (tested in
     /// `sgm/tests.rs`); below 32 disparities, the scalar `step` formula.
+    /// `extra` (the other pass's sums, or empty) is added to the sum
+    /// before it is stored.
     #[target_feature(enable = "avx2,popcnt,avx512f,avx512bw,avx512vl,avx512vpopcntdq")]
-    #[allow(clippy::needless_range_loop, clippy::needless_pass_by_value)]
+    #[allow(
+        clippy::needless_range_loop,
+        clippy::needless_pass_by_value,
+        clippy::too_many_arguments
+    )]
     fn step4_512(
         cost: &[u8],
         prev: [&[u16]; 4],
@@ -422,7 +412,9 @@ mod x86 {
         p2: u16,
         cur: [&mut [u16]; 4],
         out: &mut [u16],
+        extra: &[u16],
     ) -> [u16; 4] {
+        let with_extra = !extra.is_empty();
         let nd = cost.len();
         // Whole vectors, the last one overlapping the one before when nd
         // is not a multiple of 32 (recomputing a cell gives the same value;
@@ -442,7 +434,11 @@ mod x86 {
             };
             // SAFETY: `c8` is 32 readable bytes; the load is unaligned.
             let c = _mm512_cvtepu8_epi16(unsafe { _mm256_loadu_si256(c8.as_ptr().cast()) });
-            let mut sum = _mm512_setzero_si512();
+            let mut sum = if with_extra {
+                load_w(lanes_w(extra, k))
+            } else {
+                _mm512_setzero_si512()
+            };
             for j in 0..4 {
                 let q = prev[j];
                 let (lo, mid, hi) = (
@@ -473,7 +469,7 @@ mod x86 {
         let mut mins = vmin.map(|v| min_w(v));
         for k in done..nd {
             let c = u16::from(cost[k]);
-            let mut sum = 0u16;
+            let mut sum = if with_extra { extra[k] } else { 0 };
             for j in 0..4 {
                 let q = prev[j];
                 let best = q[k + 1]
