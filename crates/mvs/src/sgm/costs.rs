@@ -57,52 +57,80 @@ pub(crate) struct CensusRow<'a> {
 #[allow(clippy::inline_always)]
 #[inline(always)]
 pub(crate) fn census_row(job: &CensusRow, row: &mut [u64]) {
-    let (img, w, h, y) = (job.img, job.w, job.h, job.y);
+    census_row_with(job, row, census_block);
+}
+
+/// The window's row `dy` (clamped to the image) around row `job.y`.
+#[allow(clippy::inline_always)]
+#[inline(always)]
+pub(crate) fn window_row<'a>(job: &CensusRow<'a>, dy: isize) -> &'a [f32] {
+    let yy = (job.y as isize + dy).clamp(0, job.h as isize - 1) as usize;
+    &job.img[yy * job.w..(yy + 1) * job.w]
+}
+
+/// The codes of the interior block of [`CENSUS_LANES`] pixels from `x0`
+/// (every `x0 + i + dx` inside the row): both code words of the block
+/// held over all the window's offsets.
+#[allow(clippy::inline_always)]
+#[inline(always)]
+pub(crate) fn census_block(job: &CensusRow, x0: usize, out: &mut [u64; CENSUS_LANES]) {
     let (rx, ry) = (job.cw / 2, (job.ch / 2) as isize);
-    let centre = &img[y * w..(y + 1) * w];
-    // Row dy of the window, clamped to the image.
-    let src_row = |dy: isize| {
-        let yy = (y as isize + dy).clamp(0, h as isize - 1) as usize;
-        &img[yy * w..(yy + 1) * w]
+    let centre = window_row(job, 0);
+    let Ok(c) = <&[f32; CENSUS_LANES]>::try_from(&centre[x0..x0 + CENSUS_LANES]) else {
+        unreachable!("a slice of CENSUS_LANES elements")
     };
+    let (mut lo, mut hi) = ([0u32; CENSUS_LANES], [0u32; CENSUS_LANES]);
+    let mut k = 0u32;
+    for dy in -ry..=ry {
+        let src = window_row(job, dy);
+        for dxi in 0..job.cw {
+            if dxi == rx && dy == 0 {
+                continue;
+            }
+            let at = x0 + dxi - rx;
+            let Ok(s) = <&[f32; CENSUS_LANES]>::try_from(&src[at..at + CENSUS_LANES]) else {
+                unreachable!("a slice of CENSUS_LANES elements")
+            };
+            // Two loops, not one through a reference to lo or hi: both
+            // words then stay in registers.
+            if k < 32 {
+                let bit = 1u32 << k;
+                for ((b, &sv), &cv) in lo.iter_mut().zip(s).zip(c) {
+                    *b |= if sv < cv { bit } else { 0 };
+                }
+            } else {
+                let bit = 1u32 << (k - 32);
+                for ((b, &sv), &cv) in hi.iter_mut().zip(s).zip(c) {
+                    *b |= if sv < cv { bit } else { 0 };
+                }
+            }
+            k += 1;
+        }
+    }
+    for ((o, &l), &hv) in out.iter_mut().zip(&lo).zip(&hi) {
+        *o = u64::from(hv) << 32 | u64::from(l);
+    }
+}
+
+/// [`census_row`] with the interior blocks' codes computed by `block`
+/// ([`census_block`] or an equal vector version).
+#[allow(clippy::inline_always)]
+#[inline(always)]
+pub(crate) fn census_row_with<F>(job: &CensusRow, row: &mut [u64], block: F)
+where
+    F: Fn(&CensusRow, usize, &mut [u64; CENSUS_LANES]),
+{
+    let w = job.w;
+    let (rx, ry) = (job.cw / 2, (job.ch / 2) as isize);
+    let centre = window_row(job, 0);
     // Interior blocks: pixels x0 .. x0 + LANES with x0 >= rx and
     // x0 + LANES + rx <= w, so every x + dx lies in the row.
     let mut x0 = rx;
     while x0 + CENSUS_LANES + rx <= w {
-        let Ok(c) = <&[f32; CENSUS_LANES]>::try_from(&centre[x0..x0 + CENSUS_LANES]) else {
+        let Ok(out) = <&mut [u64; CENSUS_LANES]>::try_from(&mut row[x0..x0 + CENSUS_LANES]) else {
             unreachable!("a slice of CENSUS_LANES elements")
         };
-        let (mut lo, mut hi) = ([0u32; CENSUS_LANES], [0u32; CENSUS_LANES]);
-        let mut k = 0u32;
-        for dy in -ry..=ry {
-            let src = src_row(dy);
-            for dxi in 0..job.cw {
-                if dxi == rx && dy == 0 {
-                    continue;
-                }
-                let at = x0 + dxi - rx;
-                let Ok(s) = <&[f32; CENSUS_LANES]>::try_from(&src[at..at + CENSUS_LANES]) else {
-                    unreachable!("a slice of CENSUS_LANES elements")
-                };
-                // Two loops, not one through a reference to lo or hi:
-                // both words then stay in registers.
-                if k < 32 {
-                    let bit = 1u32 << k;
-                    for ((b, &sv), &cv) in lo.iter_mut().zip(s).zip(c) {
-                        *b |= if sv < cv { bit } else { 0 };
-                    }
-                } else {
-                    let bit = 1u32 << (k - 32);
-                    for ((b, &sv), &cv) in hi.iter_mut().zip(s).zip(c) {
-                        *b |= if sv < cv { bit } else { 0 };
-                    }
-                }
-                k += 1;
-            }
-        }
-        for ((o, &l), &hv) in row[x0..x0 + CENSUS_LANES].iter_mut().zip(&lo).zip(&hi) {
-            *o = u64::from(hv) << 32 | u64::from(l);
-        }
+        block(job, x0, out);
         x0 += CENSUS_LANES;
     }
     // The rest: 0 .. rx and x0 .. w, offset by offset with clamping.
@@ -110,7 +138,7 @@ pub(crate) fn census_row(job: &CensusRow, row: &mut [u64]) {
         let (mut lo, mut hi) = (0u32, 0u32);
         let mut k = 0u32;
         for dy in -ry..=ry {
-            let src = src_row(dy);
+            let src = window_row(job, dy);
             for dxi in 0..job.cw {
                 if dxi == rx && dy == 0 {
                     continue;

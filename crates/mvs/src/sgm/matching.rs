@@ -30,7 +30,9 @@ const BIG: u16 = 0x4000;
 use super::costs::costs_of_row;
 #[cfg(test)]
 pub(crate) use super::costs::{census, cost_volume};
-pub(crate) use super::costs::{census_row, cost_row, pair_census, CensusRow, PairCensus};
+pub(crate) use super::costs::{
+    census_row, census_row_with, cost_row, pair_census, window_row, CensusRow, PairCensus,
+};
 pub(crate) use super::winners::{filter_speckles, winner_row, winner_row_with};
 
 /// One step of a scanline: `cur[1..=nd]` from the previous pixel's

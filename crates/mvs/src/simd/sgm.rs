@@ -284,6 +284,11 @@ mod x86 {
     };
 
     use std::arch::x86_64::{
+        __m256i, __m512, _mm512_cmp_ps_mask, _mm512_cvtepu32_epi64, _mm512_loadu_ps,
+        _mm512_mask_or_epi32, _mm512_or_si512, _mm512_set1_epi32, _mm512_slli_epi64, _CMP_LT_OQ,
+    };
+
+    use std::arch::x86_64::{
         _mm512_cmpeq_epi16_mask, _mm512_cmplt_epu16_mask, _mm512_mask_mov_epi16, _mm512_set_epi16,
     };
 
@@ -332,10 +337,79 @@ mod x86 {
         crate::sgm::matching::census_row(job, out);
     }
 
-    /// The safe scalar census row compiled for AVX-512.
+    /// The census row compiled for AVX-512, the interior blocks by
+    /// [`census_block_512`].
     #[target_feature(enable = "avx2,popcnt,avx512f,avx512bw,avx512vl,avx512vpopcntdq")]
     pub(super) fn sgm_census_row_512(job: &crate::sgm::matching::CensusRow, out: &mut [u64]) {
-        crate::sgm::matching::census_row(job, out);
+        // A closure inherits this function's target features.
+        crate::sgm::matching::census_row_with(job, out, |j, x0, o| census_block_512(j, x0, o));
+    }
+
+    /// `sgm::costs::census_block` 16 pixels a vector: per window offset
+    /// one unaligned load of 16 floats, one ordered less-than compare (the
+    /// scalar `<`: false on NaN) and one masked or of the offset's bit into
+    /// the low or high code word, both held in registers; then the words
+    /// widened and joined into 16 u64 codes. The same bits as the scalar
+    /// block (tested in `sgm/tests.rs`).
+    #[target_feature(enable = "avx2,popcnt,avx512f,avx512bw,avx512vl,avx512vpopcntdq")]
+    fn census_block_512(job: &crate::sgm::matching::CensusRow, x0: usize, out: &mut [u64; 16]) {
+        let (rx, ry) = (job.cw / 2, (job.ch / 2) as isize);
+        let centre = crate::sgm::matching::window_row(job, 0);
+        let c = load_ps(lanes_ps(centre, x0));
+        let (mut lo, mut hi) = (_mm512_setzero_si512(), _mm512_setzero_si512());
+        let mut k = 0u32;
+        for dy in -ry..=ry {
+            let src = crate::sgm::matching::window_row(job, dy);
+            for dxi in 0..job.cw {
+                if dxi == rx && dy == 0 {
+                    continue;
+                }
+                let sv = load_ps(lanes_ps(src, x0 + dxi - rx));
+                let m = _mm512_cmp_ps_mask::<_CMP_LT_OQ>(sv, c);
+                if k < 32 {
+                    lo = _mm512_mask_or_epi32(lo, m, lo, _mm512_set1_epi32((1u32 << k) as i32));
+                } else {
+                    let bit = _mm512_set1_epi32((1u32 << (k - 32)) as i32);
+                    hi = _mm512_mask_or_epi32(hi, m, hi, bit);
+                }
+                k += 1;
+            }
+        }
+        let join = |l: __m256i, h: __m256i| {
+            _mm512_or_si512(
+                _mm512_cvtepu32_epi64(l),
+                _mm512_slli_epi64::<32>(_mm512_cvtepu32_epi64(h)),
+            )
+        };
+        let first = join(_mm512_castsi512_si256(lo), _mm512_castsi512_si256(hi));
+        let second = join(
+            _mm512_extracti64x4_epi64::<1>(lo),
+            _mm512_extracti64x4_epi64::<1>(hi),
+        );
+        let (a, b) = out.split_at_mut(8);
+        // SAFETY: `a` and `b` are 8 writable u64 each (64 bytes); the
+        // stores are unaligned.
+        unsafe {
+            _mm512_storeu_si512(a.as_mut_ptr().cast(), first);
+            _mm512_storeu_si512(b.as_mut_ptr().cast(), second);
+        }
+    }
+
+    /// 16 floats from a bounds-checked array.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn load_ps(a: &[f32; 16]) -> __m512 {
+        // SAFETY: `a` is 64 readable bytes; the load is unaligned.
+        unsafe { _mm512_loadu_ps(a.as_ptr()) }
+    }
+
+    /// `s[at..at + 16]`, bounds-checked.
+    #[inline]
+    fn lanes_ps(s: &[f32], at: usize) -> &[f32; 16] {
+        let Ok(c) = <&[f32; 16]>::try_from(&s[at..at + 16]) else {
+            unreachable!("a slice of 16 elements")
+        };
+        c
     }
 
     /// The safe scalar cost row compiled for AVX-512 (`vpopcntq`).
@@ -446,10 +520,11 @@ mod x86 {
                     load_w(lanes_w(q, k + 1)),
                     load_w(lanes_w(q, k + 2)),
                 );
-                let best = _mm512_min_epu16(
-                    _mm512_min_epu16(mid, _mm512_add_epi16(lo, vp1)),
-                    _mm512_min_epu16(_mm512_add_epi16(hi, vp1), lim[j]),
-                );
+                // min(lo + p1, hi + p1) as min(lo, hi) + p1: one add
+                // fewer, the same value (no term wraps: all stay below
+                // BIG + 8000 < 65536).
+                let near = _mm512_add_epi16(_mm512_min_epu16(lo, hi), vp1);
+                let best = _mm512_min_epu16(_mm512_min_epu16(mid, near), lim[j]);
                 let v = _mm512_sub_epi16(_mm512_add_epi16(c, best), vm[j]);
                 let Ok(dst) = <&mut [u16; 32]>::try_from(&mut cur[j][k + 1..k + 33]) else {
                     unreachable!("a slice of 32 elements")
