@@ -178,6 +178,46 @@ pub(crate) fn cost_row(
     scratch: &mut (Vec<u64>, Vec<u8>),
     out: &mut [u8],
 ) {
+    cost_row_with(
+        cl,
+        cr,
+        left_valid,
+        right_valid,
+        n_bits,
+        scratch,
+        out,
+        cost_cells,
+    );
+}
+
+/// One left pixel's costs against consecutive right pixels: `out[k]` is
+/// the Hamming distance of `code` and `right[k]`, or `n_bits` where
+/// `mask[k]` is 0xFF (a popcount is at most `n_bits`, so `(n | mask)
+/// .min(n_bits)` needs no branch).
+#[allow(clippy::inline_always)]
+#[inline(always)]
+pub(crate) fn cost_cells(code: u64, right: &[u64], mask: &[u8], n_bits: u8, out: &mut [u8]) {
+    for (c, (&r, &m)) in out.iter_mut().zip(right.iter().zip(mask)) {
+        *c = ((code ^ r).count_ones() as u8 | m).min(n_bits);
+    }
+}
+
+/// [`cost_row`] with each pixel's in-range costs computed by `cells`
+/// ([`cost_cells`] or an equal vector version).
+#[allow(clippy::inline_always, clippy::too_many_arguments)]
+#[inline(always)]
+pub(crate) fn cost_row_with<F>(
+    cl: &[u64],
+    cr: &[u64],
+    left_valid: &[bool],
+    right_valid: &[bool],
+    n_bits: u8,
+    scratch: &mut (Vec<u64>, Vec<u8>),
+    out: &mut [u8],
+    cells: F,
+) where
+    F: Fn(u64, &[u64], &[u8], u8, &mut [u8]),
+{
     let w = cl.len();
     scratch.0.resize(w, 0);
     scratch.1.resize(w, 0);
@@ -206,13 +246,13 @@ pub(crate) fn cost_row(
         outside.fill(n_bits);
         // Index k is right pixel x - k, reversed slot w - 1 - x + k.
         let first = w - 1 - x;
-        let code = cl[x];
-        let right = rev[first..first + reach]
-            .iter()
-            .zip(&mask[first..first + reach]);
-        for (c, (&r, &m)) in inside.iter_mut().zip(right) {
-            *c = ((code ^ r).count_ones() as u8 | m).min(n_bits);
-        }
+        cells(
+            cl[x],
+            &rev[first..first + reach],
+            &mask[first..first + reach],
+            n_bits,
+            inside,
+        );
     }
 }
 

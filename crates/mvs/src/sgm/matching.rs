@@ -31,7 +31,8 @@ use super::costs::costs_of_row;
 #[cfg(test)]
 pub(crate) use super::costs::{census, cost_volume};
 pub(crate) use super::costs::{
-    census_row, census_row_with, cost_row, pair_census, window_row, CensusRow, PairCensus,
+    census_row, census_row_with, cost_cells, cost_row, cost_row_with, pair_census, window_row,
+    CensusRow, PairCensus,
 };
 pub(crate) use super::winners::{filter_speckles, winner_row, winner_row_with};
 
