@@ -289,6 +289,8 @@ mod x86 {
         _CMP_LT_OQ, _MM_HINT_T0,
     };
 
+    use std::arch::x86_64::{_mm512_mask_set1_epi16, _mm512_permutexvar_epi16};
+
     use std::arch::x86_64::{
         _mm256_set_m128i, _mm512_castsi256_si512, _mm512_cvtepi64_epi8, _mm512_inserti64x4,
         _mm512_min_epu8, _mm512_popcnt_epi64, _mm512_set1_epi64, _mm512_set1_epi8,
@@ -588,6 +590,16 @@ mod x86 {
         let lim = prev_min.map(|m| _mm512_set1_epi16((m + p2) as i16));
         let vm = prev_min.map(|m| _mm512_set1_epi16(m as i16));
         let mut vmin = [_mm512_set1_epi16(-1); 4];
+        // Lane i takes lane i - 1 (up; lane 0 is then replaced) or lane
+        // i + 1 (down; lane 31 replaced).
+        let up = _mm512_set_epi16(
+            30, 29, 28, 27, 26, 25, 24, 23, 22, 21, 20, 19, 18, 17, 16, 15, 14, 13, 12, 11, 10, 9,
+            8, 7, 6, 5, 4, 3, 2, 1, 0, 0,
+        );
+        let down = _mm512_set_epi16(
+            31, 31, 30, 29, 28, 27, 26, 25, 24, 23, 22, 21, 20, 19, 18, 17, 16, 15, 14, 13, 12, 11,
+            10, 9, 8, 7, 6, 5, 4, 3, 2, 1,
+        );
         for k in starts.clone() {
             let Ok(c8) = <&[u8; 32]>::try_from(&cost[k..k + 32]) else {
                 unreachable!("a slice of 32 elements")
@@ -601,11 +613,26 @@ mod x86 {
             };
             for j in 0..4 {
                 let q = prev[j];
-                let (lo, mid, hi) = (
-                    load_w(lanes_w(q, k)),
-                    load_w(lanes_w(q, k + 1)),
-                    load_w(lanes_w(q, k + 2)),
-                );
+                let mid = load_w(lanes_w(q, k + 1));
+                let (lo, hi) = if j == 0 {
+                    // The in-row path's previous cells were stored by the
+                    // previous pixel's step just before: loads one lane
+                    // off those stores cannot take their data from the
+                    // store buffer and wait for the stores to reach the
+                    // cache, on the in-row path's dependency chain. The
+                    // same lanes from `mid` shifted by one, and the one
+                    // lane shifted in read as a scalar, within one store.
+                    (
+                        _mm512_mask_set1_epi16(_mm512_permutexvar_epi16(up, mid), 1, q[k] as i16),
+                        _mm512_mask_set1_epi16(
+                            _mm512_permutexvar_epi16(down, mid),
+                            1 << 31,
+                            q[k + 33] as i16,
+                        ),
+                    )
+                } else {
+                    (load_w(lanes_w(q, k)), load_w(lanes_w(q, k + 2)))
+                };
                 // min(lo + p1, hi + p1) as min(lo, hi) + p1: one add
                 // fewer, the same value (no term wraps: all stay below
                 // BIG + 8000 < 65536).
