@@ -289,7 +289,10 @@ mod x86 {
         _CMP_LT_OQ, _MM_HINT_T0,
     };
 
-    use std::arch::x86_64::{_mm512_mask_set1_epi16, _mm512_permutexvar_epi16};
+    use std::arch::x86_64::{
+        _mm256_min_epu8, _mm256_or_si256, _mm256_set1_epi8, _mm256_storeu_si256,
+        _mm512_mask_set1_epi16, _mm512_permutexvar_epi16,
+    };
 
     use std::arch::x86_64::{
         _mm256_set_m128i, _mm512_castsi256_si512, _mm512_cvtepi64_epi8, _mm512_inserti64x4,
@@ -445,7 +448,7 @@ mod x86 {
         );
     }
 
-    /// `sgm::costs::cost_cells` 64 cells a step: eight `vpopcntq` of
+    /// `sgm::costs::cost_cells` 64 (then 32) cells a step: eight `vpopcntq` of
     /// eight codes each, narrowed to bytes and joined into one 64-byte
     /// vector, or-ed with the validity mask and capped at `n_bits` (the
     /// compiled scalar loop went 16 cells a step through 128-bit
@@ -484,6 +487,36 @@ mod x86 {
             // SAFETY: `dst` is 64 writable bytes; the store is unaligned.
             unsafe { _mm512_storeu_si512(dst.as_mut_ptr().cast(), v) };
             k += 64;
+        }
+        // 32 cells a step for what is left (32 disparities, or the rest
+        // of 96), the same operations in 256-bit registers.
+        let cap32 = _mm256_set1_epi8(n_bits as i8);
+        while k + 32 <= n {
+            let Ok(r) = <&[u64; 32]>::try_from(&right[k..k + 32]) else {
+                unreachable!("a slice of 32 elements")
+            };
+            let Ok(m) = <&[u8; 32]>::try_from(&mask[k..k + 32]) else {
+                unreachable!("a slice of 32 elements")
+            };
+            let bytes = |i: usize| {
+                // SAFETY: `r[8 * i..8 * i + 8]` are 64 readable bytes
+                // (i < 4); the load is unaligned.
+                let v = unsafe { _mm512_loadu_si512(r[8 * i..8 * i + 8].as_ptr().cast()) };
+                _mm512_cvtepi64_epi8(_mm512_popcnt_epi64(_mm512_xor_si512(v, vcode)))
+            };
+            let all = _mm256_set_m128i(
+                _mm_unpacklo_epi64(bytes(2), bytes(3)),
+                _mm_unpacklo_epi64(bytes(0), bytes(1)),
+            );
+            // SAFETY: `m` is 32 readable bytes; the load is unaligned.
+            let vm = unsafe { _mm256_loadu_si256(m.as_ptr().cast()) };
+            let v = _mm256_min_epu8(_mm256_or_si256(all, vm), cap32);
+            let Ok(dst) = <&mut [u8; 32]>::try_from(&mut out[k..k + 32]) else {
+                unreachable!("a slice of 32 elements")
+            };
+            // SAFETY: `dst` is 32 writable bytes; the store is unaligned.
+            unsafe { _mm256_storeu_si256(dst.as_mut_ptr().cast(), v) };
+            k += 32;
         }
         crate::sgm::matching::cost_cells(code, &right[k..n], &mask[k..n], n_bits, &mut out[k..n]);
     }
