@@ -114,7 +114,7 @@ pub(crate) struct PassState {
 /// row-to-row ones of an 8-path pass), each [`step`], and their sum into
 /// `out`, plus `extra` (the other pass's sums of the pixel) unless that
 /// is empty. Returns the four minima. simd.rs has the same in one AVX-512
-/// loop over the disparities (`x86::step4_512`), tested equal.
+/// loop over the disparities (`sgm_kernels::step4_512`), tested equal.
 #[allow(clippy::inline_always, clippy::too_many_arguments)]
 #[inline(always)]
 pub(crate) fn step4(

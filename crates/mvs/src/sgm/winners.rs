@@ -34,7 +34,7 @@ pub(crate) fn winner_row(
 /// A cell's winner: the index of its first smallest sum, and the smallest
 /// sum two or more disparities away from it (u16::MAX for none: sums stay
 /// below 8 x (64 + 8000) < 65535). simd.rs has the same with AVX-512
-/// (`x86::pick_512`), tested equal.
+/// (`sgm_kernels::pick_512`), tested equal.
 #[allow(clippy::inline_always)]
 #[inline(always)]
 pub(crate) fn pick(s: &[u16]) -> (usize, u16) {
