@@ -30,7 +30,10 @@ const BIG: u16 = 0x4000;
 use super::costs::costs_of_row;
 #[cfg(test)]
 pub(crate) use super::costs::{census, cost_volume};
-pub(crate) use super::costs::{census_row, cost_row, pair_census, CensusRow, PairCensus};
+pub(crate) use super::costs::{
+    census_row, census_row_with, cost_cells, cost_row, cost_row_with, pair_census, window_row,
+    CensusRow, PairCensus,
+};
 pub(crate) use super::winners::{filter_speckles, winner_row, winner_row_with};
 
 /// One step of a scanline: `cur[1..=nd]` from the previous pixel's
@@ -89,6 +92,10 @@ pub(crate) struct RowPass<'a> {
     pub hdx: isize,
     /// The row-to-row paths: pixel x continues the previous row's x - dx.
     pub vdx: &'a [isize],
+    /// The other pass's sums of this row (`w * nd`), added to this pass's
+    /// as each pixel is done (the row's total, ready for its winners), or
+    /// empty.
+    pub other: &'a [u16],
 }
 
 /// The per-path scanline buffers of a pass: the previous and current
@@ -105,9 +112,10 @@ pub(crate) struct PassState {
 
 /// Four scanline steps of one pixel (the in-row path and the three
 /// row-to-row ones of an 8-path pass), each [`step`], and their sum into
-/// `out`. Returns the four minima. simd.rs has the same in one AVX-512
-/// loop over the disparities (`x86::step4_512`), tested equal.
-#[allow(clippy::inline_always)]
+/// `out`, plus `extra` (the other pass's sums of the pixel) unless that
+/// is empty. Returns the four minima. simd.rs has the same in one AVX-512
+/// loop over the disparities (`sgm_kernels::step4_512`), tested equal.
+#[allow(clippy::inline_always, clippy::too_many_arguments)]
 #[inline(always)]
 pub(crate) fn step4(
     cost: &[u8],
@@ -117,6 +125,7 @@ pub(crate) fn step4(
     p2: u16,
     cur: [&mut [u16]; 4],
     out: &mut [u16],
+    extra: &[u16],
 ) -> [u16; 4] {
     let [c0, c1, c2, c3] = cur;
     let mins = [
@@ -131,7 +140,19 @@ pub(crate) fn step4(
     for (s, (((&a, &b), &c), &d)) in out[..nd].iter_mut().zip(cells) {
         *s = a.wrapping_add(b).wrapping_add(c).wrapping_add(d);
     }
+    add_extra(&mut out[..nd], extra);
     mins
+}
+
+/// `out += extra` (wrapping, as the sums; nothing when `extra` is empty):
+/// the other pass's sums of a pixel, added while its cells are in L1.
+#[allow(clippy::inline_always)]
+#[inline(always)]
+pub(crate) fn add_extra(out: &mut [u16], extra: &[u16]) {
+    // At most 8 paths x (64 + 8000) < 65536: never wraps.
+    for (s, &v) in out.iter_mut().zip(extra) {
+        *s = s.wrapping_add(v);
+    }
 }
 
 /// The sum over a pass's paths of one row's aggregated costs, into `out`
@@ -141,8 +162,8 @@ pub(crate) fn step4(
 #[allow(clippy::inline_always)]
 #[inline(always)]
 pub(crate) fn pass_row(job: &RowPass, st: &mut PassState, out: &mut [u16]) {
-    pass_row_with(job, st, out, |c, q, m, p1, p2, cur, o| {
-        step4(c, q, m, p1, p2, cur, o)
+    pass_row_with(job, st, out, |c, q, m, p1, p2, cur, o, e| {
+        step4(c, q, m, p1, p2, cur, o, e)
     });
 }
 
@@ -152,7 +173,7 @@ pub(crate) fn pass_row(job: &RowPass, st: &mut PassState, out: &mut [u16]) {
 #[inline(always)]
 pub(crate) fn pass_row_with<F>(job: &RowPass, st: &mut PassState, out: &mut [u16], four: F)
 where
-    F: Fn(&[u8], [&[u16]; 4], [u16; 4], u16, u16, [&mut [u16]; 4], &mut [u16]) -> [u16; 4],
+    F: Fn(&[u8], [&[u16]; 4], [u16; 4], u16, u16, [&mut [u16]; 4], &mut [u16], &[u16]) -> [u16; 4],
 {
     let (nd, pad) = (job.nd, job.nd + 2);
     let w = out.len() / nd;
@@ -163,6 +184,7 @@ where
         let x = if job.hdx > 0 { n } else { w - 1 - n };
         let c = &job.cost[x * nd..(x + 1) * nd];
         let o = &mut out[x * nd..(x + 1) * nd];
+        let extra = job.other.get(x * nd..(x + 1) * nd).unwrap_or(&[]);
         // 8 paths inside the image: the four steps in one loop over the
         // disparities ([`step4`]), the usual case.
         if n > 0 && !job.first && job.vdx == [0, 1, -1] && x >= 1 && x + 1 < w {
@@ -188,6 +210,7 @@ where
                     &mut v2[x * pad..(x + 1) * pad],
                 ],
                 o,
+                extra,
             );
             hmin = mins[0];
             for (j, &m) in mins[1..].iter().enumerate() {
@@ -236,17 +259,25 @@ where
                 }
             }
         }
+        add_extra(o, extra);
         std::mem::swap(&mut hprev, &mut hcur);
     }
 }
 
+/// [`sweep`]'s sink of finished rows: (y, the row's sums, the other
+/// pass's row that was added to them, if any).
+type RowDone<'a> = dyn FnMut(usize, &mut Vec<u16>, Option<Vec<u16>>) + 'a;
+
 /// One pass over the rows, top to bottom (`forward`) or bottom to top:
-/// hands `row_done(y, sums)` the sum of its paths' aggregated costs of
-/// each row y (`w * nd`, laid out like the cost volume), which the sink
-/// may keep (swapping in another buffer of the same length). The forward
-/// pass holds the paths going right, down, down-right and down-left
-/// (right and down with 4 paths), the backward one their opposites, so
-/// the two passes together are Hirschmüller's 8 (or 4).
+/// asks `before(y)` for the other pass's sums of row y (`None`: not
+/// there yet), then hands `row_done(y, sums, other)` the sum of its
+/// paths' aggregated costs of the row (`w * nd`, laid out like the cost
+/// volume; the total of both passes when `other` is the row `before`
+/// gave), which the sink may keep (swapping in another buffer of the same
+/// length). The forward pass holds the paths going right, down,
+/// down-right and down-left (right and down with 4 paths), the backward
+/// one their opposites, so the two passes together are Hirschmüller's 8
+/// (or 4).
 #[allow(clippy::too_many_arguments)]
 fn sweep(
     codes: &PairCensus,
@@ -254,7 +285,8 @@ fn sweep(
     params: &SgmParams,
     forward: bool,
     simd: SgmSimd,
-    row_done: &mut dyn FnMut(usize, &mut Vec<u16>),
+    before: &mut dyn FnMut(usize) -> Option<Vec<u16>>,
+    row_done: &mut RowDone,
 ) {
     let (w, h, nd) = (pair.width, pair.height, pair.n_disp);
     let vdx: &[isize] = if params.paths == 4 { &[0] } else { &[0, 1, -1] };
@@ -273,6 +305,7 @@ fn sweep(
     for n in 0..h {
         let y = if forward { n } else { h - 1 - n };
         costs_of_row(codes, pair, y, simd, &mut scratch, &mut cost);
+        let other = before(y);
         let job = RowPass {
             cost: &cost,
             nd,
@@ -281,11 +314,12 @@ fn sweep(
             p2: params.p2,
             hdx: if forward { 1 } else { -1 },
             vdx,
+            other: other.as_deref().unwrap_or(&[]),
         };
         simd.pass_row(&job, &mut st, &mut out);
         std::mem::swap(&mut st.prev, &mut st.cur);
         std::mem::swap(&mut st.prev_min, &mut st.cur_min);
-        row_done(y, &mut out);
+        row_done(y, &mut out, other);
     }
 }
 
@@ -303,9 +337,17 @@ pub(crate) fn aggregate(
     let codes = pair_census(pair, cw, ch, simd);
     let pass = |forward: bool| {
         let mut sum = vec![0u16; w * h * nd];
-        sweep(&codes, pair, params, forward, simd, &mut |y, row| {
-            sum[y * w * nd..(y + 1) * w * nd].copy_from_slice(row);
-        });
+        sweep(
+            &codes,
+            pair,
+            params,
+            forward,
+            simd,
+            &mut |_| None,
+            &mut |y, row, _| {
+                sum[y * w * nd..(y + 1) * w * nd].copy_from_slice(row);
+            },
+        );
         sum
     };
     (pass(true), pass(false))
@@ -314,8 +356,10 @@ pub(crate) fn aggregate(
 /// Aggregation and winner-take-all in one go: the forward and backward
 /// passes run side by side (two threads, each a sweep that depends on its
 /// previous row) and meet in the middle. The first pass to finish a row
-/// leaves its sums there; the second adds its own and picks the row's
-/// winners ([`winner_row`]) while the row is in cache. Integer sums: the
+/// leaves its sums there; the second, finding them before it starts the
+/// row, adds them to its own pixel by pixel as it goes (after the row
+/// when both started it at once) and picks the row's winners
+/// ([`winner_row`]) while the row is in cache. Integer sums: the
 /// result does not depend on which pass came first, nor on the threads.
 ///
 /// # Performance
@@ -343,26 +387,30 @@ pub(crate) fn aggregate_and_pick(
     let pass = |forward: bool| {
         let mut picked = vec![f32::NAN; w];
         let mut held = Vec::new();
-        sweep(codes, pair, params, forward, simd, &mut |y, row| {
-            let other = {
+        // The other pass's row when it is already there: this pass adds
+        // it pixel by pixel while its own sums are in L1 (no second trip
+        // over the row), then picks the winners.
+        let mut before = |y: usize| lock(&meet[y]).take();
+        let mut done = |y: usize, row: &mut Vec<u16>, added: Option<Vec<u16>>| {
+            if let Some(used) = added {
+                lock(&spare).push(used);
+            } else {
+                // Not there before this row: leave this pass's sums for
+                // the other, unless it arrived meanwhile.
                 let mut slot = lock(&meet[y]);
-                let other = slot.take();
-                if other.is_none() {
+                let Some(other) = slot.take() else {
                     let fresh = lock(&spare).pop().unwrap_or_else(|| vec![0u16; w * nd]);
                     *slot = Some(std::mem::replace(row, fresh));
-                }
-                other
-            };
-            if let Some(other) = other {
-                // At most 8 paths x (64 + 8000) < 65536: never wraps.
-                for (s, &v) in row.iter_mut().zip(&other) {
-                    *s = s.wrapping_add(v);
-                }
-                simd.winner_row(row, y, pair, params, &mut held, &mut picked);
-                lock(&disp)[y * w..(y + 1) * w].copy_from_slice(&picked);
+                    return;
+                };
+                drop(slot);
+                add_extra(row, &other);
                 lock(&spare).push(other);
             }
-        });
+            simd.winner_row(row, y, pair, params, &mut held, &mut picked);
+            lock(&disp)[y * w..(y + 1) * w].copy_from_slice(&picked);
+        };
+        sweep(codes, pair, params, forward, simd, &mut before, &mut done);
     };
     rayon::join(|| pass(true), || pass(false));
     let mut kept = spare.into_inner().unwrap_or_else(PoisonError::into_inner);

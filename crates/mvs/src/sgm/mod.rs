@@ -364,18 +364,22 @@ pub fn rectified_disparity(
     let (w, h) = (left.width as usize, left.height as usize);
     // Index k compares left x with right x - k - min_disparity: shift the
     // right image by min_disparity, so the matcher searches 0..n.
+    // Row by row: right x - shift lands at x where 0 <= x - shift < w
+    // (a slice copy per row, not a division per pixel).
     let shift = i64::from(min_disparity);
     let mut right_shifted = vec![0.0f32; w * h];
     let mut right_valid = vec![false; w * h];
-    for (i, (v, ok)) in right_shifted
-        .iter_mut()
-        .zip(right_valid.iter_mut())
-        .enumerate()
+    let lo = shift.clamp(0, w as i64) as usize;
+    let hi = (w as i64 + shift).clamp(0, w as i64) as usize;
+    for ((dst, ok), src) in right_shifted
+        .chunks_exact_mut(w)
+        .zip(right_valid.chunks_exact_mut(w))
+        .zip(right.data.chunks_exact(w))
     {
-        let x = (i % w) as i64 - shift;
-        if x >= 0 && x < w as i64 {
-            *v = right.data[i - (i % w) + x as usize];
-            *ok = true;
+        if hi > lo {
+            let from = (lo as i64 - shift) as usize;
+            dst[lo..hi].copy_from_slice(&src[from..from + (hi - lo)]);
+            ok[lo..hi].fill(true);
         }
     }
     let pair = RectifiedPair {

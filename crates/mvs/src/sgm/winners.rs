@@ -34,7 +34,7 @@ pub(crate) fn winner_row(
 /// A cell's winner: the index of its first smallest sum, and the smallest
 /// sum two or more disparities away from it (u16::MAX for none: sums stay
 /// below 8 x (64 + 8000) < 65535). simd.rs has the same with AVX-512
-/// (`x86::pick_512`), tested equal.
+/// (`sgm_kernels::pick_512`), tested equal.
 #[allow(clippy::inline_always)]
 #[inline(always)]
 pub(crate) fn pick(s: &[u16]) -> (usize, u16) {
@@ -167,41 +167,49 @@ fn winner_row_best_left<F: Fn(&[u16]) -> (usize, u16)>(
 ) {
     let (w, nd) = (pair.width, pair.n_disp);
     held.clear();
-    held.resize(w, u32::MAX);
+    // Slot w takes the offers of rejected pixels (never read): the loop
+    // below selects instead of branching, since which pixels pass the
+    // checks is data, not a pattern the branch predictor learns (the
+    // branches were half the time of this function).
+    held.resize(w + 1, u32::MAX);
+    let (lv, rv) = (
+        &pair.left_valid[y * w..(y + 1) * w],
+        &pair.right_valid[y * w..(y + 1) * w],
+    );
     for (x, o) in out.iter_mut().enumerate() {
-        *o = f32::NAN;
-        if !pair.left_valid[y * w + x] {
-            continue;
-        }
         let s = &row[x * nd..(x + 1) * nd];
         let (best, smallest) = pick(s);
-        if best > x || !pair.right_valid[y * w + x - best] {
-            continue;
-        }
-        if !is_unique(s, best, smallest, params.uniqueness) {
-            continue;
-        }
-        let offer = &mut held[x - best];
+        // Right pixel x - best (wrapped past w when best > x).
+        let xr = x.wrapping_sub(best);
+        #[allow(clippy::needless_bitwise_bool)] // all evaluated: no branches
+        let keep =
+            lv[x] & (xr < w) & rv[xr.min(w - 1)] & is_unique(s, best, smallest, params.uniqueness);
+        let slot = if keep { xr } else { w };
+        let offer = &mut held[slot];
         *offer = (*offer).min(u32::from(s[best]) << 16 | best as u32);
-        *o = subpixel(s, best);
+        let d = subpixel(s, best);
+        *o = if keep { d } else { f32::NAN };
     }
+    held.truncate(w);
     let tolerance = params.lr_max_diff as usize;
     for (x, o) in out.iter_mut().enumerate() {
-        if o.is_nan() {
-            continue;
-        }
         // The right pixel at disparity k disagrees when it holds an offer
         // more than the tolerance away (no offer, or outside the image:
-        // no evidence against the left pixel).
+        // no evidence against the left pixel). Selects, not branches, as
+        // above; a NaN disparity stays NaN whatever they say.
         let disagrees = |k: usize| {
-            x.checked_sub(k)
-                .and_then(|xr| held.get(xr))
-                .is_some_and(|&h| h != u32::MAX && ((h & 0xFFFF) as usize).abs_diff(k) > tolerance)
+            let xr = x.wrapping_sub(k);
+            let h = held[xr.min(w - 1)];
+            let h = if xr < w { h } else { u32::MAX };
+            (h != u32::MAX) & (((h & 0xFFFF) as usize).abs_diff(k) > tolerance)
         };
-        let (lo, hi) = (o.floor() as usize, o.ceil() as usize);
-        if disagrees(lo) && disagrees(hi) {
-            *o = f32::NAN;
-        }
+        let d = *o;
+        let (lo, hi) = (d.floor() as usize, d.ceil() as usize);
+        *o = if disagrees(lo) & disagrees(hi) {
+            f32::NAN
+        } else {
+            d
+        };
     }
 }
 

@@ -28,10 +28,10 @@
 //! `#[target_feature]` function, under the same detected token (and a
 //! detected `popcnt`); the operations are integer and identical, so the
 //! results are the scalar ones (tested in `sgm/tests.rs`).
-//! Those, the AVX-512 copies (F, BW, VL, VPOPCNTDQ, runtime-detected as
-//! a second token, [`sgm::Avx512`]) and the matcher's two intrinsics
-//! kernels live in `simd/sgm.rs` under the same rules; [`SgmSimd`] picks
-//! the widest level the CPU has.
+//! Those and the AVX-512 copies (F, BW, VL, VPOPCNTDQ, runtime-detected
+//! as a second token, [`sgm::Avx512`]) live in `simd/sgm.rs`, the
+//! matcher's intrinsics kernels in `simd/sgm_kernels.rs`, under the same
+//! rules; [`SgmSimd`] picks the widest level the CPU has.
 #![allow(unsafe_code)]
 // Off x86-64 the token is never made and the window's fields never read.
 #![cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
@@ -39,6 +39,8 @@
 use crate::cost::CHUNK;
 
 mod sgm;
+#[cfg(target_arch = "x86_64")]
+mod sgm_kernels;
 pub(crate) use sgm::SgmSimd;
 
 /// Proof that the running CPU has AVX2 (only [`Avx2::detect`] makes one).

@@ -1,9 +1,9 @@
 //! The semi-global matcher's row kernels at each SIMD level: the safe
 //! scalar rows of `sgm::costs`, `sgm::matching` and `sgm::winners`
 //! compiled again under `#[target_feature]` (AVX2; AVX-512 F, BW, VL and
-//! VPOPCNTDQ), and two AVX-512 kernels written with intrinsics, the four
-//! scanline steps of a pixel ([`x86::step4_512`]) and a cell's winner
-//! ([`x86::pick_512`]). The rules of the parent module hold: runtime
+//! VPOPCNTDQ), some with AVX-512 kernels written with intrinsics
+//! (`simd/sgm_kernels.rs`: census blocks, cost cells, the four scanline
+//! steps of a pixel, a cell's winner). The rules of the parent module hold: runtime
 //! detection, a token as the only way in, bounds-checked loads and
 //! stores, `// SAFETY:` on every block, and results bit for bit the
 //! scalar ones (tested in `sgm/tests.rs` at every level the CPU has).
@@ -144,25 +144,19 @@ impl SgmSimd {
     }
 
     /// `sgm::matching::census_row` at this level.
-    pub(crate) fn census_row(
-        self,
-        job: &crate::sgm::matching::CensusRow,
-        lo_bits: &mut [u32],
-        hi_bits: &mut [u32],
-        out: &mut [u64],
-    ) {
+    pub(crate) fn census_row(self, job: &crate::sgm::matching::CensusRow, out: &mut [u64]) {
         match self {
-            SgmSimd::Scalar => crate::sgm::matching::census_row(job, lo_bits, hi_bits, out),
+            SgmSimd::Scalar => crate::sgm::matching::census_row(job, out),
             SgmSimd::Avx2(_) => {
                 #[cfg(target_arch = "x86_64")]
                 // SAFETY: an `Avx2` token exists only if `detect` found
                 // AVX2 on this CPU, the one feature `x86::sgm_census_row`
                 // is compiled for; its body is safe code.
                 unsafe {
-                    x86::sgm_census_row(job, lo_bits, hi_bits, out);
+                    x86::sgm_census_row(job, out);
                 }
                 #[cfg(not(target_arch = "x86_64"))]
-                crate::sgm::matching::census_row(job, lo_bits, hi_bits, out);
+                crate::sgm::matching::census_row(job, out);
             }
             SgmSimd::Avx512(_) => {
                 #[cfg(target_arch = "x86_64")]
@@ -170,10 +164,10 @@ impl SgmSimd {
                 // every feature `x86::sgm_census_row_512` is compiled for;
                 // its body is safe code.
                 unsafe {
-                    x86::sgm_census_row_512(job, lo_bits, hi_bits, out);
+                    x86::sgm_census_row_512(job, out);
                 }
                 #[cfg(not(target_arch = "x86_64"))]
-                crate::sgm::matching::census_row(job, lo_bits, hi_bits, out);
+                crate::sgm::matching::census_row(job, out);
             }
         }
     }
@@ -281,17 +275,8 @@ impl SgmSimd {
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    use std::arch::x86_64::{
-        __m512i, _mm256_castsi256_si128, _mm256_extracti128_si256, _mm256_loadu_si256,
-        _mm256_min_epu16, _mm512_add_epi16, _mm512_castsi512_si256, _mm512_cvtepu8_epi16,
-        _mm512_extracti64x4_epi64, _mm512_loadu_si512, _mm512_min_epu16, _mm512_set1_epi16,
-        _mm512_setzero_si512, _mm512_storeu_si512, _mm512_sub_epi16, _mm_cvtsi128_si32,
-        _mm_min_epu16, _mm_minpos_epu16,
-    };
-
-    use std::arch::x86_64::{
-        _mm512_cmpeq_epi16_mask, _mm512_cmplt_epu16_mask, _mm512_mask_mov_epi16, _mm512_set_epi16,
-    };
+    use super::super::sgm_kernels::{census_block_512, cost_cells_512, pick_512, step4_512};
+    use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
 
     /// The safe scalar row of a pass, inlined here and so compiled for AVX2.
     #[target_feature(enable = "avx2")]
@@ -334,24 +319,16 @@ mod x86 {
 
     /// The safe scalar census row, inlined here and so compiled for AVX2.
     #[target_feature(enable = "avx2")]
-    pub(super) fn sgm_census_row(
-        job: &crate::sgm::matching::CensusRow,
-        lo_bits: &mut [u32],
-        hi_bits: &mut [u32],
-        out: &mut [u64],
-    ) {
-        crate::sgm::matching::census_row(job, lo_bits, hi_bits, out);
+    pub(super) fn sgm_census_row(job: &crate::sgm::matching::CensusRow, out: &mut [u64]) {
+        crate::sgm::matching::census_row(job, out);
     }
 
-    /// The safe scalar census row compiled for AVX-512.
+    /// The census row compiled for AVX-512, the interior blocks by
+    /// [`census_block_512`].
     #[target_feature(enable = "avx2,popcnt,avx512f,avx512bw,avx512vl,avx512vpopcntdq")]
-    pub(super) fn sgm_census_row_512(
-        job: &crate::sgm::matching::CensusRow,
-        lo_bits: &mut [u32],
-        hi_bits: &mut [u32],
-        out: &mut [u64],
-    ) {
-        crate::sgm::matching::census_row(job, lo_bits, hi_bits, out);
+    pub(super) fn sgm_census_row_512(job: &crate::sgm::matching::CensusRow, out: &mut [u64]) {
+        // A closure inherits this function's target features.
+        crate::sgm::matching::census_row_with(job, out, |j, x0, o| census_block_512(j, x0, o));
     }
 
     /// The safe scalar cost row compiled for AVX-512 (`vpopcntq`).
@@ -365,130 +342,50 @@ mod x86 {
         scratch: &mut (Vec<u64>, Vec<u8>),
         out: &mut [u8],
     ) {
-        crate::sgm::matching::cost_row(cl, cr, left_valid, right_valid, n_bits, scratch, out);
+        crate::sgm::matching::cost_row_with(
+            cl,
+            cr,
+            left_valid,
+            right_valid,
+            n_bits,
+            scratch,
+            out,
+            // A closure inherits this function's target features.
+            |code, right, mask, n, o| cost_cells_512(code, right, mask, n, o),
+        );
     }
 
     /// The safe scalar row of a pass compiled for AVX-512, with the four
-    /// steps of inside pixels by [`step4_512`].
+    /// steps of inside pixels by [`step4_512`]. When the row carries the
+    /// other pass's sums, those of the pixel [`AHEAD`] pixels on are
+    /// prefetched: the other pass wrote them long ago (they are in
+    /// memory, not in cache), and the loads of each pixel's sums otherwise
+    /// wait for memory (13 % of this function in a `perf` profile).
     #[target_feature(enable = "avx2,popcnt,avx512f,avx512bw,avx512vl,avx512vpopcntdq")]
     pub(super) fn sgm_pass_row_512(
         job: &crate::sgm::matching::RowPass,
         st: &mut crate::sgm::matching::PassState,
         out: &mut [u16],
     ) {
-        crate::sgm::matching::pass_row_with(job, st, out, |c, q, m, p1, p2, cur, o| {
+        let ahead = job.hdx * (AHEAD * job.nd) as isize;
+        let lines = (job.nd * 2).div_ceil(64);
+        crate::sgm::matching::pass_row_with(job, st, out, |c, q, m, p1, p2, cur, o, e| {
             // A closure inherits this function's target features.
-            step4_512(c, q, m, p1, p2, cur, o)
+            if !e.is_empty() {
+                let p = e.as_ptr().cast::<i8>().wrapping_offset(2 * ahead);
+                for l in 0..lines {
+                    // A hint: it neither faults nor changes memory,
+                    // whatever the address (here possibly past the row).
+                    _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64 * l));
+                }
+            }
+            step4_512(c, q, m, p1, p2, cur, o, e)
         });
     }
 
-    /// 32 u16 from a bounds-checked array.
-    #[inline]
-    #[target_feature(enable = "avx512f,avx512bw")]
-    fn load_w(a: &[u16; 32]) -> __m512i {
-        // SAFETY: `a` is 64 readable bytes; the load is unaligned.
-        unsafe { _mm512_loadu_si512(a.as_ptr().cast()) }
-    }
-
-    /// `s[at..at + 32]`, bounds-checked.
-    #[inline]
-    fn lanes_w(s: &[u16], at: usize) -> &[u16; 32] {
-        let Ok(c) = <&[u16; 32]>::try_from(&s[at..at + 32]) else {
-            unreachable!("a slice of 32 elements")
-        };
-        c
-    }
-
-    /// The smallest of 32 u16 lanes.
-    #[inline]
-    #[target_feature(enable = "avx2,avx512f,avx512bw")]
-    fn min_w(v: __m512i) -> u16 {
-        let a = _mm256_min_epu16(_mm512_castsi512_si256(v), _mm512_extracti64x4_epi64::<1>(v));
-        let b = _mm_min_epu16(_mm256_castsi256_si128(a), _mm256_extracti128_si256::<1>(a));
-        (_mm_cvtsi128_si32(_mm_minpos_epu16(b)) & 0xFFFF) as u16
-    }
-
-    /// `sgm::matching::step4` in one loop over the disparities, 32 u16
-    /// lanes a vector: the same wrapping u16 additions and unsigned
-    /// minima, term for term, so the same results (tested in
-    /// `sgm/tests.rs`); below 32 disparities, the scalar `step` formula.
-    #[target_feature(enable = "avx2,popcnt,avx512f,avx512bw,avx512vl,avx512vpopcntdq")]
-    #[allow(clippy::needless_range_loop, clippy::needless_pass_by_value)]
-    fn step4_512(
-        cost: &[u8],
-        prev: [&[u16]; 4],
-        prev_min: [u16; 4],
-        p1: u16,
-        p2: u16,
-        cur: [&mut [u16]; 4],
-        out: &mut [u16],
-    ) -> [u16; 4] {
-        let nd = cost.len();
-        // Whole vectors, the last one overlapping the one before when nd
-        // is not a multiple of 32 (recomputing a cell gives the same value;
-        // minima do not mind a lane seen twice); below 32 disparities, one
-        // by one.
-        let starts = (0..nd / 32 * 32)
-            .step_by(32)
-            .chain((!nd.is_multiple_of(32) && nd > 32).then_some(nd.saturating_sub(32)));
-        let done = if nd >= 32 { nd } else { 0 };
-        let vp1 = _mm512_set1_epi16(p1 as i16);
-        let lim = prev_min.map(|m| _mm512_set1_epi16((m + p2) as i16));
-        let vm = prev_min.map(|m| _mm512_set1_epi16(m as i16));
-        let mut vmin = [_mm512_set1_epi16(-1); 4];
-        for k in starts.clone() {
-            let Ok(c8) = <&[u8; 32]>::try_from(&cost[k..k + 32]) else {
-                unreachable!("a slice of 32 elements")
-            };
-            // SAFETY: `c8` is 32 readable bytes; the load is unaligned.
-            let c = _mm512_cvtepu8_epi16(unsafe { _mm256_loadu_si256(c8.as_ptr().cast()) });
-            let mut sum = _mm512_setzero_si512();
-            for j in 0..4 {
-                let q = prev[j];
-                let (lo, mid, hi) = (
-                    load_w(lanes_w(q, k)),
-                    load_w(lanes_w(q, k + 1)),
-                    load_w(lanes_w(q, k + 2)),
-                );
-                let best = _mm512_min_epu16(
-                    _mm512_min_epu16(mid, _mm512_add_epi16(lo, vp1)),
-                    _mm512_min_epu16(_mm512_add_epi16(hi, vp1), lim[j]),
-                );
-                let v = _mm512_sub_epi16(_mm512_add_epi16(c, best), vm[j]);
-                let Ok(dst) = <&mut [u16; 32]>::try_from(&mut cur[j][k + 1..k + 33]) else {
-                    unreachable!("a slice of 32 elements")
-                };
-                // SAFETY: `dst` is 64 writable bytes; the store is unaligned.
-                unsafe { _mm512_storeu_si512(dst.as_mut_ptr().cast(), v) };
-                vmin[j] = _mm512_min_epu16(vmin[j], v);
-                sum = _mm512_add_epi16(sum, v);
-            }
-            let Ok(dst) = <&mut [u16; 32]>::try_from(&mut out[k..k + 32]) else {
-                unreachable!("a slice of 32 elements")
-            };
-            // SAFETY: `dst` is 64 writable bytes; the store is unaligned.
-            unsafe { _mm512_storeu_si512(dst.as_mut_ptr().cast(), sum) };
-        }
-        #[allow(clippy::redundant_closure)] // a closure inherits the features
-        let mut mins = vmin.map(|v| min_w(v));
-        for k in done..nd {
-            let c = u16::from(cost[k]);
-            let mut sum = 0u16;
-            for j in 0..4 {
-                let q = prev[j];
-                let best = q[k + 1]
-                    .min(q[k].wrapping_add(p1))
-                    .min(q[k + 2].wrapping_add(p1))
-                    .min(prev_min[j] + p2);
-                let v = c.wrapping_add(best).wrapping_sub(prev_min[j]);
-                cur[j][k + 1] = v;
-                mins[j] = mins[j].min(v);
-                sum = sum.wrapping_add(v);
-            }
-            out[k] = sum;
-        }
-        mins
-    }
+    /// How many pixels ahead [`sgm_pass_row_512`] prefetches the other
+    /// pass's sums.
+    const AHEAD: usize = 12;
 
     /// The safe scalar winners of a row compiled for AVX-512, each cell's
     /// winner picked by [`pick_512`].
@@ -503,66 +400,5 @@ mod x86 {
     ) {
         // A closure inherits this function's target features.
         crate::sgm::matching::winner_row_with(row, y, pair, params, held, out, |s| pick_512(s));
-    }
-
-    /// `sgm::matching::pick` 32 u16 lanes at a time: the smallest sum
-    /// and the first lane equal to it (the first smallest, as the scalar
-    /// key minimum), then the smallest sum outside best - 1 ..= best + 1
-    /// (those lanes masked to u16::MAX); below 32 disparities, one by
-    /// one.
-    #[target_feature(enable = "avx2,popcnt,avx512f,avx512bw,avx512vl,avx512vpopcntdq")]
-    fn pick_512(s: &[u16]) -> (usize, u16) {
-        let nd = s.len();
-        // Whole vectors, the last one overlapping the one before when nd
-        // is not a multiple of 32 (recomputing a cell gives the same value;
-        // minima do not mind a lane seen twice); below 32 disparities, one
-        // by one.
-        let starts = (0..nd / 32 * 32)
-            .step_by(32)
-            .chain((!nd.is_multiple_of(32) && nd > 32).then_some(nd.saturating_sub(32)));
-        let done = if nd >= 32 { nd } else { 0 };
-        let mut acc = _mm512_set1_epi16(-1);
-        for k in starts.clone() {
-            acc = _mm512_min_epu16(acc, load_w(lanes_w(s, k)));
-        }
-        let mut m = min_w(acc);
-        for &v in &s[done..] {
-            m = m.min(v);
-        }
-        let vm = _mm512_set1_epi16(m as i16);
-        let mut best = nd;
-        for k in starts.clone() {
-            let eq = _mm512_cmpeq_epi16_mask(load_w(lanes_w(s, k)), vm);
-            if eq != 0 {
-                best = k + eq.trailing_zeros() as usize;
-                break;
-            }
-        }
-        if best == nd {
-            best = done + s[done..].iter().position(|&v| v == m).unwrap_or(0);
-        }
-        let lo = best.saturating_sub(1) as u16;
-        let (vlo, span) = (
-            _mm512_set1_epi16(lo as i16),
-            _mm512_set1_epi16((best + 2 - usize::from(lo)) as i16),
-        );
-        let iota = _mm512_set_epi16(
-            31, 30, 29, 28, 27, 26, 25, 24, 23, 22, 21, 20, 19, 18, 17, 16, 15, 14, 13, 12, 11, 10,
-            9, 8, 7, 6, 5, 4, 3, 2, 1, 0,
-        );
-        let mut acc = _mm512_set1_epi16(-1);
-        for k in starts.clone() {
-            let idx = _mm512_add_epi16(iota, _mm512_set1_epi16(k as i16));
-            let near = _mm512_cmplt_epu16_mask(_mm512_sub_epi16(idx, vlo), span);
-            let v = _mm512_mask_mov_epi16(load_w(lanes_w(s, k)), near, _mm512_set1_epi16(-1));
-            acc = _mm512_min_epu16(acc, v);
-        }
-        let mut rival = min_w(acc);
-        for (k, &v) in s.iter().enumerate().skip(done) {
-            if k + 1 < best || k > best + 1 {
-                rival = rival.min(v);
-            }
-        }
-        (best, rival)
     }
 }
