@@ -39,6 +39,7 @@
 pub mod batch;
 mod dataset;
 pub mod error;
+mod grow;
 pub mod lab;
 pub mod label_dir;
 pub mod metrics;
