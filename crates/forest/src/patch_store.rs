@@ -14,7 +14,11 @@
 //! - `chunk-NNNNN.bin`: the patches of `chunk_len` consecutive samples (the
 //!   last chunk fewer), each [`PATCH_LEN`] bytes: the 27x27 Lab patch
 //!   around the pixel, u8, channel-major (L, a, b) then rows, exactly the
-//!   bytes split tests read ([`crate::patch::gather`]).
+//!   bytes split tests read ([`crate::patch::gather`]);
+//! - `cols-NNNNN.bin`: the same bytes position-major (byte p of the
+//!   chunk's sample s at `p * n + s`): a node too large for memory applies
+//!   its chosen test to every sample by reading two rows of n bytes per
+//!   chunk instead of the whole chunk, 2 bytes per sample instead of 2187.
 //!
 //! Samples are the plan's drawn samples ([`crate::TrainingPlan`]) in the
 //! set's order, so a tree trained from the store is the tree
@@ -60,8 +64,10 @@ pub(crate) const WRITE_HINT: &str =
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ChunkEntry {
-    /// File name inside the store folder.
+    /// File name inside the store folder (patch-major).
     pub file: String,
+    /// The same patches position-major.
+    pub columns: String,
     /// Patches in the file.
     pub n_samples: u64,
 }
@@ -205,8 +211,18 @@ fn write_into(plan: &TrainingPlan<'_>, chunk_len: usize, staging: &Path) -> Resu
         }
         let file = format!("chunk-{k:05}.bin");
         write_file(&staging.join(&file), &buf)?;
+        let n = ids.len();
+        let mut cols = vec![0u8; buf.len()];
+        for (s, patch) in buf.chunks_exact(PATCH_LEN).enumerate() {
+            for (p, &v) in patch.iter().enumerate() {
+                cols[p * n + s] = v;
+            }
+        }
+        let columns = format!("cols-{k:05}.bin");
+        write_file(&staging.join(&columns), &cols)?;
         chunks.push(ChunkEntry {
             file,
+            columns,
             n_samples: ids.len() as u64,
         });
     }
@@ -306,7 +322,8 @@ impl PatchStore {
         if manifest
             .chunks
             .iter()
-            .any(|c| c.file.contains(['/', '\\']) || c.file.starts_with('.'))
+            .flat_map(|c| [&c.file, &c.columns])
+            .any(|f| f.contains(['/', '\\']) || f.starts_with('.'))
         {
             return Err(bad("a chunk file name leaves the store folder".into()));
         }
@@ -332,8 +349,11 @@ impl PatchStore {
         if positive.iter().filter(|&&p| p).count() as u64 != manifest.n_positive {
             return Err(bad("the positive count does not match labels.u8".into()));
         }
-        for c in &manifest.chunks {
-            let path = dir.join(&c.file);
+        for (c, path) in manifest
+            .chunks
+            .iter()
+            .flat_map(|c| [(c, dir.join(&c.file)), (c, dir.join(&c.columns))])
+        {
             let len = std::fs::metadata(&path)
                 .map_err(|e| SceneError::io(&path, e))?
                 .len();
@@ -380,9 +400,14 @@ impl PatchStore {
         self.positive.is_empty()
     }
 
-    /// Path of chunk `k`.
+    /// Path of chunk `k`, patch-major.
     pub(crate) fn chunk_path(&self, k: usize) -> PathBuf {
         self.dir.join(&self.manifest.chunks[k].file)
+    }
+
+    /// Path of chunk `k`, position-major.
+    pub(crate) fn columns_path(&self, k: usize) -> PathBuf {
+        self.dir.join(&self.manifest.chunks[k].columns)
     }
 }
 

@@ -135,6 +135,12 @@ fn missing_corrupt_and_truncated_stores_are_named_errors() {
         "{e}"
     );
     std::fs::write(&chunk, &bytes).unwrap();
+    let cols = dir.join("cols-00001.bin");
+    let bytes = std::fs::read(&cols).unwrap();
+    std::fs::write(&cols, &bytes[..bytes.len() - 1]).unwrap();
+    let e = PatchStore::open(&dir).unwrap_err().to_string();
+    assert!(e.contains("cols-00001.bin") && e.contains("truncated"), "{e}");
+    std::fs::write(&cols, &bytes).unwrap();
     let labels = dir.join("labels.u8");
     let mut l = std::fs::read(&labels).unwrap();
     l[5] ^= 1;

@@ -6,7 +6,8 @@
 //! draws, so the order is part of the model). A node larger than the
 //! budget streams its samples' patches from the store, one chunk at a
 //! time, for each of its two passes (the evaluation samples' patches; the
-//! chosen test's response at every sample). The first node on the way down
+//! chosen test's response at every sample, from two rows of each chunk's
+//! position-major copy). The first node on the way down
 //! that fits the budget loads its samples' patches once and its whole
 //! subtree grows from memory: PLANET's split between nodes that need a
 //! pass over the data and subtrees that fit one machine (Panda et al.,
@@ -62,6 +63,7 @@ const GAP: u32 = 16;
 struct StoreSource<'a> {
     store: &'a PatchStore,
     files: Vec<Option<File>>,
+    column_files: Vec<Option<File>>,
     cap: usize,
     resident_range: Option<(usize, usize)>,
     resident_ids: Vec<u32>,
@@ -76,6 +78,7 @@ impl<'a> StoreSource<'a> {
         StoreSource {
             store,
             files: (0..store.manifest().chunks.len()).map(|_| None).collect(),
+            column_files: (0..store.manifest().chunks.len()).map(|_| None).collect(),
             cap: budget.resident_bytes / PATCH_LEN,
             resident_range: None,
             resident_ids: Vec::new(),
@@ -134,6 +137,44 @@ impl<'a> StoreSource<'a> {
                     f(j, &self.buf[o..o + PATCH_LEN]);
                 }
                 k = r;
+            }
+        }
+        self.note_peak();
+        Ok(())
+    }
+
+    /// The responses of `test` at `ids` (sorted) from the position-major
+    /// chunk files: two rows of a chunk per chunk the ids touch.
+    fn stream_responses(&mut self, ids: &[u32], test: SplitTest, out: &mut Vec<i32>) -> Result<()> {
+        let (p1, p2) = test.patch_indices();
+        let chunk_len = self.store.manifest().chunk_len;
+        let mut k = 0;
+        while k < ids.len() {
+            let chunk = (u64::from(ids[k]) / chunk_len) as usize;
+            let first = chunk as u64 * chunk_len;
+            let n = self.store.manifest().chunks[chunk].n_samples as usize;
+            let path = self.store.columns_path(chunk);
+            if self.column_files[chunk].is_none() {
+                let file = File::open(&path).map_err(|e| SceneError::io(&path, e))?;
+                self.column_files[chunk] = Some(file);
+            }
+            self.buf.clear();
+            self.buf.reserve_exact(2 * n);
+            self.buf.resize(2 * n, 0);
+            if let Some(file) = self.column_files[chunk].as_mut() {
+                let (row1, row2) = self.buf.split_at_mut(n);
+                for (p, row) in [(p1, row1), (p2, row2)] {
+                    file.seek(SeekFrom::Start((p * n) as u64))
+                        .and_then(|_| file.read_exact(row))
+                        .map_err(|e| SceneError::io(&path, e))?;
+                }
+            }
+            self.reads.chunk_reads += 1;
+            self.reads.bytes_read += 2 * n as u64;
+            while k < ids.len() && u64::from(ids[k]) / chunk_len == chunk as u64 {
+                let s = (u64::from(ids[k]) - first) as usize;
+                out.push(test.op.apply(self.buf[s], self.buf[n + s]));
+                k += 1;
             }
         }
         self.note_peak();
@@ -233,7 +274,7 @@ impl SampleSource for StoreSource<'_> {
             }
             return Ok(());
         }
-        self.for_each_patch(ids, |_, p| out.push(test.op.apply(p[p1], p[p2])))
+        self.stream_responses(ids, test, out)
     }
 }
 
