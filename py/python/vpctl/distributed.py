@@ -21,6 +21,11 @@ scheduler address (``tcp://host:8786``) to connect to (and disconnect from).
 - :func:`train_forest`: one task per tree (the tree's seed is derived from
   the forest seed and its index), assembled into the model on the client:
   the same bytes as ``vpctl train`` with the same data, parameters and seed.
+- :func:`write_patch_store` / :func:`train_forest_from_store`: the drawn
+  samples written once as a chunked patch store on shared storage, then one
+  task per tree streaming it chunk by chunk in bounded memory (a budget of
+  patches plus one chunk, whatever the number of samples): the same bytes
+  as :func:`train_forest` on the data the store was written from.
 - :func:`predict`: confidence images of many images, in chunks.
 
 Large inputs travel as paths on storage every worker sees (the workspace,
@@ -64,6 +69,8 @@ __all__ = [
     "predict",
     "reconstruct_triplets",
     "train_forest",
+    "train_forest_from_store",
+    "write_patch_store",
     "site_layout",
     "train_site",
 ]
@@ -419,6 +426,74 @@ def train_forest(
         futures = [
             c.submit(_tree_task, str(images), str(labels), int(seed), max_per_label_image, p, i,
                      key=f"vpctl-tree-{i}-{uuid.uuid4().hex[:8]}", pure=False)
+            for i in range(int(p["n_trees"]))
+        ]
+        trees = _gather(c, futures, show_progress)
+    forest = _native.assemble(trees)
+    if out is not None:
+        forest.save(out, force=True)
+    return forest
+
+
+def write_patch_store(
+    images: PathLike,
+    labels: PathLike,
+    out: PathLike,
+    params: Optional[Mapping[str, Any]] = None,
+    seed: int = 0,
+    max_per_label_image: Optional[int] = None,
+    chunk_len: int = 16384,
+    force: bool = False,
+) -> dict:
+    """Writes the samples ``vpctl train --images --labels --seed`` would
+    draw with `params` as a patch store at `out` (chunk files of
+    `chunk_len` 27x27 Lab patches, labels, angles, ``manifest.json``),
+    atomically; returns the manifest. One job on this machine: it loads the
+    training set as :func:`train_forest`'s tasks do, once."""
+    import json
+
+    _missing([Path(images), Path(labels)], "training input")
+    p = dict(vpctl.forest.default_params())
+    p.update(params or {})
+    text = _native.PatchStore.write(str(images), str(labels), str(out), p, int(seed),
+                                    max_per_label_image, int(chunk_len), force)
+    return json.loads(text)
+
+
+def _patch_store(store: str):
+    key = ("store", store, _stamp(Path(store) / "manifest.json"))
+    return _cached(key, lambda: _native.PatchStore.open(store))
+
+
+def _store_tree_task(store: str, params: dict, budget_mb: int, index: int) -> bytes:
+    tree, _reads = _patch_store(store).train_tree(index, params, budget_mb)
+    return tree
+
+
+def train_forest_from_store(
+    store: PathLike,
+    params: Optional[Mapping[str, Any]] = None,
+    client: ClientLike = None,
+    out: Optional[PathLike] = None,
+    budget_mb: int = 4096,
+    force: bool = False,
+    show_progress: bool = False,
+) -> "vpctl.forest.Forest":
+    """Trains the forest of a patch store (:func:`write_patch_store`) with
+    one task per tree, each holding at most `budget_mb` MiB of patches plus
+    one chunk, and assembles it on the client: the same model bytes as
+    :func:`train_forest` on the data, parameters and seed the store was
+    written with. Writes it to `out` atomically if given."""
+    if out is not None:
+        _refuse_existing([Path(out)], force)
+    # Opened here too: a missing or corrupt store fails before any task.
+    _native.PatchStore.open(str(store))
+    p = dict(vpctl.forest.default_params())
+    p.update(params or {})
+    with _client(client) as c:
+        futures = [
+            c.submit(_store_tree_task, str(store), p, int(budget_mb), i,
+                     key=f"vpctl-store-tree-{i}-{uuid.uuid4().hex[:8]}", pure=False)
             for i in range(int(p["n_trees"]))
         ]
         trees = _gather(c, futures, show_progress)
