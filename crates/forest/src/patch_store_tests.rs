@@ -139,7 +139,10 @@ fn missing_corrupt_and_truncated_stores_are_named_errors() {
     let bytes = std::fs::read(&cols).unwrap();
     std::fs::write(&cols, &bytes[..bytes.len() - 1]).unwrap();
     let e = PatchStore::open(&dir).unwrap_err().to_string();
-    assert!(e.contains("cols-00001.bin") && e.contains("truncated"), "{e}");
+    assert!(
+        e.contains("cols-00001.bin") && e.contains("truncated"),
+        "{e}"
+    );
     std::fs::write(&cols, &bytes).unwrap();
     let labels = dir.join("labels.u8");
     let mut l = std::fs::read(&labels).unwrap();
