@@ -39,7 +39,8 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--scheduler", help="Dask scheduler address, e.g. tcp://host:8786 "
                    "(default: a LocalCluster on this machine)")
     t.add_argument("--levels", default="1,2,3", help="pyramid levels of the triplet MVS")
-    t.add_argument("--seed", type=int, default=0)
+    t.add_argument("--seed", type=int, default=0,
+                   help="with --workspace (a store trains with the seed it was written with)")
     t.add_argument("--max-per-label-image", type=int)
     t.add_argument("--frame-unchecked", action="store_true",
                    help="skip the frame check of the model (as vpctl labelgen run)")
@@ -102,6 +103,10 @@ def main(argv: list[str] | None = None) -> int:
         from vpctl import distributed
     except ImportError as e:
         print(f"vpctl-dask: {e}", file=sys.stderr)
+        return 2
+    if args.command == "train" and args.store is not None and args.seed != 0:
+        print("vpctl-dask: error: --seed is the store's (vpctl-dask store --seed); "
+              "train --store takes none", file=sys.stderr)
         return 2
     if args.command == "store" or args.store is not None:
         try:
