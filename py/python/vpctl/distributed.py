@@ -435,74 +435,6 @@ def train_forest(
     return forest
 
 
-def write_patch_store(
-    images: PathLike,
-    labels: PathLike,
-    out: PathLike,
-    params: Optional[Mapping[str, Any]] = None,
-    seed: int = 0,
-    max_per_label_image: Optional[int] = None,
-    chunk_len: int = 16384,
-    force: bool = False,
-) -> dict:
-    """Writes the samples ``vpctl train --images --labels --seed`` would
-    draw with `params` as a patch store at `out` (chunk files of
-    `chunk_len` 27x27 Lab patches, labels, angles, ``manifest.json``),
-    atomically; returns the manifest. One job on this machine: it loads the
-    training set as :func:`train_forest`'s tasks do, once."""
-    import json
-
-    _missing([Path(images), Path(labels)], "training input")
-    p = dict(vpctl.forest.default_params())
-    p.update(params or {})
-    text = _native.PatchStore.write(str(images), str(labels), str(out), p, int(seed),
-                                    max_per_label_image, int(chunk_len), force)
-    return json.loads(text)
-
-
-def _patch_store(store: str):
-    key = ("store", store, _stamp(Path(store) / "manifest.json"))
-    return _cached(key, lambda: _native.PatchStore.open(store))
-
-
-def _store_tree_task(store: str, params: dict, budget_mb: int, index: int) -> bytes:
-    tree, _reads = _patch_store(store).train_tree(index, params, budget_mb)
-    return tree
-
-
-def train_forest_from_store(
-    store: PathLike,
-    params: Optional[Mapping[str, Any]] = None,
-    client: ClientLike = None,
-    out: Optional[PathLike] = None,
-    budget_mb: int = 4096,
-    force: bool = False,
-    show_progress: bool = False,
-) -> "vpctl.forest.Forest":
-    """Trains the forest of a patch store (:func:`write_patch_store`) with
-    one task per tree, each holding at most `budget_mb` MiB of patches plus
-    one chunk, and assembles it on the client: the same model bytes as
-    :func:`train_forest` on the data, parameters and seed the store was
-    written with. Writes it to `out` atomically if given."""
-    if out is not None:
-        _refuse_existing([Path(out)], force)
-    # Opened here too: a missing or corrupt store fails before any task.
-    _native.PatchStore.open(str(store))
-    p = dict(vpctl.forest.default_params())
-    p.update(params or {})
-    with _client(client) as c:
-        futures = [
-            c.submit(_store_tree_task, str(store), p, int(budget_mb), i,
-                     key=f"vpctl-store-tree-{i}-{uuid.uuid4().hex[:8]}", pure=False)
-            for i in range(int(p["n_trees"]))
-        ]
-        trees = _gather(c, futures, show_progress)
-    forest = _native.assemble(trees)
-    if out is not None:
-        forest.save(out, force=True)
-    return forest
-
-
 # --------------------------------------------------------------------------
 # Prediction
 
@@ -616,3 +548,8 @@ def train_site(
         return train_forest(s["images"], s["labels"], params=_toml(s["forest_config"]), seed=seed,
                             client=c, out=out, max_per_label_image=max_per_label_image,
                             force=force, show_progress=show_progress)
+
+
+# The patch store's two calls live in their own module (this one's helpers,
+# imported once these exist).
+from vpctl._dask_store import train_forest_from_store, write_patch_store  # noqa: E402
