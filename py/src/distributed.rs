@@ -87,6 +87,98 @@ impl PyTrainingData {
     }
 }
 
+/// A patch store on shared storage (`vp_forest::patch_store`), opened once
+/// per worker process: labels and angles in memory, patches read chunk by
+/// chunk as each tree needs them.
+#[pyclass(name = "PatchStore", module = "vpctl.distributed", frozen)]
+pub struct PyPatchStore(vp_forest::PatchStore);
+
+#[pymethods]
+impl PyPatchStore {
+    /// Opens the store in `path` (manifest, labels, angles and chunk sizes
+    /// checked).
+    #[staticmethod]
+    fn open(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        py.detach(|| vp_forest::PatchStore::open(&path))
+            .py()
+            .map(PyPatchStore)
+    }
+
+    /// Loads the training set as `TrainingData.from_dirs` does and writes the
+    /// draw of `params` and `seed` as a store at `out` (atomically; an
+    /// existing folder is refused unless `force`). Returns the manifest as
+    /// JSON text.
+    #[staticmethod]
+    #[pyo3(signature = (images_dir, labels_dir, out, params = None, seed = 0,
+                        max_per_label_image = None, chunk_len = vp_forest::patch_store::DEFAULT_CHUNK_LEN,
+                        force = false))]
+    #[allow(clippy::too_many_arguments)] // Python keyword arguments
+    fn write(
+        py: Python<'_>,
+        images_dir: PathBuf,
+        labels_dir: PathBuf,
+        out: PathBuf,
+        params: Option<&Bound<'_, PyAny>>,
+        seed: u64,
+        max_per_label_image: Option<usize>,
+        chunk_len: usize,
+        force: bool,
+    ) -> PyResult<String> {
+        let p: TrainParams = convert::from_py(params, "params")?;
+        py.detach(|| {
+            let set =
+                TrainingSet::from_label_dir(&images_dir, &labels_dir, max_per_label_image, seed)?;
+            vp_forest::write_patch_store(&set, &p, seed, &out, chunk_len, force)
+        })
+        .py()
+        .map(|m| serde_json::to_string(&m).unwrap_or_default())
+    }
+
+    /// Trains tree `index` from the store with `params` (the store's seed),
+    /// holding at most `budget_mb` MiB of patches; returns it as bytes for
+    /// [`assemble`] and what it read (`chunk_reads`, `bytes_read`,
+    /// `subtrees_loaded`, `peak_patch_bytes`).
+    #[pyo3(signature = (index, params = None, budget_mb = 4096))]
+    fn train_tree(
+        &self,
+        py: Python<'_>,
+        index: usize,
+        params: Option<&Bound<'_, PyAny>>,
+        budget_mb: usize,
+    ) -> PyResult<(std::borrow::Cow<'static, [u8]>, [u64; 4])> {
+        let p: TrainParams = convert::from_py(params, "params")?;
+        let store = &self.0;
+        let budget = vp_forest::StoreBudget {
+            resident_bytes: budget_mb << 20,
+        };
+        py.detach(|| store.train_tree_counted(&p, index, budget))
+            .py()
+            .map(|(t, r)| {
+                (
+                    t.to_bytes().into(),
+                    [
+                        r.chunk_reads,
+                        r.bytes_read,
+                        r.subtrees_loaded,
+                        r.peak_patch_bytes,
+                    ],
+                )
+            })
+    }
+
+    /// Samples in the store.
+    #[getter]
+    fn n_samples(&self) -> usize {
+        self.0.len()
+    }
+
+    /// The seed of the store's draw (and of its trees).
+    #[getter]
+    fn seed(&self) -> u64 {
+        self.0.manifest().seed
+    }
+}
+
 /// The forest made of trees (bytes of `TrainingData.train_tree`, any
 /// order): the same model as training in one process.
 #[pyfunction]
@@ -318,6 +410,7 @@ fn predict_files(
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyTrainingData>()?;
     m.add_class::<PyLabelData>()?;
+    m.add_class::<PyPatchStore>()?;
     m.add_function(wrap_pyfunction!(assemble, m)?)?;
     m.add_function(wrap_pyfunction!(mvs_image_set, m)?)?;
     m.add_function(wrap_pyfunction!(write_summary, m)?)?;

@@ -238,3 +238,36 @@ def test_a_worker_without_vpctl_is_named(site):
         finally:
             w.kill()
             w.wait()
+
+
+def test_a_patch_store_trains_the_cli_model_chunk_by_chunk(site, cli, cluster, tmp_path):
+    """`vpctl-dask store` then `vpctl-dask train --store`: the model bytes of
+    `vpctl train` on the same labels and seed, every tree streaming the
+    store (a budget of 0 MiB loads no subtree); a missing store is exit 2
+    naming it and the command that writes one, with nothing written."""
+    c, client = cluster
+    s = vd.site_layout(site)
+    exe = str(Path(sys.executable).with_name("vpctl-dask"))
+    store = tmp_path / "store"
+    p = subprocess.run([exe, "store", "--images", str(s["images"]), "--labels", str(cli / "labels"),
+                        "--out", str(store), "--params", str(s["forest_config"]), "--seed", "3",
+                        "--chunk-len", "500"], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    assert "next: vpctl-dask train --store" in p.stdout
+    p = subprocess.run([exe, "train", "--store", str(store), "--out", str(tmp_path / "m.vpforest"),
+                        "--params", str(s["forest_config"]), "--scheduler", c.scheduler_address,
+                        "--budget-mb", "0"], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    assert (tmp_path / "m.vpforest").read_bytes() == (cli / "model.vpforest").read_bytes()
+
+    forest = vd.train_forest_from_store(store, FOREST, client=client)
+    assert forest.to_bytes() == (cli / "model.vpforest").read_bytes()
+    with pytest.raises(ValueError, match="samples_per_class"):
+        vd.train_forest_from_store(store, dict(FOREST, samples_per_class=5), client=client)
+
+    p = subprocess.run([exe, "train", "--store", str(tmp_path / "nowhere"), "--out",
+                        str(tmp_path / "x.vpforest")], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 2
+    assert "nowhere" in p.stderr and "vpctl-dask store" in p.stderr
+    assert not (tmp_path / "x.vpforest").exists()
+    no_partial_files(tmp_path)

@@ -12,6 +12,10 @@
 //!   another process, and [`assemble`] makes the forest: the same model
 //!   bytes as [`train`] with the same set, parameters and seed, wherever the
 //!   trees were trained ([`train`] itself takes this path).
+//! - Bounded-memory training: [`write_patch_store`] writes a set's drawn
+//!   samples as chunked patches once; [`PatchStore::train_tree`] grows any
+//!   tree from it chunk by chunk within a [`StoreBudget`], the same tree as
+//!   [`train_tree`] on the set.
 //! - [`load_label_dir`]: label images as `vpctl labelgen run` writes them,
 //!   paired with their images (scaled for pyramid levels).
 //! - [`Forest::predict_image`]: an RGB image to a b-channel
@@ -39,14 +43,17 @@
 pub mod batch;
 mod dataset;
 pub mod error;
+mod grow;
 pub mod lab;
 pub mod label_dir;
 pub mod metrics;
 pub mod model_io;
 mod params;
 pub mod patch;
+pub mod patch_store;
 mod predict;
 pub mod split;
+mod store_train;
 pub mod synthetic;
 mod train;
 pub mod tree;
@@ -58,6 +65,8 @@ pub use lab::LabPlanes;
 pub use label_dir::{load_label_dir, LabelledImage};
 pub use metrics::{accuracy, sparsification, Scored, Sparsification};
 pub use params::{Preset, TrainParams, TrainingSummary};
+pub use patch_store::{write_patch_store, Manifest, PatchStore};
+pub use store_train::{StoreBudget, StoreReads};
 pub use train::{assemble, train, train_tree, train_with_progress, TrainedTree, TrainingPlan};
 pub use tree::Tree;
 pub use vp_scene::raster::{AngleBins, ConfidenceImage, RgbImage};

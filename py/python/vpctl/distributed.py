@@ -21,6 +21,11 @@ scheduler address (``tcp://host:8786``) to connect to (and disconnect from).
 - :func:`train_forest`: one task per tree (the tree's seed is derived from
   the forest seed and its index), assembled into the model on the client:
   the same bytes as ``vpctl train`` with the same data, parameters and seed.
+- :func:`write_patch_store` / :func:`train_forest_from_store`: the drawn
+  samples written once as a chunked patch store on shared storage, then one
+  task per tree streaming it chunk by chunk in bounded memory (a budget of
+  patches plus one chunk, whatever the number of samples): the same bytes
+  as :func:`train_forest` on the data the store was written from.
 - :func:`predict`: confidence images of many images, in chunks.
 
 Large inputs travel as paths on storage every worker sees (the workspace,
@@ -64,6 +69,8 @@ __all__ = [
     "predict",
     "reconstruct_triplets",
     "train_forest",
+    "train_forest_from_store",
+    "write_patch_store",
     "site_layout",
     "train_site",
 ]
@@ -541,3 +548,8 @@ def train_site(
         return train_forest(s["images"], s["labels"], params=_toml(s["forest_config"]), seed=seed,
                             client=c, out=out, max_per_label_image=max_per_label_image,
                             force=force, show_progress=show_progress)
+
+
+# The patch store's two calls live in their own module (this one's helpers,
+# imported once these exist).
+from vpctl._dask_store import train_forest_from_store, write_patch_store  # noqa: E402
