@@ -8,7 +8,8 @@ use clap::{Args, Subcommand};
 use vp_labelgen::triplets::{self, TripletParams};
 use vp_labelgen::{LabelOutput, LabelParams, LabelRunRequest};
 use vp_scene::fsio;
-use vp_scene::opensfm::ModelSource;
+
+use super::sparse_model::SparseModelArgs;
 
 /// Label-generation subcommands.
 #[derive(Debug, Subcommand)]
@@ -33,40 +34,11 @@ pub enum LabelgenCommand {
     Defaults,
 }
 
-/// The sparse model: `--colmap DIR` or `--opensfm DIR`, as `vpctl plan`
-/// takes it.
-#[derive(Debug, Args)]
-pub struct ModelArgs {
-    /// COLMAP sparse model folder (cameras, images, points3D; .bin or .txt).
-    #[arg(
-        long = "colmap",
-        alias = "model",
-        value_name = "DIR",
-        required_unless_present = "opensfm"
-    )]
-    colmap: Option<PathBuf>,
-    /// Or an OpenSfM reconstruction: an OpenDroneMap project folder, its
-    /// `opensfm` folder or `reconstruction.json`, georeferenced by its own
-    /// reference (no `colmap align`).
-    #[arg(long, value_name = "DIR", conflicts_with = "colmap")]
-    opensfm: Option<PathBuf>,
-}
-
-impl ModelArgs {
-    fn source(&self) -> ModelSource {
-        match (&self.colmap, &self.opensfm) {
-            (_, Some(dir)) => ModelSource::OpenSfm(dir.clone()),
-            // clap requires one of the two.
-            (dir, None) => ModelSource::Colmap(dir.clone().unwrap_or_default()),
-        }
-    }
-}
-
 /// Arguments of `labelgen triplets`.
 #[derive(Debug, Args)]
 pub struct TripletsArgs {
     #[command(flatten)]
-    model: ModelArgs,
+    model: SparseModelArgs,
     /// Triplets drawn per angle bin.
     #[arg(long, default_value_t = 10)]
     per_bin: usize,
@@ -100,7 +72,7 @@ pub struct RunArgs {
     /// the depth maps are of: COLMAP's aligned by `vpctl colmap align` (its
     /// `frame.json` is checked), OpenSfM's by its geodetic reference.
     #[command(flatten)]
-    model: ModelArgs,
+    model: SparseModelArgs,
     /// Skip the frame check (`frame.json` or the OpenSfM reference, scale,
     /// gravity): only for a model already in metric, gravity-aligned local ENU.
     #[arg(long)]

@@ -11,6 +11,7 @@ pub mod mvs;
 pub mod plan;
 pub mod scene;
 pub mod sim;
+pub mod sparse_model;
 
 use std::error::Error;
 

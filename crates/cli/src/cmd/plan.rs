@@ -26,19 +26,9 @@ pub struct PlanArgs {
     /// Scene mesh (.ply or .obj), in the frame of the COLMAP model.
     #[arg(long, required = true)]
     mesh: Option<PathBuf>,
-    /// COLMAP sparse model directory (text or binary): the acquired cameras.
-    #[arg(
-        long = "colmap",
-        alias = "cameras",
-        required_unless_present = "opensfm",
-        value_name = "DIR"
-    )]
-    cameras: Option<PathBuf>,
-    /// Or an OpenSfM reconstruction: an OpenDroneMap project folder, its
-    /// `opensfm` folder or `reconstruction.json`; georeferenced by its
-    /// `reference_lla`, so no `colmap align` (docs/formats.md).
-    #[arg(long, value_name = "DIR", conflicts_with = "cameras")]
-    opensfm: Option<PathBuf>,
+    /// The acquired cameras: `--colmap DIR` or `--opensfm DIR`.
+    #[command(flatten)]
+    model: super::sparse_model::SparseModelArgs,
     /// Directory of confidence images: `<image name>.vpconf` (extension
     /// replaced) per image of the model. Without it: no prediction (NP).
     #[arg(long)]

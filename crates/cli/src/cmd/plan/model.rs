@@ -45,11 +45,8 @@ pub(super) fn outline(roi: &RoiSpec, pts: impl Iterator<Item = Point3<f64>>) -> 
 
 impl PlanArgs {
     /// `--colmap DIR` or `--opensfm DIR`.
-    pub(super) fn model(&self) -> Result<ModelSource> {
-        Ok(match (&self.cameras, &self.opensfm) {
-            (_, Some(dir)) => ModelSource::OpenSfm(dir.clone()),
-            (dir, None) => ModelSource::Colmap(required(dir.as_ref(), "--colmap")?.to_path_buf()),
-        })
+    pub(super) fn model(&self) -> ModelSource {
+        self.model.source()
     }
 }
 
@@ -58,7 +55,7 @@ pub(super) fn plan(args: &PlanArgs, out: &mut dyn Write) -> Result<()> {
     let outputs = c.check_outputs()?;
     let cfg = c.config()?;
     let mesh = crate::cmd::read_mesh(required(args.mesh.as_ref(), "--mesh")?)?;
-    let model = args.model()?;
+    let model = args.model();
     let roi = c.roi()?;
     let job = vp_planner::plan_from_model(&ModelPlanRequest {
         mesh: &mesh,
