@@ -128,7 +128,15 @@ impl PyPatchStore {
         py.detach(|| {
             let set =
                 TrainingSet::from_label_dir(&images_dir, &labels_dir, max_per_label_image, seed)?;
-            vp_forest::write_patch_store(&set, &p, seed, &out, chunk_len, force)
+            vp_forest::write_patch_store(
+                &set,
+                &p,
+                seed,
+                &out,
+                &[&images_dir, &labels_dir],
+                chunk_len,
+                force,
+            )
         })
         .py()
         .map(|m| serde_json::to_string(&m).unwrap_or_default())

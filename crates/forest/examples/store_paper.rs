@@ -75,7 +75,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     match mode {
         "write" => {
             let set = set(&p);
-            let m = write_patch_store(&set, &p, SEED, dir, 16384, false)?;
+            let m = write_patch_store(&set, &p, SEED, dir, &[], 16384, false)?;
             println!(
                 "store: {} samples ({} positive), {} chunks, {:.1} s",
                 m.n_samples,

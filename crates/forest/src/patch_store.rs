@@ -39,7 +39,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 use vp_scene::error::{Location, SceneError};
-use vp_scene::fsio::check_parent_exists;
+use vp_scene::outdir::OutDir;
 
 use crate::dataset::TrainingSet;
 use crate::error::{ForestError, Result};
@@ -134,10 +134,13 @@ fn digest(bytes: &[u8]) -> u64 {
 }
 
 /// Writes the patch store of the draw `TrainingPlan::new(set, params,
-/// seed)` makes into the folder `dir` (refused when it exists unless
-/// `force`; its parent must exist), `chunk_len` patches per chunk. The
-/// store appears whole or not at all: it is written into a sibling folder
-/// renamed to `dir` at the end.
+/// seed)` makes into the folder `dir`, `chunk_len` patches per chunk,
+/// through [`OutDir`], as every vpctl output folder: refused when `dir` is
+/// the current folder, holds one of `inputs` (the images and labels the
+/// set came from), holds other files than vpctl's, or is an earlier store
+/// without `force`; with `force` only the files vpctl wrote there are
+/// replaced. The store appears whole or not at all (built in a sibling
+/// folder and swapped in).
 ///
 /// # Performance
 /// One pass over the drawn samples, one 2187-byte copy each; the writer
@@ -147,6 +150,7 @@ pub fn write_patch_store(
     params: &TrainParams,
     seed: u64,
     dir: &Path,
+    inputs: &[&Path],
     chunk_len: usize,
     force: bool,
 ) -> Result<Manifest> {
@@ -155,33 +159,9 @@ pub fn write_patch_store(
             "chunk_len must be positive".into(),
         ));
     }
-    check_parent_exists(dir)?;
-    if dir.exists() && !force {
-        return Err(SceneError::AlreadyExists {
-            path: dir.to_path_buf(),
-        }
-        .into());
-    }
+    let target = OutDir::check(dir, "dask store", inputs, force)?;
     let plan = TrainingPlan::new(set, params, seed)?;
-    let name = dir.file_name().ok_or_else(|| {
-        ForestError::InvalidInput(format!("{}: not a folder path", dir.display()))
-    })?;
-    let staging = dir.with_file_name(format!(
-        ".{}.tmp-{}",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    let result = write_into(&plan, chunk_len, &staging).and_then(|m| {
-        if dir.exists() {
-            std::fs::remove_dir_all(dir).map_err(|e| SceneError::io(dir, e))?;
-        }
-        std::fs::rename(&staging, dir).map_err(|e| SceneError::io(dir, e))?;
-        Ok(m)
-    });
-    if result.is_err() {
-        let _ = std::fs::remove_dir_all(&staging);
-    }
-    result
+    target.write(|stage| write_into(&plan, chunk_len, stage))
 }
 
 fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
@@ -193,11 +173,8 @@ fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
     .map_err(|e| SceneError::io(path, e).into())
 }
 
+/// Writes the store's files into the (new, empty) folder `staging`.
 fn write_into(plan: &TrainingPlan<'_>, chunk_len: usize, staging: &Path) -> Result<Manifest> {
-    if staging.exists() {
-        std::fs::remove_dir_all(staging).map_err(|e| SceneError::io(staging, e))?;
-    }
-    std::fs::create_dir(staging).map_err(|e| SceneError::io(staging, e))?;
     let set = plan.set();
     let selected = plan.selected();
     let mut chunks = Vec::new();

@@ -42,7 +42,7 @@ fn params() -> TrainParams {
 const CHUNK: usize = 97;
 
 fn write(set: &TrainingSet, dir: &Path) -> Manifest {
-    write_patch_store(set, &params(), 7, dir, CHUNK, false).unwrap()
+    write_patch_store(set, &params(), 7, dir, &[], CHUNK, false).unwrap()
 }
 
 #[test]
@@ -161,21 +161,52 @@ fn a_failed_write_leaves_nothing_and_an_existing_store_is_kept() {
     let labels = label_image(&img, 2, 50.0, 2, |_, _| Label::Positive);
     let mut one_class = TrainingSet::new();
     one_class.add_image(&img.image, &[labels]).unwrap();
-    let e = write_patch_store(&one_class, &params(), 7, &dir, CHUNK, false).unwrap_err();
+    let e = write_patch_store(&one_class, &params(), 7, &dir, &[], CHUNK, false).unwrap_err();
     assert!(e.to_string().contains("both classes"), "{e}");
     assert_eq!(std::fs::read_dir(tmp.path()).unwrap().count(), 0);
     let m = write(&set(), &dir);
-    let e = write_patch_store(&set(), &params(), 8, &dir, CHUNK, false).unwrap_err();
-    assert!(e.to_string().contains("exists"), "{e}");
+    let e = write_patch_store(&set(), &params(), 8, &dir, &[], CHUNK, false).unwrap_err();
+    assert!(e.to_string().contains("earlier"), "{e}");
     assert_eq!(PatchStore::open(&dir).unwrap().manifest(), &m);
     let e = write_patch_store(
         &set(),
         &params(),
         7,
         &tmp.path().join("no/store"),
+        &[],
         CHUNK,
         false,
     )
     .unwrap_err();
     assert!(e.to_string().contains("mkdir -p"), "{e}");
+}
+
+/// `--force` replaces only what vpctl wrote: a folder of someone else's
+/// files (or the current folder) is refused even with it, and an earlier
+/// store is replaced with the user's own file beside it kept.
+#[test]
+fn force_never_deletes_what_vpctl_did_not_write() {
+    let tmp = tempfile::tempdir().unwrap();
+    let theirs = tmp.path().join("theirs");
+    std::fs::create_dir(&theirs).unwrap();
+    std::fs::write(theirs.join("thesis.tex"), "precious").unwrap();
+    let e = write_patch_store(&set(), &params(), 7, &theirs, &[], CHUNK, true).unwrap_err();
+    assert!(e.to_string().contains("not a vpctl output"), "{e}");
+    assert_eq!(
+        std::fs::read_to_string(theirs.join("thesis.tex")).unwrap(),
+        "precious"
+    );
+    assert_eq!(std::fs::read_dir(&theirs).unwrap().count(), 1);
+
+    let dir = tmp.path().join("store");
+    write(&set(), &dir);
+    std::fs::write(dir.join("notes.txt"), "mine").unwrap();
+    let m = write_patch_store(&set(), &params(), 8, &dir, &[], CHUNK, true).unwrap();
+    assert_eq!(PatchStore::open(&dir).unwrap().manifest(), &m);
+    assert_eq!(
+        std::fs::read_to_string(dir.join("notes.txt")).unwrap(),
+        "mine"
+    );
+    // Nothing left beside it (the staging and the old folder are gone).
+    assert_eq!(std::fs::read_dir(tmp.path()).unwrap().count(), 2);
 }
