@@ -31,6 +31,22 @@ fn write_sfm_photos(photos: &Path, positions: &[Option<([f64; 3], bool)>; 4]) {
     }
 }
 
+/// `vpctl colmap align --colmap MODEL --exif PHOTOS --out OUT [EXTRA...]`.
+fn align_exif(model: &Path, photos: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec![
+        "colmap",
+        "align",
+        "--colmap",
+        model.to_str().unwrap(),
+        "--exif",
+        photos.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    vpctl(&args)
+}
+
 fn lat_lon_alt(g: &vp_scene::plan::GeodeticOrigin) -> [f64; 3] {
     [g.lat_deg, g.lon_deg, g.alt_m]
 }
@@ -57,16 +73,7 @@ fn colmap_align_exif_reads_gps_tags_and_matches_the_csv_alignment() {
     std::fs::write(photos.join("phone.jpg"), jpeg_with_gps(32, 24, None, true)).unwrap();
     std::fs::write(photos.join("notes.txt"), "flight 1\n").unwrap();
     let out = dir.path().join("aligned");
-    let o = vpctl(&[
-        "colmap",
-        "align",
-        "--colmap",
-        model.to_str().unwrap(),
-        "--exif",
-        photos.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let o = align_exif(&model, &photos, &out, &[]);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = stdout(&o);
     eprintln!("{text}");
@@ -135,20 +142,7 @@ fn colmap_align_exif_refuses_photos_without_enough_gps_with_exit_2_and_writes_no
     let dir = tempfile::tempdir().unwrap();
     let model = sfm_model_with_jpgs(dir.path());
     let out = dir.path().join("aligned");
-    let align = |photos: &Path, extra: &[&str]| {
-        let mut args = vec![
-            "colmap",
-            "align",
-            "--colmap",
-            model.to_str().unwrap(),
-            "--exif",
-            photos.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ];
-        args.extend_from_slice(extra);
-        vpctl(&args)
-    };
+    let align = |photos: &Path, extra: &[&str]| align_exif(&model, photos, &out, extra);
     // No photo has GPS: the error names the folder and each photo's problem.
     let none = dir.path().join("no_gps");
     write_sfm_photos(&none, &[None, None, None, None]);
@@ -228,16 +222,7 @@ fn align_drone_photos(
         );
         std::fs::write(photos.join(format!("view_{i:02}.jpg")), bytes).unwrap();
     }
-    vpctl(&[
-        "colmap",
-        "align",
-        "--colmap",
-        model.to_str().unwrap(),
-        "--exif",
-        photos.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ])
+    align_exif(&model, &photos, out, &[])
 }
 
 /// Issue 38's bad input: photos from two camera models in one folder (a
