@@ -204,3 +204,128 @@ fn check_angle_success(out: &Path, summary: &str) {
         "{both} sites with both ranges:\n{summary}"
     );
 }
+
+/// `vpctl sim evaluate --versus`: the quick preset on PatchMatch against the
+/// same sites on SGM. Each matcher's own files (the second's in versus/),
+/// and cross.csv with each fold's labels of each matcher scored by both
+/// matchers' fold forests, where the own forest's Brier score is the one
+/// its own evaluation reports for that fold; configs whose training sites
+/// differ are refused with nothing written.
+#[test]
+fn sim_evaluate_versus_scores_each_matchers_labels_with_both_forests() {
+    let dir = tempfile::tempdir().unwrap();
+    let quick = vpctl(&["sim", "config", "--preset", "quick"]);
+    assert!(quick.status.success(), "{}", both(&quick));
+    let toml = String::from_utf8(quick.stdout).unwrap();
+    let seeds = toml
+        .lines()
+        .find(|l| l.starts_with("site_seeds = "))
+        .unwrap()
+        .to_string();
+    let mvs = toml.lines().find(|l| l.starts_with("mvs = ")).unwrap();
+    let pm = toml.replace(&seeds, "site_seeds = [101, 102]");
+    let write = |name: &str, text: String| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    };
+    let sgm = write("sgm.toml", pm.replace(mvs, "mvs = \"sgm\""));
+    let pm = write("pm.toml", pm);
+    let other_sites = write(
+        "other.toml",
+        toml.replace(&seeds, "site_seeds = [101, 103]"),
+    );
+    let run = |versus: &Path, out: &Path| {
+        vpctl(&[
+            "sim",
+            "evaluate",
+            "--config",
+            pm.to_str().unwrap(),
+            "--versus",
+            versus.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
+    let refused = dir.path().join("refused");
+    let o = run(&other_sites, &refused);
+    assert_eq!(o.status.code(), Some(2), "{}", both(&o));
+    assert!(
+        both(&o).contains("other.toml") && both(&o).contains("same training sites"),
+        "{}",
+        both(&o)
+    );
+    assert!(!refused.exists());
+
+    let out = dir.path().join("eval");
+    let o = run(&sgm, &out);
+    assert!(o.status.success(), "{}", both(&o));
+    let first = std::fs::read_to_string(out.join("forest_eval.csv")).unwrap();
+    let second = std::fs::read_to_string(out.join("versus/forest_eval.csv")).unwrap();
+    assert!(first.lines().skip(1).all(|l| l.starts_with("patchmatch,")));
+    assert!(second.lines().skip(1).all(|l| l.starts_with("sgm,")));
+    check_cross(&out, &first, &second);
+    let summary = std::fs::read_to_string(out.join("summary.txt")).unwrap();
+    assert!(
+        summary.contains("on patchmatch's labels the patchmatch forest wins"),
+        "{summary}"
+    );
+    assert!(
+        summary.contains("on sgm's labels the sgm forest wins"),
+        "{summary}"
+    );
+}
+
+/// `cross.csv` in `out`: four rows per fold, both forests scoring the same
+/// pixels, and the own forest's Brier score as the matcher's own
+/// `forest_eval.csv` (`first`: PatchMatch's, `second`: SGM's) pools it.
+fn check_cross(out: &Path, first: &str, second: &str) {
+    // The own forest's pooled Brier score per fold, from forest_eval.csv.
+    let own_brier = |csv: &str, fold: &str| {
+        let (mut sum, mut n) = (0.0, 0.0);
+        for f in csv
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').collect::<Vec<_>>())
+        {
+            if f[2] == fold {
+                let px: f64 = f[5].parse().unwrap();
+                sum += px * f[9].parse::<f64>().unwrap();
+                n += px;
+            }
+        }
+        sum / n
+    };
+    let cross = std::fs::read_to_string(out.join("cross.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = cross
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert_eq!(rows.len(), 8, "{cross}");
+    for labels_of in ["patchmatch", "sgm"] {
+        for fold in ["101", "102"] {
+            let find = |forest_of: &str| {
+                rows.iter()
+                    .find(|r| r[0] == labels_of && r[1] == forest_of && r[2] == fold)
+                    .unwrap_or_else(|| panic!("{labels_of} {forest_of} {fold}: {cross}"))
+            };
+            let (own, other) = (
+                find(labels_of),
+                find(if labels_of == "sgm" {
+                    "patchmatch"
+                } else {
+                    "sgm"
+                }),
+            );
+            assert_eq!(own[3], other[3], "both forests score the same pixels");
+            let csv = if labels_of == "sgm" { second } else { first };
+            let expected = own_brier(csv, fold);
+            let got: f64 = own[5].parse().unwrap();
+            assert!(
+                (got - expected).abs() < 1e-3,
+                "{labels_of} fold {fold}: {got} vs {expected}"
+            );
+        }
+    }
+}

@@ -110,7 +110,7 @@ pub struct Tally {
 }
 
 impl Tally {
-    fn add(&mut self, o: &Tally) {
+    pub(super) fn add(&mut self, o: &Tally) {
         self.n += o.n;
         self.right_labels += o.right_labels;
         self.right_truth += o.right_truth;
@@ -139,16 +139,20 @@ impl Tally {
     }
 }
 
-/// Runs the leave-one-site-out evaluation of `cfg`'s training campaign;
-/// `progress` hears one line per site and per fold.
-///
-/// `sizes` lists forest sizes (trees, depth) to evaluate on the same labels
-/// and folds; empty: the config's own.
-pub fn evaluate_forest(
-    cfg: &CampaignConfig,
-    sizes: &[(usize, usize)],
-    progress: &mut dyn FnMut(&str),
-) -> Result<ForestEvaluation> {
+/// Every training site of a config flown and labelled once, in
+/// `[training] site_seeds` order: the data of every fold.
+pub struct LabelledSites {
+    /// Per site, its labelled views in the training campaign's order.
+    pub sites: Vec<Vec<LabelledView>>,
+    /// Labelling statistics of all sites.
+    pub stats: TrainingStats,
+    /// The matcher's measured success per site, material and angle bin.
+    pub success: Vec<SiteSuccess>,
+}
+
+/// Flies and labels every training site of `cfg` ([`label_site`], as the
+/// training campaign does); `progress` hears one line per step.
+pub fn label_sites(cfg: &CampaignConfig, progress: &mut dyn FnMut(&str)) -> Result<LabelledSites> {
     cfg.validate()?;
     let t = &cfg.training;
     if t.site_seeds.len() < 2 {
@@ -166,9 +170,48 @@ pub fn evaluate_forest(
         sites.push(label_site(cfg, seed, &mut stats, &mut curves, progress)?);
         success.extend(curves.measured_rows(seed));
     }
+    Ok(LabelledSites {
+        sites,
+        stats,
+        success,
+    })
+}
+
+/// One fold's forest and the angle-only baseline of its training sites.
+pub struct FoldForest {
+    /// Trained on every site but the fold's.
+    pub forest: vp_forest::Forest,
+    /// The baseline's prediction per angle bin.
+    pub angle_only: Vec<f64>,
+}
+
+/// Runs the leave-one-site-out evaluation of `cfg`'s training campaign;
+/// `progress` hears one line per site and per fold.
+///
+/// `sizes` lists forest sizes (trees, depth) to evaluate on the same labels
+/// and folds; empty: the config's own.
+pub fn evaluate_forest(
+    cfg: &CampaignConfig,
+    sizes: &[(usize, usize)],
+    progress: &mut dyn FnMut(&str),
+) -> Result<ForestEvaluation> {
+    let labelled = label_sites(cfg, progress)?;
+    Ok(evaluate_labelled(cfg, &labelled, sizes, progress)?.0)
+}
+
+/// [`evaluate_forest`] on sites labelled before; also returns the fold
+/// forests of the first size evaluated (for [`super::cross_eval`]).
+pub fn evaluate_labelled(
+    cfg: &CampaignConfig,
+    labelled: &LabelledSites,
+    sizes: &[(usize, usize)],
+    progress: &mut dyn FnMut(&str),
+) -> Result<(ForestEvaluation, Vec<FoldForest>)> {
+    let t = &cfg.training;
+    let sites = &labelled.sites;
     let bins = &t.forest.bins;
     let fall = angle_fall(
-        &success,
+        &labelled.success,
         bins,
         &G1_MATERIALS,
         G1_NARROW,
@@ -179,11 +222,12 @@ pub fn evaluate_forest(
     let matcher = format!("{:?}", cfg.mvs).to_lowercase();
     let mut out = ForestEvaluation {
         matcher: matcher.clone(),
-        stats,
-        success,
+        stats: labelled.stats.clone(),
+        success: labelled.success.clone(),
         fall,
         ..ForestEvaluation::default()
     };
+    let mut first_size_forests = Vec::new();
     let own = [(t.forest.n_trees, t.forest.max_depth)];
     for &(n_trees, max_depth) in if sizes.is_empty() { &own[..] } else { sizes } {
         let params = vp_forest::TrainParams {
@@ -212,6 +256,12 @@ pub fn evaluate_forest(
             let forest = vp_forest::train(&set, &params, mix64(cfg.seed ^ 0x666f_7265_7374))?;
             let base = angle_only(&train, bins);
             let cells = score_site(&forest, &sites[i], &base, k_sigma, &mut diagram)?;
+            if out.reliability.is_empty() {
+                first_size_forests.push(FoldForest {
+                    forest,
+                    angle_only: base,
+                });
+            }
             let mut total = Tally::default();
             for (&(m, bin), c) in &cells {
                 total.add(c);
@@ -244,13 +294,13 @@ pub fn evaluate_forest(
         }
         out.reliability.push(diagram);
     }
-    Ok(out)
+    Ok((out, first_size_forests))
 }
 
 /// Scores the labelled pixels of one held-out site's `views` with `forest`
 /// and the angle-only baseline `base`: running sums per (material, angle bin),
 /// and every pixel into the reliability `diagram`.
-fn score_site(
+pub(super) fn score_site(
     forest: &vp_forest::Forest,
     views: &[LabelledView],
     base: &[f64],

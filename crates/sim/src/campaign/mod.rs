@@ -26,6 +26,7 @@
 pub mod acquired;
 pub mod angle_fall;
 pub mod crash;
+pub mod cross_eval;
 pub mod curves;
 mod depth_maps;
 pub mod eval;

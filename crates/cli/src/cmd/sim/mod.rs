@@ -101,6 +101,11 @@ pub enum SimCommand {
         /// (e.g. 20x20,10x16,4x14); default: the config's `[training.forest]`.
         #[arg(long, value_delimiter = ',', value_parser = parse_size)]
         sizes: Vec<(usize, usize)>,
+        /// A second config, the other matcher on the same training sites:
+        /// evaluated too (DIR/versus/), and each matcher's fold forests
+        /// score the other's labels (DIR/cross.csv; issue 35's H2).
+        #[arg(long)]
+        versus: Option<PathBuf>,
         /// Output directory.
         #[arg(long)]
         out: PathBuf,
@@ -174,14 +179,21 @@ pub fn run(cmd: SimCommand, out: &mut dyn Write) -> Result<()> {
         }
         SimCommand::Evaluate {
             config,
+            versus,
             sizes,
             out: dir,
             force,
         } => {
             let t0 = std::time::Instant::now();
             let mut say = |m: &str| eprintln!("[{:6.1} s] {m}", t0.elapsed().as_secs_f64());
-            let eval = vp_sim::campaign::evaluate_to_dir(&config, &sizes, &dir, force, &mut say)?;
-            writeln!(out, "{}", eval.summary())?;
+            let summary = vp_sim::campaign::evaluate_to_dir(
+                &config,
+                versus.as_deref(),
+                &sizes,
+                (&dir, force),
+                &mut say,
+            )?;
+            writeln!(out, "{summary}")?;
             writeln!(out, "wrote {}", dir.join("forest_eval.csv").display())?;
             Ok(())
         }
