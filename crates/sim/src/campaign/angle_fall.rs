@@ -89,26 +89,34 @@ pub fn angle_fall(
         return None;
     }
     let diffs: Vec<f64> = per_site.iter().map(|&(_, n, w)| w - n).collect();
+    let (mean_difference, interval) = bootstrap_mean(&diffs, seed);
+    Some(AngleFall {
+        materials: materials.to_vec(),
+        narrow,
+        wide,
+        mean_difference,
+        interval,
+        per_site,
+    })
+}
+
+/// The mean of `values` (one per site, the independent unit) and its 95 %
+/// percentile bootstrap interval: `RESAMPLES` draws with replacement from
+/// `seed`. `values` must not be empty.
+pub fn bootstrap_mean(values: &[f64], seed: u64) -> (f64, (f64, f64)) {
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut means: Vec<f64> = (0..RESAMPLES)
         .map(|_| {
-            let draw: Vec<f64> = (0..diffs.len())
-                .map(|_| diffs[rng.random_range(0..diffs.len())])
+            let draw: Vec<f64> = (0..values.len())
+                .map(|_| values[rng.random_range(0..values.len())])
                 .collect();
             mean(&draw)
         })
         .collect();
     means.sort_by(f64::total_cmp);
     let at = |q: f64| means[((q * (RESAMPLES - 1) as f64).round() as usize).min(RESAMPLES - 1)];
-    Some(AngleFall {
-        materials: materials.to_vec(),
-        narrow,
-        wide,
-        mean_difference: mean(&diffs),
-        interval: (at(0.025), at(0.975)),
-        per_site,
-    })
+    (mean(values), (at(0.025), at(0.975)))
 }
 
 impl AngleFall {

@@ -114,6 +114,25 @@ pub enum SimCommand {
         #[arg(long)]
         force: bool,
     },
+    /// The two-matcher experiment's hypotheses H3-H6 (issue 35) from two
+    /// `sim run` report folders of the same held-out sites, one flown with
+    /// `mvs = "sgm"`, one with `mvs = "patchmatch"`: prints a per-site
+    /// table and each hypothesis as holding or not, with its figures.
+    #[command(after_help = "Example: vpctl sim compare --sgm camp-sgm --patchmatch camp-pm")]
+    Compare {
+        /// Report folder of the SGM campaign.
+        #[arg(long)]
+        sgm: PathBuf,
+        /// Report folder of the PatchMatch campaign.
+        #[arg(long)]
+        patchmatch: PathBuf,
+        /// The F strategy compared with its NP twin.
+        #[arg(long, default_value = "F5x4")]
+        strategy: String,
+        /// Seed of the bootstrap interval.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+    },
     /// Print a complete campaign configuration (TOML, every key written out).
     Config {
         /// Which preset: demo (what `vpctl demo` runs), quick (seconds) or
@@ -195,6 +214,20 @@ pub fn run(cmd: SimCommand, out: &mut dyn Write) -> Result<()> {
             )?;
             writeln!(out, "{summary}")?;
             writeln!(out, "wrote {}", dir.join("forest_eval.csv").display())?;
+            Ok(())
+        }
+        SimCommand::Compare {
+            sgm,
+            patchmatch,
+            strategy,
+            seed,
+        } => {
+            let text = vp_sim::campaign::report::two_matchers::compare_dirs(
+                (&sgm, &patchmatch),
+                &strategy,
+                seed,
+            )?;
+            write!(out, "{text}")?;
             Ok(())
         }
         SimCommand::Config { preset, paper } => {

@@ -21,6 +21,7 @@ pub mod plot;
 pub mod results;
 pub mod scene;
 mod svg;
+pub mod two_matchers;
 
 pub use results::{
     aggregate, CampaignReport, SiteArtifacts, SiteResult, StrategyArtifacts, TableRow,

@@ -1,0 +1,159 @@
+use super::*;
+
+fn fig(coverage: f64, f: f64, success: f64, images: f64) -> Figures {
+    Figures {
+        coverage,
+        f,
+        success: Some(success),
+        images,
+    }
+}
+
+/// A site whose F and NP reach `f` and `np`, with triplet successes `fs`
+/// and `ns`, F's triplets planned at `angles`, and a Grid and an oblique
+/// capture F out-covers.
+fn site(seed: u64, (f, np): (f64, f64), (fs, ns): (f64, f64), angles: &[f64]) -> SiteFigures {
+    let mut s = SiteFigures {
+        seed,
+        ..SiteFigures::default()
+    };
+    s.strategies.insert("F5x4".into(), fig(90.0, f, fs, 60.0));
+    s.strategies.insert("NP5x4".into(), fig(88.0, np, ns, 60.0));
+    s.strategies
+        .insert("Grid".into(), fig(80.0, 20.0, 100.0, 72.0));
+    s.strategies
+        .insert("Oblique".into(), fig(85.0, 20.0, 100.0, 60.0));
+    s.planned_angles.insert("F5x4".into(), angles.to_vec());
+    s
+}
+
+fn campaign(matcher: &str, sites: Vec<SiteFigures>) -> MatcherCampaign {
+    MatcherCampaign {
+        matcher: matcher.into(),
+        sites,
+    }
+}
+
+fn verdict<'a>(c: &'a Comparison, name: &str) -> &'a Verdict {
+    c.verdicts.iter().find(|v| v.name == name).unwrap()
+}
+
+/// SGM's F ahead on 7 of 8 sites with narrower plans, PatchMatch's even:
+/// H3, H4 and H5 hold; one more site where SGM's F trails breaks H4's count.
+#[test]
+fn hypotheses_count_sites_as_the_issue_fixed_them() {
+    let sgm: Vec<SiteFigures> = (1..=8)
+        .map(|i| {
+            let gap = if i == 8 { -1.0 } else { 5.0 };
+            site(i, (40.0 + gap, 40.0), (100.0, 60.0), &[7.5, 12.5])
+        })
+        .collect();
+    let pm: Vec<SiteFigures> = (1..=8)
+        .map(|i| {
+            site(
+                i,
+                (40.0, 40.0 + 0.1 * i as f64),
+                (97.0, 95.0),
+                &[32.5, 42.5],
+            )
+        })
+        .collect();
+    let c = compare(
+        &campaign("sgm", sgm.clone()),
+        &campaign("patchmatch", pm.clone()),
+        ("F5x4", "NP5x4"),
+        3,
+    )
+    .unwrap();
+    assert!(verdict(&c, "H3").holds, "{}", c.markdown());
+    assert!(verdict(&c, "H3").figures.contains("on 8 of 8 sites"));
+    assert!(verdict(&c, "H4").holds, "{}", c.markdown());
+    assert!(verdict(&c, "H4").figures.contains("on 7 of 8 sites"));
+    assert!(verdict(&c, "H5").holds, "{}", c.markdown());
+    assert!(verdict(&c, "H6 (sgm)").holds && verdict(&c, "H6 (patchmatch)").holds);
+    assert!(
+        c.markdown().contains("| 8 | 39.0 | 40.0 | -1.0 |"),
+        "{}",
+        c.markdown()
+    );
+
+    // Two sites behind: 6 of 8 is not enough for H4.
+    let mut sgm2 = sgm;
+    sgm2[0] = site(1, (39.0, 40.0), (100.0, 60.0), &[7.5]);
+    let c = compare(
+        &campaign("sgm", sgm2),
+        &campaign("patchmatch", pm.clone()),
+        ("F5x4", "NP5x4"),
+        3,
+    )
+    .unwrap();
+    assert!(!verdict(&c, "H4").holds, "{}", c.markdown());
+    // The same gaps on both matchers: the interval of the difference holds 0.
+    let c = compare(
+        &campaign("sgm", pm.clone()),
+        &campaign("patchmatch", pm),
+        ("F5x4", "NP5x4"),
+        3,
+    )
+    .unwrap();
+    assert!(
+        !verdict(&c, "H4").holds && !verdict(&c, "H3").holds,
+        "{}",
+        c.markdown()
+    );
+}
+
+/// H6 needs F to out-cover the Grid with fewer images and the oblique
+/// capture; H5 needs PatchMatch's F and NP within 5 points; different sites
+/// are refused.
+#[test]
+fn coverage_success_and_site_rules() {
+    let sites = |n: u64| -> Vec<SiteFigures> {
+        (1..=n)
+            .map(|i| site(i, (41.0, 40.0), (100.0, 80.0), &[10.0]))
+            .collect()
+    };
+    let mut poor = sites(8);
+    for s in poor.iter_mut().take(3) {
+        s.strategies.get_mut("F5x4").unwrap().coverage = 84.0; // below the oblique's 85
+    }
+    let mut far = sites(8);
+    for s in &mut far {
+        s.strategies.get_mut("NP5x4").unwrap().success = Some(90.0); // F 100: 10 points
+    }
+    let c = compare(
+        &campaign("sgm", poor),
+        &campaign("patchmatch", far),
+        ("F5x4", "NP5x4"),
+        1,
+    )
+    .unwrap();
+    assert!(!verdict(&c, "H6 (sgm)").holds, "{}", c.markdown());
+    assert!(verdict(&c, "H6 (sgm)")
+        .figures
+        .contains("on 5 of 8 sites (needs 6)"));
+    assert!(verdict(&c, "H6 (patchmatch)").holds);
+    assert!(!verdict(&c, "H5").holds, "{}", c.markdown());
+    let e = compare(
+        &campaign("sgm", sites(8)),
+        &campaign("patchmatch", sites(7)),
+        ("F5x4", "NP5x4"),
+        1,
+    );
+    assert!(e.unwrap_err().to_string().contains("same held-out sites"));
+    // One site: every count needs 1 of 1.
+    let c = compare(
+        &campaign("sgm", sites(1)),
+        &campaign("patchmatch", sites(1)),
+        ("F5x4", "NP5x4"),
+        1,
+    )
+    .unwrap();
+    assert!(
+        verdict(&c, "H4")
+            .figures
+            .contains("on 1 of 1 sites (needs 1)"),
+        "{}",
+        c.markdown()
+    );
+}
