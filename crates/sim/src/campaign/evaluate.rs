@@ -424,13 +424,15 @@ impl ForestEvaluation {
             let (la, ls) = over(Tally::accuracy_labels);
             let (ta, ts) = over(Tally::accuracy_truth);
             let (sa, ss) = over(Tally::brier_skill);
+            let skilled = folds.iter().filter(|t| t.brier_skill() > 0.0).count();
             let _ = writeln!(
                 out,
                 "forest {size}, leave-one-site-out over {} folds, {} labelled pixels:\n  \
                  accuracy against the labels: {:.1} ± {:.1} % (the paper, against its labels: \
                  {} %)\n  accuracy against the truth: {:.1} ± {:.1} %\n  Brier skill over the \
                  angle-only baseline: {:+.3} pooled, {sa:+.3} ± {ss:.3} over folds (> 0: the \
-                 image adds to the angle)\n  majority label share: {:.1} %",
+                 image adds to the angle), above 0 in {skilled} of {} folds\n  majority label \
+                 share: {:.1} %",
                 folds.len(),
                 all.n,
                 100.0 * la,
@@ -439,6 +441,7 @@ impl ForestEvaluation {
                 100.0 * ta,
                 100.0 * ts,
                 all.brier_skill(),
+                folds.len(),
                 100.0 * all.share(all.positive.max(all.n - all.positive)),
             );
             if let Some(r) = self.reliability.iter().find(|r| r.forest == size) {

@@ -212,6 +212,8 @@ pub(crate) fn label_site(
     let mut points = BTreeMap::new();
     let mut attempts = 0;
     let mut n = 0;
+    // `stats` counts over every site; the progress line says this site's.
+    let succeeded_before = stats.successful_triplets;
     let per_site = t.triplets_per_site;
     while n < per_site && attempts < 20 * per_site {
         attempts += 1;
@@ -257,7 +259,7 @@ pub(crate) fn label_site(
     }
     progress(&format!(
         "training site {seed}: {n} triplets reconstructed, {} with output; labelling",
-        stats.successful_triplets
+        stats.successful_triplets - succeeded_before
     ));
     // Stage 3's mesh as a user has it: `vpctl mesh build`'s 3D mesher on
     // the sparse points. Too few or degenerate points (a tiny test site):

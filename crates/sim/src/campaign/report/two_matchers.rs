@@ -21,6 +21,7 @@ use std::path::Path;
 
 use serde_json::Value;
 
+use super::results::CampaignReport;
 use crate::campaign::angle_fall::bootstrap_mean;
 use crate::error::{Result, SimError};
 
@@ -55,6 +56,44 @@ pub struct MatcherCampaign {
     pub matcher: String,
     /// In the report's order.
     pub sites: Vec<SiteFigures>,
+}
+
+impl MatcherCampaign {
+    /// The figures of a campaign run in this process.
+    pub fn from_report(r: &CampaignReport) -> Self {
+        let sites = r
+            .sites
+            .iter()
+            .map(|site| {
+                let mut s = SiteFigures {
+                    seed: site.seed,
+                    ..SiteFigures::default()
+                };
+                for (name, sc) in &site.scores {
+                    let figures = Figures {
+                        coverage: sc.coverage,
+                        f: sc.f,
+                        success: sc.triplet_success,
+                        images: sc.n_images as f64,
+                    };
+                    s.strategies.insert(name.clone(), figures);
+                }
+                for t in &site.triplets {
+                    if let Some(angle) = t.planned_angle_deg {
+                        s.planned_angles
+                            .entry(t.strategy.clone())
+                            .or_default()
+                            .push(angle);
+                    }
+                }
+                s
+            })
+            .collect();
+        MatcherCampaign {
+            matcher: format!("{:?}", r.config.mvs).to_lowercase(),
+            sites,
+        }
+    }
 }
 
 fn bad(path: &Path, what: &str) -> SimError {
