@@ -319,33 +319,36 @@ fn h5(
 
 fn h6(c: &MatcherCampaign, f_name: &str) -> Result<Verdict> {
     let n = c.sites.len();
-    let mut both = 0;
-    let mut no_oblique = false;
+    // Sites where F out-covers the Grid, where it also flies fewer images
+    // than the Grid, where it out-covers the oblique capture (with at most
+    // as many images), and where all three hold.
+    let (mut grid_cov, mut grid_fewer, mut oblique_cov, mut all) = (0, 0, 0, 0);
     for s in &c.sites {
         let (f, grid) = (figures(s, f_name)?, figures(s, "Grid")?);
         let Some(obl) = s.strategies.get("Oblique") else {
-            no_oblique = true;
-            continue;
+            return Ok(Verdict {
+                name: format!("H6 ({})", c.matcher),
+                holds: false,
+                figures: "no Oblique row (fly with [grid] oblique = true)".into(),
+            });
         };
-        both += usize::from(
-            f.coverage > grid.coverage
-                && f.images < grid.images
-                && f.coverage > obl.coverage
-                && f.images <= obl.images,
-        );
+        let g = f.coverage > grid.coverage;
+        let fewer = f.images < grid.images;
+        let o = f.coverage > obl.coverage && f.images <= obl.images;
+        grid_cov += usize::from(g);
+        grid_fewer += usize::from(g && fewer);
+        oblique_cov += usize::from(o);
+        all += usize::from(g && fewer && o);
     }
     Ok(Verdict {
         name: format!("H6 ({})", c.matcher),
-        holds: !no_oblique && both >= needed(6, n),
-        figures: if no_oblique {
-            "no Oblique row (fly with [grid] oblique = true)".into()
-        } else {
-            format!(
-                "{f_name} covers more than the Grid with fewer images and more than the oblique capture with \
-                 as many on {both} of {n} sites (needs {})",
-                needed(6, n)
-            )
-        },
+        holds: all >= needed(6, n),
+        figures: format!(
+            "{f_name} covers more than the Grid with fewer images and more than the oblique capture with \
+             as many on {all} of {n} sites (needs {}): more than the Grid on {grid_cov} (with fewer \
+             images on {grid_fewer}), more than the oblique capture on {oblique_cov}",
+            needed(6, n)
+        ),
     })
 }
 

@@ -132,6 +132,9 @@ fn coverage_success_and_site_rules() {
     assert!(verdict(&c, "H6 (sgm)")
         .figures
         .contains("on 5 of 8 sites (needs 6)"));
+    assert!(verdict(&c, "H6 (sgm)").figures.contains(
+        "more than the Grid on 8 (with fewer images on 8), more than the oblique capture on 5"
+    ));
     assert!(verdict(&c, "H6 (patchmatch)").holds);
     assert!(!verdict(&c, "H5").holds, "{}", c.markdown());
     let e = compare(
