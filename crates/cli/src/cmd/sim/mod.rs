@@ -120,12 +120,14 @@ pub enum SimCommand {
     /// table and each hypothesis as holding or not, with its figures.
     #[command(after_help = "Example: vpctl sim compare --sgm camp-sgm --patchmatch camp-pm")]
     Compare {
-        /// Report folder of the SGM campaign.
-        #[arg(long)]
-        sgm: PathBuf,
-        /// Report folder of the PatchMatch campaign.
-        #[arg(long)]
-        patchmatch: PathBuf,
+        /// Report folder of the SGM campaign; several, comma-separated, for
+        /// batches of held-out sites flown with one saved forest (`sim
+        /// train`, then `sim run --forest` per batch).
+        #[arg(long, required = true, value_delimiter = ',')]
+        sgm: Vec<PathBuf>,
+        /// Report folder(s) of the PatchMatch campaign, as --sgm.
+        #[arg(long, required = true, value_delimiter = ',')]
+        patchmatch: Vec<PathBuf>,
         /// The F strategy compared with its NP twin.
         #[arg(long, default_value = "F5x4")]
         strategy: String,
@@ -223,7 +225,7 @@ pub fn run(cmd: SimCommand, out: &mut dyn Write) -> Result<()> {
             seed,
         } => {
             let text = vp_sim::campaign::report::two_matchers::compare_dirs(
-                (&sgm, &patchmatch),
+                (&sgm[..], &patchmatch[..]),
                 &strategy,
                 seed,
             )?;

@@ -352,10 +352,17 @@ fn h6(c: &MatcherCampaign, f_name: &str) -> Result<Verdict> {
     })
 }
 
-/// `vpctl sim compare`: reads both report folders, checks each holds the
-/// matcher its flag says, and compares `f_name` (an F strategy) with its NP
-/// twin: the markdown of [`Comparison::markdown`].
-pub fn compare_dirs((sgm, pm): (&Path, &Path), f_name: &str, seed: u64) -> Result<String> {
+/// `vpctl sim compare`: reads the report folders of each matcher (one
+/// campaign, or batches of held-out sites flown with one saved forest:
+/// `sim train`, then `sim run --forest` per batch), checks each holds the
+/// matcher its flag says and no site twice, and compares `f_name` (an F
+/// strategy) with its NP twin over the sites in seed order: the markdown
+/// of [`Comparison::markdown`].
+pub fn compare_dirs<P: AsRef<Path>>(
+    (sgm, pm): (&[P], &[P]),
+    f_name: &str,
+    seed: u64,
+) -> Result<String> {
     let np_name = f_name
         .strip_prefix('F')
         .map(|rest| format!("NP{rest}"))
@@ -364,24 +371,47 @@ pub fn compare_dirs((sgm, pm): (&Path, &Path), f_name: &str, seed: u64) -> Resul
                 "--strategy {f_name}: not an F strategy (e.g. F5x4)"
             ))
         })?;
-    let read = |dir: &Path, want: &str| -> Result<MatcherCampaign> {
-        let c = read_campaign(dir)?;
-        if c.matcher != want {
-            return Err(SimError::InvalidArgument(format!(
-                "{}: flown with mvs = \"{}\", not \"{want}\"",
-                dir.display(),
-                c.matcher
-            )));
-        }
-        Ok(c)
-    };
     let c = compare(
-        &read(sgm, "sgm")?,
-        &read(pm, "patchmatch")?,
+        &read_batches(sgm, "sgm")?,
+        &read_batches(pm, "patchmatch")?,
         (f_name, &np_name),
         seed,
     )?;
     Ok(c.markdown())
+}
+
+/// The sites of every report folder in `dirs`, all flown with `matcher`,
+/// in seed order; a site in two folders is refused.
+fn read_batches<P: AsRef<Path>>(dirs: &[P], matcher: &str) -> Result<MatcherCampaign> {
+    let mut all = MatcherCampaign {
+        matcher: matcher.into(),
+        sites: Vec::new(),
+    };
+    let mut from: BTreeMap<u64, &Path> = BTreeMap::new();
+    for dir in dirs {
+        let dir = dir.as_ref();
+        let c = read_campaign(dir)?;
+        if c.matcher != matcher {
+            return Err(SimError::InvalidArgument(format!(
+                "{}: flown with mvs = \"{}\", not \"{matcher}\"",
+                dir.display(),
+                c.matcher
+            )));
+        }
+        for site in c.sites {
+            if let Some(first) = from.insert(site.seed, dir) {
+                return Err(SimError::InvalidArgument(format!(
+                    "held-out site {} is in {} and in {}: give each site's batch once",
+                    site.seed,
+                    first.display(),
+                    dir.display()
+                )));
+            }
+            all.sites.push(site);
+        }
+    }
+    all.sites.sort_by_key(|s| s.seed);
+    Ok(all)
 }
 
 impl Comparison {

@@ -1,3 +1,7 @@
+use std::path::Path;
+
+use serde_json::Value;
+
 use super::*;
 
 fn fig(coverage: f64, f: f64, success: f64, images: f64) -> Figures {
@@ -159,4 +163,65 @@ fn coverage_success_and_site_rules() {
         "{}",
         c.markdown()
     );
+}
+
+/// A `report.json` as `sim run` writes it (the fields compare reads) for
+/// `matcher` and the sites `seeds`, in `dir`.
+fn write_report_json(dir: &Path, matcher: &str, seeds: &[u64]) {
+    let score = |cov: f64, f: f64, images: f64| {
+        serde_json::json!({"coverage": cov, "f": f, "triplet_success": 100.0, "n_images": images,
+            "f_res": 0.0, "f_unc": 0.0, "rock_coverage": 0.0, "min_clearance_m": null, "safety_violations": 0})
+    };
+    let sites: Vec<Value> = seeds
+        .iter()
+        .map(|&s| {
+            serde_json::json!({
+                "seed": s,
+                "scores": [["Grid", score(80.0, 20.0, 36.0)], ["Oblique", score(85.0, 20.0, 60.0)],
+                           ["F5x4", score(90.0, 40.0 + s as f64, 60.0)], ["NP5x4", score(88.0, 40.0, 60.0)]],
+                "triplets": [{"strategy": "F5x4", "planned_angle_deg": 12.5}, {"strategy": "F5x4", "planned_angle_deg": null}],
+            })
+        })
+        .collect();
+    std::fs::create_dir_all(dir).unwrap();
+    let json = serde_json::json!({"config": {"mvs": matcher}, "sites": sites});
+    std::fs::write(dir.join("report.json"), json.to_string()).unwrap();
+}
+
+/// Batches of held-out sites merge in seed order; a site in two batches,
+/// a folder of the other matcher and a folder without a report are
+/// refused, naming the folders.
+#[test]
+fn compare_dirs_merges_batches_of_sites() {
+    let t = tempfile::tempdir().unwrap();
+    let d = |n: &str| t.path().join(n);
+    write_report_json(&d("sgm-a"), "sgm", &[3]);
+    write_report_json(&d("sgm-b"), "sgm", &[1, 2]);
+    write_report_json(&d("pm"), "patchmatch", &[2, 1, 3]);
+    let md = compare_dirs((&[d("sgm-a"), d("sgm-b")][..], &[d("pm")][..]), "F5x4", 0).unwrap();
+    let rows: Vec<&str> = md
+        .lines()
+        .filter(|l| l.starts_with("| ") && !l.starts_with("| site"))
+        .collect();
+    assert!(
+        rows[0].starts_with("| 1 | 41.0 |") && rows[2].starts_with("| 3 | 43.0 |"),
+        "{md}"
+    );
+    assert!(
+        md.contains("12.5 / 12.5"),
+        "a triplet without a planned angle is left out: {md}"
+    );
+
+    write_report_json(&d("sgm-c"), "sgm", &[2]);
+    let e = compare_dirs((&[d("sgm-b"), d("sgm-c")][..], &[d("pm")][..]), "F5x4", 0).unwrap_err();
+    assert!(
+        e.to_string().contains("held-out site 2 is in") && e.to_string().contains("sgm-c"),
+        "{e}"
+    );
+    let e = compare_dirs((&[d("pm")][..], &[d("pm")][..]), "F5x4", 0).unwrap_err();
+    assert!(e.to_string().contains("not \"sgm\""), "{e}");
+    let e = compare_dirs((&[d("nothing")][..], &[d("pm")][..]), "F5x4", 0).unwrap_err();
+    assert!(e.to_string().contains("report.json"), "{e}");
+    let e = compare_dirs((&[d("sgm-b")][..], &[d("pm")][..]), "NP5x4", 0).unwrap_err();
+    assert!(e.to_string().contains("not an F strategy"), "{e}");
 }
