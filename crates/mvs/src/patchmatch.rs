@@ -85,6 +85,9 @@ struct Problem<'a> {
     /// Pyramid level (0 = full resolution): part of the random keys, so
     /// that each level draws its own numbers.
     level: u32,
+    /// Skip the propagation candidates scored before (`run`); off only in
+    /// the test that holds the two ways equal bit for bit.
+    skip_unchanged: bool,
 }
 
 /// The raw PatchMatch state of one view (every pixel's winning hypothesis).
@@ -124,6 +127,18 @@ pub(crate) fn patch_match_raw(
     sources: &[usize],
     params: &MvsParams,
     previous: Option<&[Option<RawState>]>,
+) -> Result<RawState> {
+    patch_match_raw_with(views, (reference, sources), params, previous, true)
+}
+
+/// [`patch_match_raw`], with or without skipping the propagation
+/// candidates scored before (the same result either way; tested).
+fn patch_match_raw_with(
+    views: &[View],
+    (reference, sources): (usize, &[usize]),
+    params: &MvsParams,
+    previous: Option<&[Option<RawState>]>,
+    skip_unchanged: bool,
 ) -> Result<RawState> {
     params.validate()?;
     let view = views.get(reference).ok_or_else(|| {
@@ -174,6 +189,7 @@ pub(crate) fn patch_match_raw(
         params,
         view_key: reference as u64,
         level: 0,
+        skip_unchanged,
     };
     let init = previous
         .and_then(|p| p.get(reference))
@@ -247,6 +263,7 @@ impl Problem<'_> {
             params: self.params,
             view_key: self.view_key,
             level: self.level + 1,
+            skip_unchanged: self.skip_unchanged,
         };
         let low = coarse.solve(levels - 1);
         let init = upsample(&low, &coarse.k, w, h, &self.k, MAX_COST);
@@ -287,18 +304,33 @@ impl Problem<'_> {
                 *hyp = Hyp { d, n, cost, photo };
             }
         });
+        // Whether each pixel's hypothesis changed at its last update. Every
+        // propagation neighbour is of the other colour, updated in the half
+        // between two updates of a pixel: one that did not change offers
+        // the same candidate the pixel already scored, against a best
+        // that is at most as costly now, so skipping it changes nothing
+        // (bit for bit; `update`).
+        let mut changed = vec![true; w * h];
         for it in 0..iterations {
             for colour in 0..2 {
                 let prev = state.clone();
+                let seen = (it > 0 && self.skip_unchanged).then(|| changed.clone());
                 let step = pass + 1 + 2 * u64::from(it) + colour as u64;
-                state.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-                    let mut patch = RefPatch::default();
-                    let mut x = (y + colour) % 2;
-                    while x < w {
-                        row[x] = self.update(&prev, &mut patch, x, y, it, step);
-                        x += 2;
-                    }
-                });
+                state
+                    .par_chunks_mut(w)
+                    .zip(changed.par_chunks_mut(w))
+                    .enumerate()
+                    .for_each(|(y, (row, flags))| {
+                        let mut patch = RefPatch::default();
+                        let mut x = (y + colour) % 2;
+                        while x < w {
+                            let old = row[x];
+                            row[x] =
+                                self.update(&prev, seen.as_deref(), &mut patch, (x, y), (it, step));
+                            flags[x] = !same_bits(&old, &row[x]);
+                            x += 2;
+                        }
+                    });
             }
         }
         RawState {
@@ -414,14 +446,17 @@ impl Problem<'_> {
         }
     }
 
+    /// One PatchMatch update of pixel (x, y) from the state `prev`:
+    /// propagation, then refinement. `changed` (None on a pixel's first
+    /// update) says which pixels changed at their last update; a
+    /// neighbour pair of which no pixel did is skipped (see `run`).
     fn update(
         &self,
         prev: &[Hyp],
+        changed: Option<&[bool]>,
         patch: &mut RefPatch,
-        x: usize,
-        y: usize,
-        it: u32,
-        step: u64,
+        (x, y): (usize, usize),
+        (it, step): (u32, u64),
     ) -> Hyp {
         let w = self.image.width as usize;
         let h = self.image.height as usize;
@@ -441,17 +476,22 @@ impl Problem<'_> {
         // Propagation: the neighbour's plane, intersected with this pixel's ray.
         for pair in NEIGHBOURS {
             let mut pick: Option<(usize, usize)> = None;
+            let mut fresh = changed.is_none();
             for (ox, oy) in pair {
                 let (nx, ny) = (x as i32 + ox, y as i32 + oy);
                 if nx < 0 || ny < 0 || nx as usize >= w || ny as usize >= h {
                     continue;
                 }
                 let (nx, ny) = (nx as usize, ny as usize);
+                fresh |= changed.is_some_and(|c| c[ny * w + nx]);
                 if pick.is_none_or(|(px, py)| prev[ny * w + nx].cost < prev[py * w + px].cost) {
                     pick = Some((nx, ny));
                 }
             }
-            let Some((nx, ny)) = pick else { continue };
+            // Neither neighbour changed: the candidate was scored before.
+            let Some((nx, ny)) = pick.filter(|_| fresh) else {
+                continue;
+            };
             let nb = prev[ny * w + nx];
             let nray = pixel_ray(&self.k, nx, ny);
             let n = nb.n;
@@ -487,6 +527,14 @@ impl Problem<'_> {
     }
 }
 
+/// Whether two hypotheses are the same bit for bit.
+fn same_bits(a: &Hyp, b: &Hyp) -> bool {
+    a.d.to_bits() == b.d.to_bits()
+        && a.n.map(f32::to_bits) == b.n.map(f32::to_bits)
+        && a.cost.to_bits() == b.cost.to_bits()
+        && a.photo.to_bits() == b.photo.to_bits()
+}
+
 /// A random unit normal facing the camera along `ray` (the reversed ray
 /// plus a random vector of the unit cube), so that fronto-parallel planes
 /// are the most likely and grazing ones rare.
@@ -508,3 +556,7 @@ fn normalize(v: [f32; 3]) -> [f32; 3] {
         [0.0, 0.0, -1.0]
     }
 }
+
+#[cfg(test)]
+#[path = "patchmatch_tests.rs"]
+mod tests;

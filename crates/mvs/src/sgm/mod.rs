@@ -24,7 +24,7 @@ pub(crate) mod rectify;
 #[cfg(test)]
 mod reference;
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 mod winners;
 
 use std::fmt::Write as _;

@@ -88,7 +88,7 @@ fn render(camera: &Camera) -> (vp_scene::raster::RgbImage, Vec<f32>) {
 
 /// Cameras 26 m from the box's top centre at 55 deg elevation, spread
 /// horizontally so that the angle at the target is `angle_deg` each step.
-fn cameras(n: usize, angle_deg: f64, size: (u32, u32)) -> Vec<Camera> {
+pub(crate) fn cameras(n: usize, angle_deg: f64, size: (u32, u32)) -> Vec<Camera> {
     let k = Intrinsics::from_hfov(size.0, size.1, 60.0).unwrap();
     let focus = Point3::new(0.0, 0.0, 3.0);
     (0..n)
@@ -101,7 +101,7 @@ fn cameras(n: usize, angle_deg: f64, size: (u32, u32)) -> Vec<Camera> {
         .collect()
 }
 
-fn views(cams: &[Camera]) -> (Vec<View>, Vec<Vec<f32>>) {
+pub(crate) fn views(cams: &[Camera]) -> (Vec<View>, Vec<Vec<f32>>) {
     let mut views = Vec::new();
     let mut depths = Vec::new();
     for (i, cam) in cams.iter().enumerate() {
