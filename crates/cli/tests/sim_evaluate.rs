@@ -12,12 +12,8 @@ fn both(o: &Output) -> String {
     format!("{}{}", stdout(o), stderr(o))
 }
 
-/// `vpctl sim evaluate` on two quick training sites: one row per fold,
-/// material and angle bin whose pixels add up to the printed total; one
-/// site is refused with the config named and nothing written.
-#[test]
-fn sim_evaluate_scores_each_held_out_site_and_refuses_a_single_site() {
-    let dir = tempfile::tempdir().unwrap();
+/// The quick preset's config and its `site_seeds = ...` line.
+fn quick_config() -> (String, String) {
     let quick = vpctl(&["sim", "config", "--preset", "quick"]);
     assert!(quick.status.success(), "{}", both(&quick));
     let toml = String::from_utf8(quick.stdout).unwrap();
@@ -26,6 +22,16 @@ fn sim_evaluate_scores_each_held_out_site_and_refuses_a_single_site() {
         .find(|l| l.starts_with("site_seeds = "))
         .expect("the quick preset lists its training sites")
         .to_string();
+    (toml, seeds)
+}
+
+/// `vpctl sim evaluate` on two quick training sites: one row per fold,
+/// material and angle bin whose pixels add up to the printed total; one
+/// site is refused with the config named and nothing written.
+#[test]
+fn sim_evaluate_scores_each_held_out_site_and_refuses_a_single_site() {
+    let dir = tempfile::tempdir().unwrap();
+    let (toml, seeds) = quick_config();
     let write = |name: &str, line: &str| {
         let p = dir.path().join(name);
         std::fs::write(&p, toml.replace(&seeds, line)).unwrap();
@@ -214,14 +220,7 @@ fn check_angle_success(out: &Path, summary: &str) {
 #[test]
 fn sim_evaluate_versus_scores_each_matchers_labels_with_both_forests() {
     let dir = tempfile::tempdir().unwrap();
-    let quick = vpctl(&["sim", "config", "--preset", "quick"]);
-    assert!(quick.status.success(), "{}", both(&quick));
-    let toml = String::from_utf8(quick.stdout).unwrap();
-    let seeds = toml
-        .lines()
-        .find(|l| l.starts_with("site_seeds = "))
-        .unwrap()
-        .to_string();
+    let (toml, seeds) = quick_config();
     let mvs = toml.lines().find(|l| l.starts_with("mvs = ")).unwrap();
     let pm = toml.replace(&seeds, "site_seeds = [101, 102]");
     let write = |name: &str, text: String| {
