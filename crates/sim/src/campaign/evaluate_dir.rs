@@ -45,12 +45,14 @@ pub fn evaluate_to_dir(
     inputs.extend(versus);
     let dir = OutDir::check(out, "sim evaluate", &inputs, force)?;
     let labelled = label_sites(&cfg, progress).map_err(named(config))?;
-    let (eval, forests) = evaluate_labelled(&cfg, &labelled, sizes, progress)?;
+    let (eval, forests) =
+        evaluate_labelled(&cfg, &labelled, sizes, progress).map_err(named(config))?;
     let mut summary = eval.summary();
     let mut second = None;
     if let (Some(path), Some(other)) = (versus, &other) {
         let labelled_b = label_sites(other, progress).map_err(named(path))?;
-        let (eval_b, forests_b) = evaluate_labelled(other, &labelled_b, sizes, progress)?;
+        let (eval_b, forests_b) =
+            evaluate_labelled(other, &labelled_b, sizes, progress).map_err(named(path))?;
         let folds = |cfg, eval, labelled, forests| MatcherFolds {
             cfg,
             eval,
