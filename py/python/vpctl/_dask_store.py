@@ -5,7 +5,6 @@ task per tree, each streaming the store in bounded memory."""
 
 from __future__ import annotations
 
-import uuid
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Mapping, Optional
 
@@ -74,7 +73,7 @@ def train_forest_from_store(
     one chunk, and assembles it on the client: the same model bytes as
     :func:`train_forest` on the data, parameters and seed the store was
     written with. Writes it to `out` atomically if given."""
-    from vpctl.distributed import _client, _gather, _refuse_existing
+    from vpctl.distributed import _forest_of_tree_tasks, _refuse_existing
 
     if out is not None:
         _refuse_existing([Path(out)], force)
@@ -82,14 +81,7 @@ def train_forest_from_store(
     _native.PatchStore.open(str(store))
     p = dict(vpctl.forest.default_params())
     p.update(params or {})
-    with _client(client) as c:
-        futures = [
-            c.submit(_store_tree_task, str(store), p, int(budget_mb), i,
-                     key=f"vpctl-store-tree-{i}-{uuid.uuid4().hex[:8]}", pure=False)
-            for i in range(int(p["n_trees"]))
-        ]
-        trees = _gather(c, futures, show_progress)
-    forest = _native.assemble(trees)
-    if out is not None:
-        forest.save(out, force=True)
-    return forest
+    return _forest_of_tree_tasks(
+        client, "store-tree", int(p["n_trees"]),
+        lambda i: (_store_tree_task, str(store), p, int(budget_mb), i),
+        out, show_progress)

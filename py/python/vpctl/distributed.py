@@ -422,12 +422,29 @@ def train_forest(
         _refuse_existing([Path(out)], force)
     p = dict(vpctl.forest.default_params())
     p.update(params or {})
+    return _forest_of_tree_tasks(
+        client, "tree", int(p["n_trees"]),
+        lambda i: (_tree_task, str(images), str(labels), int(seed), max_per_label_image, p, i),
+        out, show_progress)
+
+
+def _forest_of_tree_tasks(
+    client: ClientLike,
+    name: str,
+    n_trees: int,
+    task_of: Callable[[int], tuple],
+    out: Optional[PathLike],
+    show_progress: bool,
+) -> "vpctl.forest.Forest":
+    """One task per tree (`task_of(i)`: the function and its arguments),
+    keyed `vpctl-<name>-<i>-<random>`, gathered and assembled on the client
+    in tree order; written to `out` if given (its refusal checked before)."""
     with _client(client) as c:
-        futures = [
-            c.submit(_tree_task, str(images), str(labels), int(seed), max_per_label_image, p, i,
-                     key=f"vpctl-tree-{i}-{uuid.uuid4().hex[:8]}", pure=False)
-            for i in range(int(p["n_trees"]))
-        ]
+        futures = []
+        for i in range(n_trees):
+            fn, *args = task_of(i)
+            futures.append(c.submit(fn, *args, key=f"vpctl-{name}-{i}-{uuid.uuid4().hex[:8]}",
+                                    pure=False))
         trees = _gather(c, futures, show_progress)
     forest = _native.assemble(trees)
     if out is not None:
