@@ -116,27 +116,20 @@ pub fn csv(rows: &[CrossRow]) -> String {
 /// H2 for one matcher's labels: the folds in which its own forest has the
 /// lower Brier score, out of the folds with labels.
 pub fn own_forest_wins(rows: &[CrossRow], labels_of: &str) -> (usize, usize) {
-    let brier = |forest_of: &str, fold: u64| {
-        rows.iter()
-            .find(|r| r.labels_of == labels_of && r.forest_of == forest_of && r.fold == fold)
-            .map(|r| r.tally.brier / r.tally.n.max(1) as f64)
-    };
+    let mean_brier = |r: &CrossRow| r.tally.brier / r.tally.n.max(1) as f64;
     let mut folds: Vec<u64> = rows.iter().map(|r| r.fold).collect();
     folds.dedup();
     let (mut wins, mut total) = (0, 0);
     for fold in folds {
-        let own = brier(labels_of, fold);
-        let other = rows
-            .iter()
-            .find(|r| r.labels_of == labels_of && r.forest_of != labels_of && r.fold == fold)
-            .map(|r| r.tally.brier / r.tally.n.max(1) as f64);
-        if let (Some(own), Some(other)) = (own, other) {
-            if rows
-                .iter()
-                .any(|r| r.labels_of == labels_of && r.fold == fold && r.tally.n > 0)
-            {
+        let of = |own: bool| {
+            rows.iter().find(|r| {
+                r.labels_of == labels_of && r.fold == fold && (r.forest_of == labels_of) == own
+            })
+        };
+        if let (Some(own), Some(other)) = (of(true), of(false)) {
+            if own.tally.n > 0 {
                 total += 1;
-                wins += usize::from(own < other);
+                wins += usize::from(mean_brier(own) < mean_brier(other));
             }
         }
     }

@@ -199,6 +199,16 @@ fn mean(v: &[f64]) -> f64 {
     v.iter().sum::<f64>() / v.len().max(1) as f64
 }
 
+/// The mean of the finite values of `v` (NaN when there are none).
+fn mean_finite(v: impl Iterator<Item = f64>) -> f64 {
+    let v: Vec<f64> = v.filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        f64::NAN
+    } else {
+        mean(&v)
+    }
+}
+
 fn figures<'a>(site: &'a SiteFigures, name: &str) -> Result<&'a Figures> {
     site.strategies.get(name).ok_or_else(|| {
         SimError::InvalidArgument(format!(
@@ -232,8 +242,13 @@ pub fn compare(
             Ok((figures(s, f_name)?.f, figures(s, np_name)?.f))
         };
         f.push([pair(a)?, pair(b)?]);
-        let mean_angle =
-            |s: &SiteFigures| mean(s.planned_angles.get(f_name).map_or(&[][..], |v| v));
+        // NaN where F flew no triplet with a planned angle: never "narrower".
+        let mean_angle = |s: &SiteFigures| {
+            s.planned_angles
+                .get(f_name)
+                .filter(|v| !v.is_empty())
+                .map_or(f64::NAN, |v| mean(v))
+        };
         angle.push((mean_angle(a), mean_angle(b)));
     }
     let mut verdicts = Vec::new();
@@ -246,8 +261,8 @@ pub fn compare(
             "{f_name}'s mean planned angle is narrower with SGM than with PatchMatch on {narrower} of {n} sites \
              (needs {}); means {:.1} and {:.1} deg",
             needed(7, n),
-            mean(&angle.iter().map(|a| a.0).collect::<Vec<_>>()),
-            mean(&angle.iter().map(|a| a.1).collect::<Vec<_>>()),
+            mean_finite(angle.iter().map(|a| a.0)),
+            mean_finite(angle.iter().map(|a| a.1)),
         ),
     });
 
