@@ -80,14 +80,30 @@ fn tuft(rng: &mut ChaCha8Rng, x: f64, y: f64, blades: &mut Vec<Blade>) {
         let lean: f64 = rng.random_range(0.15..0.8); // radians from vertical
         let len = rng.random_range(0.15..0.45);
         let width = rng.random_range(0.008..0.02);
+        blades.push(Blade::leaning([bx, by], lean_dir, lean, len, width));
+    }
+}
+
+impl Blade {
+    /// A blade rooted at `root`, `width` wide at its base, `len` long,
+    /// leaning `lean` radians from vertical towards heading `lean_dir`
+    /// (radians from +x).
+    pub(crate) fn leaning(root: [f64; 2], lean_dir: f64, lean: f64, len: f64, width: f64) -> Self {
+        let [bx, by] = root;
         let (dx, dy) = (lean_dir.cos(), lean_dir.sin());
         let (px, py) = (-dy * 0.5 * width, dx * 0.5 * width);
-        blades.push(Blade {
+        Blade {
             // Base order (b1, b0) makes the blade face up and inward (n.z > 0).
             base: [[bx + px, by + py], [bx - px, by - py]],
             tip: [bx + dx * len * lean.sin(), by + dy * len * lean.sin()],
             tip_height: len * lean.cos(),
-        });
+        }
+    }
+
+    /// The middle of the blade's base.
+    pub(crate) fn root(&self) -> [f64; 2] {
+        let [[x0, y0], [x1, y1]] = self.base;
+        [0.5 * (x0 + x1), 0.5 * (y0 + y1)]
     }
 }
 
@@ -96,7 +112,7 @@ pub(crate) fn mesh(blades: &[Blade], ground: &TerrainGrid) -> Builder {
     let mut out = Builder::default();
     for b in blades {
         let [[x0, y0], [x1, y1]] = b.base;
-        let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+        let [cx, cy] = b.root();
         out.triangle(
             [
                 Point3::new(x0, y0, ground.height(x0, y0) - ROOT_DEPTH),

@@ -18,6 +18,7 @@ pub mod shapes;
 
 mod grass;
 mod markers;
+mod meadow;
 mod rock;
 mod site;
 mod terrain;
@@ -53,6 +54,7 @@ pub(crate) mod part {
     pub(crate) const TREES_AT_ROCK: u64 = 0x726f_636b_7472_6565;
     pub(crate) const GRASS: u64 = 0x6772_6173_7300_0000;
     pub(crate) const MARKERS: u64 = 0x6d61_726b_6572_7300;
+    pub(crate) const MEADOW: u64 = 0x6d65_6164_6f77_0000;
 }
 
 /// The seed of stream `index` of `part` for a site seed. Hashing (rather than

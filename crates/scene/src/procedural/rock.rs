@@ -113,6 +113,25 @@ impl Rock {
         )
     }
 
+    /// Whether (x, y) lies within `margin` metres of the footprint's box in
+    /// the rock frame (semi-axes grown by `margin`).
+    pub(crate) fn within_box(&self, x: f64, y: f64, margin: f64) -> bool {
+        let (u, v) = self.to_local(x, y);
+        u.abs() <= self.semi_axes[0] + margin && v.abs() <= self.semi_axes[1] + margin
+    }
+
+    /// World-axis bounds (min and max corners) of [`Rock::within_box`].
+    pub(crate) fn box_bounds(&self, margin: f64) -> ([f64; 2], [f64; 2]) {
+        let (a, b) = (self.semi_axes[0] + margin, self.semi_axes[1] + margin);
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for (u, v) in [(-a, -b), (a, -b), (a, b), (-a, b)] {
+            let (x, y) = self.to_world(u, v);
+            lo = [lo[0].min(x), lo[1].min(y)];
+            hi = [hi[0].max(x), hi[1].max(y)];
+        }
+        (lo, hi)
+    }
+
     /// Whether the terrain at (x, y) is hidden under the rock.
     pub(crate) fn covers(&self, x: f64, y: f64) -> bool {
         self.bump(x, y) > SINK + COVER_MARGIN

@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 
 use super::grass::{self, MEAN_BLADES};
 use super::markers::{self, MarkerInfo, MARKER_FACES};
+use super::meadow;
 use super::noise::Fbm;
 use super::rock::Rock;
 use super::terrain::{fit_grid, Terrain, TerrainGrid};
@@ -62,6 +63,11 @@ pub struct SiteParams {
     pub n_trees_at_rock: usize,
     /// Number of grass tufts; `None` sizes grass to about 12 % of the faces.
     pub n_grass_tufts: Option<usize>,
+    /// Share of the ground within 6 m of the rock's footprint box covered by
+    /// a meadow, a dense carpet of grass blades (0 to 1, none by default).
+    /// Its blades (about 1100 per square metre) come on top of
+    /// `target_faces`.
+    pub meadow: f64,
     /// Number of markers on posts around the rock.
     pub n_markers: usize,
     /// Rock footprint length along its long axis, metres.
@@ -88,6 +94,7 @@ impl Default for SiteParams {
             n_trees: 6,
             n_trees_at_rock: 0,
             n_grass_tufts: None,
+            meadow: 0.0,
             n_markers: 6,
             rock_length: 17.0,
             rock_width: 13.0,
@@ -166,6 +173,9 @@ impl SiteParams {
                 ));
             }
         }
+        if !(0.0..=1.0).contains(&self.meadow) {
+            return bad(format!("meadow = {} is outside 0..=1", self.meadow));
+        }
         if !self.rock_yaw_deg.is_finite() {
             return bad(format!(
                 "rock_yaw_deg = {} is not finite",
@@ -190,7 +200,8 @@ impl SiteParams {
 #[derive(Debug, Clone)]
 pub struct Site {
     /// The scene; every face has a material. Order: terrain, rock, trees
-    /// (each: trunk, branches, leaves), grass, markers (each: plate, post).
+    /// (each: trunk, branches, leaves), grass tufts, markers (each: plate,
+    /// post), the meadow's blades.
     pub mesh: Mesh,
     /// The parameters it was made from.
     pub params: SiteParams,
@@ -341,7 +352,10 @@ struct Layout {
     /// Marker (x, y, yaw).
     spots: Vec<(f64, f64, f64)>,
     trees: Vec<TreeInfo>,
+    /// The tufts' blades, within the face budget.
     blades: Vec<grass::Blade>,
+    /// The meadow's blades, on top of it.
+    meadow: Vec<grass::Blade>,
 }
 
 fn layout(params: &SiteParams, rock: &Rock) -> Result<Layout> {
@@ -374,25 +388,35 @@ fn layout(params: &SiteParams, rock: &Rock) -> Result<Layout> {
         (GRASS_SHARE * params.target_faces as f64 / MEAN_BLADES as f64).round() as usize
     });
     let density = Fbm::new(part_seed(seed, part::GRASS, 1), 14.0, 1.0, 3);
+    let bare = |x: f64, y: f64| {
+        rock.bump(x, y) <= -0.3
+            && !trees
+                .iter()
+                .any(|t| (t.position[0] - x).hypot(t.position[1] - y) < t.trunk_radius + 0.15)
+            && !marker_xy
+                .iter()
+                .any(|&(mx, my)| (mx - x).hypot(my - y) < 0.3)
+    };
     let blades = grass::plan(
         &mut part_rng(seed, part::GRASS, 0),
         &density,
         n_tufts,
         half,
-        |x, y| {
-            rock.bump(x, y) > -0.3
-                || trees
-                    .iter()
-                    .any(|t| (t.position[0] - x).hypot(t.position[1] - y) < t.trunk_radius + 0.15)
-                || marker_xy
-                    .iter()
-                    .any(|&(mx, my)| (mx - x).hypot(my - y) < 0.3)
-        },
+        |x, y| !bare(x, y),
     )?;
+    let meadow = meadow::plan(
+        &mut part_rng(seed, part::MEADOW, 0),
+        &Fbm::new(part_seed(seed, part::MEADOW, 1), 6.0, 1.0, 2),
+        rock,
+        params.meadow,
+        half,
+        bare,
+    );
     Ok(Layout {
         spots,
         trees,
         blades,
+        meadow,
     })
 }
 
@@ -419,6 +443,7 @@ pub fn generate_site(params: &SiteParams) -> Result<Site> {
         spots,
         trees,
         blades,
+        meadow,
     } = layout(params, &rock)?;
     let budget = budget(params, &trees, blades.len())?;
 
@@ -460,6 +485,7 @@ pub fn generate_site(params: &SiteParams) -> Result<Site> {
         marker_infos.push(info);
         out.extend(b);
     }
+    out.extend(grass::mesh(&meadow, &ground));
 
     let mesh = out.finish();
     mesh.validate()?;

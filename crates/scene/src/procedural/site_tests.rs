@@ -319,6 +319,13 @@ fn bad_params_are_refused_with_the_field_named() {
         ),
         (
             SiteParams {
+                meadow: 1.5,
+                ..SiteParams::default()
+            },
+            "meadow",
+        ),
+        (
+            SiteParams {
                 rock_height: f64::NAN,
                 ..SiteParams::default()
             },
@@ -430,4 +437,59 @@ proptest::proptest! {
         let rock = s.summary().faces_per_material[Material::Rock as usize];
         proptest::prop_assert!(rock > target / 5);
     }
+}
+
+/// Share of vertical rays over the ground within 4 m of the rock whose
+/// first hit is grass, counting rays that meet bare ground or grass (the
+/// rock, trees and markers left out).
+fn grass_seen_from_above(s: &Site) -> f64 {
+    let caster = crate::raycast::RayCaster::new(&s.mesh);
+    let (lo, hi) = s.rock.box_bounds(4.0);
+    let top = s.flight_volume.max.z;
+    let (mut grass, mut n) = (0usize, 0usize);
+    let step = 0.07;
+    let mut y = lo[1];
+    while y < hi[1] {
+        let mut x = lo[0];
+        while x < hi[0] {
+            if s.rock.within_box(x, y, 4.0) {
+                let down = -nalgebra::Vector3::z();
+                let hit = caster.closest_hit(&Point3::new(x, y, top), &down, f64::INFINITY);
+                match hit.and_then(|h| s.mesh.material(h.face as usize)) {
+                    Some(Material::Grass) => (grass, n) = (grass + 1, n + 1),
+                    Some(Material::Ground) => n += 1,
+                    _ => {}
+                }
+            }
+            x += step;
+        }
+        y += step;
+    }
+    grass as f64 / n as f64
+}
+
+#[test]
+fn a_meadow_hides_the_soil_and_changes_nothing_else() {
+    let params = |meadow| SiteParams {
+        seed: 6,
+        target_faces: 20_000,
+        size: 40.0,
+        rock_length: 11.0,
+        rock_width: 8.0,
+        meadow,
+        ..SiteParams::default()
+    };
+    let bare = generate_site(&params(0.0)).unwrap();
+    let lush = generate_site(&params(0.9)).unwrap();
+    let (before, after) = (grass_seen_from_above(&bare), grass_seen_from_above(&lush));
+    assert!(before < 0.05, "tufts alone cover {before:.3} of the ground");
+    assert!(
+        after > 0.7,
+        "a 0.9 meadow covers only {after:.3} of the ground"
+    );
+    // The meadow's blades come after every other face, on top of the budget.
+    let n = bare.mesh.n_faces();
+    assert!(bare.mesh.faces[..] == lush.mesh.faces[..n]);
+    assert!(bare.mesh.vertices[..] == lush.mesh.vertices[..bare.mesh.n_vertices()]);
+    assert!(faces_of(&lush.mesh, Material::Grass).count() > n);
 }
