@@ -7,7 +7,6 @@
 //! distance of a sample, so it is reproducible and spends no time on faces
 //! trimming would drop.
 
-use std::collections::{HashMap, HashSet};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use nalgebra::{Point3, Vector3};
@@ -15,6 +14,7 @@ use nalgebra033 as na033;
 use poisson_reconstruction::marching_cubes::march_cube;
 use poisson_reconstruction::PoissonReconstruction;
 use rayon::prelude::*;
+use rustc_hash::{FxHashMap, FxHashSet};
 
 use super::grid::PointGrid;
 use super::{SurfaceParams, SurfaceSolver};
@@ -217,8 +217,8 @@ fn add(a: Key, b: Key) -> Key {
 /// welded; faces keep the crate's winding (fixed by [`trim`]).
 pub(super) fn extract(field: &Field, positions: &[Point3<f64>], reach: f64) -> Mesh {
     let near = PointGrid::with_cell(positions, reach.max(field.leaf));
-    let mut values: HashMap<Key, f64> = HashMap::new();
-    let mut visited: HashSet<Key> = HashSet::new();
+    let mut values: FxHashMap<Key, f64> = FxHashMap::default();
+    let mut visited: FxHashSet<Key> = FxHashSet::default();
     let mut crossing: Vec<Key> = Vec::new();
     let mut wave: Vec<Key> = positions
         .iter()
@@ -296,7 +296,7 @@ pub(super) fn extract(field: &Field, positions: &[Point3<f64>], reach: f64) -> M
 /// rounding).
 fn weld<'a>(soup: impl Iterator<Item = &'a na033::Point3<f64>>, field: &Field) -> Mesh {
     let scale = f64::powi(2.0, 20) / field.leaf;
-    let mut index: HashMap<Key, u32> = HashMap::new();
+    let mut index: FxHashMap<Key, u32> = FxHashMap::default();
     let mut vertices = Vec::new();
     let mut corner = Vec::with_capacity(3);
     let mut faces = Vec::new();
