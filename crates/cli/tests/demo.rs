@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use vp_forest::Forest;
 use vp_scene::colmap::{read_model, ModelFrame, Reconstruction};
 use vp_scene::plan::Plan;
 use vp_scene::raster::ConfidenceImage;
@@ -156,6 +157,13 @@ fn quick_demo_prints_the_table_and_writes_the_report() {
         s(&model),
     ]);
     assert!(o.status.success(), "stderr: {}", text(&o.stderr));
+    // The forest is saved as soon as it is trained, before any flight: a
+    // campaign that fails on a held-out site keeps hours of training.
+    let stderr = text(&o.stderr);
+    let saved = stderr.find("forest saved to").expect("saved, said");
+    let flying = stderr.find("held-out site").expect("a held-out site");
+    assert!(saved < flying, "{stderr}");
+    assert!(Forest::load(&model).is_ok());
     let stdout = text(&o.stdout);
     // One held-out site: no std column ("± 0.0" said nothing).
     assert!(!stdout.contains('±'), "{stdout}");

@@ -9,7 +9,9 @@ use anyhow::{Context, Result};
 use clap::Args;
 use vp_forest::Forest;
 use vp_scene::outdir::OutDir;
-use vp_sim::campaign::{run_campaign_trained, write_report, CampaignConfig};
+use vp_sim::campaign::{
+    run_campaign_with_forest, train_campaign_forest, write_report, CampaignConfig,
+};
 
 /// Arguments shared by `demo` and `sim run`.
 #[derive(Debug, Args)]
@@ -61,20 +63,23 @@ pub fn run_config(
     let t0 = Instant::now();
     let progress = super::Progress::new();
     let mut say = |m: &str| progress.message(m);
-    let loaded = match &args.model {
-        Some(p) => {
-            say(&format!("loading the forest {}", p.display()));
-            Some(load_model(p)?)
-        }
-        None => None,
+    let (forest, training) = if let Some(p) = &args.model {
+        say(&format!("loading the forest {}", p.display()));
+        (load_model(p)?, None)
+    } else {
+        let (forest, stats) = train_campaign_forest(cfg, &mut say)?;
+        (forest, Some(stats))
     };
-    let (report, forest) = run_campaign_trained(cfg, loaded, &mut say)?;
+    // Saved before the flights: a campaign that fails hours later keeps
+    // its trained forest for a rerun with --forest.
     if let Some(p) = &args.save_model {
         forest
             .save(p)
             .with_context(|| format!("saving the forest to {}", p.display()))?;
         say(&format!("forest saved to {}", p.display()));
     }
+    let mut report = run_campaign_with_forest(cfg, &forest, &mut say)?;
+    report.training = training;
     write_report(&report, &report_dir)?;
     progress.finish();
     if cfg.held_out_seeds.len() == 1 {

@@ -5,7 +5,8 @@
 //!   sites, random triplets over the angle range reconstructed by vp-mvs at
 //!   each pyramid level, vp-labelgen labels on SfM's noisy poses, vp-forest
 //!   training on the rendered pixels).
-//! - [`run_campaign`] / [`run_campaign_trained`]: on each held-out site
+//! - [`run_campaign`] ([`train_campaign_forest`], then
+//!   [`run_campaign_with_forest`]): on each held-out site
 //!   (never a training site), the initial flight, the Grid baseline (vp-mvs
 //!   on every Grid image against its best neighbours, as the paper's Grid)
 //!   and every triplet strategy (`F5x4`, `F1x20`, `NP5x4`, ...: plan with
@@ -60,5 +61,5 @@ pub use evaluate_dir::evaluate_to_dir;
 pub use label_quality::LabelQuality;
 pub use report::{f_vs_np, html, plot, scene};
 pub use report::{write_report, CampaignReport, SiteResult, TableRow};
-pub use run::{run_campaign, run_campaign_trained, run_campaign_with_forest};
+pub use run::{run_campaign, run_campaign_with_forest, train_campaign_forest};
 pub use training::{train_forest, train_forest_with_stats, TrainingStats};

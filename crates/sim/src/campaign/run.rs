@@ -18,7 +18,7 @@ use super::renders::Renders;
 use super::report::{aggregate, CampaignReport, SiteArtifacts, SiteResult, StrategyArtifacts};
 use super::site::{fly_with_error, image_id, SiteRun};
 use super::strategy_run::{run_strategy, Known};
-use super::training::{measure_out_of_sample, train_forest_with_stats};
+use super::training::{measure_out_of_sample, train_forest_with_stats, TrainingStats};
 use super::triplet_outcomes::DepthErrorHistogram;
 use crate::config::CampaignConfig;
 use crate::config::MvsKind;
@@ -425,29 +425,24 @@ pub fn run_campaign(
     cfg: &CampaignConfig,
     progress: &mut dyn FnMut(&str),
 ) -> Result<CampaignReport> {
-    Ok(run_campaign_trained(cfg, None, progress)?.0)
+    let (forest, stats) = train_campaign_forest(cfg, progress)?;
+    let mut report = fly_held_out(cfg, &forest, progress)?;
+    report.training = Some(stats);
+    Ok(report)
 }
 
-/// [`run_campaign`] with a forest trained before (`Some`: no training) or
-/// trained here (`None`); returns the report and the forest flown with.
-/// Either way the measured curves leave the training triplets out.
-pub fn run_campaign_trained(
+/// The first half of [`run_campaign`]: the forest trained on the training
+/// sites and what its training measured. Apart from the flights so that a
+/// caller can keep the forest (hours of work on a real campaign) before
+/// flying with it ([`run_campaign_with_forest`]).
+pub fn train_campaign_forest(
     cfg: &CampaignConfig,
-    forest: Option<Forest>,
     progress: &mut dyn FnMut(&str),
-) -> Result<(CampaignReport, Forest)> {
-    let (forest, stats) = if let Some(f) = forest {
-        (f, None)
-    } else {
-        // The training triplets' success is what the forest learned from:
-        // measured in sample, so not part of the campaign's curves.
-        let mut in_sample = CurveAccumulator::new(cfg.training.forest.bins.clone());
-        let (f, s) = train_forest_with_stats(cfg, &mut in_sample, progress)?;
-        (f, Some(s))
-    };
-    let mut report = fly_held_out(cfg, &forest, progress)?;
-    report.training = stats;
-    Ok((report, forest))
+) -> Result<(Forest, TrainingStats)> {
+    // The training triplets' success is what the forest learned from:
+    // measured in sample, so not part of the campaign's curves.
+    let mut in_sample = CurveAccumulator::new(cfg.training.forest.bins.clone());
+    train_forest_with_stats(cfg, &mut in_sample, progress)
 }
 
 #[cfg(test)]
