@@ -51,7 +51,7 @@ impl CampaignConfig {
 
     /// What `vpctl demo` runs: two small training sites (12 triplets each,
     /// 160 x 120 px), one held-out site, F3x3, NP3x3 and Grid, 240 x 160 px
-    /// images, every image set reconstructed by vp-mvs; about 3 minutes on
+    /// images, every image set reconstructed by vp-mvs; about a minute on
     /// 2 cores.
     pub fn demo() -> Self {
         let camera = CameraConfig {
