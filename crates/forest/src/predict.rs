@@ -264,12 +264,24 @@ impl Forest {
     /// traversal. Cost is about (pixels / step^2) x trees x depth node visits
     /// plus the Lab conversion of every pixel.
     pub fn predict_image(&self, image: &RgbImage, step: u32) -> Result<ConfidenceImage> {
+        self.predict_image_with(image, step, &mut LabPlanes::default())
+    }
+
+    /// [`Forest::predict_image`] converting into `scratch`, whose memory a
+    /// loop over many images reuses (see [`LabPlanes::convert_into`]).
+    pub fn predict_image_with(
+        &self,
+        image: &RgbImage,
+        step: u32,
+        scratch: &mut LabPlanes,
+    ) -> Result<ConfidenceImage> {
         if image.width() == 0 || image.height() == 0 {
             return Err(ForestError::InvalidInput(
                 "cannot predict on an empty image".into(),
             ));
         }
-        self.predict_lab(&LabPlanes::from_rgb(image), step)
+        scratch.convert_into(image);
+        self.predict_lab(scratch, step)
     }
 
     /// [`Forest::predict_image`] on an image already converted to Lab
