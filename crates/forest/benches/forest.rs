@@ -7,8 +7,8 @@
 //! - `predict/*`: dense prediction at step 8 with 20 trees grown to depth 20
 //!   (reduced tests per node so the fixture trains in seconds; depth and
 //!   node count are what prediction pays for): 1 Mpx, and the issue's
-//!   16 Mpx (4912x3264) image; `_reused` converts into one Lab scratch
-//!   (as `vpctl predict` does over a folder), the others into fresh memory.
+//!   16 Mpx (4912x3264) image: `grid_only` walks planes converted
+//!   beforehand, `image` converts and walks band by band.
 //!
 //! The prediction fixture is trained once and cached in the system temp
 //! directory (the training is deterministic, the file name carries the seed);
@@ -202,12 +202,6 @@ fn bench_predict(c: &mut Criterion) {
         });
         g.bench_function(format!("image_{name}_step8_{size}_default"), |b| {
             b.iter(|| black_box(small.predict_image(&img, 8).unwrap()));
-        });
-        // The steady state of `vpctl predict` over a folder: one Lab
-        // scratch for every image, no fresh 48 MB to fault in per image.
-        let mut scratch = LabPlanes::default();
-        g.bench_function(format!("image_{name}_step8_{size}_default_reused"), |b| {
-            b.iter(|| black_box(small.predict_image_with(&img, 8, &mut scratch).unwrap()));
         });
     }
     g.finish();

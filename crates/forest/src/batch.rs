@@ -13,7 +13,7 @@ use vp_scene::raster::{confidence_preview, encode_png, load_rgb, ConfidenceImage
 use vp_scene::SceneError;
 
 use crate::error::{ForestError, Result};
-use crate::{Forest, LabPlanes};
+use crate::Forest;
 
 /// Options of [`predict_files`].
 #[derive(Debug, Clone)]
@@ -105,10 +105,9 @@ pub fn predict_files_with_progress(
         jobs.push((path, name, conf, preview));
     }
     let mut predicted = Vec::with_capacity(jobs.len());
-    let mut lab = LabPlanes::default();
     for (path, name, conf, preview) in jobs {
         let image = load_rgb(path)?;
-        let confidence = forest.predict_image_with(&image, options.step, &mut lab)?;
+        let confidence = forest.predict_image(&image, options.step)?;
         // Encoded now, so that only the PNG bytes wait for the writing,
         // not the photos.
         let preview = match preview {

@@ -22,7 +22,7 @@ pub const PAD: usize = RADIUS;
 /// padded by [`PAD`] pixels of replicated border; optionally followed by the
 /// three complemented planes (255 - v). Prediction no longer needs them (it
 /// complements per node, see [`crate::predict`]'s docs) and ignores them.
-/// `LabPlanes::default()` is empty: a scratch for [`LabPlanes::convert_into`].
+/// `LabPlanes::default()` is empty: a scratch for a band conversion.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct LabPlanes {
     width: u32,
@@ -205,6 +205,27 @@ fn convert_chunk<const N: usize>(rgb: &[u8], out: [&mut [u8]; 3]) {
     }
 }
 
+/// Converts one image row (`rgb`) into a padded row of each plane
+/// (`stride` bytes) and replicates its first and last pixels into the
+/// padding.
+fn convert_padded_row(arch: pulp::Arch, rgb: &[u8], rows: [&mut [u8]; 3]) {
+    let w = rgb.len() / 3;
+    let [r0, r1, r2] = rows;
+    arch.dispatch(ConvertRow {
+        rgb,
+        out: [
+            &mut r0[PAD..PAD + w],
+            &mut r1[PAD..PAD + w],
+            &mut r2[PAD..PAD + w],
+        ],
+    });
+    for row in [r0, r1, r2] {
+        let (left, right) = (row[PAD], row[PAD + w - 1]);
+        row[..PAD].fill(left);
+        row[PAD + w..].fill(right);
+    }
+}
+
 impl LabPlanes {
     /// Converts an RGB image (rows in parallel).
     ///
@@ -249,73 +270,32 @@ impl LabPlanes {
     }
 
     fn convert(image: &RgbImage, complement: bool) -> Self {
-        let mut planes = LabPlanes::default();
-        planes.convert_with(image, complement);
-        planes
-    }
-
-    /// Converts `image` into these planes, reusing their memory (the
-    /// complemented planes, if any, are dropped): what a loop over many
-    /// images calls with one scratch. A fresh buffer for a 16 Mpx image is
-    /// 48 MB the kernel maps in 12,000 page faults as the conversion first
-    /// writes it, which measured a third of the conversion's time.
-    pub fn convert_into(&mut self, image: &RgbImage) {
-        self.convert_with(image, false);
-    }
-
-    fn convert_with(&mut self, image: &RgbImage, complement: bool) {
         let (width, height) = image.dimensions();
         let (w, h) = (width as usize, height as usize);
         let stride = w + 2 * PAD;
         let plane_len = stride * (h + 2 * PAD);
-        let len = if complement { 6 } else { 3 } * plane_len;
-        *self = LabPlanes {
+        let mut planes = LabPlanes {
             width,
             height,
             stride,
             plane_len,
-            data: std::mem::take(&mut self.data),
+            data: vec![0u8; if complement { 6 } else { 3 } * plane_len],
         };
-        if self.data.capacity() < len {
-            // Zeroed lazily by the kernel (calloc), faulted in by the
-            // parallel writes below rather than by one thread's memset.
-            self.data = vec![0u8; len];
-        } else {
-            // Stale bytes stay: every byte of the planes is written below.
-            self.data.resize(len, 0);
-        }
         if w == 0 || h == 0 {
-            self.data.fill(0);
-            return;
+            return planes;
         }
         let raw = image.as_raw();
         let arch = pulp::Arch::new();
-        let (planes01, rest) = self.data.split_at_mut(2 * plane_len);
-        let plane2 = &mut rest[..plane_len];
-        let (plane0, plane1) = planes01.split_at_mut(plane_len);
+        let [p0, p1, p2] = planes.planes_mut();
         let rows = PAD * stride..(PAD + h) * stride;
-        plane0[rows.clone()]
+        p0[rows.clone()]
             .par_chunks_mut(stride)
-            .zip(plane1[rows.clone()].par_chunks_mut(stride))
-            .zip(plane2[rows].par_chunks_mut(stride))
+            .zip(p1[rows.clone()].par_chunks_mut(stride))
+            .zip(p2[rows].par_chunks_mut(stride))
             .zip(raw.par_chunks(3 * w))
-            .for_each(|(((r0, r1), r2), rgb)| {
-                arch.dispatch(ConvertRow {
-                    rgb,
-                    out: [
-                        &mut r0[PAD..PAD + w],
-                        &mut r1[PAD..PAD + w],
-                        &mut r2[PAD..PAD + w],
-                    ],
-                });
-                for row in [r0, r1, r2] {
-                    let (left, right) = (row[PAD], row[PAD + w - 1]);
-                    row[..PAD].fill(left);
-                    row[PAD + w..].fill(right);
-                }
-            });
+            .for_each(|(((r0, r1), r2), rgb)| convert_padded_row(arch, rgb, [r0, r1, r2]));
         // Replicate the first and last rows into the top and bottom padding.
-        for plane in self.data[..3 * plane_len].chunks_exact_mut(plane_len) {
+        for plane in planes.data[..3 * plane_len].chunks_exact_mut(plane_len) {
             let (top, rest) = plane.split_at_mut(PAD * stride);
             let first = &rest[..stride];
             for row in top.chunks_exact_mut(stride) {
@@ -328,7 +308,53 @@ impl LabPlanes {
             }
         }
         if complement {
-            self.fill_complement();
+            planes.fill_complement();
+        }
+        planes
+    }
+
+    /// The three Lab planes, mutable.
+    fn planes_mut(&mut self) -> [&mut [u8]; 3] {
+        let (p01, rest) = self.data.split_at_mut(2 * self.plane_len);
+        let (p0, p1) = p01.split_at_mut(self.plane_len);
+        [p0, p1, &mut rest[..self.plane_len]]
+    }
+
+    /// Converts a band of `image` into these planes, reusing their memory:
+    /// planes `rows` high standing for the image rows from `y0`, each plane
+    /// row (padding included) converted from the image row it stands for,
+    /// clamped into the image. A read up to [`PAD`] pixels from a pixel of
+    /// the band sees what the whole image's planes hold there, so a forest
+    /// walks a band exactly as it walks the whole image
+    /// ([`crate::Forest::predict_image`] converts band by band).
+    pub(crate) fn convert_band_into(&mut self, image: &RgbImage, y0: usize, rows: usize) {
+        let (width, height) = image.dimensions();
+        let (w, h) = (width as usize, height as usize);
+        let stride = w + 2 * PAD;
+        let plane_len = stride * (rows + 2 * PAD);
+        let mut data = std::mem::take(&mut self.data);
+        // Stale bytes may stay: every byte of the planes is written below.
+        data.resize(3 * plane_len, 0);
+        *self = LabPlanes {
+            width,
+            height: rows as u32,
+            stride,
+            plane_len,
+            data,
+        };
+        if w == 0 || h == 0 {
+            return;
+        }
+        let raw = image.as_raw();
+        let arch = pulp::Arch::new();
+        let [p0, p1, p2] = self.planes_mut();
+        let rows = p0
+            .chunks_mut(stride)
+            .zip(p1.chunks_mut(stride))
+            .zip(p2.chunks_mut(stride));
+        for (r, ((r0, r1), r2)) in rows.enumerate() {
+            let y = (y0 + r).saturating_sub(PAD).min(h - 1);
+            convert_padded_row(arch, &raw[3 * w * y..3 * w * (y + 1)], [r0, r1, r2]);
         }
     }
 
@@ -386,182 +412,5 @@ impl LabPlanes {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn known_colours_convert_to_their_lab_values() {
-        // Reference values from the CIE formulas in double precision.
-        assert_eq!(rgb_to_lab8([0, 0, 0]), [0, 128, 128]);
-        assert_eq!(rgb_to_lab8([255, 255, 255]), [255, 128, 128]);
-        // sRGB red: L 53.24, a 80.09, b 67.20.
-        assert_eq!(rgb_to_lab8([255, 0, 0]), [136, 208, 195]);
-        // sRGB blue: L 32.30, a 79.19, b -107.86.
-        assert_eq!(rgb_to_lab8([0, 0, 255]), [82, 207, 20]);
-        // Mid grey 128: L 53.59.
-        assert_eq!(rgb_to_lab8([128, 128, 128]), [137, 128, 128]);
-    }
-
-    /// The fast conversion against the CIE formulas in double precision:
-    /// off by at most one quantisation step (at rounding boundaries), rarely.
-    #[test]
-    fn conversion_matches_the_double_precision_reference() {
-        let lin = |c: u8| {
-            let c = f64::from(c) / 255.0;
-            if c <= 0.040_45 {
-                c / 12.92
-            } else {
-                ((c + 0.055) / 1.055).powf(2.4)
-            }
-        };
-        let f = |t: f64| {
-            if t > 0.008_856_452 {
-                t.cbrt()
-            } else {
-                t * 7.787_037 + 4.0 / 29.0
-            }
-        };
-        let mut off = 0;
-        let mut n = 0;
-        for r in (0..=255u8).step_by(5) {
-            for g in (0..=255u8).step_by(5) {
-                for b in (0..=255u8).step_by(5) {
-                    let (lr, lg, lb) = (lin(r), lin(g), lin(b));
-                    let x = (0.412_456_4 * lr + 0.357_576_1 * lg + 0.180_437_5 * lb) / 0.950_47;
-                    let y = 0.212_672_9 * lr + 0.715_152_2 * lg + 0.072_175 * lb;
-                    let z = (0.019_333_9 * lr + 0.119_192 * lg + 0.950_304_1 * lb) / 1.088_83;
-                    let q = |v: f64| v.round().clamp(0.0, 255.0) as i32;
-                    let want = [
-                        q((116.0 * f(y) - 16.0) * 2.55),
-                        q(500.0 * (f(x) - f(y)) + 128.0),
-                        q(200.0 * (f(y) - f(z)) + 128.0),
-                    ];
-                    let got = rgb_to_lab8([r, g, b]);
-                    for (g, w) in got.iter().zip(want) {
-                        assert!(
-                            (i32::from(*g) - w).abs() <= 1,
-                            "rgb {r} {g} {b}: {got:?} vs {want:?}"
-                        );
-                        off += usize::from(i32::from(*g) != w);
-                        n += 1;
-                    }
-                }
-            }
-        }
-        assert!(off * 100 < n, "{off} of {n} values off by one");
-    }
-
-    /// [`cie_f`] as it was with a saturating cast: the reference the
-    /// bit-exact rewrite is held to.
-    fn cie_f_with_cast(t: f32) -> f32 {
-        let x = t.max(EPSILON);
-        let bits = x.to_bits() as i32 as f32;
-        let mut y = f32::from_bits((1_419_789_131.0 - bits * (1.0 / 3.0)) as i32 as u32);
-        for _ in 0..2 {
-            y *= (4.0 - x * y * y * y) * (1.0 / 3.0);
-        }
-        let cube_root = x * y * y;
-        let linear = t * 7.787_037 + 4.0 / 29.0;
-        if t > EPSILON {
-            cube_root
-        } else {
-            linear
-        }
-    }
-
-    /// Every f32 from 0 to 2 (X, Y, Z of sRGB lie in [0, 1.0001]) gives
-    /// the same bits as with the cast, so the Lab planes, and every
-    /// prediction made from them, are unchanged.
-    #[test]
-    fn cube_root_is_bit_identical_to_the_saturating_cast() {
-        let mut bits = 0u32;
-        while f32::from_bits(bits) < 2.0 {
-            let t = f32::from_bits(bits);
-            assert_eq!(
-                cie_f(t).to_bits(),
-                cie_f_with_cast(t).to_bits(),
-                "t = {t:e}"
-            );
-            // Below EPSILON every t reads the same estimate: stride there.
-            bits += if t < EPSILON { 4099 } else { 1 };
-        }
-    }
-
-    /// Whole-image conversion (chunks of a row, the last one partial) equals
-    /// the per-pixel function.
-    #[test]
-    fn image_conversion_equals_per_pixel_conversion() {
-        use rand::{Rng, SeedableRng};
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-        let img = RgbImage::from_fn(301, 41, |_, _| image::Rgb(rng.random()));
-        let lab = LabPlanes::from_rgb(&img);
-        for (x, y, p) in img.enumerate_pixels() {
-            let want = rgb_to_lab8(p.0);
-            for (c, w) in want.iter().enumerate() {
-                assert_eq!(lab.at(i64::from(x), i64::from(y), c), *w);
-            }
-        }
-    }
-
-    /// The row conversion runs with the instruction set picked at run time
-    /// (AVX2 on most x86-64), `rgb_to_lab8` with the baseline one: equal
-    /// on every colour with b in steps of 3 (5.6M colours), so the
-    /// wider vectors change no Lab value.
-    #[test]
-    fn dispatched_conversion_equals_the_baseline_per_pixel_path() {
-        let colour = |i: u32| {
-            [
-                (i % 256) as u8,
-                (i / 256 % 256) as u8,
-                (3 * (i / 65_536)).min(255) as u8,
-            ]
-        };
-        let img = RgbImage::from_fn(4096, 1376, |x, y| image::Rgb(colour(y * 4096 + x)));
-        let lab = LabPlanes::from_rgb(&img);
-        for y in 0..1376 {
-            for x in 0..4096 {
-                let want = rgb_to_lab8(colour(y * 4096 + x));
-                let base = lab.base(x, y);
-                let got = [0, 1, 2].map(|c| lab.data()[c * lab.plane_len() + base]);
-                assert_eq!(got, want, "pixel ({x}, {y})");
-            }
-        }
-    }
-
-    /// A scratch reused across images of other sizes (larger, smaller,
-    /// with complement planes, empty) holds exactly what a fresh conversion
-    /// does: no stale byte survives.
-    #[test]
-    fn converting_into_a_used_scratch_equals_a_fresh_conversion() {
-        use rand::{Rng, SeedableRng};
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
-        let mut scratch =
-            LabPlanes::from_rgb_with_complement(&RgbImage::from_fn(90, 70, |_, _| {
-                image::Rgb(rng.random())
-            }));
-        for (w, h) in [(40, 30), (90, 70), (0, 5), (120, 11), (3, 2)] {
-            let img = RgbImage::from_fn(w, h, |_, _| image::Rgb(rng.random()));
-            scratch.convert_into(&img);
-            assert_eq!(scratch, LabPlanes::from_rgb(&img), "{w} x {h}");
-        }
-    }
-
-    #[test]
-    fn padding_replicates_the_border() {
-        let img = RgbImage::from_fn(4, 3, |x, y| {
-            image::Rgb([(x * 60) as u8, (y * 100) as u8, 0])
-        });
-        let lab = LabPlanes::from_rgb(&img);
-        for c in 0..3 {
-            let p = &lab.data()[c * lab.plane_len()..(c + 1) * lab.plane_len()];
-            for y in -(PAD as i64)..3 + PAD as i64 {
-                for x in -(PAD as i64)..4 + PAD as i64 {
-                    let idx = (y + PAD as i64) as usize * lab.stride() + (x + PAD as i64) as usize;
-                    let cx = x.clamp(0, 3) as u32;
-                    let cy = y.clamp(0, 2) as u32;
-                    assert_eq!(p[idx], rgb_to_lab8(img.get_pixel(cx, cy).0)[c]);
-                }
-            }
-        }
-    }
-}
+#[path = "lab_tests.rs"]
+mod tests;

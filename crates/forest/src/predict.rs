@@ -39,6 +39,12 @@ use crate::Forest;
 /// Pixels per parallel task of [`Forest::predict_pixels`].
 const BATCH: usize = 512;
 
+/// Grid rows per band of [`Forest::predict_image`]: at step 8, 121 image
+/// rows and 26 of margin, a scratch of about 2 MB for a 4912-pixel-wide
+/// image (two tasks' fit in this machine's L3, not in L2); 8 and 16 measured
+/// the same within noise (docs/performance.md, "Stop 50").
+const BAND: usize = 16;
+
 /// A node compiled for one plane stride: go left iff
 /// `(v1 + v2') - lo`, as an unsigned number, is at most `span`, where v2'
 /// is v2, or 255 - v2 if the top bit of `child` is set.
@@ -260,28 +266,51 @@ impl Forest {
     /// confidence image.
     ///
     /// # Performance
-    /// Rows of grid points run in parallel; see the module docs for the
-    /// traversal. Cost is about (pixels / step^2) x trees x depth node visits
-    /// plus the Lab conversion of every pixel.
+    /// Bands of [`BAND`] grid rows run in parallel: each converts the rows
+    /// its walks read into a scratch of its own (about 2 MB for a 16 Mpx
+    /// image, reused band after band), then walks them; see the module docs
+    /// for the traversal. Cost is about (pixels / step^2) x trees x depth
+    /// node visits plus the Lab conversion of every pixel and of each
+    /// band's 2 x [`crate::lab::PAD`] rows of margin. Whole-image planes
+    /// (48 MB for 16 Mpx) cost their 12,000 pages' faults on every call,
+    /// a third of the conversion's time; the bands' stay mapped, and in
+    /// cache while their walks read them. Bit for bit the same as
+    /// [`Forest::predict_lab`] on the whole image's planes (tested).
     pub fn predict_image(&self, image: &RgbImage, step: u32) -> Result<ConfidenceImage> {
-        self.predict_image_with(image, step, &mut LabPlanes::default())
-    }
-
-    /// [`Forest::predict_image`] converting into `scratch`, whose memory a
-    /// loop over many images reuses (see [`LabPlanes::convert_into`]).
-    pub fn predict_image_with(
-        &self,
-        image: &RgbImage,
-        step: u32,
-        scratch: &mut LabPlanes,
-    ) -> Result<ConfidenceImage> {
         if image.width() == 0 || image.height() == 0 {
             return Err(ForestError::InvalidInput(
                 "cannot predict on an empty image".into(),
             ));
         }
-        scratch.convert_into(image);
-        self.predict_lab(scratch, step)
+        self.predict_bands(image, step, BAND)
+    }
+
+    /// [`Forest::predict_image`] with bands of `band` grid rows.
+    fn predict_bands(&self, image: &RgbImage, step: u32, band: usize) -> Result<ConfidenceImage> {
+        let mut out =
+            ConfidenceImage::zeros(image.width(), image.height(), step, self.bins().clone())?;
+        let b = self.bins().len();
+        let (gw, gh) = out.grid_size();
+        let xs: Vec<u32> = (0..gw).map(|i| out.node_pixel(i, 0).0).collect();
+        let ys: Vec<u32> = (0..gh).map(|j| out.node_pixel(0, j).1).collect();
+        // Every band's planes have the same shape (the last band's rows
+        // below the image repeat its last row), so the trees compile once.
+        let rows = (band - 1) * step as usize + 1;
+        let mut shape = LabPlanes::default();
+        shape.convert_band_into(image, 0, rows);
+        let compiled = compile(self, &shape);
+        out.values_mut()
+            .par_chunks_mut(gw * b * band)
+            .zip(ys.par_chunks(band))
+            .for_each_init(LabPlanes::default, |planes, (chunk, band_ys)| {
+                let y0 = band_ys[0];
+                planes.convert_band_into(image, y0 as usize, rows);
+                for (row, &y) in chunk.chunks_mut(gw * b).zip(band_ys) {
+                    let bases: Vec<usize> = xs.iter().map(|&x| planes.base(x, y - y0)).collect();
+                    accumulate(self, &compiled, planes.data(), &bases, row);
+                }
+            });
+        Ok(out)
     }
 
     /// [`Forest::predict_image`] on an image already converted to Lab
@@ -428,7 +457,15 @@ mod tests {
             let pixels: Vec<[u8; 3]> = (0..w * h).map(|_| rng.random()).collect();
             let img = RgbImage::from_fn(w, h, |x, y| image::Rgb(pixels[(y * w + x) as usize]));
             let planes = LabPlanes::from_rgb(&img);
-            let conf = forest.predict_lab(&planes, rng.random_range(1..9)).unwrap();
+            let step = rng.random_range(1..9);
+            let conf = forest.predict_lab(&planes, step).unwrap();
+            for band in [1, 2, 3, 8, BAND] {
+                let banded = forest.predict_bands(&img, step, band).unwrap();
+                let bits = |c: &ConfidenceImage| {
+                    c.values().iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+                };
+                assert_eq!(bits(&banded), bits(&conf), "seed {seed} band {band}");
+            }
             let (gw, gh) = conf.grid_size();
             for j in 0..gh {
                 for i in 0..gw {
