@@ -205,6 +205,14 @@ fn convert_chunk<const N: usize>(rgb: &[u8], out: [&mut [u8]; 3]) {
     }
 }
 
+/// Row length and plane length of planes for an image `width` pixels wide
+/// and `rows` high (or a band of `rows` rows): the padded layout every
+/// [`LabPlanes`] has, which compiled trees' offsets depend on.
+pub(crate) fn layout(width: usize, rows: usize) -> (usize, usize) {
+    let stride = width + 2 * PAD;
+    (stride, stride * (rows + 2 * PAD))
+}
+
 /// Converts one image row (`rgb`) into a padded row of each plane
 /// (`stride` bytes) and replicates its first and last pixels into the
 /// padding.
@@ -272,8 +280,7 @@ impl LabPlanes {
     fn convert(image: &RgbImage, complement: bool) -> Self {
         let (width, height) = image.dimensions();
         let (w, h) = (width as usize, height as usize);
-        let stride = w + 2 * PAD;
-        let plane_len = stride * (h + 2 * PAD);
+        let (stride, plane_len) = layout(w, h);
         let mut planes = LabPlanes {
             width,
             height,
@@ -330,8 +337,7 @@ impl LabPlanes {
     pub(crate) fn convert_band_into(&mut self, image: &RgbImage, y0: usize, rows: usize) {
         let (width, height) = image.dimensions();
         let (w, h) = (width as usize, height as usize);
-        let stride = w + 2 * PAD;
-        let plane_len = stride * (rows + 2 * PAD);
+        let (stride, plane_len) = layout(w, rows);
         let mut data = std::mem::take(&mut self.data);
         // Stale bytes may stay: every byte of the planes is written below.
         data.resize(3 * plane_len, 0);

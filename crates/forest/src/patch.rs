@@ -118,8 +118,15 @@ impl SplitTest {
     /// base index (see [`LabPlanes::base`]).
     #[inline]
     pub fn plane_offsets(self, planes: &LabPlanes) -> (isize, isize) {
-        let c = (self.channel as usize * planes.plane_len()) as isize;
-        let s = planes.stride() as isize;
+        self.offsets_in(planes.stride(), planes.plane_len())
+    }
+
+    /// [`SplitTest::plane_offsets`] in planes of this row length and plane
+    /// length (see [`crate::lab::layout`]), without the planes.
+    #[inline]
+    pub fn offsets_in(self, stride: usize, plane_len: usize) -> (isize, isize) {
+        let c = (self.channel as usize * plane_len) as isize;
+        let s = stride as isize;
         let at = |o: (i8, i8)| c + o.1 as isize * s + o.0 as isize;
         (at(self.offset1), at(self.offset2))
     }

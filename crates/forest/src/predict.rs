@@ -31,7 +31,7 @@ use rayon::prelude::*;
 use vp_scene::raster::{ConfidenceImage, RgbImage};
 
 use crate::error::{ForestError, Result};
-use crate::lab::LabPlanes;
+use crate::lab::{self, LabPlanes};
 use crate::patch::TestOp;
 use crate::tree::Node;
 use crate::Forest;
@@ -93,7 +93,7 @@ fn window(lo: i32, hi: i32) -> (i16, u16) {
     }
 }
 
-fn compile_node(i: usize, n: &Node, planes: &LabPlanes) -> CNode {
+fn compile_node(i: usize, n: &Node, (stride, plane_len): (usize, usize)) -> CNode {
     if n.is_leaf {
         let (lo, span) = window(i32::MIN, i32::MAX);
         return CNode {
@@ -104,7 +104,7 @@ fn compile_node(i: usize, n: &Node, planes: &LabPlanes) -> CNode {
             span,
         };
     }
-    let (o1, o2) = n.test.plane_offsets(planes);
+    let (o1, o2) = n.test.offsets_in(stride, plane_len);
     let t = i32::from(n.threshold);
     let (off2, complement, (lo, span)) = match n.test.op {
         TestOp::Value => (o1, false, window(i32::MIN, 2 * t)),
@@ -129,7 +129,8 @@ struct Compiled {
     depth: usize,
 }
 
-fn compile(forest: &Forest, planes: &LabPlanes) -> Vec<Compiled> {
+/// Every tree compiled for planes of this row and plane length.
+fn compile(forest: &Forest, layout: (usize, usize)) -> Vec<Compiled> {
     forest
         .trees()
         .iter()
@@ -138,7 +139,7 @@ fn compile(forest: &Forest, planes: &LabPlanes) -> Vec<Compiled> {
                 .nodes()
                 .iter()
                 .enumerate()
-                .map(|(i, n)| compile_node(i, n, planes))
+                .map(|(i, n)| compile_node(i, n, layout))
                 .collect(),
             leaf: tree
                 .nodes()
@@ -296,9 +297,7 @@ impl Forest {
         // Every band's planes have the same shape (the last band's rows
         // below the image repeat its last row), so the trees compile once.
         let rows = (band - 1) * step as usize + 1;
-        let mut shape = LabPlanes::default();
-        shape.convert_band_into(image, 0, rows);
-        let compiled = compile(self, &shape);
+        let compiled = compile(self, lab::layout(image.width() as usize, rows));
         out.values_mut()
             .par_chunks_mut(gw * b * band)
             .zip(ys.par_chunks(band))
@@ -319,7 +318,7 @@ impl Forest {
         let mut out =
             ConfidenceImage::zeros(planes.width(), planes.height(), step, self.bins().clone())?;
         let b = self.bins().len();
-        let compiled = compile(self, planes);
+        let compiled = compile(self, (planes.stride(), planes.plane_len()));
         let (gw, gh) = out.grid_size();
         let xs: Vec<u32> = (0..gw).map(|i| out.node_pixel(i, 0).0).collect();
         let ys: Vec<u32> = (0..gh).map(|j| out.node_pixel(0, j).1).collect();
@@ -347,7 +346,7 @@ impl Forest {
             )));
         }
         let b = self.bins().len();
-        let compiled = compile(self, planes);
+        let compiled = compile(self, (planes.stride(), planes.plane_len()));
         let mut out = vec![0.0f32; pixels.len() * b];
         out.par_chunks_mut(BATCH * b)
             .zip(pixels.par_chunks(BATCH))
@@ -516,7 +515,7 @@ mod tests {
                 child: 1,
                 is_leaf: false,
             };
-            let c = compile_node(0, &node, &planes);
+            let c = compile_node(0, &node, (planes.stride(), planes.plane_len()));
             let base = planes.base(rng.random_range(0..30), rng.random_range(0..30));
             let left = c.next_at(d, base) == 1;
             let want = test.response(&planes, base) <= i32::from(threshold);
