@@ -54,28 +54,32 @@ pub(crate) fn consistent_pixel(
         .then_some(idx)
 }
 
-/// Filters the photometric map of `views[reference]`: a pixel keeps its
-/// depth when at least `min_consistent_sources` of `sources` (views with a
-/// photometric map in `maps`) agree with it ([`consistent_pixel`]) and the
-/// triangulation angle between the reference and the agreeing sources is
-/// at least `min_triangulation_angle_deg`.
-pub fn geometric_filter(
+/// Which pixels of `views[reference]`'s map keep their depth in the
+/// geometric filter: those where at least `min_consistent_sources` of
+/// `sources` (views with a map in `maps`) agree ([`consistent_pixel`]) and
+/// the triangulation angle between the reference and the agreeing sources
+/// is at least `min_triangulation_angle_deg`. `None` when the reference
+/// has no map.
+///
+/// A mask rather than a filtered copy: every view's mask is computed from
+/// the unfiltered maps, then applied in place ([`apply_keep`]), so a
+/// workspace never holds the maps twice.
+pub fn geometric_keep(
     views: &[View],
     maps: &[Option<DepthNormalMap>],
     reference: usize,
     sources: &[usize],
     params: &MvsParams,
-) -> Option<DepthNormalMap> {
+) -> Option<Vec<bool>> {
     let map = maps.get(reference)?.as_ref()?;
     let view = &views[reference];
     let w = map.width as usize;
     let min_angle_deg = params.min_triangulation_angle_deg;
-    let mut out = map.clone();
-    out.depth
-        .par_chunks_mut(w)
-        .zip(out.normal.par_chunks_mut(w))
+    let mut keep = vec![false; map.depth.len()];
+    keep.par_chunks_mut(w)
+        .zip(map.depth.par_chunks(w))
         .enumerate()
-        .for_each(|(y, (depth, normal))| {
+        .for_each(|(y, (keep, depth))| {
             let mut centres = Vec::with_capacity(sources.len() + 1);
             for x in 0..w {
                 let d = depth[x];
@@ -93,13 +97,34 @@ pub fn geometric_filter(
                     }
                 }
                 let p = unproject(&view.camera, x, y, f64::from(d));
-                let keep = centres.len() > params.min_consistent_sources
+                keep[x] = centres.len() > params.min_consistent_sources
                     && triangulation_angle_deg(&p, &centres) >= min_angle_deg;
-                if !keep {
-                    depth[x] = 0.0;
-                    normal[x] = [0.0; 3];
-                }
             }
         });
+    Some(keep)
+}
+
+/// Clears depth and normal of `map` where `keep` is false.
+pub fn apply_keep(map: &mut DepthNormalMap, keep: &[bool]) {
+    for ((d, n), &k) in map.depth.iter_mut().zip(&mut map.normal).zip(keep) {
+        if !k {
+            *d = 0.0;
+            *n = [0.0; 3];
+        }
+    }
+}
+
+/// The photometric map of `views[reference]` after the geometric filter
+/// ([`geometric_keep`]), as a copy.
+pub fn geometric_filter(
+    views: &[View],
+    maps: &[Option<DepthNormalMap>],
+    reference: usize,
+    sources: &[usize],
+    params: &MvsParams,
+) -> Option<DepthNormalMap> {
+    let keep = geometric_keep(views, maps, reference, sources, params)?;
+    let mut out = maps[reference].clone()?;
+    apply_keep(&mut out, &keep);
     Some(out)
 }

@@ -49,7 +49,7 @@ pub mod workspace;
 
 pub use error::{MvsError, Result};
 pub use fusion::{fuse, write_fused_ply, FusedPoint};
-pub use geometric::geometric_filter;
+pub use geometric::{apply_keep, geometric_filter, geometric_keep};
 pub use job::{
     reconstruct_image_sets, reconstruct_workspace, ImageSet, ImageSetsRequest, SetShares,
     WorkspaceRequest,
@@ -132,9 +132,17 @@ pub fn reconstruct(
         }
     };
     progress("geometric consistency filter");
-    let geometric: Vec<Option<DepthNormalMap>> = (0..views.len())
-        .map(|r| geometric_filter(views, &refined, r, &sources[r], params))
+    // Every mask from the unfiltered maps first, then each map filtered in
+    // place: the refined maps become the geometric ones without a copy.
+    let keep: Vec<Option<Vec<bool>>> = (0..views.len())
+        .map(|r| geometric_keep(views, &refined, r, &sources[r], params))
         .collect();
+    let mut geometric = refined;
+    for (map, keep) in geometric.iter_mut().zip(&keep) {
+        if let (Some(map), Some(keep)) = (map, keep) {
+            apply_keep(map, keep);
+        }
+    }
     progress("fusion");
     let fused = fuse(views, &geometric, sources, params);
     Ok(Output {
@@ -200,6 +208,11 @@ fn patch_match_all(
             ));
             let state = patchmatch::patch_match_raw(views, r, &usable, params, Some(&raw))?;
             refined.push(Some(state.to_map(params)));
+            // The later references' passes read only this view's depths:
+            // its planes and costs (24 bytes a pixel) can go.
+            if let Some(done) = raw[r].as_mut() {
+                done.hyps = Vec::new();
+            }
         }
         refined
     } else {

@@ -94,6 +94,8 @@ struct Problem<'a> {
 pub(crate) struct RawState {
     pub width: usize,
     pub height: usize,
+    /// Empty once the view's own geometric pass has run (only `depth` is
+    /// read after that).
     pub hyps: Vec<Hyp>,
     /// The hypotheses' depths, contiguous for the geometric term.
     pub depth: Vec<f32>,
