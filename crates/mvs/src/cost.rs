@@ -2,6 +2,7 @@
 //! into each source through the plane-induced homography, aggregated over
 //! the sources with a best-k view selection.
 
+use crate::fast_exp;
 use crate::params::MvsParams;
 use crate::simd::{Avx2, FullWindow};
 use crate::view::{GreyImage, Relative};
@@ -33,7 +34,9 @@ pub(crate) const CHUNK: usize = 8;
 pub(crate) struct Window {
     /// Offsets along one axis: `-r, -r + step, ..., <= r`.
     pub offsets: Vec<i32>,
-    /// `exp(-(dx^2 + dy^2) / (2 sigma_s^2))`, row-major over the grid.
+    /// `exp(-(dx^2 + dy^2) / (2 sigma_s^2))`, row-major over the grid,
+    /// each row padded to [`Window::stride`] with zeros (a full patch's
+    /// layout, so that its weights are one product per sample).
     spatial: Vec<f32>,
     /// `1 / (2 sigma_c^2)`.
     inv_color: f32,
@@ -48,16 +51,18 @@ impl Window {
     pub(crate) fn new(params: &MvsParams) -> Self {
         let offsets = params.window_offsets();
         let inv_s = 1.0 / (2.0 * params.sigma_spatial * params.sigma_spatial);
-        let spatial = offsets
-            .iter()
-            .flat_map(|&oy| {
-                offsets
-                    .iter()
-                    .map(move |&ox| (-((ox * ox + oy * oy) as f32) * inv_s).exp())
-            })
-            .collect();
         let step = offsets.get(1).map_or(1, |&o| o - offsets[0]) as f32;
         let stride = offsets.len().div_ceil(CHUNK) * CHUNK;
+        let mut spatial = Vec::with_capacity(offsets.len() * stride);
+        for &oy in &offsets {
+            for i in 0..stride {
+                spatial.push(
+                    offsets
+                        .get(i)
+                        .map_or(0.0, |&ox| (-((ox * ox + oy * oy) as f32) * inv_s).exp()),
+                );
+            }
+        }
         Window {
             offsets,
             spatial,
@@ -138,48 +143,44 @@ impl RefPatch {
             && yi + win.first() >= 0
             && xi + win.last() < iw
             && yi + win.last() < ih;
-        let mut sw = 0.0f32;
-        let mut swv = 0.0f32;
         if self.full {
-            let w = image.width as usize;
-            let pad = win.stride() - win.n();
-            let mut k = 0;
-            for &oy in &win.offsets {
+            // Intensities row by row (the padding stays 0), then every
+            // weight in one loop that vectorises ([`fast_exp`]); padding
+            // lanes get weight 0 from their zero spatial weight.
+            let (w, n, stride) = (image.width as usize, win.n(), win.stride());
+            self.wr.resize(n * stride, 0.0);
+            for (row_out, &oy) in self.wr.chunks_exact_mut(stride).zip(&win.offsets) {
                 let row = &image.data[(yi + oy) as usize * w..][..w];
-                for &ox in &win.offsets {
-                    let v = row[(xi + ox) as usize];
-                    let dc = v - centre;
-                    let wt = win.spatial[k] * (-dc * dc * win.inv_color).exp();
-                    // `wr` holds the intensity until the mean is known.
-                    self.w.push(wt);
-                    self.wr.push(v);
-                    sw += wt;
-                    swv += wt * v;
-                    k += 1;
-                }
-                for _ in 0..pad {
-                    self.w.push(0.0);
-                    self.wr.push(0.0);
+                for (v, &ox) in row_out.iter_mut().zip(&win.offsets) {
+                    *v = row[(xi + ox) as usize];
                 }
             }
+            self.w
+                .extend(self.wr.iter().zip(&win.spatial).map(|(&v, &s)| {
+                    let dc = v - centre;
+                    s * fast_exp::exp(-dc * dc * win.inv_color)
+                }));
         } else {
-            let mut k = 0;
-            for &oy in &win.offsets {
-                for &ox in &win.offsets {
-                    k += 1;
+            let stride = win.stride();
+            for (j, &oy) in win.offsets.iter().enumerate() {
+                for (i, &ox) in win.offsets.iter().enumerate() {
                     let Some(v) = image.at(xi + ox, yi + oy) else {
                         continue;
                     };
                     let dc = v - centre;
-                    let wt = win.spatial[k - 1] * (-dc * dc * win.inv_color).exp();
+                    let wt = win.spatial[j * stride + i] * fast_exp::exp(-dc * dc * win.inv_color);
                     self.dx.push(ox as f32);
                     self.dy.push(oy as f32);
                     self.w.push(wt);
                     self.wr.push(v);
-                    sw += wt;
-                    swv += wt * v;
                 }
             }
+        }
+        // `wr` holds the intensities until the mean is known.
+        let (mut sw, mut swv) = (0.0f32, 0.0f32);
+        for (&wt, &v) in self.w.iter().zip(&self.wr) {
+            sw += wt;
+            swv += wt * v;
         }
         let mean = swv / sw;
         let mut var = 0.0;

@@ -32,6 +32,7 @@
 
 mod cost;
 pub mod error;
+mod fast_exp;
 pub mod fusion;
 pub mod geometric;
 pub mod job;
