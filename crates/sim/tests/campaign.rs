@@ -130,15 +130,18 @@ fn two_matchers_on_the_same_site(pm_cfg: &CampaignConfig, pm: &CampaignReport) {
     let pm = two_matchers::MatcherCampaign::from_report(pm);
     let c = two_matchers::compare(&sgm, &pm, ("F5x4", "NP5x4"), 0).unwrap();
     println!("{}", c.markdown());
-    // What held on the full run (docs/campaign-findings.md, "The
-    // two-matcher experiment"): H3, F plans narrower triangulation angles
-    // with SGM than with PatchMatch (8 of 8 sites), and the second half of
-    // H4, F's lead over NP is larger with SGM than with PatchMatch (+4.4
-    // points, interval +1.1 .. +8.0). H1, H4's first half (F ahead of NP
-    // with SGM on 7 of 8 sites: 5), H5 and H6 did not hold and are not
-    // asserted; H2 needs the leave-one-site-out folds (`sim evaluate
-    // --versus`, tested in the CLI's tests).
-    assert_h3_and_h4_between_matchers(&c);
+    // A test on one site asserts only what held on every site of the full
+    // run (docs/campaign-findings.md, "The two-matcher experiment"): H3, F
+    // plans narrower triangulation angles with SGM than with PatchMatch
+    // (8 of 8 sites). H4's second half (F's lead over NP larger with SGM)
+    // held as a mean over the 8 sites (+4.4 points, interval +1.1 .. +8.0)
+    // but site by site on 6 of 8, so one site cannot check it: it is
+    // asserted at 30 % vegetation, where it held on 8 of 8 (below). H1,
+    // H4's first half, H5 and H6 did not hold and are not asserted; H2
+    // needs the leave-one-site-out folds (`sim evaluate --versus`, tested
+    // in the CLI's tests).
+    let (sgm_angle, pm_angle) = c.angle[0];
+    assert!(sgm_angle < pm_angle, "H3: {sgm_angle} vs {pm_angle}");
 }
 
 /// `pm_cfg` flown with SGM instead of PatchMatch.
