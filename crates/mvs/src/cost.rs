@@ -30,19 +30,26 @@ pub(crate) const CHUNK: usize = 8;
 /// The sparse matching window, fixed for a run: the sample offsets along
 /// one axis and the spatial half of the bilateral weights, computed once
 /// instead of once per pixel.
+///
+/// A full patch stores the window's samples row-major and packed, the
+/// grid's rows one after another with no gap, padded at the end to whole
+/// chunks of [`CHUNK`]: the default 6 x 6 window is 5 chunks (40 lanes, 4
+/// of them padding), where a row padded to a chunk each took 6 (48 lanes,
+/// 12 padding). The sums' work is per chunk, so fewer chunks is less work.
 #[derive(Debug, Clone)]
 pub(crate) struct Window {
     /// Offsets along one axis: `-r, -r + step, ..., <= r`.
     pub offsets: Vec<i32>,
-    /// `exp(-(dx^2 + dy^2) / (2 sigma_s^2))`, row-major over the grid,
-    /// each row padded to [`Window::stride`] with zeros (a full patch's
-    /// layout, so that its weights are one product per sample).
+    /// `exp(-(dx^2 + dy^2) / (2 sigma_s^2))` per lane of the packed
+    /// layout, 0 on padding (so that a full patch's weights are one
+    /// product per lane).
     spatial: Vec<f32>,
     /// `1 / (2 sigma_c^2)`.
     inv_color: f32,
-    /// Offset of each lane of a padded window row from the row's first
-    /// sample, `i * step` for `i` in `0..stride`.
-    lanes: Vec<f32>,
+    /// Offset of each lane of the packed layout from the window's first
+    /// sample, along x and y (reference pixels); 0 on padding.
+    lane_x: Vec<f32>,
+    lane_y: Vec<f32>,
     /// The AVX2 sums, when the CPU has AVX2 (detected once per run).
     avx2: Option<Avx2>,
 }
@@ -51,23 +58,28 @@ impl Window {
     pub(crate) fn new(params: &MvsParams) -> Self {
         let offsets = params.window_offsets();
         let inv_s = 1.0 / (2.0 * params.sigma_spatial * params.sigma_spatial);
-        let step = offsets.get(1).map_or(1, |&o| o - offsets[0]) as f32;
-        let stride = offsets.len().div_ceil(CHUNK) * CHUNK;
-        let mut spatial = Vec::with_capacity(offsets.len() * stride);
-        for &oy in &offsets {
-            for i in 0..stride {
-                spatial.push(
-                    offsets
-                        .get(i)
-                        .map_or(0.0, |&ox| (-((ox * ox + oy * oy) as f32) * inv_s).exp()),
-                );
-            }
-        }
+        let (first, n) = (offsets[0], offsets.len());
+        let lanes = (n * n).div_ceil(CHUNK) * CHUNK;
+        // (ox, oy) of every lane; None on padding.
+        let grid = |k: usize| (k < n * n).then(|| (offsets[k % n], offsets[k / n]));
+        let spatial = (0..lanes)
+            .map(|k| {
+                grid(k).map_or(0.0, |(ox, oy)| {
+                    (-((ox * ox + oy * oy) as f32) * inv_s).exp()
+                })
+            })
+            .collect();
+        let lane = |axis: fn((i32, i32)) -> i32| -> Vec<f32> {
+            (0..lanes)
+                .map(|k| grid(k).map_or(0.0, |o| (axis(o) - first) as f32))
+                .collect()
+        };
         Window {
-            offsets,
             spatial,
             inv_color: 1.0 / (2.0 * params.sigma_color * params.sigma_color),
-            lanes: (0..stride).map(|i| i as f32 * step).collect(),
+            lane_x: lane(|(ox, _)| ox),
+            lane_y: lane(|(_, oy)| oy),
+            offsets,
             avx2: Avx2::detect(),
         }
     }
@@ -78,11 +90,17 @@ impl Window {
         self.offsets.len()
     }
 
-    /// Samples stored per window row in a full patch: the row padded to
-    /// whole chunks of [`CHUNK`] with zero weights.
+    /// Samples of the whole window.
     #[inline]
-    pub(crate) fn stride(&self) -> usize {
-        self.n().div_ceil(CHUNK) * CHUNK
+    pub(crate) fn samples(&self) -> usize {
+        self.n() * self.n()
+    }
+
+    /// Lanes of a full patch: the samples padded to whole chunks of
+    /// [`CHUNK`] with zero weights.
+    #[inline]
+    pub(crate) fn lanes(&self) -> usize {
+        self.spatial.len()
     }
 
     fn first(&self) -> i32 {
@@ -91,12 +109,6 @@ impl Window {
 
     fn last(&self) -> i32 {
         self.offsets[self.offsets.len() - 1]
-    }
-
-    fn step(&self) -> f32 {
-        self.offsets
-            .get(1)
-            .map_or(1.0, |&o| (o - self.offsets[0]) as f32)
     }
 }
 
@@ -118,9 +130,9 @@ pub(crate) struct RefPatch {
     /// Sum of w * (intensity - mean)^2.
     var: f32,
     /// Whether every sample of the window lies inside the image: then the
-    /// samples are the full grid, row-major, each row padded to
-    /// [`Window::stride`] with zero weights, and a source is scored by the
-    /// incremental fast path ([`source_cost`]).
+    /// samples are the full grid in the [`Window`]'s packed layout, padded
+    /// with zero weights, and a source is scored by the chunked fast path
+    /// ([`source_cost`]).
     full: bool,
 }
 
@@ -144,12 +156,12 @@ impl RefPatch {
             && xi + win.last() < iw
             && yi + win.last() < ih;
         if self.full {
-            // Intensities row by row (the padding stays 0), then every
-            // weight in one loop that vectorises ([`fast_exp`]); padding
-            // lanes get weight 0 from their zero spatial weight.
-            let (w, n, stride) = (image.width as usize, win.n(), win.stride());
-            self.wr.resize(n * stride, 0.0);
-            for (row_out, &oy) in self.wr.chunks_exact_mut(stride).zip(&win.offsets) {
+            // Intensities in the packed layout (the padding stays 0), then
+            // every weight in one loop that vectorises ([`fast_exp`]);
+            // padding lanes get weight 0 from their zero spatial weight.
+            let w = image.width as usize;
+            self.wr.resize(win.lanes(), 0.0);
+            for (row_out, &oy) in self.wr.chunks_mut(win.n()).zip(&win.offsets) {
                 let row = &image.data[(yi + oy) as usize * w..][..w];
                 for (v, &ox) in row_out.iter_mut().zip(&win.offsets) {
                     *v = row[(xi + ox) as usize];
@@ -161,14 +173,15 @@ impl RefPatch {
                     s * fast_exp::exp(-dc * dc * win.inv_color)
                 }));
         } else {
-            let stride = win.stride();
-            for (j, &oy) in win.offsets.iter().enumerate() {
-                for (i, &ox) in win.offsets.iter().enumerate() {
+            let mut k = 0;
+            for &oy in &win.offsets {
+                for &ox in &win.offsets {
+                    k += 1;
                     let Some(v) = image.at(xi + ox, yi + oy) else {
                         continue;
                     };
                     let dc = v - centre;
-                    let wt = win.spatial[j * stride + i] * fast_exp::exp(-dc * dc * win.inv_color);
+                    let wt = win.spatial[k - 1] * fast_exp::exp(-dc * dc * win.inv_color);
                     self.dx.push(ox as f32);
                     self.dy.push(oy as f32);
                     self.w.push(wt);
@@ -311,13 +324,10 @@ fn warped_origin(win: &Window, u: f32, v: f32, h: &[f32; 9], src: &GreyImage) ->
 ///
 /// Bit for bit the sums of the straightforward loop
 /// ([`sums_full_reference`]): every sample goes through the same operations
-/// in the same order, and each lane adds up the same samples. What changed is the
-/// machine code around them: the lanes' offsets come from the window
-/// instead of being recomputed, the window rows are walked with fixed-size
-/// arrays (no run-time chunking, whose iterator set-up with two integer
-/// divisions ran once per row), and the float-to-integer casts are done
-/// for the whole chunk at once, with float and integer arithmetic, so that
-/// they vectorise.
+/// in the same order, and each lane adds up the same samples. What changed
+/// is the machine code around them: the chunks are walked with fixed-size
+/// arrays, and the float-to-integer casts are done for the whole chunk at
+/// once, with float and integer arithmetic, so that they vectorise.
 #[inline]
 fn sums_full(
     patch: &RefPatch,
@@ -327,8 +337,7 @@ fn sums_full(
     h: &[f32; 9],
     src: &GreyImage,
 ) -> Option<(f32, f32, f32)> {
-    let (n, step) = (win.n(), win.step());
-    let [a0, b0, c0] = warped_origin(win, u, v, h, src)?;
+    let origin = warped_origin(win, u, v, h, src)?;
     if src.width >= FLOOR_SMALL_LIMIT || src.height >= FLOOR_SMALL_LIMIT {
         return sums_full_reference(patch, win, u, v, h, src);
     }
@@ -336,11 +345,10 @@ fn sums_full(
         let lanes = avx2.sums_full(&FullWindow {
             w: &patch.w,
             wr: &patch.wr,
-            lanes: &win.lanes,
-            n,
-            stride: win.stride(),
-            step,
-            origin: [a0, b0, c0],
+            lane_x: &win.lane_x,
+            lane_y: &win.lane_y,
+            samples: win.samples(),
+            origin,
             h,
             data: &src.data,
             width: src.width as usize,
@@ -349,60 +357,62 @@ fn sums_full(
             return Some((lane_total(s1), lane_total(s2), lane_total(sr)));
         }
     }
+    let [a0, b0, c0] = origin;
     let sw = src.width as usize;
     let data = &src.data[..];
     // One partial sum per lane: the adds of neighbouring samples do not
     // wait on each other, and the lane loops vectorise.
     let (mut s1, mut s2, mut sr) = ([0.0f32; CHUNK], [0.0f32; CHUNK], [0.0f32; CHUNK]);
-    let chunks = win.stride() / CHUNK;
-    for j in 0..n {
-        let fj = j as f32 * step;
-        let (ra, rb, rc) = (a0 + h[1] * fj, b0 + h[4] * fj, c0 + h[7] * fj);
-        for c in 0..chunks {
-            let first = c * CHUNK;
-            let at = j * win.stride() + first;
-            let (Ok(w), Ok(wr), Ok(fi)) = (
-                <&[f32; CHUNK]>::try_from(&patch.w[at..at + CHUNK]),
-                <&[f32; CHUNK]>::try_from(&patch.wr[at..at + CHUNK]),
-                <&[f32; CHUNK]>::try_from(&win.lanes[first..first + CHUNK]),
-            ) else {
-                unreachable!("slices of CHUNK elements")
-            };
-            // Coordinates, cells and fractions of the whole chunk
-            // (branch-free, so that they vectorise); lanes past the row's
-            // end are computed but unused.
-            let (mut x0, mut y0) = ([0i32; CHUNK], [0i32; CHUNK]);
-            let mut ax = [0.0f32; CHUNK];
-            let mut ay = [0.0f32; CHUNK];
-            for i in 0..CHUNK {
-                let iz = 1.0 / (rc + h[6] * fi[i]);
-                let fx = (ra + h[0] * fi[i]) * iz - 0.5;
-                let fy = (rb + h[3] * fi[i]) * iz - 0.5;
-                let (xf, xi) = floor_small(fx);
-                let (yf, yi) = floor_small(fy);
-                (x0[i], y0[i]) = (xi, yi);
-                ax[i] = fx - xf;
-                ay[i] = fy - yf;
-            }
-            // Padding lanes keep s = 0 (and have weight 0).
-            let mut sv = [0.0f32; CHUNK];
-            for i in 0..CHUNK.min(n - first) {
-                // In range by the corner test: the casts are exact.
-                let i0 = y0[i] as usize * sw + x0[i] as usize;
-                let cell = &data[i0..i0 + sw + 2];
-                let t = cell[0] + ax[i] * (cell[1] - cell[0]);
-                let b = cell[sw] + ax[i] * (cell[sw + 1] - cell[sw]);
-                sv[i] = t + ay[i] * (b - t);
-            }
-            for i in 0..CHUNK {
-                let ws = w[i] * sv[i];
-                s1[i] += ws;
-                s2[i] += ws * sv[i];
-                sr[i] += wr[i] * sv[i];
-            }
+    for first in (0..win.lanes()).step_by(CHUNK) {
+        let (w, wr, fi, fj) = (
+            chunk(&patch.w, first),
+            chunk(&patch.wr, first),
+            chunk(&win.lane_x, first),
+            chunk(&win.lane_y, first),
+        );
+        // Coordinates, cells and fractions of the whole chunk
+        // (branch-free, so that they vectorise); padding lanes are
+        // computed but unused.
+        let (mut x0, mut y0) = ([0i32; CHUNK], [0i32; CHUNK]);
+        let mut ax = [0.0f32; CHUNK];
+        let mut ay = [0.0f32; CHUNK];
+        for i in 0..CHUNK {
+            let iz = 1.0 / ((c0 + h[7] * fj[i]) + h[6] * fi[i]);
+            let fx = ((a0 + h[1] * fj[i]) + h[0] * fi[i]) * iz - 0.5;
+            let fy = ((b0 + h[4] * fj[i]) + h[3] * fi[i]) * iz - 0.5;
+            let (xf, xi) = floor_small(fx);
+            let (yf, yi) = floor_small(fy);
+            (x0[i], y0[i]) = (xi, yi);
+            ax[i] = fx - xf;
+            ay[i] = fy - yf;
+        }
+        // Padding lanes keep s = 0 (and have weight 0).
+        let mut sv = [0.0f32; CHUNK];
+        for i in 0..CHUNK.min(win.samples() - first) {
+            // In range by the corner test: the casts are exact.
+            let i0 = y0[i] as usize * sw + x0[i] as usize;
+            let cell = &data[i0..i0 + sw + 2];
+            let t = cell[0] + ax[i] * (cell[1] - cell[0]);
+            let b = cell[sw] + ax[i] * (cell[sw + 1] - cell[sw]);
+            sv[i] = t + ay[i] * (b - t);
+        }
+        for i in 0..CHUNK {
+            let ws = w[i] * sv[i];
+            s1[i] += ws;
+            s2[i] += ws * sv[i];
+            sr[i] += wr[i] * sv[i];
         }
     }
     Some((lane_total(s1), lane_total(s2), lane_total(sr)))
+}
+
+/// `a[at..at + CHUNK]` as an array.
+#[inline]
+fn chunk(a: &[f32], at: usize) -> &[f32; CHUNK] {
+    let Ok(c) = <&[f32; CHUNK]>::try_from(&a[at..at + CHUNK]) else {
+        unreachable!("a slice of CHUNK elements")
+    };
+    c
 }
 
 /// Floor of `x`, as a float and as an integer, for `0 <= x < 2^22`
@@ -472,53 +482,40 @@ fn sums_full_reference(
     h: &[f32; 9],
     src: &GreyImage,
 ) -> Option<(f32, f32, f32)> {
-    let (n, step) = (win.n(), win.step());
     let [a0, b0, c0] = warped_origin(win, u, v, h, src)?;
     let sw = src.width as usize;
     let data = &src.data[..];
     // One partial sum per lane: the adds of neighbouring samples do not
     // wait on each other, and the lane loops vectorise.
     let (mut s1, mut s2, mut sr) = ([0.0f32; CHUNK], [0.0f32; CHUNK], [0.0f32; CHUNK]);
-    let stride = win.stride();
-    let rows = patch
+    let lanes = patch
         .w
-        .chunks_exact(stride)
-        .zip(patch.wr.chunks_exact(stride));
-    for (j, (w_row, wr_row)) in rows.enumerate() {
-        let fj = j as f32 * step;
-        let (ra, rb, rc) = (a0 + h[1] * fj, b0 + h[4] * fj, c0 + h[7] * fj);
-        let chunks = w_row.chunks_exact(CHUNK).zip(wr_row.chunks_exact(CHUNK));
-        for (c, (w, wr)) in chunks.enumerate() {
-            // Coordinates of the whole chunk first (branch-free, so the
-            // divisions vectorise); lanes past the row's end stay unused.
-            let first = c * CHUNK;
-            let mut fx = [0.0f32; CHUNK];
-            let mut fy = [0.0f32; CHUNK];
-            for i in 0..CHUNK {
-                let fi = (first + i) as f32 * step;
-                let iz = 1.0 / (rc + h[6] * fi);
-                fx[i] = (ra + h[0] * fi) * iz - 0.5;
-                fy[i] = (rb + h[3] * fi) * iz - 0.5;
-            }
-            // Padding lanes keep s = 0 (and have weight 0).
-            let mut sv = [0.0f32; CHUNK];
-            for i in 0..CHUNK.min(n - first) {
-                // In range by the corner test: the casts cannot saturate.
-                let (x0, y0) = (fx[i] as usize, fy[i] as usize);
-                let (ax, ay) = (fx[i] - x0 as f32, fy[i] - y0 as f32);
-                let i0 = y0 * sw + x0;
-                let top = &data[i0..i0 + 2];
-                let bottom = &data[i0 + sw..i0 + sw + 2];
-                let t = top[0] + ax * (top[1] - top[0]);
-                let b = bottom[0] + ax * (bottom[1] - bottom[0]);
-                sv[i] = t + ay * (b - t);
-            }
-            for i in 0..CHUNK {
-                let ws = w[i] * sv[i];
-                s1[i] += ws;
-                s2[i] += ws * sv[i];
-                sr[i] += wr[i] * sv[i];
-            }
+        .chunks_exact(CHUNK)
+        .zip(patch.wr.chunks_exact(CHUNK));
+    for (c, (w, wr)) in lanes.enumerate() {
+        let first = c * CHUNK;
+        // Padding lanes keep s = 0 (and have weight 0).
+        let mut sv = [0.0f32; CHUNK];
+        for i in 0..CHUNK.min(win.samples() - first) {
+            let (fi, fj) = (win.lane_x[first + i], win.lane_y[first + i]);
+            let iz = 1.0 / ((c0 + h[7] * fj) + h[6] * fi);
+            let fx = ((a0 + h[1] * fj) + h[0] * fi) * iz - 0.5;
+            let fy = ((b0 + h[4] * fj) + h[3] * fi) * iz - 0.5;
+            // In range by the corner test: the casts cannot saturate.
+            let (x0, y0) = (fx as usize, fy as usize);
+            let (ax, ay) = (fx - x0 as f32, fy - y0 as f32);
+            let i0 = y0 * sw + x0;
+            let top = &data[i0..i0 + 2];
+            let bottom = &data[i0 + sw..i0 + sw + 2];
+            let t = top[0] + ax * (top[1] - top[0]);
+            let b = bottom[0] + ax * (bottom[1] - bottom[0]);
+            sv[i] = t + ay * (b - t);
+        }
+        for i in 0..CHUNK {
+            let ws = w[i] * sv[i];
+            s1[i] += ws;
+            s2[i] += ws * sv[i];
+            sr[i] += wr[i] * sv[i];
         }
     }
     Some((lane_total(s1), lane_total(s2), lane_total(sr)))

@@ -238,14 +238,8 @@ fn patch_clone_partial(full: &RefPatch, win: &Window, out: &mut RefPatch) {
             out.dy.push(oy as f32);
         }
     }
-    for (w, wr) in full
-        .w
-        .chunks_exact(win.stride())
-        .zip(full.wr.chunks_exact(win.stride()))
-    {
-        out.w.extend_from_slice(&w[..win.n()]);
-        out.wr.extend_from_slice(&wr[..win.n()]);
-    }
+    out.w.extend_from_slice(&full.w[..win.samples()]);
+    out.wr.extend_from_slice(&full.wr[..win.samples()]);
     out.sum_w = full.sum_w;
     out.var = full.var;
     out.full = false;

@@ -51,19 +51,19 @@ pub(crate) struct Avx2 {
 
 /// Everything the full-window sums read, with the window's origin already
 /// warped: `origin` is the homogeneous source position of the first sample.
+/// The window is in `cost::Window`'s packed layout: lane `k` of `w`, `wr`,
+/// `lane_x` and `lane_y` is one sample, the first `samples` of them count
+/// and the rest are padding.
 pub(crate) struct FullWindow<'a> {
-    /// Bilateral weights, `rows` rows of `stride` samples.
+    /// Bilateral weights, a multiple of [`CHUNK`] lanes.
     pub w: &'a [f32],
     /// Weight times mean-free reference intensity, laid out like `w`.
     pub wr: &'a [f32],
-    /// Offset of each lane from the row's first sample, `stride` of them.
-    pub lanes: &'a [f32],
-    /// Samples per window row that count (the rest are padding).
-    pub n: usize,
-    /// Samples stored per row, a multiple of [`CHUNK`].
-    pub stride: usize,
-    /// Distance between window rows, in reference pixels.
-    pub step: f32,
+    /// Offset of each lane from the first sample, x and y, reference pixels.
+    pub lane_x: &'a [f32],
+    pub lane_y: &'a [f32],
+    /// Lanes that count (the rest are padding).
+    pub samples: usize,
     pub origin: [f32; 3],
     pub h: &'a [f32; 9],
     /// The source image, row-major, `width` pixels a row.
@@ -86,12 +86,13 @@ impl Avx2 {
     /// caller runs the scalar loop).
     #[allow(clippy::unused_self)] // `self` is the proof that AVX2 is there
     pub(crate) fn sums_full(self, win: &FullWindow) -> Option<[[f32; CHUNK]; 3]> {
+        let lanes = win.w.len();
         let ok = CHUNK == 8
-            && win.stride.is_multiple_of(CHUNK)
-            && win.n <= win.stride
-            && win.lanes.len() >= win.stride
-            && win.w.len() == win.wr.len()
-            && win.w.len() == win.n * win.stride
+            && lanes.is_multiple_of(CHUNK)
+            && win.samples <= lanes
+            && win.wr.len() == lanes
+            && win.lane_x.len() == lanes
+            && win.lane_y.len() == lanes
             && win.data.len() >= win.width + 2
             && i32::try_from(win.data.len()).is_ok();
         if !ok {
@@ -175,11 +176,15 @@ mod x86 {
         let last = _mm256_set1_epi32((data.len() - sw - 2) as i32);
         let zero_i = _mm256_setzero_si256();
         let (sw_i, sw4) = (_mm256_set1_epi32(sw as i32), _mm_set1_epi32(sw as i32));
-        let (hx0, hx3, hx6) = (
+        let (hx0, hx1, hx3, hx4, hx6, hx7) = (
             _mm256_set1_ps(h[0]),
+            _mm256_set1_ps(h[1]),
             _mm256_set1_ps(h[3]),
+            _mm256_set1_ps(h[4]),
             _mm256_set1_ps(h[6]),
+            _mm256_set1_ps(h[7]),
         );
+        let (a0, b0, c0) = (_mm256_set1_ps(a0), _mm256_set1_ps(b0), _mm256_set1_ps(c0));
         let (one, half) = (_mm256_set1_ps(1.0), _mm256_set1_ps(0.5));
         let lane_ids = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
         let (mut s1, mut s2, mut sr) = (
@@ -187,76 +192,74 @@ mod x86 {
             _mm256_setzero_ps(),
             _mm256_setzero_ps(),
         );
-        for j in 0..win.n {
-            let fj = j as f32 * win.step;
-            let ra = _mm256_set1_ps(a0 + h[1] * fj);
-            let rb = _mm256_set1_ps(b0 + h[4] * fj);
-            let rc = _mm256_set1_ps(c0 + h[7] * fj);
-            for first in (0..win.stride).step_by(CHUNK) {
-                let at = j * win.stride + first;
-                let w = load(chunk(win.w, at));
-                let wr = load(chunk(win.wr, at));
-                let fi = load(chunk(win.lanes, first));
-                let iz = _mm256_div_ps(one, _mm256_add_ps(rc, _mm256_mul_ps(hx6, fi)));
-                let fx = _mm256_sub_ps(
-                    _mm256_mul_ps(_mm256_add_ps(ra, _mm256_mul_ps(hx0, fi)), iz),
-                    half,
-                );
-                let fy = _mm256_sub_ps(
-                    _mm256_mul_ps(_mm256_add_ps(rb, _mm256_mul_ps(hx3, fi)), iz),
-                    half,
-                );
-                let (xf, x0) = floor_small(fx);
-                let (yf, y0) = floor_small(fy);
-                let ax = _mm256_sub_ps(fx, xf);
-                let ay = _mm256_sub_ps(fy, yf);
-                let i0 = _mm256_add_epi32(_mm256_mullo_epi32(y0, sw_i), x0);
-                let i0 = _mm256_min_epi32(_mm256_max_epi32(i0, zero_i), last);
-                // The two taps of a cell row are adjacent: gather them as
-                // one 64-bit pair per lane, four lanes a gather, lanes
-                // {0, 1, 4, 5} then {2, 3, 6, 7}, so that one in-lane
-                // shuffle per tap puts the eight lanes back in order.
-                let perm = _mm256_permute4x64_epi64::<0b11_01_10_00>(i0);
-                let (lo, hi) = (
-                    _mm256_castsi256_si128(perm),
-                    _mm256_extracti128_si256::<1>(perm),
-                );
-                let (lo_b, hi_b) = (_mm_add_epi32(lo, sw4), _mm_add_epi32(hi, sw4));
-                // Only the gathers read through `p`, and they need no
-                // alignment.
-                #[allow(clippy::cast_ptr_alignment)]
-                let p = data.as_ptr().cast::<f64>();
-                // SAFETY: every lane of `i0` is in [0, data.len() - sw - 2]
-                // (clamped just above), so the 8 bytes at f32 index i0 and
-                // at i0 + sw (floats i0, i0 + 1, i0 + sw, i0 + sw + 1) lie
-                // in `data`; the scale 4 is f32's size, and gathers need no
-                // alignment.
-                let (top_lo, top_hi, bot_lo, bot_hi) = unsafe {
-                    (
-                        _mm256_castpd_ps(_mm256_i32gather_pd::<4>(p, lo)),
-                        _mm256_castpd_ps(_mm256_i32gather_pd::<4>(p, hi)),
-                        _mm256_castpd_ps(_mm256_i32gather_pd::<4>(p, lo_b)),
-                        _mm256_castpd_ps(_mm256_i32gather_pd::<4>(p, hi_b)),
-                    )
-                };
-                let c00 = _mm256_shuffle_ps::<0b10_00_10_00>(top_lo, top_hi);
-                let c01 = _mm256_shuffle_ps::<0b11_01_11_01>(top_lo, top_hi);
-                let c10 = _mm256_shuffle_ps::<0b10_00_10_00>(bot_lo, bot_hi);
-                let c11 = _mm256_shuffle_ps::<0b11_01_11_01>(bot_lo, bot_hi);
-                let t = _mm256_add_ps(c00, _mm256_mul_ps(ax, _mm256_sub_ps(c01, c00)));
-                let b = _mm256_add_ps(c10, _mm256_mul_ps(ax, _mm256_sub_ps(c11, c10)));
-                let s = _mm256_add_ps(t, _mm256_mul_ps(ay, _mm256_sub_ps(b, t)));
-                // Lanes past the row's end read clamped garbage: s = +0.
-                let live = _mm256_cmpgt_epi32(
-                    _mm256_set1_epi32((win.n - first.min(win.n)) as i32),
-                    lane_ids,
-                );
-                let s = _mm256_and_ps(s, _mm256_castsi256_ps(live));
-                let ws = _mm256_mul_ps(w, s);
-                s1 = _mm256_add_ps(s1, ws);
-                s2 = _mm256_add_ps(s2, _mm256_mul_ps(ws, s));
-                sr = _mm256_add_ps(sr, _mm256_mul_ps(wr, s));
-            }
+        for first in (0..win.w.len()).step_by(CHUNK) {
+            let w = load(chunk(win.w, first));
+            let wr = load(chunk(win.wr, first));
+            let fi = load(chunk(win.lane_x, first));
+            let fj = load(chunk(win.lane_y, first));
+            // The scalar loop's (origin + h fj) + h fi, lane by lane.
+            let ra = _mm256_add_ps(a0, _mm256_mul_ps(hx1, fj));
+            let rb = _mm256_add_ps(b0, _mm256_mul_ps(hx4, fj));
+            let rc = _mm256_add_ps(c0, _mm256_mul_ps(hx7, fj));
+            let iz = _mm256_div_ps(one, _mm256_add_ps(rc, _mm256_mul_ps(hx6, fi)));
+            let fx = _mm256_sub_ps(
+                _mm256_mul_ps(_mm256_add_ps(ra, _mm256_mul_ps(hx0, fi)), iz),
+                half,
+            );
+            let fy = _mm256_sub_ps(
+                _mm256_mul_ps(_mm256_add_ps(rb, _mm256_mul_ps(hx3, fi)), iz),
+                half,
+            );
+            let (xf, x0) = floor_small(fx);
+            let (yf, y0) = floor_small(fy);
+            let ax = _mm256_sub_ps(fx, xf);
+            let ay = _mm256_sub_ps(fy, yf);
+            let i0 = _mm256_add_epi32(_mm256_mullo_epi32(y0, sw_i), x0);
+            let i0 = _mm256_min_epi32(_mm256_max_epi32(i0, zero_i), last);
+            // The two taps of a cell row are adjacent: gather them as
+            // one 64-bit pair per lane, four lanes a gather, lanes
+            // {0, 1, 4, 5} then {2, 3, 6, 7}, so that one in-lane
+            // shuffle per tap puts the eight lanes back in order.
+            let perm = _mm256_permute4x64_epi64::<0b11_01_10_00>(i0);
+            let (lo, hi) = (
+                _mm256_castsi256_si128(perm),
+                _mm256_extracti128_si256::<1>(perm),
+            );
+            let (lo_b, hi_b) = (_mm_add_epi32(lo, sw4), _mm_add_epi32(hi, sw4));
+            // Only the gathers read through `p`, and they need no
+            // alignment.
+            #[allow(clippy::cast_ptr_alignment)]
+            let p = data.as_ptr().cast::<f64>();
+            // SAFETY: every lane of `i0` is in [0, data.len() - sw - 2]
+            // (clamped just above), so the 8 bytes at f32 index i0 and
+            // at i0 + sw (floats i0, i0 + 1, i0 + sw, i0 + sw + 1) lie
+            // in `data`; the scale 4 is f32's size, and gathers need no
+            // alignment.
+            let (top_lo, top_hi, bot_lo, bot_hi) = unsafe {
+                (
+                    _mm256_castpd_ps(_mm256_i32gather_pd::<4>(p, lo)),
+                    _mm256_castpd_ps(_mm256_i32gather_pd::<4>(p, hi)),
+                    _mm256_castpd_ps(_mm256_i32gather_pd::<4>(p, lo_b)),
+                    _mm256_castpd_ps(_mm256_i32gather_pd::<4>(p, hi_b)),
+                )
+            };
+            let c00 = _mm256_shuffle_ps::<0b10_00_10_00>(top_lo, top_hi);
+            let c01 = _mm256_shuffle_ps::<0b11_01_11_01>(top_lo, top_hi);
+            let c10 = _mm256_shuffle_ps::<0b10_00_10_00>(bot_lo, bot_hi);
+            let c11 = _mm256_shuffle_ps::<0b11_01_11_01>(bot_lo, bot_hi);
+            let t = _mm256_add_ps(c00, _mm256_mul_ps(ax, _mm256_sub_ps(c01, c00)));
+            let b = _mm256_add_ps(c10, _mm256_mul_ps(ax, _mm256_sub_ps(c11, c10)));
+            let s = _mm256_add_ps(t, _mm256_mul_ps(ay, _mm256_sub_ps(b, t)));
+            // Padding lanes read clamped garbage: s = +0.
+            let live = _mm256_cmpgt_epi32(
+                _mm256_set1_epi32((win.samples - first.min(win.samples)) as i32),
+                lane_ids,
+            );
+            let s = _mm256_and_ps(s, _mm256_castsi256_ps(live));
+            let ws = _mm256_mul_ps(w, s);
+            s1 = _mm256_add_ps(s1, ws);
+            s2 = _mm256_add_ps(s2, _mm256_mul_ps(ws, s));
+            sr = _mm256_add_ps(sr, _mm256_mul_ps(wr, s));
         }
         let mut out = [[0.0f32; CHUNK]; 3];
         for (o, v) in out.iter_mut().zip([s1, s2, sr]) {
@@ -281,8 +284,9 @@ mod tests {
             return;
         };
         let data: Vec<f32> = (0..20).map(|i| i as f32 / 20.0).collect();
-        let w = vec![1.0f32; 2 * 8];
+        let w = vec![1.0f32; 8];
         let lanes: Vec<f32> = (0..8).map(|i| i as f32).collect();
+        let zeros = vec![0.0f32; 8];
         let big = [
             f32::NAN,
             f32::INFINITY,
@@ -299,10 +303,9 @@ mod tests {
                 let win = FullWindow {
                     w: &w,
                     wr: &w,
-                    lanes: &lanes,
-                    n: 2,
-                    stride: 8,
-                    step: 1.0,
+                    lane_x: &lanes,
+                    lane_y: &zeros,
+                    samples: 2,
                     origin: [a, c, 1.0],
                     h: &h,
                     data: &data,
