@@ -27,8 +27,10 @@ $py -m pip install --quiet --disable-pip-version-check numpy pytest "dask[distri
 # opt-level 2, see Cargo.toml) into cargo's target folder: cold, that is
 # about a third faster than the release profile a user's `pip install ./py`
 # gets, and a re-run after a change to py/ relinks in seconds instead of a
-# minute. (It cannot reuse `cargo test --workspace`'s artifacts: a build of
-# the one package resolves dependency features differently.)
+# minute. After `cargo test --workspace` it reuses that build's artifacts
+# and compiles only pyo3, numpy and the extension: py/Cargo.toml asks for
+# the dependency features the workspace's dev-dependencies turn on, which
+# a build of the one package would otherwise resolve without.
 CARGO_TARGET_DIR="$target" MATURIN_PEP517_ARGS="--profile dev" \
   $py -m pip install --quiet --disable-pip-version-check --force-reinstall --no-deps ./py
 # Not from the repo root: `import vpctl` must find the installed package.
