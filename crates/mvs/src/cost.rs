@@ -496,8 +496,9 @@ fn sums_full_reference(
         let first = c * CHUNK;
         // Padding lanes keep s = 0 (and have weight 0).
         let mut sv = [0.0f32; CHUNK];
-        for i in 0..CHUNK.min(win.samples() - first) {
-            let (fi, fj) = (win.lane_x[first + i], win.lane_y[first + i]);
+        let live = CHUNK.min(win.samples() - first);
+        let offsets = win.lane_x[first..].iter().zip(&win.lane_y[first..]);
+        for (s, (&fi, &fj)) in sv.iter_mut().zip(offsets).take(live) {
             let iz = 1.0 / ((c0 + h[7] * fj) + h[6] * fi);
             let fx = ((a0 + h[1] * fj) + h[0] * fi) * iz - 0.5;
             let fy = ((b0 + h[4] * fj) + h[3] * fi) * iz - 0.5;
@@ -509,7 +510,7 @@ fn sums_full_reference(
             let bottom = &data[i0 + sw..i0 + sw + 2];
             let t = top[0] + ax * (top[1] - top[0]);
             let b = bottom[0] + ax * (bottom[1] - bottom[0]);
-            sv[i] = t + ay * (b - t);
+            *s = t + ay * (b - t);
         }
         for i in 0..CHUNK {
             let ws = w[i] * sv[i];
