@@ -132,6 +132,18 @@ proptest! {
     }
 }
 
+/// Face `f` alone under [`brute_force`]: distance and barycentric margin.
+fn face_hit(mesh: &Mesh, f: usize, o: &Point3<f64>, d: &Vector3<f64>) -> Option<(f64, f64)> {
+    let single = Mesh::new(mesh.triangle(f).to_vec(), vec![[0, 1, 2]], None).unwrap();
+    brute_force(&single, o, d).map(|(t, _, margin)| (t, margin))
+}
+
+/// Whether the ray misses face `f` in f64 or hits it within 1e-4 (in
+/// barycentric units) of an edge: a graze whose f32 answer is round-off.
+fn grazed(mesh: &Mesh, f: usize, o: &Point3<f64>, d: &Vector3<f64>) -> bool {
+    face_hit(mesh, f, o, d).is_none_or(|(_, margin)| margin < 1e-4)
+}
+
 /// obvhs's own traversal of the tree `RayCaster` decodes (same build, same
 /// local frame): closest hit (t, face) and occlusion of a segment.
 struct ObvhsReference {
@@ -212,8 +224,19 @@ proptest! {
             let (o, d) = random_ray(&mut rng);
             let got = caster.closest_hit(&o, &d, f64::INFINITY);
             let want = reference.closest_hit(&o, &d);
-            prop_assert_eq!(got.map(|h| h.t as f32), want.map(|w| w.0));
-            if let (Some(h), Some((_, face))) = (got, want) {
+            if got.map(|h| h.t as f32) != want.map(|w| w.0) {
+                // Only where f32 round-off decides: the face of the nearer
+                // answer is grazed at an edge (f64 brute force on it misses
+                // or hits within 1e-4 of an edge). Seen once in many runs:
+                // a hit 7e-8 inside an edge that obvhs's traversal missed.
+                let nearer = match (got, want) {
+                    (Some(h), Some((t, f))) => if (h.t as f32) < t { h.face } else { f },
+                    (Some(h), None) => h.face,
+                    (None, Some((_, f))) => f,
+                    (None, None) => unreachable!("the answers differ"),
+                };
+                prop_assert!(grazed(&mesh, nearer as usize, &o, &d), "{got:?} vs {want:?}");
+            } else if let (Some(h), Some((_, face))) = (got, want) {
                 if h.face != face {
                     // Only a tie: the face found is hit at that distance too.
                     let [a, b, c] = mesh.triangle(h.face as usize);
@@ -223,7 +246,15 @@ proptest! {
                 }
             }
             let far = o + d * rng.random_range(1.0..60.0);
-            prop_assert_eq!(caster.occluded(&o, &far), reference.occluded(&o, &far));
+            let (occluded, want_occluded) = (caster.occluded(&o, &far), reference.occluded(&o, &far));
+            if occluded != want_occluded {
+                // Again only a graze: no face crosses the segment clearly.
+                let len = (far - o).norm();
+                let clear = (0..mesh.n_faces()).any(|f| {
+                    face_hit(&mesh, f, &o, &d).is_some_and(|(t, margin)| margin > 1e-4 && t < len * (1.0 - 1e-4))
+                });
+                prop_assert!(!clear, "occluded {occluded} vs obvhs {want_occluded}");
+            }
         }
     }
 }
