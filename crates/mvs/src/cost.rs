@@ -265,8 +265,8 @@ pub(crate) fn homography(
 /// image (nearly every pixel) the warped window is tested once, at its four
 /// corners (the homography maps the square grid into the convex hull of the
 /// corners' images when the plane is in front of both cameras there), and
-/// the homography is evaluated row by row from the first sample, without a
-/// per-sample bounds test.
+/// the homography is evaluated from the first sample's warped position,
+/// eight samples at a time, without a per-sample bounds test.
 #[inline]
 pub(crate) fn source_cost(
     patch: &RefPatch,

@@ -81,7 +81,7 @@ fn texture(w: u32, h: u32) -> GreyImage {
 
 #[test]
 fn fast_path_scores_like_the_per_sample_path() {
-    // Same window, one scored by the corner test + row-wise homography,
+    // Same window, one scored by the corner test + chunked homography,
     // one by the per-sample path: the costs agree to rounding, and both
     // refuse a window that leaves the source.
     let img = texture(64, 48);
