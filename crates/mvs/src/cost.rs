@@ -406,9 +406,9 @@ fn sums_full(
     Some((lane_total(s1), lane_total(s2), lane_total(sr)))
 }
 
-/// `a[at..at + CHUNK]` as an array.
+/// `a[at..at + CHUNK]` as an array, bounds-checked.
 #[inline]
-fn chunk(a: &[f32], at: usize) -> &[f32; CHUNK] {
+pub(crate) fn chunk(a: &[f32], at: usize) -> &[f32; CHUNK] {
     let Ok(c) = <&[f32; CHUNK]>::try_from(&a[at..at + CHUNK]) else {
         unreachable!("a slice of CHUNK elements")
     };

@@ -115,7 +115,7 @@ impl Avx2 {
 #[cfg(target_arch = "x86_64")]
 mod x86 {
     use super::FullWindow;
-    use crate::cost::CHUNK;
+    use crate::cost::{chunk, CHUNK};
     use std::arch::x86_64::{
         __m256, __m256i, _mm256_add_epi32, _mm256_add_ps, _mm256_and_ps, _mm256_blendv_ps,
         _mm256_castpd_ps, _mm256_castps_si256, _mm256_castsi256_ps, _mm256_castsi256_si128,
@@ -133,15 +133,6 @@ mod x86 {
     fn load(a: &[f32; CHUNK]) -> __m256 {
         // SAFETY: `a` is 8 readable floats; the load is unaligned.
         unsafe { _mm256_loadu_ps(a.as_ptr()) }
-    }
-
-    /// `a[at..at + 8]`, bounds-checked.
-    #[inline]
-    fn chunk(a: &[f32], at: usize) -> &[f32; CHUNK] {
-        let Ok(c) = <&[f32; CHUNK]>::try_from(&a[at..at + CHUNK]) else {
-            unreachable!("a slice of CHUNK elements")
-        };
-        c
     }
 
     /// `floor_small` of every lane: (floor as float, floor as integer).
