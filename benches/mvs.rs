@@ -111,19 +111,27 @@ fn tier(
     let cpu = cpu_seconds().zip(cpu_start).map(|(b, a)| b - a);
     let px = 3.0 * f64::from(size) * f64::from(size);
     // Hypotheses considered per pixel and pass: 1 initial + (4 propagated +
-    // 3 refined) per iteration (an upper bound: repeated planes and
-    // hypotheses that provably lose are not scored); a half-resolution
-    // level counts a quarter; the geometric pass runs `geom_iterations` at
-    // full resolution from the photometric result.
-    let per_pass = |it: u32| 1.0 + 7.0 * f64::from(it);
+    // 3 refined) per iteration, 1 refined in a pass that starts from solved
+    // planes unless `seeded_random_candidates` (an upper bound: repeated
+    // planes and hypotheses that provably lose are not scored); a
+    // half-resolution level counts a quarter; the geometric pass runs
+    // `geom_iterations` at full resolution from the photometric result.
+    let per_pass = |it: u32, seeded: bool| {
+        let refined = if seeded && !params.seeded_random_candidates {
+            1.0
+        } else {
+            3.0
+        };
+        1.0 + (4.0 + refined) * f64::from(it)
+    };
     let c2f = params.coarse_levels > 0 && size / 2 >= params.coarse_min_size;
     let photometric = if c2f {
-        0.25 * per_pass(params.iterations) + per_pass(params.fine_iterations)
+        0.25 * per_pass(params.iterations, false) + per_pass(params.fine_iterations, true)
     } else {
-        per_pass(params.iterations)
+        per_pass(params.iterations, false)
     };
     let geometric = if params.geom_consistency {
-        per_pass(params.geom_iterations)
+        per_pass(params.geom_iterations, true)
     } else {
         0.0
     };

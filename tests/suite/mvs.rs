@@ -377,6 +377,36 @@ fn default_geometric_iterations_keep_the_quality_of_six() {
     assert!(default.1 <= six.1 + 0.002, "{default:?} vs {six:?}");
 }
 
+/// Perturbation-only refinement in the passes that start from solved planes
+/// (the default, `seeded_random_candidates = false`) keeps the quality of
+/// trying random planes there too, on rock and ground with a coarse level
+/// (so that both seeded passes, the finer level and the geometric pass, are
+/// checked): completeness within 1 point, outliers at most 0.2 points more,
+/// the geometric-iterations guard's bar. Guards the default's speed-up.
+#[test]
+fn perturbation_only_refinement_keeps_the_quality_of_random_candidates() {
+    let site = site();
+    let triplets = [quality_triplet(&site)];
+    let with_coarse = MvsParams {
+        coarse_levels: 1,
+        coarse_min_size: 100,
+        ..MvsParams::default()
+    };
+    assert!(!with_coarse.seeded_random_candidates);
+    let default = rock_and_ground_score(&site, &triplets, &with_coarse);
+    let random = rock_and_ground_score(
+        &site,
+        &triplets,
+        &MvsParams {
+            seeded_random_candidates: true,
+            ..with_coarse.clone()
+        },
+    );
+    eprintln!("perturbation only: {default:?}, with random candidates: {random:?} (completeness, outliers)");
+    assert!(default.0 >= random.0 - 0.01, "{default:?} vs {random:?}");
+    assert!(default.1 <= random.1 + 0.002, "{default:?} vs {random:?}");
+}
+
 /// The table behind the default `geom_iterations` (docs/performance.md):
 /// completeness, outliers and time for 0-6 geometric iterations over three
 /// triplets (8, 14 and 20 degrees) at two resolutions, with the guard's bar

@@ -37,10 +37,23 @@ pub struct MvsParams {
     /// side keeps `coarse_min_size` pixels.
     pub coarse_levels: u32,
     /// Coarse-to-fine: smallest side (pixels) a halved level may have.
+    /// 160: 640 x 480 images and 800 px photos get the coarse level too
+    /// (with 256 they ran single scale); on the peer's rendered pairs and
+    /// Motorcycle that was faster and no worse (docs/performance.md,
+    /// "Stop 53"). Above the 120 px coarse level the coarse-to-fine guard
+    /// checks (`coarse_to_fine_keeps_single_scale_quality`).
     pub coarse_min_size: u32,
     /// Coarse-to-fine: iterations of each level finer than the coarsest,
     /// which starts from the coarser level's planes.
     pub fine_iterations: u32,
+    /// Refinement in passes that start from solved planes (the finer
+    /// pyramid levels and the geometric pass): `false` tries only the
+    /// perturbation of the pixel's plane, `true` also a random depth and a
+    /// random normal, as the first pass does. Once the planes come from a
+    /// solution the random candidates rarely win, and they are most of the
+    /// work left (propagation skips unchanged neighbours); see
+    /// docs/performance.md, "Perturbation-only refinement".
+    pub seeded_random_candidates: bool,
     /// Number of best source costs averaged per hypothesis (view selection:
     /// an occluded or mismatched source beyond the best k does not count).
     pub top_k_sources: usize,
@@ -98,8 +111,9 @@ impl Default for MvsParams {
             sigma_color: 0.1,
             iterations: 6,
             coarse_levels: 1,
-            coarse_min_size: 256,
+            coarse_min_size: 160,
             fine_iterations: 2,
+            seeded_random_candidates: false,
             top_k_sources: 3,
             max_sources: 8,
             depth_range_margin: 0.2,
@@ -224,7 +238,7 @@ impl MvsParams {
     /// The defaults as TOML, each field preceded by its documentation.
     pub fn defaults_toml() -> String {
         let d = MvsParams::default();
-        let fields: [(&str, &str, String); 24] = [
+        let fields: [(&str, &str, String); 25] = [
             ("algorithm", "Dense matcher: \"patchmatch\" or \"sgm\" (semi-global matching, parameters in [sgm] below).", format!("\"{}\"", d.algorithm)),
             ("seed", "Seed of every random choice (same seed, same bytes for any thread count).", d.seed.to_string()),
             ("window_radius", "Half size of the matching window, pixels (5: an 11x11 window).", d.window_radius.to_string()),
@@ -235,6 +249,7 @@ impl MvsParams {
             ("coarse_levels", "Coarse-to-fine: half-resolution levels solved before the full resolution (0: none).", d.coarse_levels.to_string()),
             ("coarse_min_size", "Coarse-to-fine: smallest side (pixels) of a halved level; smaller images skip the level.", d.coarse_min_size.to_string()),
             ("fine_iterations", "Coarse-to-fine: iterations at each level finer than the coarsest (it starts from the coarser planes).", d.fine_iterations.to_string()),
+            ("seeded_random_candidates", "Passes that start from solved planes (finer levels, geometric pass) also try a random depth and normal, not only a perturbation.", d.seeded_random_candidates.to_string()),
             ("top_k_sources", "View selection: the best k source costs are averaged per hypothesis.", d.top_k_sources.to_string()),
             ("max_sources", "Most source images per reference image.", d.max_sources.to_string()),
             ("depth_range_margin", "Margin on both sides of a depth range from sparse points, share of the range.", fmt_f(d.depth_range_margin)),

@@ -105,9 +105,10 @@ pub(crate) struct RawState {
 /// `sources`.
 ///
 /// # Performance
-/// Per iteration each pixel scores 4 propagated and 3 refined hypotheses,
-/// each against every source over the window samples (36 by default): that
-/// product is the work. Rows run in parallel (rayon); the output does not
+/// Per iteration each pixel scores up to 4 propagated and 3 refined
+/// hypotheses (1 refined in passes that start from solved planes, unless
+/// `seeded_random_candidates`), each against every source over the window
+/// samples (36 by default): that product is the work. Rows run in parallel (rayon); the output does not
 /// depend on the thread count.
 pub fn patch_match(
     views: &[View],
@@ -313,6 +314,7 @@ impl Problem<'_> {
         // that is at most as costly now, so skipping it changes nothing
         // (bit for bit; `update`).
         let mut changed = vec![true; w * h];
+        let random_candidates = init.is_none() || self.params.seeded_random_candidates;
         for it in 0..iterations {
             for colour in 0..2 {
                 let prev = state.clone();
@@ -327,8 +329,13 @@ impl Problem<'_> {
                         let mut x = (y + colour) % 2;
                         while x < w {
                             let old = row[x];
-                            row[x] =
-                                self.update(&prev, seen.as_deref(), &mut patch, (x, y), (it, step));
+                            row[x] = self.update(
+                                &prev,
+                                seen.as_deref(),
+                                &mut patch,
+                                (x, y),
+                                (it, step, random_candidates),
+                            );
                             flags[x] = !same_bits(&old, &row[x]);
                             x += 2;
                         }
@@ -452,13 +459,14 @@ impl Problem<'_> {
     /// propagation, then refinement. `changed` (None on a pixel's first
     /// update) says which pixels changed at their last update; a
     /// neighbour pair of which no pixel did is skipped (see `run`).
+    /// Without `random_candidates`, refinement tries only the perturbation.
     fn update(
         &self,
         prev: &[Hyp],
         changed: Option<&[bool]>,
         patch: &mut RefPatch,
         (x, y): (usize, usize),
-        (it, step): (u32, u64),
+        (it, step, random_candidates): (u32, u64, bool),
     ) -> Hyp {
         let w = self.image.width as usize;
         let h = self.image.height as usize;
@@ -509,21 +517,23 @@ impl Problem<'_> {
             }
             consider(d, n, &mut best);
         }
-        // Refinement: a random depth, a random normal, and a perturbation of
-        // both whose size halves every iteration.
+        // Refinement: a random depth, a random normal (first passes only),
+        // and a perturbation of both whose size halves every iteration.
         let mut rng = PixelRng::new(self.params.seed, self.view_key, idx as u64, step);
         let scale = 0.5f32.powi(it as i32);
-        let random_d = self.random_depth(&mut rng);
-        let random_n = random_normal(&mut rng, &ray);
-        let pert_d = best.d * (1.0 + 0.05 * scale * rng.symmetric());
-        let pert_n = normalize([
-            best.n[0] + 0.3 * scale * rng.symmetric(),
-            best.n[1] + 0.3 * scale * rng.symmetric(),
-            best.n[2] + 0.3 * scale * rng.symmetric(),
-        ]);
         let current = best;
-        consider(random_d, current.n, &mut best);
-        consider(current.d, random_n, &mut best);
+        if random_candidates {
+            let random_d = self.random_depth(&mut rng);
+            let random_n = random_normal(&mut rng, &ray);
+            consider(random_d, current.n, &mut best);
+            consider(current.d, random_n, &mut best);
+        }
+        let pert_d = current.d * (1.0 + 0.05 * scale * rng.symmetric());
+        let pert_n = normalize([
+            current.n[0] + 0.3 * scale * rng.symmetric(),
+            current.n[1] + 0.3 * scale * rng.symmetric(),
+            current.n[2] + 0.3 * scale * rng.symmetric(),
+        ]);
         consider(pert_d, pert_n, &mut best);
         best
     }
