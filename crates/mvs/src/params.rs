@@ -52,7 +52,7 @@ pub struct MvsParams {
     /// random normal, as the first pass does. Once the planes come from a
     /// solution the random candidates rarely win, and they are most of the
     /// work left (propagation skips unchanged neighbours); see
-    /// docs/performance.md, "Perturbation-only refinement".
+    /// docs/performance.md, "Stop 53".
     pub seeded_random_candidates: bool,
     /// Number of best source costs averaged per hypothesis (view selection:
     /// an occluded or mismatched source beyond the best k does not count).

@@ -108,8 +108,8 @@ pub(crate) struct RawState {
 /// Per iteration each pixel scores up to 4 propagated and 3 refined
 /// hypotheses (1 refined in passes that start from solved planes, unless
 /// `seeded_random_candidates`), each against every source over the window
-/// samples (36 by default): that product is the work. Rows run in parallel (rayon); the output does not
-/// depend on the thread count.
+/// samples (36 by default): that product is the work. Rows run in parallel
+/// (rayon); the output does not depend on the thread count.
 pub fn patch_match(
     views: &[View],
     reference: usize,
@@ -517,8 +517,9 @@ impl Problem<'_> {
             }
             consider(d, n, &mut best);
         }
-        // Refinement: a random depth, a random normal (first passes only),
-        // and a perturbation of both whose size halves every iteration.
+        // Refinement: a random depth and a random normal (in passes from
+        // random planes, or with `seeded_random_candidates`), and a
+        // perturbation of both whose size halves every iteration.
         let mut rng = PixelRng::new(self.params.seed, self.view_key, idx as u64, step);
         let scale = 0.5f32.powi(it as i32);
         let current = best;
