@@ -113,8 +113,8 @@ fn tier(
     // Hypotheses considered per pixel and pass: 1 initial + (4 propagated +
     // 3 refined) per iteration, 1 refined in a pass that starts from solved
     // planes unless `seeded_random_candidates` (an upper bound: repeated
-    // planes and hypotheses that provably lose are not scored); a
-    // half-resolution level counts a quarter; the geometric pass runs
+    // planes and hypotheses that provably lose are not scored); a level
+    // counts a quarter of the finer one; the geometric pass runs
     // `geom_iterations` at full resolution from the photometric result.
     let per_pass = |it: u32, seeded: bool| {
         let refined = if seeded && !params.seeded_random_candidates {
@@ -124,12 +124,14 @@ fn tier(
         };
         1.0 + (4.0 + refined) * f64::from(it)
     };
-    let c2f = params.coarse_levels > 0 && size / 2 >= params.coarse_min_size;
-    let photometric = if c2f {
-        0.25 * per_pass(params.iterations, false) + per_pass(params.fine_iterations, true)
-    } else {
-        per_pass(params.iterations, false)
-    };
+    // Halvings that keep `coarse_min_size` (as `Problem::solve` decides).
+    let levels = (1..=params.coarse_levels)
+        .take_while(|&l| size >> l >= params.coarse_min_size)
+        .count() as i32;
+    let photometric = 0.25f64.powi(levels) * per_pass(params.iterations, false)
+        + (0..levels)
+            .map(|l| 0.25f64.powi(l) * per_pass(params.fine_iterations, true))
+            .sum::<f64>();
     let geometric = if params.geom_consistency {
         per_pass(params.geom_iterations, true)
     } else {

@@ -356,6 +356,27 @@ fn coarse_to_fine_keeps_single_scale_quality() {
     assert!(multi.1 <= single.1 + 0.01, "{multi:?} vs {single:?}");
 }
 
+/// The default two coarse levels keep the quality of one on rock and ground
+/// (completeness within 1 point, outliers at most 0.2 points more): the
+/// quality triplet with `coarse_min_size` lowered so that both levels run
+/// (160 x 120, then 80 x 60). Guards the default's speed-up.
+#[test]
+fn two_coarse_levels_keep_the_quality_of_one() {
+    let site = site();
+    let triplets = [quality_triplet(&site)];
+    let levels = |coarse_levels| MvsParams {
+        coarse_levels,
+        coarse_min_size: 60,
+        ..MvsParams::default()
+    };
+    assert_eq!(MvsParams::default().coarse_levels, 2);
+    let one = rock_and_ground_score(&site, &triplets, &levels(1));
+    let two = rock_and_ground_score(&site, &triplets, &levels(2));
+    eprintln!("one coarse level: {one:?}, two: {two:?} (completeness, outliers)");
+    assert!(two.0 >= one.0 - 0.01, "{two:?} vs {one:?}");
+    assert!(two.1 <= one.1 + 0.002, "{two:?} vs {one:?}");
+}
+
 /// The default geometric pass (`geom_iterations`, 2) keeps the quality of
 /// six iterations on rock and ground: completeness within 1 point, outliers
 /// at most 0.2 points more. Guards the default's speed-up.

@@ -34,7 +34,12 @@ pub struct MvsParams {
     pub iterations: u32,
     /// Coarse-to-fine: number of half-resolution levels solved before the
     /// full resolution (0: none). A level is only added while its smaller
-    /// side keeps `coarse_min_size` pixels.
+    /// side keeps `coarse_min_size` pixels. 2: the coarsest level's
+    /// iterations cost a sixteenth of full resolution's instead of a
+    /// quarter (0.82 of the CPU of one level on Brighton at 2000 px, the
+    /// same share within 2 px on rendered 1280 x 960 pairs; guarded by
+    /// `two_coarse_levels_keep_the_quality_of_one`; docs/performance.md,
+    /// "Stop 53").
     pub coarse_levels: u32,
     /// Coarse-to-fine: smallest side (pixels) a halved level may have.
     /// 160: 640 x 480 images and 800 px photos get the coarse level too
@@ -110,7 +115,7 @@ impl Default for MvsParams {
             sigma_spatial: 5.0,
             sigma_color: 0.1,
             iterations: 6,
-            coarse_levels: 1,
+            coarse_levels: 2,
             coarse_min_size: 160,
             fine_iterations: 2,
             seeded_random_candidates: false,
