@@ -158,13 +158,20 @@ type Maps = Vec<Option<DepthNormalMap>>;
 
 /// Photometric and refined maps of PatchMatch (photometric pass, then the
 /// geometric pass when `geom_consistency` is on).
+///
+/// # Memory
+/// Between the passes each view keeps its unfiltered photometric map (20
+/// bytes a pixel: the planes the geometric pass starts from, the depths
+/// the others' passes read, the costs of the photometric filter), which
+/// becomes the photometric map in place at the end; no filtered copy is
+/// held beside it.
 fn patch_match_all(
     views: &[View],
     sources: &[Vec<usize>],
     params: &MvsParams,
     progress: &mut dyn FnMut(&str),
 ) -> Result<(Maps, Maps)> {
-    let mut raw = Vec::with_capacity(views.len());
+    let mut unfiltered: Maps = Vec::with_capacity(views.len());
     for (r, src) in sources.iter().enumerate() {
         if src.is_empty() {
             progress(&format!(
@@ -173,7 +180,7 @@ fn patch_match_all(
                 views.len(),
                 views[r].name
             ));
-            raw.push(None);
+            unfiltered.push(None);
             continue;
         }
         progress(&format!(
@@ -183,22 +190,26 @@ fn patch_match_all(
             views[r].name,
             src.len()
         ));
-        raw.push(Some(patchmatch::patch_match_raw(
-            views, r, src, params, None,
-        )?));
+        let raw = patchmatch::patch_match_raw(views, r, src, params, None)?;
+        unfiltered.push(Some(raw.unfiltered()));
     }
-    let photometric: Vec<Option<DepthNormalMap>> = raw
-        .iter()
-        .map(|s| s.as_ref().map(|s| s.to_map(params)))
-        .collect();
+    let filtered = |map: &DepthNormalMap| {
+        let mut map = map.clone();
+        map.apply_photometric_filter(params);
+        map
+    };
     let refined = if params.geom_consistency {
         // A source without a photometric pass of its own cannot inform the
         // geometric term: such references keep their photometric result.
         let mut refined = Vec::with_capacity(views.len());
         for (r, src) in sources.iter().enumerate() {
-            let usable: Vec<usize> = src.iter().copied().filter(|&s| raw[s].is_some()).collect();
-            if raw[r].is_none() || usable.is_empty() {
-                refined.push(photometric[r].clone());
+            let usable: Vec<usize> = src
+                .iter()
+                .copied()
+                .filter(|&s| unfiltered[s].is_some())
+                .collect();
+            if unfiltered[r].is_none() || usable.is_empty() {
+                refined.push(unfiltered[r].as_ref().map(filtered));
                 continue;
             }
             progress(&format!(
@@ -207,17 +218,24 @@ fn patch_match_all(
                 views.len(),
                 views[r].name
             ));
-            let state = patchmatch::patch_match_raw(views, r, &usable, params, Some(&raw))?;
+            let state = patchmatch::patch_match_raw(views, r, &usable, params, Some(&unfiltered))?;
             refined.push(Some(state.to_map(params)));
-            // The later references' passes read only this view's depths:
-            // its planes and costs (24 bytes a pixel) can go.
-            if let Some(done) = raw[r].as_mut() {
-                done.hyps = Vec::new();
-            }
         }
         refined
     } else {
-        photometric.clone()
+        unfiltered
+            .iter()
+            .map(|m| m.as_ref().map(filtered))
+            .collect()
     };
+    let photometric = unfiltered
+        .into_iter()
+        .map(|m| {
+            m.map(|mut m| {
+                m.apply_photometric_filter(params);
+                m
+            })
+        })
+        .collect();
     Ok((photometric, refined))
 }

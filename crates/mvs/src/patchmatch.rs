@@ -94,12 +94,12 @@ struct Problem<'a> {
 pub(crate) struct RawState {
     pub width: usize,
     pub height: usize,
-    /// Empty once the view's own geometric pass has run (only `depth` is
-    /// read after that).
     pub hyps: Vec<Hyp>,
-    /// The hypotheses' depths, contiguous for the geometric term.
-    pub depth: Vec<f32>,
 }
+
+/// Where a pass starts from: pixel index -> (depth, normal) of a solved
+/// plane (the coarser level's, upsampled, or the photometric pass's).
+type Seed<'a> = &'a (dyn Fn(usize) -> (f32, [f32; 3]) + Sync);
 
 /// Runs PatchMatch for `views[reference]` against `views[s]` for `s` in
 /// `sources`.
@@ -116,20 +116,20 @@ pub fn patch_match(
     sources: &[usize],
     params: &MvsParams,
 ) -> Result<DepthNormalMap> {
-    let raw = patch_match_raw(views, reference, sources, params, None)?;
-    Ok(raw.to_map(params))
+    Ok(patch_match_raw(views, reference, sources, params, None)?.to_map(params))
 }
 
 /// PatchMatch, photometric (`previous` = `None`) or geometric: then every
-/// source's raw state from the photometric pass is in `previous`, the
-/// reference's starts from its own, and each source's cost gains
+/// source's unfiltered photometric map ([`RawState::unfiltered`]) is in
+/// `previous`, the reference's starts from its own planes, and each
+/// source's cost gains
 /// `geom_regularizer * min(forward-backward reprojection error, geom_max_error_px)`.
 pub(crate) fn patch_match_raw(
     views: &[View],
     reference: usize,
     sources: &[usize],
     params: &MvsParams,
-    previous: Option<&[Option<RawState>]>,
+    previous: Option<&[Option<DepthNormalMap>]>,
 ) -> Result<RawState> {
     patch_match_raw_with(views, (reference, sources), params, previous, true)
 }
@@ -140,7 +140,7 @@ fn patch_match_raw_with(
     views: &[View],
     (reference, sources): (usize, &[usize]),
     params: &MvsParams,
-    previous: Option<&[Option<RawState>]>,
+    previous: Option<&[Option<DepthNormalMap>]>,
     skip_unchanged: bool,
 ) -> Result<RawState> {
     params.validate()?;
@@ -173,8 +173,8 @@ fn patch_match_raw_with(
             })?;
             g.push(GeomSource {
                 depth: &state.depth,
-                width: state.width,
-                height: state.height,
+                width: state.width as usize,
+                height: state.height as usize,
                 rot_back: std::array::from_fn(|i| std::array::from_fn(|j| r.rot[j][i])),
             });
         }
@@ -198,32 +198,48 @@ fn patch_match_raw_with(
         .and_then(|p| p.get(reference))
         .and_then(Option::as_ref);
     Ok(match init {
-        Some(init) => problem.run(Some(init), params.geom_iterations),
+        Some(init) => problem.run(
+            Some(&|i: usize| (init.depth[i], init.normal[i])),
+            params.geom_iterations,
+        ),
         None => problem.solve(params.coarse_levels),
     })
 }
 
 impl RawState {
-    /// The map of the winning hypotheses, with the photometric filter
-    /// (`min_ncc`) applied.
-    pub(crate) fn to_map(&self, params: &MvsParams) -> DepthNormalMap {
-        let n = self.hyps.len();
-        let max_cost = 1.0 - params.min_ncc;
-        let mut out = DepthNormalMap {
+    /// The winning planes and their photometric costs, unfiltered: what
+    /// the geometric pass starts from and reads the sources' depths in (20
+    /// bytes a pixel against the hypotheses' 24), and, once filtered by
+    /// [`DepthNormalMap::apply_photometric_filter`], the photometric map.
+    pub(crate) fn unfiltered(&self) -> DepthNormalMap {
+        DepthNormalMap {
             width: self.width as u32,
             height: self.height as u32,
-            depth: vec![0.0; n],
-            normal: vec![[0.0; 3]; n],
-            cost: vec![MAX_COST; n],
-        };
-        for (i, hyp) in self.hyps.iter().enumerate() {
-            out.cost[i] = hyp.photo;
-            if hyp.photo <= max_cost {
-                out.depth[i] = hyp.d;
-                out.normal[i] = hyp.n;
+            depth: self.hyps.iter().map(|h| h.d).collect(),
+            normal: self.hyps.iter().map(|h| h.n).collect(),
+            cost: self.hyps.iter().map(|h| h.photo).collect(),
+        }
+    }
+
+    /// The photometric map: [`RawState::unfiltered`], filtered.
+    pub(crate) fn to_map(&self, params: &MvsParams) -> DepthNormalMap {
+        let mut map = self.unfiltered();
+        map.apply_photometric_filter(params);
+        map
+    }
+}
+
+impl DepthNormalMap {
+    /// The photometric filter, in place: a pixel whose cost exceeds
+    /// `1 - min_ncc` loses its depth and normal (its cost stays).
+    pub(crate) fn apply_photometric_filter(&mut self, params: &MvsParams) {
+        let max_cost = 1.0 - params.min_ncc;
+        for ((d, n), &c) in self.depth.iter_mut().zip(&mut self.normal).zip(&self.cost) {
+            if !(c <= max_cost) {
+                *d = 0.0;
+                *n = [0.0; 3];
             }
         }
-        out
     }
 }
 
@@ -270,12 +286,15 @@ impl Problem<'_> {
         };
         let low = coarse.solve(levels - 1);
         let init = upsample(&low, &coarse.k, w, h, &self.k, MAX_COST);
-        self.run(Some(&init), self.params.fine_iterations)
+        self.run(
+            Some(&|i: usize| (init.hyps[i].d, init.hyps[i].n)),
+            self.params.fine_iterations,
+        )
     }
 
     /// `iterations` of PatchMatch from `init` (scored afresh) or, without
     /// it, from random planes.
-    fn run(&self, init: Option<&RawState>, iterations: u32) -> RawState {
+    fn run(&self, init: Option<Seed<'_>>, iterations: u32) -> RawState {
         let (w, h) = (self.image.width as usize, self.image.height as usize);
         // The geometric pass and each pyramid level draw other numbers
         // than the full-resolution photometric pass.
@@ -295,8 +314,8 @@ impl Problem<'_> {
             for (x, hyp) in row.iter_mut().enumerate() {
                 let idx = y * w + x;
                 let ray = pixel_ray(&self.k, x, y);
-                let (d, n) = if let Some(prev) = init {
-                    (prev.hyps[idx].d, prev.hyps[idx].n)
+                let (d, n) = if let Some(seed) = init {
+                    seed(idx)
                 } else {
                     let mut rng = PixelRng::new(self.params.seed, self.view_key, idx as u64, pass);
                     let d = self.random_depth(&mut rng);
@@ -345,7 +364,6 @@ impl Problem<'_> {
         RawState {
             width: w,
             height: h,
-            depth: state.iter().map(|h| h.d).collect(),
             hyps: state,
         }
     }

@@ -79,7 +79,6 @@ pub(crate) fn upsample(
     RawState {
         width,
         height,
-        depth: hyps.iter().map(|h| h.d).collect(),
         hyps,
     }
 }
@@ -125,7 +124,6 @@ mod tests {
         let coarse = RawState {
             width: cw,
             height: ch,
-            depth: hyps.iter().map(|h| h.d).collect(),
             hyps,
         };
         let fine = upsample(&coarse, &ck, 64, 64, &k, 2.0);
