@@ -85,6 +85,25 @@ pub fn reconstruct(
     params: &MvsParams,
     progress: &mut dyn FnMut(&str),
 ) -> Result<Output> {
+    let (photometric, geometric) = reconstruct_maps(views, sources, params, progress)?;
+    progress("fusion");
+    let fused = fuse(views, &geometric, sources, params);
+    Ok(Output {
+        photometric,
+        geometric,
+        fused,
+    })
+}
+
+/// [`reconstruct`] up to fusion: the photometric and the geometric maps.
+/// [`run_workspace`] writes the photometric ones and lets them go before
+/// fusing, so they are not in memory beside the fused cloud.
+pub(crate) fn reconstruct_maps(
+    views: &[View],
+    sources: &[Vec<usize>],
+    params: &MvsParams,
+    progress: &mut dyn FnMut(&str),
+) -> Result<(Maps, Maps)> {
     params.validate()?;
     if views.len() < 2 {
         return Err(MvsError::InvalidArgument(format!(
@@ -144,13 +163,7 @@ pub fn reconstruct(
             apply_keep(map, keep);
         }
     }
-    progress("fusion");
-    let fused = fuse(views, &geometric, sources, params);
-    Ok(Output {
-        photometric,
-        geometric,
-        fused,
-    })
+    Ok((photometric, geometric))
 }
 
 /// One optional map per view.

@@ -5,7 +5,7 @@
 //! `stereo/depth_maps/<image>.{photometric,geometric}.bin`,
 //! `stereo/normal_maps/<image>.{photometric,geometric}.bin`, `fused.ply`.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use nalgebra::Point3;
@@ -411,27 +411,35 @@ pub fn run_workspace(
     let sources = ws.sources(&selected, &ranges, params)?;
     progress(&format!("loading {} images", selected.len()));
     let views = ws.load_views(&selected, &ranges)?;
-    let output = crate::reconstruct(&views, &sources, params, progress)?;
+    let (photometric, geometric) = crate::reconstruct_maps(&views, &sources, params, progress)?;
+    // The photometric maps go to disk before fusion, which reads only the
+    // geometric ones: they are not held beside the fused cloud.
     progress("writing depth and normal maps");
+    for ((view, p), g) in views.iter().zip(photometric).zip(&geometric) {
+        if let (Some(p), Some(_)) = (p, g) {
+            write_maps(root, &view.name, "photometric", &p)?;
+        }
+    }
+    progress("fusion");
+    let fused = crate::fuse(&views, &geometric, &sources, params);
     let mut summary = RunSummary {
         reconstructed: Vec::new(),
         geometric_valid_share: Vec::new(),
-        fused_points: output.fused.len(),
+        fused_points: fused.len(),
         fused_path: root.join("fused.ply"),
     };
-    let mut by_name = BTreeMap::new();
-    for (k, view) in views.iter().enumerate() {
-        let (Some(p), Some(g)) = (&output.photometric[k], &output.geometric[k]) else {
+    for (view, g) in views.iter().zip(&geometric) {
+        let Some(g) = g else {
             continue;
         };
-        write_maps(root, &view.name, "photometric", p)?;
         write_maps(root, &view.name, "geometric", g)?;
         let valid = g.depth.iter().filter(|&&d| d > 0.0).count();
-        by_name.insert(k, valid as f64 / g.depth.len() as f64);
+        summary
+            .geometric_valid_share
+            .push(valid as f64 / g.depth.len() as f64);
         summary.reconstructed.push(view.name.clone());
     }
-    summary.geometric_valid_share = by_name.into_values().collect();
-    crate::fusion::write_fused_ply(&summary.fused_path, &output.fused)?;
+    crate::fusion::write_fused_ply(&summary.fused_path, &fused)?;
     Ok(summary)
 }
 
