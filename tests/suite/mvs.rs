@@ -399,11 +399,11 @@ fn default_geometric_iterations_keep_the_quality_of_six() {
 }
 
 /// Perturbation-only refinement in the passes that start from solved planes
-/// (the default, `seeded_random_candidates = false`) keeps the quality of
-/// trying random planes there too, on rock and ground with a coarse level
+/// (`seeded_random_candidates = false`) keeps the quality of trying random
+/// planes there too, on rock and ground with a coarse level
 /// (so that both seeded passes, the finer level and the geometric pass, are
 /// checked): completeness within 1 point, outliers at most 0.2 points more,
-/// the geometric-iterations guard's bar. Guards the default's speed-up.
+/// the geometric-iterations guard's bar. Guards the option's speed-up.
 #[test]
 fn perturbation_only_refinement_keeps_the_quality_of_random_candidates() {
     let site = site();
@@ -411,9 +411,9 @@ fn perturbation_only_refinement_keeps_the_quality_of_random_candidates() {
     let with_coarse = MvsParams {
         coarse_levels: 1,
         coarse_min_size: 100,
+        seeded_random_candidates: false,
         ..MvsParams::default()
     };
-    assert!(!with_coarse.seeded_random_candidates);
     let default = rock_and_ground_score(&site, &triplets, &with_coarse);
     let random = rock_and_ground_score(
         &site,
