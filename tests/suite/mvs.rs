@@ -414,7 +414,7 @@ fn perturbation_only_refinement_keeps_the_quality_of_random_candidates() {
         seeded_random_candidates: false,
         ..MvsParams::default()
     };
-    let default = rock_and_ground_score(&site, &triplets, &with_coarse);
+    let perturbed = rock_and_ground_score(&site, &triplets, &with_coarse);
     let random = rock_and_ground_score(
         &site,
         &triplets,
@@ -423,9 +423,15 @@ fn perturbation_only_refinement_keeps_the_quality_of_random_candidates() {
             ..with_coarse.clone()
         },
     );
-    eprintln!("perturbation only: {default:?}, with random candidates: {random:?} (completeness, outliers)");
-    assert!(default.0 >= random.0 - 0.01, "{default:?} vs {random:?}");
-    assert!(default.1 <= random.1 + 0.002, "{default:?} vs {random:?}");
+    eprintln!("perturbation only: {perturbed:?}, with random candidates: {random:?} (completeness, outliers)");
+    assert!(
+        perturbed.0 >= random.0 - 0.01,
+        "{perturbed:?} vs {random:?}"
+    );
+    assert!(
+        perturbed.1 <= random.1 + 0.002,
+        "{perturbed:?} vs {random:?}"
+    );
 }
 
 /// The table behind the default `geom_iterations` (docs/performance.md):

@@ -206,11 +206,7 @@ fn patch_match_all(
         let raw = patchmatch::patch_match_raw(views, r, src, params, None)?;
         unfiltered.push(Some(raw.unfiltered()));
     }
-    let filtered = |map: &DepthNormalMap| {
-        let mut map = map.clone();
-        map.apply_photometric_filter(params);
-        map
-    };
+    let filtered = |map: &DepthNormalMap| map.clone().photometric(params);
     let refined = if params.geom_consistency {
         // A source without a photometric pass of its own cannot inform the
         // geometric term: such references keep their photometric result.
@@ -243,12 +239,7 @@ fn patch_match_all(
     };
     let photometric = unfiltered
         .into_iter()
-        .map(|m| {
-            m.map(|mut m| {
-                m.apply_photometric_filter(params);
-                m
-            })
-        })
+        .map(|m| m.map(|m| m.photometric(params)))
         .collect();
     Ok((photometric, refined))
 }

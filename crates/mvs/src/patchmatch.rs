@@ -210,7 +210,7 @@ impl RawState {
     /// The winning planes and their photometric costs, unfiltered: what
     /// the geometric pass starts from and reads the sources' depths in (20
     /// bytes a pixel against the hypotheses' 24), and, once filtered by
-    /// [`DepthNormalMap::apply_photometric_filter`], the photometric map.
+    /// [`DepthNormalMap::photometric`], the photometric map.
     pub(crate) fn unfiltered(&self) -> DepthNormalMap {
         DepthNormalMap {
             width: self.width as u32,
@@ -223,16 +223,15 @@ impl RawState {
 
     /// The photometric map: [`RawState::unfiltered`], filtered.
     pub(crate) fn to_map(&self, params: &MvsParams) -> DepthNormalMap {
-        let mut map = self.unfiltered();
-        map.apply_photometric_filter(params);
-        map
+        self.unfiltered().photometric(params)
     }
 }
 
 impl DepthNormalMap {
-    /// The photometric filter, in place: a pixel whose cost exceeds
-    /// `1 - min_ncc` loses its depth and normal (its cost stays).
-    pub(crate) fn apply_photometric_filter(&mut self, params: &MvsParams) {
+    /// An unfiltered map with the photometric filter applied in place: a
+    /// pixel whose cost exceeds `1 - min_ncc` loses its depth and normal
+    /// (its cost stays).
+    pub(crate) fn photometric(mut self, params: &MvsParams) -> Self {
         let max_cost = 1.0 - params.min_ncc;
         for ((d, n), &c) in self.depth.iter_mut().zip(&mut self.normal).zip(&self.cost) {
             if !(c <= max_cost) {
@@ -240,6 +239,7 @@ impl DepthNormalMap {
                 *n = [0.0; 3];
             }
         }
+        self
     }
 }
 

@@ -415,8 +415,8 @@ pub fn run_workspace(
     // The photometric maps go to disk before fusion, which reads only the
     // geometric ones: they are not held beside the fused cloud.
     progress("writing depth and normal maps");
-    for ((view, p), g) in views.iter().zip(photometric).zip(&geometric) {
-        if let (Some(p), Some(_)) = (p, g) {
+    for (view, p) in views.iter().zip(photometric) {
+        if let Some(p) = p {
             write_maps(root, &view.name, "photometric", &p)?;
         }
     }
