@@ -16,14 +16,13 @@ use vp_scene::raycast::{RayCaster, FACE_VISIBILITY_EPSILON};
 use vp_scene::{Camera, Intrinsics, Mesh};
 
 use crate::error::{PlannerError, Result};
+use crate::home_way::{HomeWays, CLIMB_STEP_M};
 use crate::safety::Safety;
 
 /// Pixel-ray grid of the overlap test [vpctl] (docs/design.md#m4-flight-path).
 pub const OVERLAP_GRID: (u32, u32) = (32, 24);
 /// Most bridging views inserted before one image.
 pub const MAX_BRIDGES: usize = 8;
-/// Height step of the climb-traverse-descend search, metres.
-pub(crate) const CLIMB_STEP_M: f64 = 2.0;
 
 /// Rays of `cam` through the centres of a `grid` (columns, rows) of
 /// equal cells over the image.
@@ -77,6 +76,10 @@ pub struct PathContext<'a> {
     pub intrinsics: Intrinsics,
     /// o_min.
     pub min_overlap: f64,
+    /// Where every flight takes off and lands, when known: the path's
+    /// first and last waypoints must be reachable from there
+    /// ([`crate::home_way`]).
+    pub home: Option<Point3<f64>>,
 }
 
 /// The path and its notes.
@@ -120,6 +123,14 @@ pub enum Block {
         /// The view there, or `None` for the vehicle's position (the start
         /// of the path).
         from: Option<PlannedView>,
+    },
+    /// It is the first or the last waypoint of the mission, and no way
+    /// between home and it is clear ([`HomeWays::blocked`]'s words).
+    Home {
+        /// Home.
+        home: [f64; 3],
+        /// What blocks the way.
+        problem: String,
     },
 }
 
@@ -312,11 +323,18 @@ impl PathContext<'_> {
                     s.altitude.max_m
                 )
             }
+            Block::Home { home, problem } => format!(
+                "no safe way between home at {} and its view at {}, the path's first or last \
+                 waypoint: {problem}",
+                at(*home),
+                at(d.view.position)
+            ),
         }
     }
 
     /// Routes `views` safely from `start` (where the vehicle is), leaving
-    /// out what a blocked segment leads to:
+    /// out what a blocked segment leads to, and what ends the path where
+    /// no way from home reaches it ([`Self::reachable_from_home`]):
     /// its whole triplet (two images of it are of no use), or the one
     /// bridging view. Returns the routed waypoints, the routed indices of the
     /// views flagged in `unbridged`, and the dropped triplets with the
@@ -330,7 +348,10 @@ impl PathContext<'_> {
     ) -> (Vec<PlannedView>, Vec<usize>, Vec<Dropped>) {
         let mut dropped = Vec::new();
         loop {
-            match self.route(Some(start), &views) {
+            let routed = self
+                .route(Some(start), &views)
+                .and_then(|r| self.reachable_from_home(start, &views, r));
+            match routed {
                 Ok((safe, at)) => {
                     let unbridged_at = unbridged
                         .iter()
@@ -363,6 +384,43 @@ impl PathContext<'_> {
         }
     }
 
+    /// `routed` (the route of `views` from `start`), or the end of it that
+    /// no way from home reaches: its first waypoint when the path starts
+    /// the mission (at the vehicle's position, not after a path already
+    /// built), and its last. Any other waypoint may end a flight only
+    /// where a way is clear ([`crate::flights`] cuts there).
+    fn reachable_from_home(
+        &self,
+        start: Start<'_>,
+        views: &[PlannedView],
+        routed: (Vec<PlannedView>, Vec<usize>),
+    ) -> std::result::Result<(Vec<PlannedView>, Vec<usize>), Box<Blocked>> {
+        let (Some(home), Some(first), Some(last)) = (&self.home, routed.0.first(), routed.0.last())
+        else {
+            return Ok(routed);
+        };
+        let ways = HomeWays::new(self.safety, home);
+        // A detour before the first view belongs to the segment to it:
+        // the first view goes with it.
+        let starts_mission = start.1.is_none();
+        let ends = [(starts_mission, 0, first), (true, views.len() - 1, last)];
+        for (to, w) in ends
+            .into_iter()
+            .filter_map(|(c, to, w)| c.then_some((to, w)))
+        {
+            if let Some(problem) = ways.blocked(&Point3::from(w.position)) {
+                return Err(Box::new(Blocked {
+                    to,
+                    block: Block::Home {
+                        home: (*home).into(),
+                        problem,
+                    },
+                }));
+            }
+        }
+        Ok(routed)
+    }
+
     /// Re-routes every blocked segment by climb-traverse-descend within the
     /// altitude limit; refuses the waypoints when that fails.
     pub fn make_safe(&self, waypoints: &[PlannedView]) -> Result<Vec<PlannedView>> {
@@ -380,6 +438,10 @@ impl PathContext<'_> {
             Block::Point(problem) => {
                 format!("waypoint {i} at ({x:.2}, {y:.2}, {z:.2}) {problem}")
             }
+            // `make_safe` routes without home; the words, should it not.
+            Block::Home { problem, .. } => format!(
+                "no safe way between home and waypoint {i} at ({x:.2}, {y:.2}, {z:.2}): {problem}"
+            ),
             Block::Segment {
                 start: [ax, ay, az],
                 ..

@@ -2,28 +2,18 @@
 //!
 //! Every flight takes off at home, flies a run of consecutive waypoints
 //! and returns home to land (the mission ends with return-to-launch). The
-//! legs from home to a flight's first waypoint and from its last one back
-//! are checked as the vehicle flies them: straight up from home to the
-//! waypoint's height, then level to it (and back the same way: level to
-//! above home, then down). The climb starts on the ground, next to whatever
-//! stands near the take-off point, so the safety distance cannot hold
-//! there: the column above home must keep [`TAKEOFF_CLEARANCE_M`] from the
-//! mesh from [`COLUMN_CHECK_FROM_M`] above home up (nothing overhangs the
-//! take-off point). The level leg keeps the planner's safety
-//! rules ([`Safety::leg_ok`](crate::safety::Safety::leg_ok), the rule of
-//! the planned path's first leg). The mission takes off to at least the
+//! ways from home to a flight's first waypoint and from its last one back
+//! are those of [`crate::home_way`]: a direct climb and level leg, or a
+//! climb-traverse-descend over what blocks it, flown through a transit view
+//! (one above the first waypoint makes the mission climb there at home,
+//! cross level and descend; one above the last makes it climb before
+//! return-to-launch flies home level). The mission takes off to at least the
 //! first waypoint's height for that reason, and a vehicle whose
 //! return-to-launch altitude (PX4 `RTL_RETURN_ALT`, ArduPilot `RTL_ALT`) is
 //! above the last waypoint's height climbs there first, off the checked path.
-//!
-//! When something blocks that level leg (a tree line or a building
-//! between home and the survey), the flight goes over it the way the
-//! planner's own detours do (climb-traverse-descend): a transit view above
-//! the first waypoint at the lowest clear height makes the mission climb
-//! there at home, cross level and descend; one above the last waypoint
-//! makes it climb before return-to-launch flies home level. Without a
-//! clear height below the altitude limit the plan is refused: a mission
-//! flying that leg would hit what blocks it.
+//! A way no climb below the altitude limit clears refuses the plan: a
+//! mission flying it would hit what blocks it (the planned path has already
+//! dropped the triplets it cannot reach from home, [`crate::flight_path`]).
 //!
 //! With a flight-time limit the split is greedy: each flight takes the
 //! longest run of waypoints that fits the limit and that can end there
@@ -32,24 +22,14 @@
 //! allowed (a later cut never forces more flights), which the leg rule only
 //! restricts.
 
-use nalgebra::{Point3, Vector3};
+use nalgebra::Point3;
 use vp_scene::flight_time::FlightParams;
 use vp_scene::plan::{Flight, PlannedView};
 
 use crate::error::{PlannerError, Result};
-use crate::flight_path::{bridge_view, CLIMB_STEP_M};
+use crate::flight_path::bridge_view;
+use crate::home_way::{HomeWays, Way};
 use crate::safety::Safety;
-
-/// Clearance of the take-off column from the mesh, metres: about the
-/// half-span of a survey multirotor. The check is for what overhangs the
-/// take-off point (a canopy, a roof, an overhanging rock); what stands
-/// beside it the operator sees and chooses the spot by, and the safety
-/// distance applies from the level legs on.
-pub const TAKEOFF_CLEARANCE_M: f64 = 0.5;
-/// Height above home where the column check starts, metres: 3 m above
-/// the clearance, as a home altitude from standard GNSS (or read off a
-/// map) may lie that far below the real ground.
-pub const COLUMN_CHECK_FROM_M: f64 = TAKEOFF_CLEARANCE_M + 3.0;
 
 /// The plan's waypoints with the transit views of each flight inserted,
 /// and its flights (indices into those waypoints).
@@ -185,22 +165,10 @@ impl Flights {
     }
 }
 
-/// How the vehicle gets between home and a waypoint.
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Way {
-    /// Straight up from home to the waypoint's height, then level to it.
-    Direct,
-    /// Straight up from home to this height (z), level to above the
-    /// waypoint, then straight down to it: a climb-traverse-descend route
-    /// over what blocks the direct way.
-    Transit(f64),
-}
-
-/// The ways between home and each waypoint (from the column's first checked point),
-/// found once each on demand. The way back is the way out reversed.
+/// The ways between home and each waypoint, found once each on demand.
+/// The way back is the way out reversed.
 struct Legs<'a> {
-    safety: &'a Safety,
-    column_base: Point3<f64>,
+    home: HomeWays<'a>,
     views: &'a [PlannedView],
     ways: Vec<std::cell::OnceCell<Option<Way>>>,
 }
@@ -208,8 +176,7 @@ struct Legs<'a> {
 impl<'a> Legs<'a> {
     fn new(safety: &'a Safety, home: &Point3<f64>, views: &'a [PlannedView]) -> Self {
         Legs {
-            safety,
-            column_base: home + Vector3::z() * COLUMN_CHECK_FROM_M,
+            home: HomeWays::new(safety, home),
             views,
             ways: vec![std::cell::OnceCell::new(); views.len()],
         }
@@ -219,43 +186,9 @@ impl<'a> Legs<'a> {
         Point3::from(self.views[i].position)
     }
 
-    /// The top of the climb above home to height `z`.
-    fn above_home(&self, z: f64) -> Point3<f64> {
-        let b = self.column_base;
-        Point3::new(b.x, b.y, z.max(b.z))
-    }
-
-    /// Whether the column above home is clear up to `top`.
-    fn column_ok(&self, top: &Point3<f64>) -> bool {
-        self.safety
-            .clearance()
-            .segment_is_clear(&self.column_base, top, TAKEOFF_CLEARANCE_M)
-    }
-
     /// The way between home and waypoint `i`, if one is clear.
     fn way(&self, i: usize) -> Option<Way> {
-        *self.ways[i].get_or_init(|| {
-            if self.problem(i).is_none() {
-                return Some(Way::Direct);
-            }
-            self.transit(&self.point(i)).map(Way::Transit)
-        })
-    }
-
-    /// The lowest transit height (every [`CLIMB_STEP_M`] up to the altitude
-    /// limit) whose climb, level leg and descent to `w` are all clear.
-    fn transit(&self, w: &Point3<f64>) -> Option<f64> {
-        let s = self.safety;
-        let top = s.altitude.max_m.min(s.volume.max.z);
-        let mut h = w.z.max(self.column_base.z) + CLIMB_STEP_M;
-        while h <= top {
-            let (up, over) = (self.above_home(h), Point3::new(w.x, w.y, h));
-            if self.column_ok(&up) && s.leg_ok(&up, &over) && s.segment_ok(&over, w) {
-                return Some(h);
-            }
-            h += CLIMB_STEP_M;
-        }
-        None
+        *self.ways[i].get_or_init(|| self.home.way(&self.point(i)))
     }
 
     /// Waypoints `first..=last` with the transit views their ways from and
@@ -283,49 +216,18 @@ impl<'a> Legs<'a> {
             .collect()
     }
 
-    /// What blocks the direct way between home and waypoint `i`, in words.
-    fn problem(&self, i: usize) -> Option<String> {
-        let w = self.point(i);
-        let above = self.above_home(w.z);
-        let clearance = self.safety.clearance();
-        if !self.column_ok(&above) {
-            return Some(format!(
-                "the climb straight up from home to {:.1} m comes {:.1} m from the mesh \
-                 (it must keep {TAKEOFF_CLEARANCE_M} m from {COLUMN_CHECK_FROM_M} m above home up)",
-                above.z - self.column_base.z + COLUMN_CHECK_FROM_M,
-                clearance.segment_distance(&self.column_base, &above)
-            ));
-        }
-        if !self.safety.leg_ok(&above, &w) {
-            let d = clearance.segment_distance(&above, &w);
-            return Some(format!(
-                "the level leg from above home at the waypoint's height comes {d:.1} m from the \
-                 mesh (it must keep {} m), or too close to unobserved space, or leaves the \
-                 flight limits",
-                self.safety.distance
-            ));
-        }
-        None
-    }
-
     /// Refuses a waypoint the vehicle cannot fly to from home (or back).
     fn check(&self, i: usize) -> Result<()> {
         if self.way(i).is_some() {
             return Ok(());
         }
-        let why = self.problem(i).unwrap_or_default();
-        let (h, p) = (self.column_base, self.point(i));
-        let top = self.safety.altitude.max_m.min(self.safety.volume.max.z);
+        let p = self.point(i);
+        let why = self.home.blocked(&p).unwrap_or_default();
+        let h = self.home.home();
         Err(PlannerError::Input(format!(
             "the way between home ({:.1}, {:.1}, {:.1}) and waypoint {i} at ({:.1}, {:.1}, \
-             {:.1}) is not clear: {why}, and no climb over it below the altitude limit \
-             {top:.1} m is clear either; take off from a clearer place (--home)",
-            h.x,
-            h.y,
-            h.z - COLUMN_CHECK_FROM_M,
-            p.x,
-            p.y,
-            p.z
+             {:.1}) is not clear: {why}; take off from a clearer place (--home)",
+            h.x, h.y, h.z, p.x, p.y, p.z
         )))
     }
 }

@@ -219,6 +219,7 @@ pub fn plan_grid(
         safety: &safety,
         intrinsics: k,
         min_overlap: cfg.min_overlap,
+        home: home.copied(),
     };
     let mut plan = Plan::new(origin);
     let flights = assign_flights(&safety, home, &ctx.make_safe(&views)?, &cfg.mission)?;

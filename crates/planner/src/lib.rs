@@ -23,6 +23,7 @@ pub mod flights;
 pub mod free_space;
 pub mod fulfillment;
 pub mod grid;
+pub mod home_way;
 pub mod oblique;
 pub mod output;
 pub mod position;

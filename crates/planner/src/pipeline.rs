@@ -372,6 +372,7 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
         safety: &safety,
         intrinsics: k,
         min_overlap: cfg.min_overlap,
+        home: inputs.home,
     };
     let captured: Vec<Camera> = inputs.acquired.iter().map(|a| a.camera).collect();
     let rounds = Rounds {

@@ -184,6 +184,39 @@ impl Safety {
                 .is_none_or(|f| f.leg_is_clear(a, b, self.distance))
     }
 
+    /// What breaks [`Safety::leg_ok`] for the leg `a` to `b`, in words
+    /// ("comes ...", with what to change): `None` when it holds.
+    pub fn leg_problem(&self, a: &Point3<f64>, b: &Point3<f64>) -> Option<String> {
+        let d = self.distance;
+        if !self.within_limits(b) {
+            let why = self.point_problem(b);
+            Some(format!(
+                "ends at a point that {}",
+                why.as_deref().unwrap_or("is outside the flight limits")
+            ))
+        } else if !self
+            .clearance
+            .segment_is_clear(a, b, d + CLEARANCE_MARGIN_M)
+        {
+            Some(format!(
+                "comes {:.1} m from the mesh (it must keep the clearance {d:.2} m)",
+                self.clearance.segment_distance(a, b)
+            ))
+        } else if !self
+            .free_space
+            .as_ref()
+            .is_none_or(|f| f.leg_is_clear(a, b, d))
+        {
+            Some(format!(
+                "comes closer than the clearance {d:.2} m to space no camera has observed \
+                 (`unknown_space = \"occupied\"` in the planner config: fly the cameras over \
+                 it first, or \"free\" to accept the risk)"
+            ))
+        } else {
+            None
+        }
+    }
+
     /// The box positions are drawn from: the flight volume cut to the altitude band.
     pub fn sampling_box(&self) -> Aabb {
         let mut b = self.volume;

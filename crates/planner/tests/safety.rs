@@ -3,59 +3,19 @@
 
 mod common;
 
-use common::{initial_views, site, test_config};
-use nalgebra::{Point2, Point3};
+use common::{assert_home_ways, assert_safe, initial_views, site, test_config};
+use nalgebra::Point3;
 use vp_planner::flight_path::PathContext;
 use vp_planner::{safety_for, PlanInputs, PlannerConfig, PlannerError, RoiSpec};
-use vp_scene::clearance::Clearance;
 use vp_scene::plan::{AltitudeLimits, Plan, PlannedView, Role};
 use vp_scene::procedural::shapes;
 use vp_scene::raycast::RayCaster;
-use vp_scene::roi::{point_in_polygon, Roi};
-
-/// Exact distances (parry), not the bounded checks the planner uses; the
-/// first segment leads from `start` (the vehicle's position) when given.
-fn assert_safe(
-    plan: &Plan,
-    mesh: &vp_scene::Mesh,
-    cfg: &PlannerConfig,
-    start: Option<Point3<f64>>,
-) {
-    let c = Clearance::new(mesh);
-    let d = cfg.safety_distance_m;
-    let lim = plan.altitude_limits.unwrap();
-    for (i, w) in plan.waypoints.iter().enumerate() {
-        let p = Point3::from(w.position);
-        assert!(
-            c.distance(&p) >= d,
-            "waypoint {i} at {p:?}: {} m",
-            c.distance(&p)
-        );
-        assert!(
-            p.z >= lim.min_m && p.z <= lim.max_m,
-            "waypoint {i} altitude {}",
-            p.z
-        );
-        if let Some(g) = &plan.geofence {
-            assert!(
-                point_in_polygon(&Point2::new(p.x, p.y), g),
-                "waypoint {i} outside the geofence"
-            );
-        }
-    }
-    for (i, s) in plan.waypoints.windows(2).enumerate() {
-        let (a, b) = (Point3::from(s[0].position), Point3::from(s[1].position));
-        let dist = c.segment_distance(&a, &b);
-        assert!(dist >= d, "segment {i}: {dist} m");
-    }
-    if let (Some(a), Some(w)) = (start, plan.waypoints.first()) {
-        let dist = c.segment_distance(&a, &Point3::from(w.position));
-        assert!(dist >= d, "leg from the vehicle: {dist} m");
-    }
-}
+use vp_scene::roi::Roi;
 
 /// Plans one random case and checks it; `true` when a plan came out,
-/// `false` when the planner refused (safe, but no plan).
+/// `false` when the planner refused (safe, but no plan). With `home`, the
+/// flights take off at an open spot of the site drawn from the seed, and
+/// their ways from and to it are checked too.
 fn run_case(
     seed: u64,
     roi_centre: (f64, f64),
@@ -63,8 +23,12 @@ fn run_case(
     safety: f64,
     fence_half: f64,
     ceiling: f64,
+    home: bool,
 ) -> bool {
     let s = site(seed, 20_000);
+    let home = home
+        .then(|| common::open_home(&s.mesh, seed, 0.9 * fence_half, ceiling))
+        .flatten();
     let cfg = PlannerConfig {
         seed,
         safety_distance_m: safety,
@@ -95,7 +59,7 @@ fn run_case(
         config: &cfg,
         origin: None,
         observations: None,
-        home: None,
+        home,
     }) {
         Ok(r) => {
             assert_safe(
@@ -104,10 +68,16 @@ fn run_case(
                 &cfg,
                 acquired.last().map(|a| a.camera.center()),
             );
+            if let Some(h) = &home {
+                assert_home_ways(&r.plan, &s.mesh, &cfg, h);
+            }
             if r.plan.waypoints.is_empty() {
                 eprintln!(
-                    "seed {seed}: no waypoints: dropped {:?}, cut short: {:?}",
-                    r.dropped_triplets, r.cut_short_reason
+                    "seed {seed} (home {home:?}): no waypoints: dropped {:?}, cut short: {:?}; \
+                     first reason: {:?}",
+                    r.dropped_triplets,
+                    r.cut_short_reason,
+                    r.dropped_reasons.first()
                 );
             }
             !r.plan.waypoints.is_empty()
@@ -116,7 +86,7 @@ fn run_case(
         // ceiling) too. But a planner that always refused would pass the
         // safety checks: `random_cases` counts refusals against a bar.
         Err(e @ (PlannerError::Refused(_) | PlannerError::Input(_))) => {
-            eprintln!("seed {seed}: refused: {e}");
+            eprintln!("seed {seed} (home {home:?}): refused: {e}");
             false
         }
         Err(e) => panic!("unexpected error {e}"),
@@ -137,13 +107,14 @@ fn random_cases(n: usize, seed: u64) -> usize {
                 rng.random_range(2.0..8.0),
                 rng.random_range(18.0..30.0),
                 rng.random_range(30.0..60.0),
+                rng.random_bool(0.5),
             )
         })
         .count()
 }
 
-/// The safety property on 16 random sites, and most of them must give a
-/// plan: refusing everything is safe but useless.
+/// The safety property on 16 random sites (half of them flown from a home),
+/// and most of them must give a plan: refusing everything is safe but useless.
 #[test]
 fn planned_paths_keep_the_safety_distance() {
     let n = 16;
@@ -213,6 +184,7 @@ fn with_path<R>(
         safety: &safety,
         intrinsics: cfg.camera.intrinsics(),
         min_overlap,
+        home: None,
     };
     let mut plan = Plan::new(None);
     plan.altitude_limits = Some(safety.altitude);
@@ -298,6 +270,65 @@ fn a_triplet_behind_an_unclimbable_wall_is_dropped_not_the_plan() {
         assert_eq!(xs, vec![-30.0, -25.0, -20.0]);
         plan.waypoints = path.waypoints;
         assert_safe(&plan, &mesh, &cfg, None);
+    });
+}
+
+/// The path's first triplet stands behind a wall from home that no climb
+/// under the ceiling clears: the mission could not fly out to it. It is
+/// dropped like a triplet behind a wall on the path (the plan was
+/// refused), and the flight from home to the rest keeps every rule.
+#[test]
+fn a_first_triplet_unreachable_from_home_is_dropped_not_the_plan() {
+    let (_, cfg) = wall_under_low_ceiling();
+    // A wall from y = -50 to 0 only: home (20, -20) sees around its end.
+    let mut mesh = shapes::plane(100.0, 100.0, 10, 10);
+    mesh.append(&shapes::box_mesh(
+        Point3::new(-1.0, -50.0, 0.0),
+        Point3::new(1.0, 0.0, 20.0),
+    ));
+    let home = Point3::new(20.0, -20.0, 0.0);
+    let at = |x: f64, y: f64, t: u32| PlannedView {
+        position: [x, y, 10.0],
+        triplet_id: Some(t),
+        ..view(x, 10.0)
+    };
+    let start = at(-35.0, -20.0, 9).to_camera(cfg.camera.intrinsics());
+    let views = vec![
+        at(-30.0, -20.0, 0),
+        at(-25.0, -20.0, 0),
+        at(-20.0, -20.0, 0),
+        at(-20.0, 40.0, 1),
+        at(-25.0, 40.0, 1),
+        at(-15.0, 40.0, 1),
+    ];
+    with_path(&mesh, &cfg, 0.0, |ctx, mut plan| {
+        // Without a home both triplets are flown.
+        assert!(ctx.build(&start, &[], views.clone()).dropped.is_empty());
+        let ctx = PathContext {
+            home: Some(home),
+            ..*ctx
+        };
+        let path = ctx.build(&start, &[], views);
+        assert_eq!(path.dropped_triplets, vec![0]);
+        let why = &path.dropped_reasons[0];
+        assert!(
+            why.contains("no safe way between home at (20.00, -20.00, 0.00) and its view at (-30.00, -20.00, 10.00)")
+                && why.contains("level leg")
+                && why.contains("altitude limit 22.0 m"),
+            "{why}"
+        );
+        let flights = vp_planner::flights::assign_flights(
+            ctx.safety,
+            Some(&home),
+            &path.waypoints,
+            &vp_scene::flight_time::FlightParams::default(),
+        )
+        .unwrap();
+        (plan.waypoints, plan.flights) = (flights.waypoints, flights.flights);
+        let flown: Vec<_> = plan.waypoints.iter().filter_map(|w| w.triplet_id).collect();
+        assert_eq!(flown, vec![1, 1, 1]);
+        assert_safe(&plan, &mesh, &cfg, None);
+        assert_home_ways(&plan, &mesh, &cfg, &home);
     });
 }
 
