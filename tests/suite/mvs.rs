@@ -403,7 +403,7 @@ fn default_geometric_iterations_keep_the_quality_of_six() {
 /// planes there too, on rock and ground with a coarse level
 /// (so that both seeded passes, the finer level and the geometric pass, are
 /// checked): completeness within 1 point, outliers at most 0.2 points more,
-/// the geometric-iterations guard's bar. Guards the option's speed-up.
+/// the geometric-iterations guard's bar. Guards the default's speed-up.
 #[test]
 fn perturbation_only_refinement_keeps_the_quality_of_random_candidates() {
     let site = site();

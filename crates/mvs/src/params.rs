@@ -57,11 +57,8 @@ pub struct MvsParams {
     /// random normal, as the first pass does. Once the planes come from a
     /// solution the random candidates rarely win, and they are most of the
     /// work left (propagation skips unchanged neighbours): `false` took
-    /// 0.76 of the time on `paper_1024` with the quality bars held. Not the
-    /// default yet: with it the README's manual loop trains another forest,
-    /// whose plan the planner refuses (the leg from home crosses space the
-    /// grid flight did not observe), a planner limitation to mend first;
-    /// see docs/performance.md, "Stop 53".
+    /// 0.76 of the time on `paper_1024` with the quality bars held
+    /// (docs/performance.md, "Stop 53"), and is the default.
     pub seeded_random_candidates: bool,
     /// Number of best source costs averaged per hypothesis (view selection:
     /// an occluded or mismatched source beyond the best k does not count).
@@ -122,7 +119,7 @@ impl Default for MvsParams {
             coarse_levels: 2,
             coarse_min_size: 160,
             fine_iterations: 2,
-            seeded_random_candidates: true,
+            seeded_random_candidates: false,
             top_k_sources: 3,
             max_sources: 8,
             depth_range_margin: 0.2,
