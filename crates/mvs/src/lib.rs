@@ -34,6 +34,7 @@ mod cost;
 pub mod error;
 mod fast_exp;
 pub mod fusion;
+mod geom_term;
 pub mod geometric;
 pub mod job;
 pub mod params;

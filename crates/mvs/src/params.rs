@@ -63,6 +63,19 @@ pub struct MvsParams {
     /// Number of best source costs averaged per hypothesis (view selection:
     /// an occluded or mismatched source beyond the best k does not count).
     pub top_k_sources: usize,
+    /// View selection in passes that start from solved planes (the finer
+    /// pyramid levels and the geometric pass): each pixel scores its
+    /// hypotheses on only the `seeded_sources` sources with the lowest
+    /// cost for its seed plane (0: every source). The seed plane is
+    /// already close (the coarser level's, or the photometric pass's), so
+    /// the sources that see its surface best are known, and a source that
+    /// does not see it (occluded, out of frame) would never be among the
+    /// `top_k_sources` averaged: scoring it is wasted work, most of the
+    /// work where a view has many sources (8 on a real flight against 2 in
+    /// a triplet). 4 is `top_k_sources` (3) plus one spare, so that a
+    /// better plane may still trade one source of its best three; chosen
+    /// by that rule, not by a measurement (docs/performance.md, "Stop 54").
+    pub seeded_sources: usize,
     /// Most source images per reference image.
     pub max_sources: usize,
     /// Margin added on both sides of a depth range derived from sparse
@@ -121,6 +134,7 @@ impl Default for MvsParams {
             fine_iterations: 2,
             seeded_random_candidates: false,
             top_k_sources: 3,
+            seeded_sources: 4,
             max_sources: 8,
             depth_range_margin: 0.2,
             min_ncc: 0.3,
@@ -185,6 +199,12 @@ impl MvsParams {
         if self.top_k_sources == 0 || self.max_sources == 0 {
             return bad("top_k_sources and max_sources must be at least 1".into());
         }
+        if self.seeded_sources != 0 && self.seeded_sources < self.top_k_sources {
+            return bad(format!(
+                "seeded_sources ({}) must be 0 (every source) or at least top_k_sources ({})",
+                self.seeded_sources, self.top_k_sources
+            ));
+        }
         if !(self.depth_range_margin >= 0.0 && self.depth_range_margin.is_finite()) {
             return bad(format!(
                 "depth_range_margin = {} must be >= 0",
@@ -244,7 +264,7 @@ impl MvsParams {
     /// The defaults as TOML, each field preceded by its documentation.
     pub fn defaults_toml() -> String {
         let d = MvsParams::default();
-        let fields: [(&str, &str, String); 25] = [
+        let fields: [(&str, &str, String); 26] = [
             ("algorithm", "Dense matcher: \"patchmatch\" or \"sgm\" (semi-global matching, parameters in [sgm] below).", format!("\"{}\"", d.algorithm)),
             ("seed", "Seed of every random choice (same seed, same bytes for any thread count).", d.seed.to_string()),
             ("window_radius", "Half size of the matching window, pixels (5: an 11x11 window).", d.window_radius.to_string()),
@@ -257,6 +277,7 @@ impl MvsParams {
             ("fine_iterations", "Coarse-to-fine: iterations at each level finer than the coarsest (it starts from the coarser planes).", d.fine_iterations.to_string()),
             ("seeded_random_candidates", "Passes that start from solved planes (finer levels, geometric pass) also try a random depth and normal, not only a perturbation.", d.seeded_random_candidates.to_string()),
             ("top_k_sources", "View selection: the best k source costs are averaged per hypothesis.", d.top_k_sources.to_string()),
+            ("seeded_sources", "View selection in passes from solved planes: each pixel scores only its best this many sources for the seed plane (0: all).", d.seeded_sources.to_string()),
             ("max_sources", "Most source images per reference image.", d.max_sources.to_string()),
             ("depth_range_margin", "Margin on both sides of a depth range from sparse points, share of the range.", fmt_f(d.depth_range_margin)),
             ("min_ncc", "Photometric filter: smallest NCC a depth keeps.", fmt_f(f64::from(d.min_ncc))),

@@ -8,6 +8,7 @@ use crate::cost::{
     aggregate, aggregate_lower_bound, homography, source_cost, RefPatch, Window, MAX_COST,
 };
 use crate::error::{MvsError, Result};
+use crate::geom_term::{reprojection_error, GeomSource};
 use crate::params::MvsParams;
 use crate::pyramid::{half, half_k, upsample};
 use crate::rng::PixelRng;
@@ -59,15 +60,6 @@ pub(crate) struct Hyp {
     pub photo: f32,
 }
 
-/// A source's depth map from the photometric pass, for the geometric term.
-pub(crate) struct GeomSource<'a> {
-    pub depth: &'a [f32],
-    pub width: usize,
-    pub height: usize,
-    /// Rotation from the source back to the reference frame (R^T).
-    pub rot_back: [[f32; 3]; 3],
-}
-
 /// What one reference's PatchMatch needs, in f32.
 struct Problem<'a> {
     image: &'a GreyImage,
@@ -107,8 +99,9 @@ type Seed<'a> = &'a (dyn Fn(usize) -> (f32, [f32; 3]) + Sync);
 /// # Performance
 /// Per iteration each pixel scores up to 4 propagated and 3 refined
 /// hypotheses (1 refined in passes that start from solved planes, unless
-/// `seeded_random_candidates`), each against every source over the window
-/// samples (36 by default): that product is the work. Rows run in parallel
+/// `seeded_random_candidates`), each against every source (in passes that
+/// start from solved planes, the pixel's best `seeded_sources`) over the
+/// window samples (36 by default): that product is the work. Rows run in parallel
 /// (rayon); the output does not depend on the thread count.
 pub fn patch_match(
     views: &[View],
@@ -309,23 +302,40 @@ impl Problem<'_> {
             };
             w * h
         ];
-        state.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-            let mut patch = RefPatch::default();
-            for (x, hyp) in row.iter_mut().enumerate() {
-                let idx = y * w + x;
-                let ray = pixel_ray(&self.k, x, y);
-                let (d, n) = if let Some(seed) = init {
-                    seed(idx)
-                } else {
-                    let mut rng = PixelRng::new(self.params.seed, self.view_key, idx as u64, pass);
-                    let d = self.random_depth(&mut rng);
-                    (d, random_normal(&mut rng, &ray))
-                };
-                patch.build(self.image, x, y, &self.win);
-                let (cost, photo) = self.cost(&patch, (x, y), &ray, d, &n, f32::INFINITY);
-                *hyp = Hyp { d, n, cost, photo };
-            }
-        });
+        // The sources each pixel scores its hypotheses on: every one, or
+        // in a pass from solved planes the `seeded_sources` best for the
+        // seed plane (see the parameter).
+        let keep = self.params.seeded_sources;
+        let subset = init.is_some() && keep > 0 && keep < self.sources.len();
+        let mut sources = vec![self.all_sources(); w * h];
+        state
+            .par_chunks_mut(w)
+            .zip(sources.par_chunks_mut(w))
+            .enumerate()
+            .for_each(|(y, (row, masks))| {
+                let mut patch = RefPatch::default();
+                for (x, (hyp, mask)) in row.iter_mut().zip(masks).enumerate() {
+                    let idx = y * w + x;
+                    let ray = pixel_ray(&self.k, x, y);
+                    let (d, n) = if let Some(seed) = init {
+                        seed(idx)
+                    } else {
+                        let mut rng =
+                            PixelRng::new(self.params.seed, self.view_key, idx as u64, pass);
+                        let d = self.random_depth(&mut rng);
+                        (d, random_normal(&mut rng, &ray))
+                    };
+                    patch.build(self.image, x, y, &self.win);
+                    let (cost, photo) = if subset {
+                        let (costs, kept) = self.seed_sources(&patch, (x, y), &ray, (d, &n), keep);
+                        *mask = kept;
+                        costs
+                    } else {
+                        self.cost(&patch, (x, y), &ray, d, &n, f32::INFINITY, *mask)
+                    };
+                    *hyp = Hyp { d, n, cost, photo };
+                }
+            });
         // Whether each pixel's hypothesis changed at its last update. Every
         // propagation neighbour is of the other colour, updated in the half
         // between two updates of a pixel: one that did not change offers
@@ -349,8 +359,7 @@ impl Problem<'_> {
                         while x < w {
                             let old = row[x];
                             row[x] = self.update(
-                                &prev,
-                                seen.as_deref(),
+                                (&prev, seen.as_deref(), &sources),
                                 &mut patch,
                                 (x, y),
                                 (it, step, random_candidates),
@@ -374,95 +383,108 @@ impl Problem<'_> {
         1.0 / (lo + (hi - lo) * rng.next_f32())
     }
 
-    /// Forward-backward reprojection error (pixels) of depth `d` at pixel
-    /// (x, y) through source `g`, capped at `geom_max_error_px`.
-    fn reprojection_error(
-        &self,
-        rel: &Relative,
-        g: &GeomSource,
-        x: usize,
-        y: usize,
-        ray: &[f32; 3],
-        d: f32,
-    ) -> f32 {
-        let cap = self.params.geom_max_error_px;
-        let p = [ray[0] * d, ray[1] * d, d];
-        let r = &rel.rot;
-        let t = &rel.trans;
-        let xs: [f32; 3] =
-            std::array::from_fn(|i| r[i][0] * p[0] + r[i][1] * p[1] + r[i][2] * p[2] + t[i]);
-        if !(xs[2] > 0.0) {
-            return cap;
-        }
-        let ks = &rel.k;
-        let u = ks[0] * xs[0] / xs[2] + ks[2];
-        let v = ks[1] * xs[1] / xs[2] + ks[3];
-        if !(u >= 0.0 && v >= 0.0) || u as usize >= g.width || v as usize >= g.height {
-            return cap;
-        }
-        let (qx, qy) = (u as usize, v as usize);
-        let ds = g.depth[qy * g.width + qx];
-        if !(ds > 0.0) {
-            return cap;
-        }
-        let q = [
-            (qx as f32 + 0.5 - ks[2]) / ks[0] * ds - t[0],
-            (qy as f32 + 0.5 - ks[3]) / ks[1] * ds - t[1],
-            ds - t[2],
-        ];
-        let b = &g.rot_back;
-        let xr: [f32; 3] =
-            std::array::from_fn(|i| b[i][0] * q[0] + b[i][1] * q[1] + b[i][2] * q[2]);
-        if !(xr[2] > 0.0) {
-            return cap;
-        }
-        let k = &self.k;
-        let du = k[0] * xr[0] / xr[2] + k[2] - (x as f32 + 0.5);
-        let dv = k[1] * xr[1] / xr[2] + k[3] - (y as f32 + 0.5);
-        (du * du + dv * dv).sqrt().min(cap)
+    /// Whether plane (d, n) can be scored at this pixel: in the depth
+    /// range, on a textured patch, facing the camera within the allowed
+    /// angle.
+    fn scorable(&self, patch: &RefPatch, ray: &[f32; 3], d: f32, n: &[f32; 3]) -> bool {
+        let ray_len = (ray[0] * ray[0] + ray[1] * ray[1] + 1.0).sqrt();
+        let facing = -(n[0] * ray[0] + n[1] * ray[1] + n[2] * ray[2]) / ray_len;
+        d >= self.range.0 && d <= self.range.1 && patch.textured() && !(facing < self.min_cos)
     }
 
-    /// Costs (ranking, photometric) of plane (d, n) at pixel (x, y); the
-    /// worst costs as soon as the ranking cost provably reaches `bound`
-    /// (the current best: the hypothesis would be rejected anyway, so the
-    /// remaining sources are not scored).
-    fn cost(
+    /// The costs of a plane that cannot win.
+    fn worst(&self) -> (f32, f32) {
+        (MAX_COST + self.geom_worst(), MAX_COST)
+    }
+
+    /// Costs (ranking, photometric) of plane (d, n) at pixel (x, y) in
+    /// source `k`.
+    fn source_costs(
         &self,
         patch: &RefPatch,
         (x, y): (usize, usize),
         ray: &[f32; 3],
+        (d, n): (f32, &[f32; 3]),
+        k: usize,
+    ) -> (f32, f32) {
+        let (rel, src) = &self.sources[k];
+        let (u, v) = (x as f32 + 0.5, y as f32 + 0.5);
+        let photo = homography(rel, &self.k, d, n, ray)
+            .map_or(MAX_COST, |h| source_cost(patch, &self.win, u, v, &h, src));
+        let geo = self.geom.as_ref().map_or(0.0, |g| {
+            let cap = self.params.geom_max_error_px;
+            let e = reprojection_error(&self.k, cap, rel, &g[k], (x, y), ray, d);
+            self.params.geom_regularizer * e
+        });
+        (photo + geo, photo)
+    }
+
+    /// Costs (ranking, photometric) of plane (d, n) at pixel (x, y) over
+    /// the sources in bit mask `sources`; the worst costs as soon as the
+    /// ranking cost provably reaches `bound` (the current best: the
+    /// hypothesis would be rejected anyway, so the remaining sources are
+    /// not scored).
+    #[allow(clippy::too_many_arguments)]
+    fn cost(
+        &self,
+        patch: &RefPatch,
+        xy: (usize, usize),
+        ray: &[f32; 3],
         d: f32,
         n: &[f32; 3],
         bound: f32,
+        sources: u32,
     ) -> (f32, f32) {
-        let worst = (MAX_COST + self.geom_worst(), MAX_COST);
-        if !(d >= self.range.0 && d <= self.range.1 && patch.textured()) {
-            return worst;
-        }
-        // The normal must face the camera within the allowed angle.
-        let ray_len = (ray[0] * ray[0] + ray[1] * ray[1] + 1.0).sqrt();
-        let facing = -(n[0] * ray[0] + n[1] * ray[1] + n[2] * ray[2]) / ray_len;
-        if facing < self.min_cos {
-            return worst;
+        if !self.scorable(patch, ray, d, n) {
+            return self.worst();
         }
         let mut costs = [(MAX_COST, MAX_COST); MAX_SOURCES];
-        let m = self.sources.len();
-        let (u, v) = (x as f32 + 0.5, y as f32 + 0.5);
-        for (k, (rel, src)) in self.sources.iter().enumerate() {
-            let photo = homography(rel, &self.k, d, n, ray)
-                .map_or(MAX_COST, |h| source_cost(patch, &self.win, u, v, &h, src));
-            let geo = match &self.geom {
-                Some(g) => {
-                    self.params.geom_regularizer * self.reprojection_error(rel, &g[k], x, y, ray, d)
-                }
-                None => 0.0,
-            };
-            costs[k] = (photo + geo, photo);
-            if k + 1 < m && aggregate_lower_bound(&mut costs[..=k], m, self.top_k) >= bound {
-                return worst;
+        let m = sources.count_ones() as usize;
+        let mut j = 0;
+        for k in (0..self.sources.len()).filter(|k| sources & (1 << k) != 0) {
+            costs[j] = self.source_costs(patch, xy, ray, (d, n), k);
+            j += 1;
+            if j < m && aggregate_lower_bound(&mut costs[..j], m, self.top_k) >= bound {
+                return self.worst();
             }
         }
         aggregate(&mut costs[..m], self.top_k)
+    }
+
+    /// Every source, as a bit mask.
+    fn all_sources(&self) -> u32 {
+        u32::MAX >> (MAX_SOURCES - self.sources.len())
+    }
+
+    /// The `keep` sources (bit mask) with the lowest ranking cost for the
+    /// seed plane (d, n) at pixel (x, y), and the plane's costs over them
+    /// (those over every source: `keep` is at least `top_k`); every source
+    /// where the plane cannot be scored.
+    fn seed_sources(
+        &self,
+        patch: &RefPatch,
+        xy: (usize, usize),
+        ray: &[f32; 3],
+        (d, n): (f32, &[f32; 3]),
+        keep: usize,
+    ) -> ((f32, f32), u32) {
+        if !self.scorable(patch, ray, d, n) {
+            return (self.worst(), self.all_sources());
+        }
+        let m = self.sources.len();
+        let mut ranked = [(MAX_COST, MAX_COST, 0); MAX_SOURCES];
+        for (k, r) in ranked[..m].iter_mut().enumerate() {
+            let (c, p) = self.source_costs(patch, xy, ray, (d, n), k);
+            *r = (c, p, k);
+        }
+        ranked[..m].sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.2.cmp(&b.2)));
+        let mut kept = [(MAX_COST, MAX_COST); MAX_SOURCES];
+        let mut mask = 0;
+        for (slot, &(c, p, k)) in kept.iter_mut().zip(&ranked[..keep]) {
+            *slot = (c, p);
+            mask |= 1 << k;
+        }
+        (aggregate(&mut kept[..keep], self.top_k), mask)
     }
 
     fn geom_worst(&self) -> f32 {
@@ -478,10 +500,10 @@ impl Problem<'_> {
     /// update) says which pixels changed at their last update; a
     /// neighbour pair of which no pixel did is skipped (see `run`).
     /// Without `random_candidates`, refinement tries only the perturbation.
+    /// Every hypothesis is scored on the pixel's sources (bit masks).
     fn update(
         &self,
-        prev: &[Hyp],
-        changed: Option<&[bool]>,
+        (prev, changed, sources): (&[Hyp], Option<&[bool]>, &[u32]),
         patch: &mut RefPatch,
         (x, y): (usize, usize),
         (it, step, random_candidates): (u32, u64, bool),
@@ -496,7 +518,7 @@ impl Problem<'_> {
             return best;
         }
         let consider = |d: f32, n: [f32; 3], best: &mut Hyp| {
-            let (cost, photo) = self.cost(patch, (x, y), &ray, d, &n, best.cost);
+            let (cost, photo) = self.cost(patch, (x, y), &ray, d, &n, best.cost, sources[idx]);
             if cost < best.cost {
                 *best = Hyp { d, n, cost, photo };
             }

@@ -1,0 +1,61 @@
+//! The geometric term of PatchMatch's geometric pass (COLMAP's
+//! geometric consistency, Schönberger et al. 2016): how far a depth,
+//! carried into a source and back through that source's photometric
+//! depth, lands from where it started.
+
+use crate::view::Relative;
+
+/// A source's depth map from the photometric pass, for the geometric term.
+pub(crate) struct GeomSource<'a> {
+    pub depth: &'a [f32],
+    pub width: usize,
+    pub height: usize,
+    /// Rotation from the source back to the reference frame (R^T).
+    pub rot_back: [[f32; 3]; 3],
+}
+
+/// Forward-backward reprojection error (pixels) of depth `d` at pixel
+/// (x, y) through source `g`, capped at `cap` (`geom_max_error_px`); `k`:
+/// the reference's intrinsics (fx, fy, cx, cy).
+pub(crate) fn reprojection_error(
+    k: &[f32; 4],
+    cap: f32,
+    rel: &Relative,
+    g: &GeomSource,
+    (x, y): (usize, usize),
+    ray: &[f32; 3],
+    d: f32,
+) -> f32 {
+    let p = [ray[0] * d, ray[1] * d, d];
+    let r = &rel.rot;
+    let t = &rel.trans;
+    let xs: [f32; 3] =
+        std::array::from_fn(|i| r[i][0] * p[0] + r[i][1] * p[1] + r[i][2] * p[2] + t[i]);
+    if !(xs[2] > 0.0) {
+        return cap;
+    }
+    let ks = &rel.k;
+    let u = ks[0] * xs[0] / xs[2] + ks[2];
+    let v = ks[1] * xs[1] / xs[2] + ks[3];
+    if !(u >= 0.0 && v >= 0.0) || u as usize >= g.width || v as usize >= g.height {
+        return cap;
+    }
+    let (qx, qy) = (u as usize, v as usize);
+    let ds = g.depth[qy * g.width + qx];
+    if !(ds > 0.0) {
+        return cap;
+    }
+    let q = [
+        (qx as f32 + 0.5 - ks[2]) / ks[0] * ds - t[0],
+        (qy as f32 + 0.5 - ks[3]) / ks[1] * ds - t[1],
+        ds - t[2],
+    ];
+    let b = &g.rot_back;
+    let xr: [f32; 3] = std::array::from_fn(|i| b[i][0] * q[0] + b[i][1] * q[1] + b[i][2] * q[2]);
+    if !(xr[2] > 0.0) {
+        return cap;
+    }
+    let du = k[0] * xr[0] / xr[2] + k[2] - (x as f32 + 0.5);
+    let dv = k[1] * xr[1] / xr[2] + k[3] - (y as f32 + 0.5);
+    (du * du + dv * dv).sqrt().min(cap)
+}
