@@ -378,7 +378,7 @@ fn two_coarse_levels_keep_the_quality_of_one() {
     assert!(two.1 <= one.1 + 0.002, "{two:?} vs {one:?}");
 }
 
-/// The default geometric pass (`geom_iterations`, 2) keeps the quality of
+/// The default geometric pass (`geom_iterations`, 1) keeps the quality of
 /// six iterations on rock and ground: completeness within 1 point, outliers
 /// at most 0.2 points more. Guards the default's speed-up.
 #[test]
