@@ -86,7 +86,11 @@ pub fn reconstruct(
     params: &MvsParams,
     progress: &mut dyn FnMut(&str),
 ) -> Result<Output> {
-    let (photometric, geometric) = reconstruct_maps(views, sources, params, progress)?;
+    let mut photometric: Maps = vec![None; views.len()];
+    let geometric = reconstruct_maps(views, sources, params, progress, &mut |r, map| {
+        photometric[r] = Some(map);
+        Ok(())
+    })?;
     progress("fusion");
     let fused = fuse(views, &geometric, sources, params);
     Ok(Output {
@@ -96,15 +100,21 @@ pub fn reconstruct(
     })
 }
 
-/// [`reconstruct`] up to fusion: the photometric and the geometric maps.
-/// [`run_workspace`] writes the photometric ones and lets them go before
-/// fusing, so they are not in memory beside the fused cloud.
+/// Where [`reconstruct_maps`] hands each view's photometric map (view
+/// index, map) as soon as it is final: [`reconstruct`] keeps them,
+/// [`run_workspace`] writes them and lets them go, so they are not held
+/// beside the others' passes and the fused cloud.
+pub(crate) type PhotometricSink<'a> = &'a mut dyn FnMut(usize, DepthNormalMap) -> Result<()>;
+
+/// [`reconstruct`] up to fusion: the geometric maps, returned, and the
+/// photometric ones, handed to `photometric` one by one.
 pub(crate) fn reconstruct_maps(
     views: &[View],
     sources: &[Vec<usize>],
     params: &MvsParams,
     progress: &mut dyn FnMut(&str),
-) -> Result<(Maps, Maps)> {
+    photometric: PhotometricSink<'_>,
+) -> Result<Maps> {
     params.validate()?;
     if views.len() < 2 {
         return Err(MvsError::InvalidArgument(format!(
@@ -124,8 +134,8 @@ pub(crate) fn reconstruct_maps(
             "no image has a source image (too little overlap or triangulation angle)".into(),
         ));
     }
-    let (photometric, refined) = match params.algorithm {
-        Algorithm::PatchMatch => patch_match_all(views, sources, params, progress)?,
+    let refined = match params.algorithm {
+        Algorithm::PatchMatch => patch_match_all(views, sources, params, progress, photometric)?,
         Algorithm::Sgm => {
             let mut maps = Vec::with_capacity(views.len());
             for (r, src) in sources.iter().enumerate() {
@@ -149,7 +159,12 @@ pub(crate) fn reconstruct_maps(
                 maps.push(Some(semi_global(views, r, src, params)?));
             }
             // SGM has no geometric pass: the filter below takes its maps.
-            (maps.clone(), maps)
+            for (r, map) in maps.iter().enumerate() {
+                if let Some(map) = map {
+                    photometric(r, map.clone())?;
+                }
+            }
+            maps
         }
     };
     progress("geometric consistency filter");
@@ -164,27 +179,31 @@ pub(crate) fn reconstruct_maps(
             apply_keep(map, keep);
         }
     }
-    Ok((photometric, geometric))
+    Ok(geometric)
 }
 
 /// One optional map per view.
 type Maps = Vec<Option<DepthNormalMap>>;
 
-/// Photometric and refined maps of PatchMatch (photometric pass, then the
-/// geometric pass when `geom_consistency` is on).
+/// The refined maps of PatchMatch (photometric pass, then the geometric
+/// pass when `geom_consistency` is on); each photometric map goes to
+/// `photometric` once no pass needs its planes.
 ///
 /// # Memory
 /// Between the passes each view keeps its unfiltered photometric map (20
-/// bytes a pixel: the planes the geometric pass starts from, the depths
-/// the others' passes read, the costs of the photometric filter), which
-/// becomes the photometric map in place at the end; no filtered copy is
-/// held beside it.
+/// bytes a pixel: the planes its geometric pass starts from, the depths
+/// the others' passes read, the costs of the photometric filter). Once its
+/// own geometric pass is done, the view's photometric map is filtered out
+/// of it and handed on, and only its depths (4 bytes a pixel) stay for the
+/// later views' passes: at the end 4 bytes a pixel are held beside the
+/// refined maps, not 20.
 fn patch_match_all(
     views: &[View],
     sources: &[Vec<usize>],
     params: &MvsParams,
     progress: &mut dyn FnMut(&str),
-) -> Result<(Maps, Maps)> {
+    photometric: PhotometricSink<'_>,
+) -> Result<Maps> {
     let mut unfiltered: Maps = Vec::with_capacity(views.len());
     for (r, src) in sources.iter().enumerate() {
         if src.is_empty() {
@@ -208,20 +227,30 @@ fn patch_match_all(
         unfiltered.push(Some(raw.unfiltered()));
     }
     let filtered = |map: &DepthNormalMap| map.clone().photometric(params);
-    let refined = if params.geom_consistency {
-        // A source without a photometric pass of its own cannot inform the
-        // geometric term: such references keep their photometric result.
-        let mut refined = Vec::with_capacity(views.len());
-        for (r, src) in sources.iter().enumerate() {
-            let usable: Vec<usize> = src
-                .iter()
-                .copied()
-                .filter(|&s| unfiltered[s].is_some())
-                .collect();
-            if unfiltered[r].is_none() || usable.is_empty() {
-                refined.push(unfiltered[r].as_ref().map(filtered));
-                continue;
+    if !params.geom_consistency {
+        let refined = unfiltered
+            .iter()
+            .map(|m| m.as_ref().map(filtered))
+            .collect();
+        for (r, map) in unfiltered.into_iter().enumerate() {
+            if let Some(map) = map {
+                photometric(r, map.photometric(params))?;
             }
+        }
+        return Ok(refined);
+    }
+    // A source without a photometric pass of its own cannot inform the
+    // geometric term: such references keep their photometric result.
+    let mut refined = Vec::with_capacity(views.len());
+    for (r, src) in sources.iter().enumerate() {
+        let usable: Vec<usize> = src
+            .iter()
+            .copied()
+            .filter(|&s| unfiltered[s].is_some())
+            .collect();
+        if unfiltered[r].is_none() || usable.is_empty() {
+            refined.push(unfiltered[r].as_ref().map(filtered));
+        } else {
             progress(&format!(
                 "[{}/{}] geometric pass {}",
                 r + 1,
@@ -231,16 +260,9 @@ fn patch_match_all(
             let state = patchmatch::patch_match_raw(views, r, &usable, params, Some(&unfiltered))?;
             refined.push(Some(state.to_map(params)));
         }
-        refined
-    } else {
-        unfiltered
-            .iter()
-            .map(|m| m.as_ref().map(filtered))
-            .collect()
-    };
-    let photometric = unfiltered
-        .into_iter()
-        .map(|m| m.map(|m| m.photometric(params)))
-        .collect();
-    Ok((photometric, refined))
+        if let Some(map) = unfiltered[r].as_mut() {
+            photometric(r, map.take_photometric(params))?;
+        }
+    }
+    Ok(refined)
 }

@@ -234,6 +234,20 @@ impl DepthNormalMap {
         }
         self
     }
+
+    /// The photometric map of this unfiltered map (see
+    /// [`DepthNormalMap::photometric`]), leaving only its depths behind:
+    /// what the other views' geometric passes still read of it.
+    pub(crate) fn take_photometric(&mut self, params: &MvsParams) -> Self {
+        DepthNormalMap {
+            width: self.width,
+            height: self.height,
+            depth: self.depth.clone(),
+            normal: std::mem::take(&mut self.normal),
+            cost: std::mem::take(&mut self.cost),
+        }
+        .photometric(params)
+    }
 }
 
 impl Problem<'_> {

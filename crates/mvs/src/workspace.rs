@@ -411,15 +411,11 @@ pub fn run_workspace(
     let sources = ws.sources(&selected, &ranges, params)?;
     progress(&format!("loading {} images", selected.len()));
     let views = ws.load_views(&selected, &ranges)?;
-    let (photometric, geometric) = crate::reconstruct_maps(&views, &sources, params, progress)?;
-    // The photometric maps go to disk before fusion, which reads only the
-    // geometric ones: they are not held beside the fused cloud.
-    progress("writing depth and normal maps");
-    for (view, p) in views.iter().zip(photometric) {
-        if let Some(p) = p {
-            write_maps(root, &view.name, "photometric", &p)?;
-        }
-    }
+    // Each photometric map goes to disk as soon as it is final: it is
+    // not held beside the other views' passes and the fused cloud.
+    let geometric = crate::reconstruct_maps(&views, &sources, params, progress, &mut |r, map| {
+        write_maps(root, &views[r].name, "photometric", &map)
+    })?;
     progress("fusion");
     let fused = crate::fuse(&views, &geometric, &sources, params);
     let mut summary = RunSummary {
