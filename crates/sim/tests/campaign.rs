@@ -26,7 +26,7 @@ fn row<'a>(r: &'a CampaignReport, name: &str) -> &'a TableRow {
 fn findings_config() -> CampaignConfig {
     let mut c = CampaignConfig::demo();
     // The geometric pass the measured experiments flew (the demo now runs
-    // vp-mvs's default, 2).
+    // vp-mvs's default, 1 since stop 54).
     c.patchmatch.geom_iterations = 4;
     c.strategies = vec!["F5x4".into(), "NP5x4".into()];
     c.held_out_seeds = vec![8];
