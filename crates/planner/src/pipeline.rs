@@ -284,6 +284,22 @@ fn plan_file(
     Ok(plan)
 }
 
+/// M4's path builder for `inputs`.
+fn path_context<'a>(
+    inputs: &PlanInputs<'a>,
+    caster: &'a RayCaster,
+    safety: &'a Safety,
+) -> PathContext<'a> {
+    PathContext {
+        mesh: inputs.mesh,
+        caster,
+        safety,
+        intrinsics: inputs.config.camera.intrinsics(),
+        min_overlap: inputs.config.min_overlap,
+        home: inputs.home,
+    }
+}
+
 /// Adds the times of M1 and M2 to the first iteration's figures, M4's to the last's.
 fn with_module_times(iterations: &mut [IterationStatistics], times: &BTreeMap<String, f64>) {
     if let Some(s) = iterations.first_mut() {
@@ -366,14 +382,7 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
 
     // M4, and the replacement of what it drops.
     let tm = Instant::now();
-    let ctx = PathContext {
-        mesh,
-        caster: &caster,
-        safety: &safety,
-        intrinsics: k,
-        min_overlap: cfg.min_overlap,
-        home: inputs.home,
-    };
+    let ctx = path_context(inputs, &caster, &safety);
     let captured: Vec<Camera> = inputs.acquired.iter().map(|a| a.camera).collect();
     let rounds = Rounds {
         ctx: &ctx,
