@@ -37,6 +37,7 @@ pub mod fusion;
 mod geom_term;
 pub mod geometric;
 pub mod job;
+mod maps;
 pub mod params;
 pub mod patchmatch;
 mod pyramid;
