@@ -402,12 +402,8 @@ impl PathContext<'_> {
         let ways = HomeWays::new(self.safety, home);
         // A detour before the first view belongs to the segment to it:
         // the first view goes with it.
-        let starts_mission = start.1.is_none();
-        let ends = [(starts_mission, 0, first), (true, views.len() - 1, last)];
-        for (to, w) in ends
-            .into_iter()
-            .filter_map(|(c, to, w)| c.then_some((to, w)))
-        {
+        let first = start.1.is_none().then_some((0, first));
+        for (to, w) in first.into_iter().chain([(views.len() - 1, last)]) {
             if let Some(problem) = ways.blocked(&Point3::from(w.position)) {
                 return Err(Box::new(Blocked {
                     to,

@@ -66,10 +66,17 @@ impl<'a> HomeWays<'a> {
 
     /// The way between home and `w`, if one is clear.
     pub(crate) fn way(&self, w: &Point3<f64>) -> Option<Way> {
-        if self.problem(w).is_none() {
+        if self.direct_ok(w) {
             return Some(Way::Direct);
         }
         self.transit(w).map(Way::Transit)
+    }
+
+    /// Whether the direct way to `w` is clear ([`Self::problem`]'s rules,
+    /// without its words and exact distances).
+    fn direct_ok(&self, w: &Point3<f64>) -> bool {
+        let above = self.above_home(w.z);
+        self.column_ok(&above) && self.safety.leg_ok(&above, w)
     }
 
     /// `None` when a way between home and `w` is clear; otherwise why not,
