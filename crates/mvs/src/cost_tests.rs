@@ -32,7 +32,7 @@ fn homography_maps_plane_points_like_projection() {
     let n = nalgebra::Vector3::new(0.2, -0.3, -1.0).normalize();
     let nf = [n.x as f32, n.y as f32, n.z as f32];
     let ray = crate::view::pixel_ray(&kr, 30, 20);
-    let h = homography(&rel, &kr, 10.0, &nf, &ray).unwrap();
+    let h = PairWarp::new(&rel, &kr).homography(&plane_row(&kr, 10.0, &nf, &ray).unwrap());
     let x0 = nalgebra::Vector3::new(f64::from(ray[0]), f64::from(ray[1]), 1.0) * 10.0;
     // Another pixel: intersect its ray with the plane, project it.
     let (u, v) = (70.5f64, 60.5f64);
@@ -190,9 +190,10 @@ fn fast_full_window_sums_equal_the_reference_bit_for_bit() {
                 let ray = crate::view::pixel_ray(&kr, x, y);
                 let d = 4.0 + 20.0 * rng.next_f32();
                 let n = [0.4 * rng.symmetric(), 0.4 * rng.symmetric(), -1.0];
-                let Some(hm) = homography(&rel, &kr, d, &n, &ray) else {
+                let Some(m) = plane_row(&kr, d, &n, &ray) else {
                     continue;
                 };
+                let hm = PairWarp::new(&rel, &kr).homography(&m);
                 let (u, v) = (x as f32 + 0.5, y as f32 + 0.5);
                 let fast = sums_full(&patch, &win, u, v, &hm, &src);
                 let scalar = sums_full(&patch, &scalar_win, u, v, &hm, &src);

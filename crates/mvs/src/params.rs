@@ -63,18 +63,19 @@ pub struct MvsParams {
     /// Number of best source costs averaged per hypothesis (view selection:
     /// an occluded or mismatched source beyond the best k does not count).
     pub top_k_sources: usize,
-    /// View selection in passes that start from solved planes (the finer
-    /// pyramid levels and the geometric pass): each pixel scores its
-    /// hypotheses on only the `seeded_sources` sources with the lowest
-    /// cost for its seed plane (0: every source). The seed plane is
-    /// already close (the coarser level's, or the photometric pass's), so
-    /// the sources that see its surface best are known, and a source that
-    /// does not see it (occluded, out of frame) would never be among the
-    /// `top_k_sources` averaged: scoring it is wasted work, most of the
-    /// work where a view has many sources (8 on a real flight against 2 in
-    /// a triplet). 4 is `top_k_sources` (3) plus one spare, so that a
-    /// better plane may still trade one source of its best three; chosen
-    /// by that rule, not by a measurement (docs/performance.md, "Stop 54").
+    /// View selection once a pixel's plane is nearly solved: each pixel
+    /// scores its hypotheses on only the `seeded_sources` sources with the
+    /// lowest cost for its plane (0: every source). A source that does not
+    /// see the plane's surface (occluded, out of frame) would never be
+    /// among the `top_k_sources` averaged: scoring it is wasted work, most
+    /// of the work where a view has many sources (8 on a real flight
+    /// against 2 in a triplet). The coarsest level chooses after half its
+    /// iterations, and the finer levels keep that choice (pixel to
+    /// parent); the geometric pass chooses afresh for its seed plane, as
+    /// its ranking adds the geometric term. 4 is `top_k_sources` (3) plus
+    /// one spare, so that a better plane may still trade one source of its
+    /// best three; chosen by that rule, not by a measurement
+    /// (docs/performance.md, "Stop 54" and "Stop 55").
     pub seeded_sources: usize,
     /// Most source images per reference image.
     pub max_sources: usize,

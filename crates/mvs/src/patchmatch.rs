@@ -5,7 +5,7 @@
 use rayon::prelude::*;
 
 use crate::cost::{
-    aggregate, aggregate_lower_bound, homography, source_cost, RefPatch, Window, MAX_COST,
+    aggregate, aggregate_lower_bound, plane_row, source_cost, PairWarp, RefPatch, Window, MAX_COST,
 };
 use crate::error::{MvsError, Result};
 use crate::geom_term::{reprojection_error, GeomSource};
@@ -43,11 +43,30 @@ pub(crate) struct Hyp {
     pub photo: f32,
 }
 
+/// One source image of a reference, at one pyramid level.
+struct Source<'a> {
+    rel: Relative,
+    /// The pair's part of every plane's homography (for this level's
+    /// intrinsics).
+    warp: PairWarp,
+    image: &'a GreyImage,
+}
+
+impl<'a> Source<'a> {
+    fn new(rel: Relative, kr: &[f32; 4], image: &'a GreyImage) -> Self {
+        Source {
+            warp: PairWarp::new(&rel, kr),
+            rel,
+            image,
+        }
+    }
+}
+
 /// What one reference's PatchMatch needs, in f32.
 struct Problem<'a> {
     image: &'a GreyImage,
     k: [f32; 4],
-    sources: Vec<(Relative, &'a GreyImage)>,
+    sources: Vec<Source<'a>>,
     /// The sources' photometric depths: set in the geometric pass.
     geom: Option<Vec<GeomSource<'a>>>,
     range: (f32, f32),
@@ -70,6 +89,10 @@ pub(crate) struct RawState {
     pub width: usize,
     pub height: usize,
     pub hyps: Vec<Hyp>,
+    /// Each pixel's chosen sources (bit masks) when the pass chose
+    /// `seeded_sources` of them (see `Problem::run`); `None` when every
+    /// pixel scored every source.
+    pub sources: Option<Vec<u32>>,
 }
 
 /// Where a pass starts from: pixel index -> (depth, normal) of a solved
@@ -130,6 +153,7 @@ fn patch_match_raw_with(
             sources.len()
         )));
     }
+    let k = k_of(&view.camera);
     let mut rel = Vec::with_capacity(sources.len());
     let mut geom = previous.map(|_| Vec::with_capacity(sources.len()));
     for &s in sources {
@@ -154,11 +178,11 @@ fn patch_match_raw_with(
                 rot_back: std::array::from_fn(|i| std::array::from_fn(|j| r.rot[j][i])),
             });
         }
-        rel.push((r, &src.grey));
+        rel.push(Source::new(r, &k, &src.grey));
     }
     let problem = Problem {
         image: &view.grey,
-        k: k_of(&view.camera),
+        k,
         sources: rel,
         geom,
         range: (view.depth_range.0 as f32, view.depth_range.1 as f32),
@@ -176,6 +200,7 @@ fn patch_match_raw_with(
     Ok(match init {
         Some(init) => problem.run(
             Some(&|i: usize| (init.depth[i], init.normal[i])),
+            None,
             params.geom_iterations,
         ),
         None => problem.solve(params.coarse_levels),
@@ -211,27 +236,26 @@ impl Problem<'_> {
     fn solve(&self, levels: u32) -> RawState {
         let (w, h) = (self.image.width as usize, self.image.height as usize);
         if levels == 0 || (w.min(h) / 2) < self.params.coarse_min_size as usize {
-            return self.run(None, self.params.iterations);
+            return self.run(None, None, self.params.iterations);
         }
         let images: Vec<GreyImage> = std::iter::once(self.image)
-            .chain(self.sources.iter().map(|s| s.1))
+            .chain(self.sources.iter().map(|s| s.image))
             .map(half)
             .collect();
+        let k = half_k(&self.k);
         let coarse = Problem {
             image: &images[0],
-            k: half_k(&self.k),
+            k,
             sources: self
                 .sources
                 .iter()
                 .zip(&images[1..])
-                .map(|((rel, _), img)| {
-                    (
-                        Relative {
-                            k: half_k(&rel.k),
-                            ..*rel
-                        },
-                        img,
-                    )
+                .map(|(s, img)| {
+                    let rel = Relative {
+                        k: half_k(&s.rel.k),
+                        ..s.rel
+                    };
+                    Source::new(rel, &k, img)
                 })
                 .collect(),
             geom: None,
@@ -248,13 +272,25 @@ impl Problem<'_> {
         let init = upsample(&low, &coarse.k, w, h, &self.k, MAX_COST);
         self.run(
             Some(&|i: usize| (init.hyps[i].d, init.hyps[i].n)),
+            init.sources.as_deref(),
             self.params.fine_iterations,
         )
     }
 
     /// `iterations` of PatchMatch from `init` (scored afresh) or, without
-    /// it, from random planes.
-    fn run(&self, init: Option<Seed<'_>>, iterations: u32) -> RawState {
+    /// it, from random planes; each pixel's hypotheses scored on the
+    /// sources `chosen` for it at a coarser level, if given.
+    ///
+    /// View selection (`seeded_sources`, when it keeps fewer than all):
+    /// once a pixel's plane is nearly solved, only the sources with the
+    /// lowest cost for it are scored. A pass from random planes chooses
+    /// them after half its iterations, for each pixel's plane then; a pass
+    /// from solved planes, for the seed plane, unless the choice was made
+    /// at a coarser level (then it is carried down, pixel to parent, and
+    /// the seed is scored on those sources only). The choice never changes
+    /// a pixel's cost: `seeded_sources` is at least `top_k_sources`, so the
+    /// best sources include the averaged ones.
+    fn run(&self, init: Option<Seed<'_>>, chosen: Option<&[u32]>, iterations: u32) -> RawState {
         let (w, h) = (self.image.width as usize, self.image.height as usize);
         // The geometric pass and each pyramid level draw other numbers
         // than the full-resolution photometric pass.
@@ -269,12 +305,12 @@ impl Problem<'_> {
             };
             w * h
         ];
-        // The sources each pixel scores its hypotheses on: every one, or
-        // in a pass from solved planes the `seeded_sources` best for the
-        // seed plane (see the parameter).
+        // The sources each pixel scores its hypotheses on (see above).
         let keep = self.params.seeded_sources;
-        let subset = init.is_some() && keep > 0 && keep < self.sources.len();
-        let mut sources = vec![self.all_sources(); w * h];
+        let choosing = keep > 0 && keep < self.sources.len();
+        let chosen = chosen.filter(|c| choosing && c.len() == w * h);
+        let subset = init.is_some() && choosing && chosen.is_none();
+        let mut sources = chosen.map_or_else(|| vec![self.all_sources(); w * h], <[u32]>::to_vec);
         state
             .par_chunks_mut(w)
             .zip(sources.par_chunks_mut(w))
@@ -311,7 +347,11 @@ impl Problem<'_> {
         // (bit for bit; `update`).
         let mut changed = vec![true; w * h];
         let random_candidates = init.is_none() || self.params.seeded_random_candidates;
+        let choose_at = (init.is_none() && choosing && iterations >= 2).then_some(iterations / 2);
         for it in 0..iterations {
+            if choose_at == Some(it) {
+                self.choose_sources(&mut state, &mut sources, keep);
+            }
             for colour in 0..2 {
                 let prev = state.clone();
                 let seen = (it > 0 && self.skip_unchanged).then(|| changed.clone());
@@ -337,11 +377,34 @@ impl Problem<'_> {
                     });
             }
         }
+        let chose = choosing && (init.is_some() || choose_at.is_some());
         RawState {
             width: w,
             height: h,
             hyps: state,
+            sources: chose.then_some(sources),
         }
+    }
+
+    /// Chooses every pixel's `keep` best sources for its current plane
+    /// (its costs stay the same; see `run`).
+    fn choose_sources(&self, state: &mut [Hyp], sources: &mut [u32], keep: usize) {
+        let w = self.image.width as usize;
+        state
+            .par_chunks_mut(w)
+            .zip(sources.par_chunks_mut(w))
+            .enumerate()
+            .for_each(|(y, (row, masks))| {
+                let mut patch = RefPatch::default();
+                for (x, (hyp, mask)) in row.iter_mut().zip(masks).enumerate() {
+                    patch.build(self.image, x, y, &self.win);
+                    let ray = pixel_ray(&self.k, x, y);
+                    let ((cost, photo), kept) =
+                        self.seed_sources(&patch, (x, y), &ray, (hyp.d, &hyp.n), keep);
+                    *mask = kept;
+                    (hyp.cost, hyp.photo) = (cost, photo);
+                }
+            });
     }
 
     fn random_depth(&self, rng: &mut PixelRng) -> f32 {
@@ -364,23 +427,25 @@ impl Problem<'_> {
         (MAX_COST + self.geom_worst(), MAX_COST)
     }
 
-    /// Costs (ranking, photometric) of plane (d, n) at pixel (x, y) in
-    /// source `k`.
+    /// Costs (ranking, photometric) at pixel (x, y) in source `k` of the
+    /// plane at depth `d` whose [`plane_row`] is `m`.
     fn source_costs(
         &self,
         patch: &RefPatch,
         (x, y): (usize, usize),
         ray: &[f32; 3],
-        (d, n): (f32, &[f32; 3]),
+        (d, m): (f32, Option<&[f32; 3]>),
         k: usize,
     ) -> (f32, f32) {
-        let (rel, src) = &self.sources[k];
+        let src = &self.sources[k];
         let (u, v) = (x as f32 + 0.5, y as f32 + 0.5);
-        let photo = homography(rel, &self.k, d, n, ray)
-            .map_or(MAX_COST, |h| source_cost(patch, &self.win, u, v, &h, src));
+        let photo = m.map_or(MAX_COST, |m| {
+            let h = src.warp.homography(m);
+            source_cost(patch, &self.win, u, v, &h, src.image)
+        });
         let geo = self.geom.as_ref().map_or(0.0, |g| {
             let cap = self.params.geom_max_error_px;
-            let e = reprojection_error(&self.k, cap, rel, &g[k], (x, y), ray, d);
+            let e = reprojection_error(&self.k, cap, &src.rel, &g[k], (x, y), ray, d);
             self.params.geom_regularizer * e
         });
         (photo + geo, photo)
@@ -405,11 +470,12 @@ impl Problem<'_> {
         if !self.scorable(patch, ray, d, n) {
             return self.worst();
         }
+        let row = plane_row(&self.k, d, n, ray);
         let mut costs = [(MAX_COST, MAX_COST); MAX_SOURCES];
         let m = sources.count_ones() as usize;
         let mut j = 0;
         for k in (0..self.sources.len()).filter(|k| sources & (1 << k) != 0) {
-            costs[j] = self.source_costs(patch, xy, ray, (d, n), k);
+            costs[j] = self.source_costs(patch, xy, ray, (d, row.as_ref()), k);
             j += 1;
             if j < m && aggregate_lower_bound(&mut costs[..j], m, self.top_k) >= bound {
                 return self.worst();
@@ -439,9 +505,10 @@ impl Problem<'_> {
             return (self.worst(), self.all_sources());
         }
         let m = self.sources.len();
+        let row = plane_row(&self.k, d, n, ray);
         let mut ranked = [(MAX_COST, MAX_COST, 0); MAX_SOURCES];
         for (k, r) in ranked[..m].iter_mut().enumerate() {
-            let (c, p) = self.source_costs(patch, xy, ray, (d, n), k);
+            let (c, p) = self.source_costs(patch, xy, ray, (d, row.as_ref()), k);
             *r = (c, p, k);
         }
         ranked[..m].sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.2.cmp(&b.2)));

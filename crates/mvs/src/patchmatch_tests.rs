@@ -3,15 +3,29 @@ use crate::sgm::tests::{cameras, views};
 
 /// Skipping the propagation candidates of neighbours that did not change
 /// gives the same hypotheses bit for bit, in the photometric pass (with a
-/// coarse level) and in the geometric pass that starts from it.
+/// coarse level) and in the geometric pass that starts from it: with two
+/// sources, and with four of which each pixel chooses two (view selection
+/// at the coarsest level, carried down).
 #[test]
 fn skipping_unchanged_neighbours_changes_no_bit() {
-    let cams = cameras(3, 8.0, (96, 72));
+    skipping_changes_no_bit(3, MvsParams::default());
+    skipping_changes_no_bit(
+        5,
+        MvsParams {
+            top_k_sources: 2,
+            seeded_sources: 2,
+            ..MvsParams::default()
+        },
+    );
+}
+
+fn skipping_changes_no_bit(n_views: usize, params: MvsParams) {
+    let cams = cameras(n_views, 8.0, (96, 72));
     let (views, _) = views(&cams);
     let params = MvsParams {
         coarse_levels: 2,
         coarse_min_size: 32,
-        ..MvsParams::default()
+        ..params
     };
     let bits = |r: &RawState| -> Vec<[u32; 6]> {
         r.hyps
@@ -20,23 +34,27 @@ fn skipping_unchanged_neighbours_changes_no_bit() {
             .collect()
     };
     let photometric = |skip: bool| -> Vec<Option<RawState>> {
-        (0..3)
+        (0..n_views)
             .map(|r| {
-                let sources: Vec<usize> = (0..3).filter(|&s| s != r).collect();
+                let sources: Vec<usize> = (0..n_views).filter(|&s| s != r).collect();
                 Some(patch_match_raw_with(&views, (r, &sources), &params, None, skip).unwrap())
             })
             .collect()
     };
     let (skipped, plain) = (photometric(true), photometric(false));
     for (a, b) in skipped.iter().zip(&plain) {
-        assert!(bits(a.as_ref().unwrap()) == bits(b.as_ref().unwrap()));
+        let (a, b) = (a.as_ref().unwrap(), b.as_ref().unwrap());
+        assert!(bits(a) == bits(b));
+        // With more sources than it keeps, the pass chose them.
+        assert_eq!(a.sources.is_some(), n_views - 1 > params.seeded_sources);
     }
     let maps: Vec<Option<DepthNormalMap>> = plain
         .iter()
         .map(|r| r.as_ref().map(RawState::unfiltered))
         .collect();
     let geometric = |skip: bool| {
-        patch_match_raw_with(&views, (0, &[1, 2]), &params, Some(&maps), skip).unwrap()
+        let sources: Vec<usize> = (1..n_views).collect();
+        patch_match_raw_with(&views, (0, &sources), &params, Some(&maps), skip).unwrap()
     };
     assert!(bits(&geometric(true)) == bits(&geometric(false)));
     // The fixture is not trivial: most pixels hold a depth in range.

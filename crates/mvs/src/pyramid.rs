@@ -76,10 +76,21 @@ pub(crate) fn upsample(
             });
         }
     }
+    // Each pixel keeps its parent's choice of sources.
+    let sources = coarse.sources.as_ref().map(|masks| {
+        (0..width * height)
+            .map(|i| {
+                let cy = (i / width / 2).min(coarse.height - 1);
+                let cx = (i % width / 2).min(coarse.width - 1);
+                masks[cy * coarse.width + cx]
+            })
+            .collect()
+    });
     RawState {
         width,
         height,
         hyps,
+        sources,
     }
 }
 
@@ -125,6 +136,7 @@ mod tests {
             width: cw,
             height: ch,
             hyps,
+            sources: None,
         };
         let fine = upsample(&coarse, &ck, 64, 64, &k, 2.0);
         for (i, hyp) in fine.hyps.iter().enumerate() {
