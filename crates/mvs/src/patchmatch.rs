@@ -4,11 +4,9 @@
 
 use rayon::prelude::*;
 
-use crate::cost::{
-    aggregate, aggregate_lower_bound, plane_row, source_cost, PairWarp, RefPatch, Window, MAX_COST,
-};
+use crate::cost::{PairWarp, RefPatch, Window, MAX_COST};
 use crate::error::{MvsError, Result};
-use crate::geom_term::{reprojection_error, GeomSource};
+use crate::geom_term::GeomSource;
 pub use crate::maps::DepthNormalMap;
 use crate::params::MvsParams;
 use crate::pyramid::{half, half_k, upsample};
@@ -386,147 +384,10 @@ impl Problem<'_> {
         }
     }
 
-    /// Chooses every pixel's `keep` best sources for its current plane
-    /// (its costs stay the same; see `run`).
-    fn choose_sources(&self, state: &mut [Hyp], sources: &mut [u32], keep: usize) {
-        let w = self.image.width as usize;
-        state
-            .par_chunks_mut(w)
-            .zip(sources.par_chunks_mut(w))
-            .enumerate()
-            .for_each(|(y, (row, masks))| {
-                let mut patch = RefPatch::default();
-                for (x, (hyp, mask)) in row.iter_mut().zip(masks).enumerate() {
-                    patch.build(self.image, x, y, &self.win);
-                    let ray = pixel_ray(&self.k, x, y);
-                    let ((cost, photo), kept) =
-                        self.seed_sources(&patch, (x, y), &ray, (hyp.d, &hyp.n), keep);
-                    *mask = kept;
-                    (hyp.cost, hyp.photo) = (cost, photo);
-                }
-            });
-    }
-
     fn random_depth(&self, rng: &mut PixelRng) -> f32 {
         // Uniform in inverse depth: uniform in disparity, as a stereo search.
         let (lo, hi) = (1.0 / self.range.1, 1.0 / self.range.0);
         1.0 / (lo + (hi - lo) * rng.next_f32())
-    }
-
-    /// Whether plane (d, n) can be scored at this pixel: in the depth
-    /// range, on a textured patch, facing the camera within the allowed
-    /// angle.
-    fn scorable(&self, patch: &RefPatch, ray: &[f32; 3], d: f32, n: &[f32; 3]) -> bool {
-        let ray_len = (ray[0] * ray[0] + ray[1] * ray[1] + 1.0).sqrt();
-        let facing = -(n[0] * ray[0] + n[1] * ray[1] + n[2] * ray[2]) / ray_len;
-        d >= self.range.0 && d <= self.range.1 && patch.textured() && !(facing < self.min_cos)
-    }
-
-    /// The costs of a plane that cannot win.
-    fn worst(&self) -> (f32, f32) {
-        (MAX_COST + self.geom_worst(), MAX_COST)
-    }
-
-    /// Costs (ranking, photometric) at pixel (x, y) in source `k` of the
-    /// plane at depth `d` whose [`plane_row`] is `m`.
-    fn source_costs(
-        &self,
-        patch: &RefPatch,
-        (x, y): (usize, usize),
-        ray: &[f32; 3],
-        (d, m): (f32, Option<&[f32; 3]>),
-        k: usize,
-    ) -> (f32, f32) {
-        let src = &self.sources[k];
-        let (u, v) = (x as f32 + 0.5, y as f32 + 0.5);
-        let photo = m.map_or(MAX_COST, |m| {
-            let h = src.warp.homography(m);
-            source_cost(patch, &self.win, u, v, &h, src.image)
-        });
-        let geo = self.geom.as_ref().map_or(0.0, |g| {
-            let cap = self.params.geom_max_error_px;
-            let e = reprojection_error(&self.k, cap, &src.rel, &g[k], (x, y), ray, d);
-            self.params.geom_regularizer * e
-        });
-        (photo + geo, photo)
-    }
-
-    /// Costs (ranking, photometric) of plane (d, n) at pixel (x, y) over
-    /// the sources in bit mask `sources`; the worst costs as soon as the
-    /// ranking cost provably reaches `bound` (the current best: the
-    /// hypothesis would be rejected anyway, so the remaining sources are
-    /// not scored).
-    #[allow(clippy::too_many_arguments)]
-    fn cost(
-        &self,
-        patch: &RefPatch,
-        xy: (usize, usize),
-        ray: &[f32; 3],
-        d: f32,
-        n: &[f32; 3],
-        bound: f32,
-        sources: u32,
-    ) -> (f32, f32) {
-        if !self.scorable(patch, ray, d, n) {
-            return self.worst();
-        }
-        let row = plane_row(&self.k, d, n, ray);
-        let mut costs = [(MAX_COST, MAX_COST); MAX_SOURCES];
-        let m = sources.count_ones() as usize;
-        let mut j = 0;
-        for k in (0..self.sources.len()).filter(|k| sources & (1 << k) != 0) {
-            costs[j] = self.source_costs(patch, xy, ray, (d, row.as_ref()), k);
-            j += 1;
-            if j < m && aggregate_lower_bound(&mut costs[..j], m, self.top_k) >= bound {
-                return self.worst();
-            }
-        }
-        aggregate(&mut costs[..m], self.top_k)
-    }
-
-    /// Every source, as a bit mask.
-    fn all_sources(&self) -> u32 {
-        u32::MAX >> (MAX_SOURCES - self.sources.len())
-    }
-
-    /// The `keep` sources (bit mask) with the lowest ranking cost for the
-    /// seed plane (d, n) at pixel (x, y), and the plane's costs over them
-    /// (those over every source: `keep` is at least `top_k`); every source
-    /// where the plane cannot be scored.
-    fn seed_sources(
-        &self,
-        patch: &RefPatch,
-        xy: (usize, usize),
-        ray: &[f32; 3],
-        (d, n): (f32, &[f32; 3]),
-        keep: usize,
-    ) -> ((f32, f32), u32) {
-        if !self.scorable(patch, ray, d, n) {
-            return (self.worst(), self.all_sources());
-        }
-        let m = self.sources.len();
-        let row = plane_row(&self.k, d, n, ray);
-        let mut ranked = [(MAX_COST, MAX_COST, 0); MAX_SOURCES];
-        for (k, r) in ranked[..m].iter_mut().enumerate() {
-            let (c, p) = self.source_costs(patch, xy, ray, (d, row.as_ref()), k);
-            *r = (c, p, k);
-        }
-        ranked[..m].sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.2.cmp(&b.2)));
-        let mut kept = [(MAX_COST, MAX_COST); MAX_SOURCES];
-        let mut mask = 0;
-        for (slot, &(c, p, k)) in kept.iter_mut().zip(&ranked[..keep]) {
-            *slot = (c, p);
-            mask |= 1 << k;
-        }
-        (aggregate(&mut kept[..keep], self.top_k), mask)
-    }
-
-    fn geom_worst(&self) -> f32 {
-        if self.geom.is_some() {
-            self.params.geom_regularizer * self.params.geom_max_error_px
-        } else {
-            0.0
-        }
     }
 
     /// One PatchMatch update of pixel (x, y) from the state `prev`:
@@ -643,6 +504,9 @@ fn normalize(v: [f32; 3]) -> [f32; 3] {
         [0.0, 0.0, -1.0]
     }
 }
+
+#[path = "scoring.rs"]
+mod scoring;
 
 #[cfg(test)]
 #[path = "patchmatch_tests.rs"]
