@@ -138,7 +138,7 @@ fn tier(
         0.0
     };
     let hyps = px * (photometric + geometric);
-    let samples = params.window_offsets_len().pow(2) as f64 * 2.0;
+    let samples = params.window_sample_count() as f64 * 2.0;
     eprintln!(
         "mvs/{name}: {size}x{size} triplet: {secs:.2} s per triplet ({:.2} s per Mpx triplet; \
          CPU {}), {:.2} Mpx-hypotheses/s, {:.0} M window samples/s (x2 sources), {} fused points, \

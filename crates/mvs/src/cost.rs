@@ -33,13 +33,17 @@ pub(crate) const CHUNK: usize = 8;
 ///
 /// A full patch stores the window's samples row-major and packed, the
 /// grid's rows one after another with no gap, padded at the end to whole
-/// chunks of [`CHUNK`]: the default 6 x 6 window is 5 chunks (40 lanes, 4
-/// of them padding), where a row padded to a chunk each took 6 (48 lanes,
-/// 12 padding). The sums' work is per chunk, so fewer chunks is less work.
+/// chunks of [`CHUNK`]: the default 6 x 6 grid without its corners is 4
+/// chunks (32 lanes, no padding; with its corners 5 chunks, 40 lanes, 4 of
+/// them padding), where a row padded to a chunk each took 6 (48 lanes, 12
+/// padding). The sums' work is per chunk, so fewer chunks is less work.
 #[derive(Debug, Clone)]
 pub(crate) struct Window {
     /// Offsets along one axis: `-r, -r + step, ..., <= r`.
     pub offsets: Vec<i32>,
+    /// The samples, (x, y) offsets from the centre, in the packed order
+    /// ([`MvsParams::window_samples`]).
+    pub grid: Vec<(i32, i32)>,
     /// `exp(-(dx^2 + dy^2) / (2 sigma_s^2))` per lane of the packed
     /// layout, 0 on padding (so that a full patch's weights are one
     /// product per lane).
@@ -57,11 +61,12 @@ pub(crate) struct Window {
 impl Window {
     pub(crate) fn new(params: &MvsParams) -> Self {
         let offsets = params.window_offsets();
+        let samples = params.window_samples();
         let inv_s = 1.0 / (2.0 * params.sigma_spatial * params.sigma_spatial);
-        let (first, n) = (offsets[0], offsets.len());
-        let lanes = (n * n).div_ceil(CHUNK) * CHUNK;
+        let first = offsets[0];
+        let lanes = samples.len().div_ceil(CHUNK) * CHUNK;
         // (ox, oy) of every lane; None on padding.
-        let grid = |k: usize| (k < n * n).then(|| (offsets[k % n], offsets[k / n]));
+        let grid = |k: usize| samples.get(k).copied();
         let spatial = (0..lanes)
             .map(|k| {
                 grid(k).map_or(0.0, |(ox, oy)| {
@@ -80,20 +85,15 @@ impl Window {
             lane_x: lane(|(ox, _)| ox),
             lane_y: lane(|(_, oy)| oy),
             offsets,
+            grid: samples,
             avx2: Avx2::detect(),
         }
-    }
-
-    /// Samples along one axis.
-    #[inline]
-    pub(crate) fn n(&self) -> usize {
-        self.offsets.len()
     }
 
     /// Samples of the whole window.
     #[inline]
     pub(crate) fn samples(&self) -> usize {
-        self.n() * self.n()
+        self.grid.len()
     }
 
     /// Lanes of a full patch: the samples padded to whole chunks of
@@ -161,11 +161,8 @@ impl RefPatch {
             // padding lanes get weight 0 from their zero spatial weight.
             let w = image.width as usize;
             self.wr.resize(win.lanes(), 0.0);
-            for (row_out, &oy) in self.wr.chunks_mut(win.n()).zip(&win.offsets) {
-                let row = &image.data[(yi + oy) as usize * w..][..w];
-                for (v, &ox) in row_out.iter_mut().zip(&win.offsets) {
-                    *v = row[(xi + ox) as usize];
-                }
+            for (v, &(ox, oy)) in self.wr.iter_mut().zip(&win.grid) {
+                *v = image.data[(yi + oy) as usize * w + (xi + ox) as usize];
             }
             self.w
                 .extend(self.wr.iter().zip(&win.spatial).map(|(&v, &s)| {
@@ -173,20 +170,16 @@ impl RefPatch {
                     s * fast_exp::exp(-dc * dc * win.inv_color)
                 }));
         } else {
-            let mut k = 0;
-            for &oy in &win.offsets {
-                for &ox in &win.offsets {
-                    k += 1;
-                    let Some(v) = image.at(xi + ox, yi + oy) else {
-                        continue;
-                    };
-                    let dc = v - centre;
-                    let wt = win.spatial[k - 1] * fast_exp::exp(-dc * dc * win.inv_color);
-                    self.dx.push(ox as f32);
-                    self.dy.push(oy as f32);
-                    self.w.push(wt);
-                    self.wr.push(v);
-                }
+            for (&(ox, oy), &s) in win.grid.iter().zip(&win.spatial) {
+                let Some(v) = image.at(xi + ox, yi + oy) else {
+                    continue;
+                };
+                let dc = v - centre;
+                let wt = s * fast_exp::exp(-dc * dc * win.inv_color);
+                self.dx.push(ox as f32);
+                self.dy.push(oy as f32);
+                self.w.push(wt);
+                self.wr.push(v);
             }
         }
         // `wr` holds the intensities until the mean is known.

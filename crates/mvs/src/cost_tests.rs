@@ -233,11 +233,9 @@ fn fast_full_window_sums_equal_the_reference_bit_for_bit() {
 }
 
 fn patch_clone_partial(full: &RefPatch, win: &Window, out: &mut RefPatch) {
-    for &oy in &win.offsets {
-        for &ox in &win.offsets {
-            out.dx.push(ox as f32);
-            out.dy.push(oy as f32);
-        }
+    for &(ox, oy) in &win.grid {
+        out.dx.push(ox as f32);
+        out.dy.push(oy as f32);
     }
     out.w.extend_from_slice(&full.w[..win.samples()]);
     out.wr.extend_from_slice(&full.wr[..win.samples()]);
