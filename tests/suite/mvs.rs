@@ -399,6 +399,27 @@ fn a_window_without_corners_keeps_the_quality_of_the_whole_grid() {
     assert!(without.1 <= whole.1 + 0.002, "{without:?} vs {whole:?}");
 }
 
+/// Settling pixels whose cost and neighbours stopped changing by more than
+/// the default `settle_cost` keeps the quality of settling only those where
+/// nothing changed at all (0), on rock and ground: completeness within 1
+/// point, outliers at most 0.2 points more. Guards the default's speed-up.
+#[test]
+fn settled_pixels_keep_the_quality_of_updating_every_changing_pixel() {
+    let site = site();
+    let triplets = [quality_triplet(&site)];
+    let settle = |settle_cost| MvsParams {
+        settle_cost,
+        ..MvsParams::default()
+    };
+    let default = MvsParams::default().settle_cost;
+    assert!(default > 0.0);
+    let settled = rock_and_ground_score(&site, &triplets, &settle(default));
+    let every = rock_and_ground_score(&site, &triplets, &settle(0.0));
+    eprintln!("settle_cost {default}: {settled:?}, 0: {every:?} (completeness, outliers)");
+    assert!(settled.0 >= every.0 - 0.01, "{settled:?} vs {every:?}");
+    assert!(settled.1 <= every.1 + 0.002, "{settled:?} vs {every:?}");
+}
+
 /// The default geometric pass (`geom_iterations`, 1) keeps the quality of
 /// six iterations on rock and ground: completeness within 1 point, outliers
 /// at most 0.2 points more. Guards the default's speed-up.

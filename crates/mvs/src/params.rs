@@ -67,6 +67,20 @@ pub struct MvsParams {
     /// 0.76 of the time on `paper_1024` with the quality bars held
     /// (docs/performance.md, "Stop 53"), and is the default.
     pub seeded_random_candidates: bool,
+    /// Early stop per pixel: from a pass's second iteration on, a pixel is
+    /// settled, and not updated again in the pass, when neither it nor any
+    /// neighbour it takes planes from changed at its last update; a
+    /// change is a cost lowered by more than `settle_cost` (0: any change
+    /// of the plane). With 0, a settled pixel's only candidate left is its
+    /// perturbation, and nearly every pixel's perturbation wins by some
+    /// small amount: hardly any pixel settles (no time saved on Brighton).
+    /// 0.01, a hundredth of the NCC's range from no correlation to a
+    /// perfect one, was chosen by that rule and is the only other value
+    /// run: 0.87 of the time on 9 Brighton photos, quality bars held
+    /// (docs/performance.md, "Stop 55"). Above 0, a neighbour whose cost
+    /// fell by less is taken as unchanged, and its plane is not offered
+    /// again.
+    pub settle_cost: f32,
     /// Number of best source costs averaged per hypothesis (view selection:
     /// an occluded or mismatched source beyond the best k does not count).
     pub top_k_sources: usize,
@@ -146,6 +160,7 @@ impl Default for MvsParams {
             coarse_min_size: 160,
             fine_iterations: 2,
             seeded_random_candidates: false,
+            settle_cost: 0.01,
             top_k_sources: 3,
             seeded_sources: 4,
             max_sources: 8,
@@ -200,6 +215,12 @@ impl MvsParams {
             return bad(format!(
                 "sigma_spatial = {} and sigma_color = {} must be positive",
                 self.sigma_spatial, self.sigma_color
+            ));
+        }
+        if !(self.settle_cost >= 0.0 && self.settle_cost < 2.0) {
+            return bad(format!(
+                "settle_cost = {} must be in [0, 2) (a cost change; costs are in [0, 2])",
+                self.settle_cost
             ));
         }
         if self.coarse_levels > 0 && self.coarse_min_size < 2 * self.window_radius + 1 {
@@ -291,7 +312,7 @@ impl MvsParams {
     /// The defaults as TOML, each field preceded by its documentation.
     pub fn defaults_toml() -> String {
         let d = MvsParams::default();
-        let fields: [(&str, &str, String); 27] = [
+        let fields: [(&str, &str, String); 28] = [
             ("algorithm", "Dense matcher: \"patchmatch\" or \"sgm\" (semi-global matching, parameters in [sgm] below).", format!("\"{}\"", d.algorithm)),
             ("seed", "Seed of every random choice (same seed, same bytes for any thread count).", d.seed.to_string()),
             ("window_radius", "Half size of the matching window, pixels (5: an 11x11 window).", d.window_radius.to_string()),
@@ -305,6 +326,7 @@ impl MvsParams {
             ("fine_iterations", "Coarse-to-fine: iterations at each level finer than the coarsest (it starts from the coarser planes).", d.fine_iterations.to_string()),
             ("seeded_random_candidates", "Passes that start from solved planes (finer levels, geometric pass) also try a random depth and normal, not only a perturbation.", d.seeded_random_candidates.to_string()),
             ("top_k_sources", "View selection: the best k source costs are averaged per hypothesis.", d.top_k_sources.to_string()),
+            ("settle_cost", "Early stop per pixel: settled when neither it nor a neighbour lowered its cost by more than this at its last update (0: changed at all).", fmt_f(f64::from(d.settle_cost))),
             ("seeded_sources", "View selection in passes from solved planes: each pixel scores only its best this many sources for the seed plane (0: all).", d.seeded_sources.to_string()),
             ("max_sources", "Most source images per reference image.", d.max_sources.to_string()),
             ("depth_range_margin", "Margin on both sides of a depth range from sparse points, share of the range.", fmt_f(d.depth_range_margin)),

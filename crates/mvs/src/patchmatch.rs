@@ -342,7 +342,7 @@ impl Problem<'_> {
         // between two updates of a pixel: one that did not change offers
         // the same candidate the pixel already scored, against a best
         // that is at most as costly now, so skipping it changes nothing
-        // (bit for bit; `update`).
+        // (bit for bit, when any change counts: `settle_cost` 0; `update`).
         let mut changed = vec![true; w * h];
         let random_candidates = init.is_none() || self.params.seeded_random_candidates;
         let choose_at = (init.is_none() && choosing && iterations >= 2).then_some(iterations / 2);
@@ -352,7 +352,7 @@ impl Problem<'_> {
             }
             for colour in 0..2 {
                 let prev = state.clone();
-                let seen = (it > 0 && self.skip_unchanged).then(|| changed.clone());
+                let seen = (it > 0).then(|| changed.clone());
                 let step = pass + 1 + 2 * u64::from(it) + colour as u64;
                 state
                     .par_chunks_mut(w)
@@ -369,7 +369,7 @@ impl Problem<'_> {
                                 (x, y),
                                 (it, step, random_candidates),
                             );
-                            flags[x] = !same_bits(&old, &row[x]);
+                            flags[x] = self.changed(&old, &row[x]);
                             x += 2;
                         }
                     });
@@ -381,6 +381,17 @@ impl Problem<'_> {
             height: h,
             hyps: state,
             sources: chose.then_some(sources),
+        }
+    }
+
+    /// Whether an update changed a pixel: its hypothesis changed at all
+    /// (`settle_cost` 0), or its cost fell by more than `settle_cost`.
+    fn changed(&self, old: &Hyp, new: &Hyp) -> bool {
+        let settle = self.params.settle_cost;
+        if settle > 0.0 {
+            old.cost - new.cost > settle
+        } else {
+            !same_bits(old, new)
         }
     }
 
@@ -406,6 +417,23 @@ impl Problem<'_> {
         let w = self.image.width as usize;
         let h = self.image.height as usize;
         let idx = y * w + x;
+        // Settled: neither this pixel nor a neighbour it propagates from
+        // changed at its last update (see `settle_cost`).
+        if changed.is_some_and(|c| {
+            !c[idx]
+                && NEIGHBOURS.iter().flatten().all(|&(ox, oy)| {
+                    let (nx, ny) = (x as i32 + ox, y as i32 + oy);
+                    nx < 0
+                        || ny < 0
+                        || nx as usize >= w
+                        || ny as usize >= h
+                        || !c[ny as usize * w + nx as usize]
+                })
+        }) {
+            return prev[idx];
+        }
+        // Which candidates were scored before (see `run`).
+        let changed = changed.filter(|_| self.skip_unchanged);
         let ray = pixel_ray(&self.k, x, y);
         patch.build(self.image, x, y, &self.win);
         let mut best = prev[idx];
