@@ -323,18 +323,22 @@ fn warped_origin(win: &Window, u: f32, v: f32, h: &[f32; 9], src: &GreyImage) ->
     let span = (win.last() - win.first()) as f32;
     let x_max = src.width as f32 - 0.5 - EDGE_MARGIN;
     let y_max = src.height as f32 - 0.5 - EDGE_MARGIN;
-    for (cx, cy) in [(0.0, 0.0), (span, 0.0), (0.0, span), (span, span)] {
-        let z = c0 + h[6] * cx + h[7] * cy;
-        if !(z > 0.0) {
-            return None;
-        }
-        let x = (a0 + h[0] * cx + h[1] * cy) / z;
-        let y = (b0 + h[3] * cx + h[4] * cy) / z;
-        if !(x >= 0.5 + EDGE_MARGIN && y >= 0.5 + EDGE_MARGIN && x < x_max && y < y_max) {
-            return None;
-        }
+    // The four corners side by side, with no branch inside the loop, so
+    // that they are computed as one vector of four.
+    let (cx, cy) = ([0.0, span, 0.0, span], [0.0, 0.0, span, span]);
+    let mut inside = [false; 4];
+    for i in 0..4 {
+        let z = c0 + h[6] * cx[i] + h[7] * cy[i];
+        let iz = 1.0 / z;
+        let x = (a0 + h[0] * cx[i] + h[1] * cy[i]) * iz;
+        let y = (b0 + h[3] * cx[i] + h[4] * cy[i]) * iz;
+        inside[i] = z > 0.0
+            && x >= 0.5 + EDGE_MARGIN
+            && y >= 0.5 + EDGE_MARGIN
+            && x < x_max
+            && y < y_max;
     }
-    Some([a0, b0, c0])
+    (inside[0] & inside[1] & inside[2] & inside[3]).then_some([a0, b0, c0])
 }
 
 /// Weighted sums (w s, w s^2, w r s) over the full window grid.
