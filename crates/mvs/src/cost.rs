@@ -332,11 +332,8 @@ fn warped_origin(win: &Window, u: f32, v: f32, h: &[f32; 9], src: &GreyImage) ->
         let iz = 1.0 / z;
         let x = (a0 + h[0] * cx[i] + h[1] * cy[i]) * iz;
         let y = (b0 + h[3] * cx[i] + h[4] * cy[i]) * iz;
-        inside[i] = z > 0.0
-            && x >= 0.5 + EDGE_MARGIN
-            && y >= 0.5 + EDGE_MARGIN
-            && x < x_max
-            && y < y_max;
+        inside[i] =
+            z > 0.0 && x >= 0.5 + EDGE_MARGIN && y >= 0.5 + EDGE_MARGIN && x < x_max && y < y_max;
     }
     (inside[0] & inside[1] & inside[2] & inside[3]).then_some([a0, b0, c0])
 }

@@ -14,7 +14,7 @@ use vp_scene::raycast::RayCaster;
 use vp_scene::{Camera, Mesh};
 
 use crate::error::{PlannerError, Result};
-use crate::flight_path::PathContext;
+use crate::flight_path::{Block, PathContext};
 use crate::flights::assign_flights;
 use crate::free_space::{free_space, observations_from_mesh, UnknownSpace};
 use crate::fulfillment::{sample_triangles, Fulfillment};
@@ -284,6 +284,43 @@ fn plan_file(
     Ok(plan)
 }
 
+/// With a home, a plan left without a waypoint because every triplet chosen
+/// was dropped is refused: there is nothing to fly, and an empty mission
+/// would only fail at the upload. The words lead with the ways from home
+/// when any was blocked (the usual cause: a home at the edge of what the
+/// first flight observed), and say what to change. Without a home (the
+/// simulated campaigns) the empty plan is returned, its drops listed.
+fn nothing_to_fly(inputs: &PlanInputs, flown: &Flown, plan: &Plan) -> Option<PlannerError> {
+    let home = inputs.home?;
+    if !plan.waypoints.is_empty() || flown.dropped.is_empty() {
+        return None;
+    }
+    let n = flown.dropped.len();
+    let from_home: Vec<&str> = flown
+        .dropped
+        .iter()
+        .zip(&plan.dropped_triplets)
+        .filter(|((d, _), _)| matches!(d.block, Block::Home { .. }))
+        .map(|(_, t)| t.reason.as_str())
+        .collect();
+    Some(PlannerError::Refused(match from_home.first() {
+        Some(first) => format!(
+            "no planned view can be flown from home at ({:.2}, {:.2}, {:.2}): each of the {n} \
+             triplets chosen was dropped, {} of them for the way from home (the first: {first}). \
+             Take off from an open spot that the first flight observed (`--home`), or extend \
+             the first flight over the space around home, then plan again",
+            home.x,
+            home.y,
+            home.z,
+            from_home.len()
+        ),
+        None => format!(
+            "every triplet chosen was dropped ({n}), nothing is left to fly: {}",
+            replace::reasons(&plan.dropped_triplets).join("; ")
+        ),
+    }))
+}
+
 /// M4's path builder for `inputs`.
 fn path_context<'a>(
     inputs: &PlanInputs<'a>,
@@ -402,6 +439,9 @@ pub fn plan(inputs: &PlanInputs) -> Result<PlanResult> {
     with_module_times(&mut flown.m3.iterations, &times);
 
     let mut plan = plan_file(inputs, &safety, &ctx, &flown, cut.clone())?;
+    if let Some(refusal) = nothing_to_fly(inputs, &flown, &plan) {
+        return Err(refusal);
+    }
     plan.statistics.total_time_s = Some(secs(t0.elapsed()));
     let sampled = sampled_results(&ful, &selected);
     let unbridged = plan.unbridged.clone();

@@ -205,3 +205,58 @@ fn early_stop_gap_against_exhaustive_search() {
         report.join("\n")
     );
 }
+
+/// A home in a walled pit that no way out of clears under the ceiling:
+/// every triplet chosen is dropped for its way from home, and the plan is
+/// refused, naming home, the first blocked way and what to change (it was
+/// returned empty, after four rounds of replacements). Without the pit the
+/// same home flies a plan.
+#[test]
+fn a_home_no_way_leaves_refuses_the_plan_naming_home() {
+    use nalgebra::Point3;
+    use vp_scene::procedural::shapes;
+    let s = site(5, 20_000);
+    let cfg = test_config(&s);
+    let v = s.flight_volume;
+    let ceiling = cfg.altitude_limits.map_or(v.max.z, |a| a.max_m);
+    let half = 0.15 * (v.max.x - v.min.x).min(v.max.y - v.min.y);
+    let home = common::open_home(&s.mesh, 5, half, ceiling).expect("an open spot on the ground");
+    let acquired = initial_views(&s);
+    let plan = |mesh: &vp_scene::Mesh| {
+        vp_planner::plan(&PlanInputs {
+            mesh,
+            acquired: &acquired,
+            roi: RoiSpec::Region(Roi::from_aabb(&s.rock_bounds)),
+            config: &cfg,
+            origin: Some(s.origin),
+            observations: None,
+            home: Some(home),
+        })
+    };
+    let open = plan(&s.mesh).expect("a plan from the open home");
+    assert!(!open.plan.waypoints.is_empty());
+    // Four walls 6 m from home, far above the ceiling.
+    let mut pit = s.mesh.clone();
+    let (r, t, top) = (6.0, 1.0, ceiling + 50.0);
+    for (dx0, dy0, dx1, dy1) in [
+        (-r - t, -r - t, r + t, -r),
+        (-r - t, r, r + t, r + t),
+        (-r - t, -r, -r, r),
+        (r, -r, r + t, r),
+    ] {
+        pit.append(&shapes::box_mesh(
+            Point3::new(home.x + dx0, home.y + dy0, home.z - 1.0),
+            Point3::new(home.x + dx1, home.y + dy1, top),
+        ));
+    }
+    let e = plan(&pit).unwrap_err();
+    let m = e.to_string();
+    let at = format!("from home at ({:.2}, {:.2}, {:.2})", home.x, home.y, home.z);
+    assert!(
+        matches!(e, PlannerError::Refused(_))
+            && m.contains(&at)
+            && m.contains("for the way from home (the first: no safe way between home")
+            && m.contains("`--home`"),
+        "{m}"
+    );
+}
