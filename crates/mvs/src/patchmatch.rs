@@ -309,34 +309,15 @@ impl Problem<'_> {
         let chosen = chosen.filter(|c| choosing && c.len() == w * h);
         let subset = init.is_some() && choosing && chosen.is_none();
         let mut sources = chosen.map_or_else(|| vec![self.all_sources(); w * h], <[u32]>::to_vec);
-        state
-            .par_chunks_mut(w)
-            .zip(sources.par_chunks_mut(w))
-            .enumerate()
-            .for_each(|(y, (row, masks))| {
-                let mut patch = RefPatch::default();
-                for (x, (hyp, mask)) in row.iter_mut().zip(masks).enumerate() {
-                    let idx = y * w + x;
-                    let ray = pixel_ray(&self.k, x, y);
-                    let (d, n) = if let Some(seed) = init {
-                        seed(idx)
-                    } else {
-                        let mut rng =
-                            PixelRng::new(self.params.seed, self.view_key, idx as u64, pass);
-                        let d = self.random_depth(&mut rng);
-                        (d, random_normal(&mut rng, &ray))
-                    };
-                    patch.build(self.image, x, y, &self.win);
-                    let (cost, photo) = if subset {
-                        let (costs, kept) = self.seed_sources(&patch, (x, y), &ray, (d, &n), keep);
-                        *mask = kept;
-                        costs
-                    } else {
-                        self.cost(&patch, (x, y), &ray, d, &n, f32::INFINITY, *mask)
-                    };
-                    *hyp = Hyp { d, n, cost, photo };
-                }
-            });
+        let start = |idx: usize, ray: &[f32; 3], _: &Hyp| match init {
+            Some(seed) => seed(idx),
+            None => {
+                let mut rng = PixelRng::new(self.params.seed, self.view_key, idx as u64, pass);
+                let d = self.random_depth(&mut rng);
+                (d, random_normal(&mut rng, ray))
+            }
+        };
+        self.score_planes((&mut state, &mut sources), subset.then_some(keep), &start);
         // Whether each pixel's hypothesis changed at its last update. Every
         // propagation neighbour is of the other colour, updated in the half
         // between two updates of a pixel: one that did not change offers
@@ -348,7 +329,10 @@ impl Problem<'_> {
         let choose_at = (init.is_none() && choosing && iterations >= 2).then_some(iterations / 2);
         for it in 0..iterations {
             if choose_at == Some(it) {
-                self.choose_sources(&mut state, &mut sources, keep);
+                // The current planes, on their best sources (their costs
+                // stay the same: see above).
+                let current = |_: usize, _: &[f32; 3], hyp: &Hyp| (hyp.d, hyp.n);
+                self.score_planes((&mut state, &mut sources), Some(keep), &current);
             }
             for colour in 0..2 {
                 let prev = state.clone();

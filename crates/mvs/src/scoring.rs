@@ -11,9 +11,16 @@ use crate::geom_term::reprojection_error;
 use crate::view::pixel_ray;
 
 impl Problem<'_> {
-    /// Chooses every pixel's `keep` best sources for its current plane
-    /// (its costs stay the same; see `run`).
-    pub(super) fn choose_sources(&self, state: &mut [Hyp], sources: &mut [u32], keep: usize) {
+    /// Sets every pixel's hypothesis to the plane `plane(pixel index, its
+    /// ray, its current hypothesis)` gives, scored on the pixel's sources
+    /// (bit masks in `sources`), or with `choose`, on that many sources
+    /// best for the plane, which then become the pixel's sources.
+    pub(super) fn score_planes(
+        &self,
+        (state, sources): (&mut [Hyp], &mut [u32]),
+        choose: Option<usize>,
+        plane: &(dyn Fn(usize, &[f32; 3], &Hyp) -> (f32, [f32; 3]) + Sync),
+    ) {
         let w = self.image.width as usize;
         state
             .par_chunks_mut(w)
@@ -22,12 +29,17 @@ impl Problem<'_> {
             .for_each(|(y, (row, masks))| {
                 let mut patch = RefPatch::default();
                 for (x, (hyp, mask)) in row.iter_mut().zip(masks).enumerate() {
-                    patch.build(self.image, x, y, &self.win);
                     let ray = pixel_ray(&self.k, x, y);
-                    let ((cost, photo), kept) =
-                        self.seed_sources(&patch, (x, y), &ray, (hyp.d, &hyp.n), keep);
-                    *mask = kept;
-                    (hyp.cost, hyp.photo) = (cost, photo);
+                    let (d, n) = plane(y * w + x, &ray, hyp);
+                    patch.build(self.image, x, y, &self.win);
+                    let (cost, photo) = if let Some(keep) = choose {
+                        let (costs, kept) = self.seed_sources(&patch, (x, y), &ray, (d, &n), keep);
+                        *mask = kept;
+                        costs
+                    } else {
+                        self.cost(&patch, (x, y), &ray, d, &n, f32::INFINITY, *mask)
+                    };
+                    *hyp = Hyp { d, n, cost, photo };
                 }
             });
     }
