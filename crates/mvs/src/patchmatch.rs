@@ -97,6 +97,10 @@ pub(crate) struct RawState {
 /// plane (the coarser level's, upsampled, or the photometric pass's).
 type Seed<'a> = &'a (dyn Fn(usize) -> (f32, [f32; 3]) + Sync);
 
+/// A plane for every pixel: (pixel index, its ray, its current
+/// hypothesis) -> (depth, normal).
+type PlaneOf<'a> = &'a (dyn Fn(usize, &[f32; 3], &Hyp) -> (f32, [f32; 3]) + Sync);
+
 /// Runs PatchMatch for `views[reference]` against `views[s]` for `s` in
 /// `sources`.
 ///
@@ -309,13 +313,13 @@ impl Problem<'_> {
         let chosen = chosen.filter(|c| choosing && c.len() == w * h);
         let subset = init.is_some() && choosing && chosen.is_none();
         let mut sources = chosen.map_or_else(|| vec![self.all_sources(); w * h], <[u32]>::to_vec);
-        let start = |idx: usize, ray: &[f32; 3], _: &Hyp| match init {
-            Some(seed) => seed(idx),
-            None => {
-                let mut rng = PixelRng::new(self.params.seed, self.view_key, idx as u64, pass);
-                let d = self.random_depth(&mut rng);
-                (d, random_normal(&mut rng, ray))
+        let start = |idx: usize, ray: &[f32; 3], _: &Hyp| {
+            if let Some(seed) = init {
+                return seed(idx);
             }
+            let mut rng = PixelRng::new(self.params.seed, self.view_key, idx as u64, pass);
+            let d = self.random_depth(&mut rng);
+            (d, random_normal(&mut rng, ray))
         };
         self.score_planes((&mut state, &mut sources), subset.then_some(keep), &start);
         // Whether each pixel's hypothesis changed at its last update. Every

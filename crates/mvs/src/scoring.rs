@@ -5,7 +5,7 @@
 
 use rayon::prelude::*;
 
-use super::{Hyp, Problem, MAX_SOURCES};
+use super::{Hyp, PlaneOf, Problem, MAX_SOURCES};
 use crate::cost::{aggregate, aggregate_lower_bound, plane_row, source_cost, RefPatch, MAX_COST};
 use crate::geom_term::reprojection_error;
 use crate::view::pixel_ray;
@@ -19,7 +19,7 @@ impl Problem<'_> {
         &self,
         (state, sources): (&mut [Hyp], &mut [u32]),
         choose: Option<usize>,
-        plane: &(dyn Fn(usize, &[f32; 3], &Hyp) -> (f32, [f32; 3]) + Sync),
+        plane: PlaneOf<'_>,
     ) {
         let w = self.image.width as usize;
         state
