@@ -29,8 +29,12 @@ pub struct MvsParams {
     /// farthest from the centre (the smallest spatial weight, e^-1 of the
     /// centre's at the defaults), and without them the default 6x6 grid's
     /// 32 samples fill four 8-lane chunks of the cost's hot loop exactly,
-    /// where 36 need five: 4/5 of the per-sample work
-    /// (docs/performance.md, "Stop 55").
+    /// where 36 need five. Off by default: it saved about 5 % of the time
+    /// on Brighton, but cost depth precision where the window is large
+    /// against the image (median error on a 96 x 72 rendered triplet about
+    /// 3 % higher, past the Python binding test's 1 % bar; the rendered
+    /// peer pair's geometric map 0.7-0.8 points lower; docs/performance.md,
+    /// "Stop 55").
     pub window_drop_corners: bool,
     /// Spatial sigma of the bilateral weights, pixels.
     pub sigma_spatial: f32,
@@ -152,7 +156,7 @@ impl Default for MvsParams {
             seed: 0,
             window_radius: 5,
             window_step: 2,
-            window_drop_corners: true,
+            window_drop_corners: false,
             sigma_spatial: 5.0,
             sigma_color: 0.1,
             iterations: 6,
