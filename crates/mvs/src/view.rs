@@ -43,7 +43,8 @@ impl GreyImage {
     }
 
     /// Bilinear intensity at continuous image coordinates (pixel (i, j) has
-    /// its centre at (i + 0.5, j + 0.5)); `None` when a tap falls outside.
+    /// its centre at (i + 0.5, j + 0.5)); `None` outside the span of the
+    /// pixel centres.
     #[inline]
     pub fn sample(&self, u: f32, v: f32) -> Option<f32> {
         let fx = u - 0.5;
@@ -52,15 +53,22 @@ impl GreyImage {
             return None;
         }
         let (x0, y0) = (fx as usize, fy as usize);
-        let w = self.width as usize;
-        if x0 + 1 >= w || y0 + 1 >= self.height as usize {
+        let (w, h) = (self.width as usize, self.height as usize);
+        if w == 0 || h == 0 {
+            return None;
+        }
+        // Up to the last pixel centre itself: a position exactly on the
+        // last row or column (a rectified pair maps rows onto rows exactly)
+        // is inside, its next row or column weighted 0.
+        if !(fx <= (w - 1) as f32 && fy <= (h - 1) as f32) {
             return None;
         }
         let (ax, ay) = (fx - x0 as f32, fy - y0 as f32);
+        let (dx, dy) = (usize::from(x0 + 1 < w), if y0 + 1 < h { w } else { 0 });
         let i = y0 * w + x0;
         let d = &self.data;
-        let top = d[i] + ax * (d[i + 1] - d[i]);
-        let bottom = d[i + w] + ax * (d[i + w + 1] - d[i + w]);
+        let top = d[i] + ax * (d[i + dx] - d[i]);
+        let bottom = d[i + dy] + ax * (d[i + dy + dx] - d[i + dy]);
         Some(top + ay * (bottom - top))
     }
 }
@@ -182,4 +190,34 @@ pub(crate) fn unproject(camera: &Camera, x: usize, y: usize, d: f64) -> Point3<f
         d,
     );
     camera.world_from_cam * p
+}
+
+#[cfg(test)]
+mod tests {
+    use super::GreyImage;
+
+    /// A position exactly on the last pixel centre (where a rectified
+    /// pair's homography maps the last row) is inside; beyond it is not.
+    #[test]
+    fn sampling_reaches_the_last_row_and_column_and_stops_there() {
+        let img = GreyImage {
+            width: 3,
+            height: 2,
+            data: vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0],
+        };
+        assert_eq!(img.sample(2.5, 1.5), Some(5.0));
+        assert_eq!(img.sample(2.5, 0.5), Some(2.0));
+        assert_eq!(img.sample(1.5, 1.5), Some(4.0));
+        assert_eq!(img.sample(2.0, 1.5), Some(4.5));
+        assert_eq!(img.sample(1.0, 1.0), Some(2.0));
+        assert_eq!(img.sample(2.51, 1.5), None);
+        assert_eq!(img.sample(2.5, 1.51), None);
+        assert_eq!(img.sample(0.49, 1.0), None);
+        let empty = GreyImage {
+            width: 0,
+            height: 0,
+            data: vec![],
+        };
+        assert_eq!(empty.sample(0.5, 0.5), None);
+    }
 }
