@@ -52,11 +52,20 @@ pub(crate) fn upsample(
     worst: f32,
 ) -> RawState {
     let mut hyps = Vec::with_capacity(width * height);
+    // Each pixel keeps its parent's choice of sources, too.
+    let mut sources = coarse
+        .sources
+        .as_ref()
+        .map(|_| Vec::with_capacity(width * height));
     for y in 0..height {
         let cy = (y / 2).min(coarse.height - 1);
         for x in 0..width {
             let cx = (x / 2).min(coarse.width - 1);
-            let parent = coarse.hyps[cy * coarse.width + cx];
+            let at = cy * coarse.width + cx;
+            let parent = coarse.hyps[at];
+            if let (Some(out), Some(masks)) = (sources.as_mut(), coarse.sources.as_ref()) {
+                out.push(masks[at]);
+            }
             let n = parent.n;
             let rc = pixel_ray(coarse_k, cx, cy);
             let rf = pixel_ray(k, x, y);
@@ -76,16 +85,6 @@ pub(crate) fn upsample(
             });
         }
     }
-    // Each pixel keeps its parent's choice of sources.
-    let sources = coarse.sources.as_ref().map(|masks| {
-        (0..width * height)
-            .map(|i| {
-                let cy = (i / width / 2).min(coarse.height - 1);
-                let cx = (i % width / 2).min(coarse.width - 1);
-                masks[cy * coarse.width + cx]
-            })
-            .collect()
-    });
     RawState {
         width,
         height,
