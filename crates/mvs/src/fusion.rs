@@ -5,6 +5,7 @@ use std::io::Write as _;
 use std::path::Path;
 
 use nalgebra::{Point3, Vector3};
+use rayon::prelude::*;
 
 use crate::error::Result;
 use crate::geometric::consistent_pixel;
@@ -29,12 +30,28 @@ pub struct FusedPoint {
     pub views: Vec<usize>,
 }
 
+/// Rows of a reference whose consistent source pixels are found at once
+/// (in parallel) before they are grouped (in order): 64 rows of a 2000 px
+/// image with 8 sources hold 4 MB of matches.
+const FUSE_ROWS: usize = 64;
+
+/// No consistent pixel in that source.
+const NO_MATCH: u32 = u32::MAX;
+
 /// Fuses the geometric maps: every kept pixel not yet used starts a point
 /// with the pixels of its sources that agree with it (and are themselves
 /// kept and unused); the group becomes a point when it has at least
 /// `min_fused_pixels` members. Views in index order, pixels row-major:
 /// deterministic. A simplification of COLMAP's stereo_fusion, which grows
 /// each group recursively from the members' own sources.
+///
+/// # Performance
+/// The agreement test ([`consistent_pixel`]) is most of the work, and it
+/// does not depend on which pixels are used: it runs for a block of rows
+/// in parallel, then the block is grouped in order. No pixel of the
+/// reference is used while it is the reference (its sources are other
+/// views), so its unused pixels are known before the block starts: the
+/// same points as testing pixel by pixel.
 pub fn fuse(
     views: &[View],
     maps: &[Option<DepthNormalMap>],
@@ -50,59 +67,99 @@ pub fn fuse(
         .collect();
     let mut points = Vec::new();
     let mut members: Vec<(usize, usize)> = Vec::new();
+    let mut matches: Vec<u32> = Vec::new();
     for (r, map) in maps.iter().enumerate() {
         let Some(map) = map else { continue };
         let view = &views[r];
         let w = map.width as usize;
-        for idx in 0..map.depth.len() {
-            let d = map.depth[idx];
-            if !(d > 0.0) || used[r][idx] {
-                continue;
-            }
-            let (x, y) = (idx % w, idx / w);
-            members.clear();
-            members.push((r, idx));
-            for &s in sources.get(r).map_or(&[][..], Vec::as_slice) {
-                let Some(Some(sm)) = maps.get(s) else {
+        let srcs: Vec<(usize, &DepthNormalMap)> = sources
+            .get(r)
+            .map_or(&[][..], Vec::as_slice)
+            .iter()
+            .filter_map(|&s| Some((s, maps.get(s)?.as_ref()?)))
+            .collect();
+        let m = srcs.len().max(1);
+        for block in (0..map.depth.len()).step_by(FUSE_ROWS * w) {
+            let end = (block + FUSE_ROWS * w).min(map.depth.len());
+            let free = &used[r][block..end];
+            matches.clear();
+            matches.resize((end - block) * m, NO_MATCH);
+            matches
+                .par_chunks_mut(w * m)
+                .enumerate()
+                .for_each(|(row, out)| {
+                    for (x, out) in out.chunks_mut(m).enumerate() {
+                        let i = row * w + x;
+                        let d = map.depth[block + i];
+                        if !(d > 0.0) || free[i] {
+                            continue;
+                        }
+                        let y = (block + i) / w;
+                        for (o, &(s, sm)) in out.iter_mut().zip(&srcs) {
+                            if let Some(j) = consistent_pixel(view, &views[s], sm, x, y, d, params)
+                            {
+                                *o = j as u32;
+                            }
+                        }
+                    }
+                });
+            for idx in block..end {
+                let d = map.depth[idx];
+                if !(d > 0.0) || used[r][idx] {
                     continue;
-                };
-                if let Some(j) = consistent_pixel(view, &views[s], sm, x, y, d, params) {
-                    if !used[s][j] {
-                        members.push((s, j));
+                }
+                members.clear();
+                members.push((r, idx));
+                let found = &matches[(idx - block) * m..(idx - block + 1) * m];
+                for (&j, &(s, _)) in found.iter().zip(&srcs) {
+                    if j != NO_MATCH && !used[s][j as usize] {
+                        members.push((s, j as usize));
                     }
                 }
-            }
-            if members.len() < params.min_fused_pixels {
-                continue;
-            }
-            let mut pos = Vector3::zeros();
-            let mut normal = Vector3::zeros();
-            let mut color = [0.0f64; 3];
-            for &(v, j) in &members {
-                let m = maps[v].as_ref().expect("members have maps");
-                let mw = m.width as usize;
-                let cam = &views[v].camera;
-                pos += unproject(cam, j % mw, j / mw, f64::from(m.depth[j])).coords;
-                let n = m.normal[j];
-                normal += cam.world_from_cam.rotation
-                    * Vector3::new(f64::from(n[0]), f64::from(n[1]), f64::from(n[2]));
-                let px = views[v].rgb.get_pixel((j % mw) as u32, (j / mw) as u32);
-                for c in 0..3 {
-                    color[c] += f64::from(px[c]);
+                if members.len() < params.min_fused_pixels {
+                    continue;
                 }
-                used[v][j] = true;
+                points.push(fused_point(views, maps, &members));
+                for &(v, j) in &members {
+                    used[v][j] = true;
+                }
             }
-            let k = members.len() as f64;
-            points.push(FusedPoint {
-                position: Point3::from(pos / k),
-                normal: normal.try_normalize(0.0).unwrap_or_else(Vector3::z),
-                color: color.map(|c| (c / k).round().clamp(0.0, 255.0) as u8),
-                n_pixels: members.len(),
-                views: members.iter().map(|&(v, _)| v).collect(),
-            });
         }
     }
     points
+}
+
+/// The point of a group of agreeing pixels: the mean of their points,
+/// normals and colours.
+fn fused_point(
+    views: &[View],
+    maps: &[Option<DepthNormalMap>],
+    members: &[(usize, usize)],
+) -> FusedPoint {
+    let mut pos = Vector3::zeros();
+    let mut normal = Vector3::zeros();
+    let mut color = [0.0f64; 3];
+    for &(v, j) in members {
+        let m = maps[v].as_ref().expect("members have maps");
+        let mw = m.width as usize;
+        let cam = &views[v].camera;
+        pos += unproject(cam, j % mw, j / mw, f64::from(m.depth[j])).coords;
+        let n = m.normal[j];
+        normal += cam.world_from_cam.rotation
+            * Vector3::new(f64::from(n[0]), f64::from(n[1]), f64::from(n[2]));
+        let px = views[v].rgb.get_pixel((j % mw) as u32, (j / mw) as u32);
+        for c in 0..3 {
+            color[c] += f64::from(px[c]);
+        }
+    }
+    let k = members.len() as f64;
+    FusedPoint {
+        position: Point3::from(pos / k),
+        normal: normal.try_normalize(0.0).unwrap_or_else(Vector3::z),
+        color: color.map(|c| (c / k).round().clamp(0.0, 255.0) as u8),
+        n_pixels: members.len(),
+        views: members.iter().map(|&(v, _)| v).collect(),
+    }
 }
 
 /// Writes `points` as a binary little-endian PLY (x y z nx ny nz as float,
