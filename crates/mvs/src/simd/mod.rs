@@ -1,17 +1,19 @@
-//! The full-window NCC sums with AVX2 gathers: the one place of vp-mvs
-//! with `unsafe` code.
+//! The full-window NCC sums with AVX2: the one place of vp-mvs with
+//! `unsafe` code.
 //!
 //! Why: the sums' time goes mostly to the four bilinear taps of each window
 //! sample, read one by one from indices the vectorised coordinate code has
 //! to spill first (docs/performance.md, "vp-mvs, one 1024x1024 triplet").
-//! AVX2 gathers read eight of them at once. `std::arch`'s gathers, loads
-//! and the call into a `#[target_feature]` function are `unsafe`; the
+//! The AVX2 code computes eight samples' indices at once and reads each
+//! sample's two taps of a row as one 64-bit load (AVX2 gathers did the
+//! same at 1.05x the time). `std::arch`'s loads, stores and the call into a
+//! `#[target_feature]` function are `unsafe`; the
 //! workspace denies unsafe code everywhere else, and here it follows the
 //! team's rules:
 //! - AVX2 is detected at run time ([`Avx2::detect`]); the token proving it
 //!   is the only way to reach the AVX2 code, and the safe scalar loop in
 //!   `cost.rs` remains the path on other CPUs and architectures;
-//! - every gather index is clamped in-register to the image's bounds, so no
+//! - every tap index is clamped in-register to the image's bounds, so no
 //!   input (a wrong homography, NaN coordinates, padding lanes) can read
 //!   outside the slice, whatever the callers' invariants;
 //! - every vector load is from a bounds-checked fixed-size array;
@@ -118,13 +120,11 @@ mod x86 {
     use crate::cost::{chunk, CHUNK};
     use std::arch::x86_64::{
         __m256, __m256i, _mm256_add_epi32, _mm256_add_ps, _mm256_and_ps, _mm256_blendv_ps,
-        _mm256_castpd_ps, _mm256_castps_si256, _mm256_castsi256_ps, _mm256_castsi256_si128,
-        _mm256_cmp_ps, _mm256_cmpgt_epi32, _mm256_div_ps, _mm256_extracti128_si256,
-        _mm256_i32gather_pd, _mm256_loadu_ps, _mm256_max_epi32, _mm256_min_epi32, _mm256_mul_ps,
-        _mm256_mullo_epi32, _mm256_permute4x64_epi64, _mm256_set1_epi32, _mm256_set1_ps,
-        _mm256_setr_epi32, _mm256_setzero_ps, _mm256_setzero_si256, _mm256_shuffle_ps,
-        _mm256_storeu_ps, _mm256_sub_epi32, _mm256_sub_ps, _mm_add_epi32, _mm_set1_epi32,
-        _CMP_GT_OQ,
+        _mm256_castpd_ps, _mm256_castps_si256, _mm256_castsi256_ps, _mm256_cmp_ps,
+        _mm256_cmpgt_epi32, _mm256_div_ps, _mm256_loadu_ps, _mm256_max_epi32, _mm256_min_epi32,
+        _mm256_mul_ps, _mm256_mullo_epi32, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setr_epi32,
+        _mm256_setr_pd, _mm256_setzero_ps, _mm256_setzero_si256, _mm256_shuffle_ps,
+        _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_epi32, _mm256_sub_ps, _CMP_GT_OQ,
     };
 
     /// Eight floats from a bounds-checked array.
@@ -166,7 +166,7 @@ mod x86 {
         // `data.len()` fits in an i32.
         let last = _mm256_set1_epi32((data.len() - sw - 2) as i32);
         let zero_i = _mm256_setzero_si256();
-        let (sw_i, sw4) = (_mm256_set1_epi32(sw as i32), _mm_set1_epi32(sw as i32));
+        let sw_i = _mm256_set1_epi32(sw as i32);
         let (hx0, hx1, hx3, hx4, hx6, hx7) = (
             _mm256_set1_ps(h[0]),
             _mm256_set1_ps(h[1]),
@@ -207,33 +207,35 @@ mod x86 {
             let ay = _mm256_sub_ps(fy, yf);
             let i0 = _mm256_add_epi32(_mm256_mullo_epi32(y0, sw_i), x0);
             let i0 = _mm256_min_epi32(_mm256_max_epi32(i0, zero_i), last);
-            // The two taps of a cell row are adjacent: gather them as
-            // one 64-bit pair per lane, four lanes a gather, lanes
-            // {0, 1, 4, 5} then {2, 3, 6, 7}, so that one in-lane
-            // shuffle per tap puts the eight lanes back in order.
-            let perm = _mm256_permute4x64_epi64::<0b11_01_10_00>(i0);
-            let (lo, hi) = (
-                _mm256_castsi256_si128(perm),
-                _mm256_extracti128_si256::<1>(perm),
-            );
-            let (lo_b, hi_b) = (_mm_add_epi32(lo, sw4), _mm_add_epi32(hi, sw4));
-            // Only the gathers read through `p`, and they need no
-            // alignment.
-            #[allow(clippy::cast_ptr_alignment)]
-            let p = data.as_ptr().cast::<f64>();
-            // SAFETY: every lane of `i0` is in [0, data.len() - sw - 2]
-            // (clamped just above), so the 8 bytes at f32 index i0 and
-            // at i0 + sw (floats i0, i0 + 1, i0 + sw, i0 + sw + 1) lie
-            // in `data`; the scale 4 is f32's size, and gathers need no
-            // alignment.
-            let (top_lo, top_hi, bot_lo, bot_hi) = unsafe {
-                (
-                    _mm256_castpd_ps(_mm256_i32gather_pd::<4>(p, lo)),
-                    _mm256_castpd_ps(_mm256_i32gather_pd::<4>(p, hi)),
-                    _mm256_castpd_ps(_mm256_i32gather_pd::<4>(p, lo_b)),
-                    _mm256_castpd_ps(_mm256_i32gather_pd::<4>(p, hi_b)),
-                )
+            // The two taps of a cell row are adjacent: read them as one
+            // 64-bit pair per lane, lanes {0, 1, 4, 5} into one vector and
+            // {2, 3, 6, 7} into another, so that one in-lane shuffle per
+            // tap puts the eight lanes back in order. Two 64-bit loads per
+            // 128-bit half, not an AVX2 gather: 0.95 of the time on
+            // `paper_1024` (docs/performance.md, "Stop 56").
+            let mut idx = [0i32; CHUNK];
+            // SAFETY: `idx` is 8 writable i32s; the store is unaligned.
+            unsafe { _mm256_storeu_si256(idx.as_mut_ptr().cast(), i0) };
+            let p = data.as_ptr();
+            let four = |l: [usize; 4], off: usize| {
+                // SAFETY: every lane of `idx` is in [0, data.len() - sw - 2]
+                // (clamped just above) and `off` is 0 or sw, so the two
+                // floats at each idx + off lie in `data`; `read_unaligned`
+                // needs no alignment.
+                #[allow(clippy::cast_ptr_alignment)]
+                let pair = |i: usize| unsafe {
+                    p.add(idx[l[i]] as usize + off)
+                        .cast::<f64>()
+                        .read_unaligned()
+                };
+                _mm256_castpd_ps(_mm256_setr_pd(pair(0), pair(1), pair(2), pair(3)))
             };
+            let (top_lo, top_hi, bot_lo, bot_hi) = (
+                four([0, 1, 4, 5], 0),
+                four([2, 3, 6, 7], 0),
+                four([0, 1, 4, 5], sw),
+                four([2, 3, 6, 7], sw),
+            );
             let c00 = _mm256_shuffle_ps::<0b10_00_10_00>(top_lo, top_hi);
             let c01 = _mm256_shuffle_ps::<0b11_01_11_01>(top_lo, top_hi);
             let c10 = _mm256_shuffle_ps::<0b10_00_10_00>(bot_lo, bot_hi);
