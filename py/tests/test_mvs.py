@@ -143,7 +143,10 @@ def rendered_triplet(site, size=(96, 72)):
 
 
 def test_patch_match_in_memory_returns_maps_near_the_truth(site):
-    cams, renders = rendered_triplet(site)
+    # 128 x 96, not 96 x 72: at 96 x 72 the worst view's median error sits
+    # at 0.91-1.00 % for seeds 1-8, the matcher's precision floor there, so
+    # the 1 % bar below read noise; at 128 x 96 it is 0.64-0.70 %.
+    cams, renders = rendered_triplet(site, size=(128, 96))
     images = [r["rgb"] for r in renders]
     truth = [r["depth"] for r in renders]
     valid = np.concatenate([t[t > 0] for t in truth])
@@ -153,8 +156,8 @@ def test_patch_match_in_memory_returns_maps_near_the_truth(site):
     maps = vpctl.mvs.patch_match(images, cams, depth_range, sources=sources, params=params, seed=1)
     assert len(maps) == 3
     for (depth, normal, cost), t in zip(maps, truth):
-        assert depth.shape == (72, 96) and depth.dtype == np.float32
-        assert normal.shape == (72, 96, 3) and cost.shape == (72, 96)
+        assert depth.shape == (96, 128) and depth.dtype == np.float32
+        assert normal.shape == (96, 128, 3) and cost.shape == (96, 128)
         kept = depth > 0
         assert kept.mean() > 0.2, kept.mean()
         # Unit normals where a depth is kept, zero elsewhere.
