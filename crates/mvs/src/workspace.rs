@@ -15,7 +15,7 @@ use vp_scene::Camera;
 use crate::error::{MvsError, Result};
 use crate::params::MvsParams;
 use crate::sources::{best_sources, frustum_sources};
-use crate::view::{check_depth_range, View};
+use crate::view::{check_depth_range, GreyImage, View};
 use vp_scene::triangulation::triangulation_angle_deg;
 
 /// One image of the sparse model.
@@ -410,12 +410,27 @@ pub fn run_workspace(
     let ranges = ws.depth_ranges(&selected, options.depth_range, params.depth_range_margin)?;
     let sources = ws.sources(&selected, &ranges, params)?;
     progress(&format!("loading {} images", selected.len()));
-    let views = ws.load_views(&selected, &ranges)?;
+    let mut views = ws.load_views(&selected, &ranges)?;
     // Each photometric map goes to disk as soon as it is final: it is
     // not held beside the other views' passes and the fused cloud.
-    let geometric = crate::reconstruct_maps(&views, &sources, params, progress, &mut |r, map| {
-        write_maps(root, &views[r].name, "photometric", &map)
-    })?;
+    let mut geometric =
+        crate::reconstruct_maps(&views, &sources, params, progress, &mut |r, map| {
+            write_maps(root, &views[r].name, "photometric", &map)
+        })?;
+    // Fusion holds every geometric map and the growing cloud: the memory
+    // peak. It reads depths, normals and colours only, and no map's costs
+    // are written: the costs (4 bytes a pixel) and the grey images (4
+    // more) are let go first.
+    for map in geometric.iter_mut().flatten() {
+        map.cost = Vec::new();
+    }
+    for view in &mut views {
+        view.grey = GreyImage {
+            width: 0,
+            height: 0,
+            data: Vec::new(),
+        };
+    }
     progress("fusion");
     let fused = crate::fuse(&views, &geometric, &sources, params);
     let mut summary = RunSummary {
