@@ -58,18 +58,77 @@ pub fn fuse(
     sources: &[Vec<usize>],
     params: &MvsParams,
 ) -> Vec<FusedPoint> {
-    let mut used: Vec<Vec<bool>> = maps
-        .iter()
-        .map(|m| {
-            m.as_ref()
-                .map_or_else(Vec::new, |m| vec![false; m.depth.len()])
-        })
-        .collect();
-    let mut points = Vec::new();
-    let mut members: Vec<(usize, usize)> = Vec::new();
-    let mut matches: Vec<u32> = Vec::new();
-    for (r, map) in maps.iter().enumerate() {
-        let Some(map) = map else { continue };
+    let mut fusion = Fusion::new(maps);
+    for r in 0..maps.len() {
+        fusion.view(views, maps, sources, params, r);
+    }
+    fusion.points
+}
+
+/// [`fuse`], handing each map to `done` (view index, map) as soon as no
+/// later view reads it, as its reference or as a source: the maps let go
+/// while the cloud grows, so that the two are not held whole together
+/// (the memory peak of a workspace run). The same points as [`fuse`].
+pub fn fuse_releasing(
+    views: &[View],
+    mut maps: Vec<Option<DepthNormalMap>>,
+    sources: &[Vec<usize>],
+    params: &MvsParams,
+    done: &mut dyn FnMut(usize, DepthNormalMap) -> Result<()>,
+) -> Result<Vec<FusedPoint>> {
+    // The last view (in fusion's order) that reads each map.
+    let mut last: Vec<usize> = (0..maps.len()).collect();
+    for (r, src) in sources.iter().enumerate() {
+        for &s in src {
+            if let Some(l) = last.get_mut(s) {
+                *l = (*l).max(r);
+            }
+        }
+    }
+    let mut fusion = Fusion::new(&maps);
+    for r in 0..maps.len() {
+        fusion.view(views, &maps, sources, params, r);
+        for (m, _) in last.iter().enumerate().filter(|&(_, &l)| l == r) {
+            fusion.used[m] = Vec::new();
+            if let Some(map) = maps[m].take() {
+                done(m, map)?;
+            }
+        }
+    }
+    Ok(fusion.points)
+}
+
+/// Fusion's state: which pixels of each map are used, and the points.
+struct Fusion {
+    used: Vec<Vec<bool>>,
+    points: Vec<FusedPoint>,
+}
+
+impl Fusion {
+    fn new(maps: &[Option<DepthNormalMap>]) -> Self {
+        let used = maps
+            .iter()
+            .map(|m| {
+                m.as_ref()
+                    .map_or_else(Vec::new, |m| vec![false; m.depth.len()])
+            })
+            .collect();
+        Fusion {
+            used,
+            points: Vec::new(),
+        }
+    }
+
+    /// The points that start at view `r`'s pixels (see [`fuse`]).
+    fn view(
+        &mut self,
+        views: &[View],
+        maps: &[Option<DepthNormalMap>],
+        sources: &[Vec<usize>],
+        params: &MvsParams,
+        r: usize,
+    ) {
+        let Some(map) = &maps[r] else { return };
         let view = &views[r];
         let w = map.width as usize;
         let srcs: Vec<(usize, &DepthNormalMap)> = sources
@@ -79,9 +138,11 @@ pub fn fuse(
             .filter_map(|&s| Some((s, maps.get(s)?.as_ref()?)))
             .collect();
         let m = srcs.len().max(1);
+        let mut members: Vec<(usize, usize)> = Vec::new();
+        let mut matches: Vec<u32> = Vec::new();
         for block in (0..map.depth.len()).step_by(FUSE_ROWS * w) {
             let end = (block + FUSE_ROWS * w).min(map.depth.len());
-            let free = &used[r][block..end];
+            let free = &self.used[r][block..end];
             matches.clear();
             matches.resize((end - block) * m, NO_MATCH);
             matches
@@ -105,28 +166,27 @@ pub fn fuse(
                 });
             for idx in block..end {
                 let d = map.depth[idx];
-                if !(d > 0.0) || used[r][idx] {
+                if !(d > 0.0) || self.used[r][idx] {
                     continue;
                 }
                 members.clear();
                 members.push((r, idx));
                 let found = &matches[(idx - block) * m..(idx - block + 1) * m];
                 for (&j, &(s, _)) in found.iter().zip(&srcs) {
-                    if j != NO_MATCH && !used[s][j as usize] {
+                    if j != NO_MATCH && !self.used[s][j as usize] {
                         members.push((s, j as usize));
                     }
                 }
                 if members.len() < params.min_fused_pixels {
                     continue;
                 }
-                points.push(fused_point(views, maps, &members));
+                self.points.push(fused_point(views, maps, &members));
                 for &(v, j) in &members {
-                    used[v][j] = true;
+                    self.used[v][j] = true;
                 }
             }
         }
     }
-    points
 }
 
 /// The point of a group of agreeing pixels: the mean of their points,
@@ -192,3 +252,7 @@ pub fn write_fused_ply(path: &Path, points: &[FusedPoint]) -> Result<()> {
     })?;
     Ok(())
 }
+
+#[cfg(test)]
+#[path = "fusion_tests.rs"]
+mod tests;

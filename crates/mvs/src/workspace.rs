@@ -432,24 +432,22 @@ pub fn run_workspace(
         };
     }
     progress("fusion");
-    let fused = crate::fuse(&views, &geometric, &sources, params);
-    let mut summary = RunSummary {
-        reconstructed: Vec::new(),
-        geometric_valid_share: Vec::new(),
+    // Each geometric map is written and let go once fusion is done with
+    // it.
+    let mut shares: Vec<(usize, f64)> = Vec::new();
+    let fused = crate::fuse_releasing(&views, geometric, &sources, params, &mut |r, g| {
+        write_maps(root, &views[r].name, "geometric", &g)?;
+        let valid = g.depth.iter().filter(|&&d| d > 0.0).count();
+        shares.push((r, valid as f64 / g.depth.len() as f64));
+        Ok(())
+    })?;
+    shares.sort_by_key(|&(r, _)| r);
+    let summary = RunSummary {
+        reconstructed: shares.iter().map(|&(r, _)| views[r].name.clone()).collect(),
+        geometric_valid_share: shares.iter().map(|&(_, s)| s).collect(),
         fused_points: fused.len(),
         fused_path: root.join("fused.ply"),
     };
-    for (view, g) in views.iter().zip(&geometric) {
-        let Some(g) = g else {
-            continue;
-        };
-        write_maps(root, &view.name, "geometric", g)?;
-        let valid = g.depth.iter().filter(|&&d| d > 0.0).count();
-        summary
-            .geometric_valid_share
-            .push(valid as f64 / g.depth.len() as f64);
-        summary.reconstructed.push(view.name.clone());
-    }
     crate::fusion::write_fused_ply(&summary.fused_path, &fused)?;
     Ok(summary)
 }
