@@ -88,7 +88,7 @@ pub fn reconstruct(
     progress: &mut dyn FnMut(&str),
 ) -> Result<Output> {
     let mut photometric: Maps = vec![None; views.len()];
-    let geometric = reconstruct_maps(views, sources, params, progress, &mut |r, map| {
+    let geometric = reconstruct_maps(views, sources, params, true, progress, &mut |r, map| {
         photometric[r] = Some(map);
         Ok(())
     })?;
@@ -108,11 +108,15 @@ pub fn reconstruct(
 pub(crate) type PhotometricSink<'a> = &'a mut dyn FnMut(usize, DepthNormalMap) -> Result<()>;
 
 /// [`reconstruct`] up to fusion: the geometric maps, returned, and the
-/// photometric ones, handed to `photometric` one by one.
+/// photometric ones, handed to `photometric` one by one. Without `costs`
+/// the geometric maps' costs are let go as each map is made (4 bytes a
+/// pixel of every view held to the end: a workspace run writes none, and
+/// fusion does not read them).
 pub(crate) fn reconstruct_maps(
     views: &[View],
     sources: &[Vec<usize>],
     params: &MvsParams,
+    costs: bool,
     progress: &mut dyn FnMut(&str),
     photometric: PhotometricSink<'_>,
 ) -> Result<Maps> {
@@ -136,7 +140,9 @@ pub(crate) fn reconstruct_maps(
         ));
     }
     let refined = match params.algorithm {
-        Algorithm::PatchMatch => patch_match_all(views, sources, params, progress, photometric)?,
+        Algorithm::PatchMatch => {
+            patch_match_all(views, sources, (params, costs), progress, photometric)?
+        }
         Algorithm::Sgm => {
             let mut maps = Vec::with_capacity(views.len());
             for (r, src) in sources.iter().enumerate() {
@@ -160,9 +166,12 @@ pub(crate) fn reconstruct_maps(
                 maps.push(Some(semi_global(views, r, src, params)?));
             }
             // SGM has no geometric pass: the filter below takes its maps.
-            for (r, map) in maps.iter().enumerate() {
+            for (r, map) in maps.iter_mut().enumerate() {
                 if let Some(map) = map {
                     photometric(r, map.clone())?;
+                    if !costs {
+                        map.cost = Vec::new();
+                    }
                 }
             }
             maps
@@ -201,7 +210,7 @@ type Maps = Vec<Option<DepthNormalMap>>;
 fn patch_match_all(
     views: &[View],
     sources: &[Vec<usize>],
-    params: &MvsParams,
+    (params, costs): (&MvsParams, bool),
     progress: &mut dyn FnMut(&str),
     photometric: PhotometricSink<'_>,
 ) -> Result<Maps> {
@@ -227,7 +236,14 @@ fn patch_match_all(
         let raw = patchmatch::patch_match_raw(views, r, src, params, None)?;
         unfiltered.push(Some(raw.unfiltered()));
     }
-    let filtered = |map: &DepthNormalMap| map.clone().photometric(params);
+    // A refined map, without its costs unless they are kept.
+    let finish = |mut map: DepthNormalMap| {
+        if !costs {
+            map.cost = Vec::new();
+        }
+        map
+    };
+    let filtered = |map: &DepthNormalMap| finish(map.clone().photometric(params));
     if !params.geom_consistency {
         let refined = unfiltered
             .iter()
@@ -259,7 +275,7 @@ fn patch_match_all(
                 views[r].name
             ));
             let state = patchmatch::patch_match_raw(views, r, &usable, params, Some(&unfiltered))?;
-            refined.push(Some(state.to_map(params)));
+            refined.push(Some(finish(state.to_map(params))));
         }
         if let Some(map) = unfiltered[r].as_mut() {
             photometric(r, map.take_photometric(params))?;

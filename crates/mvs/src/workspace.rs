@@ -413,17 +413,12 @@ pub fn run_workspace(
     let mut views = ws.load_views(&selected, &ranges)?;
     // Each photometric map goes to disk as soon as it is final: it is
     // not held beside the other views' passes and the fused cloud.
-    let mut geometric =
-        crate::reconstruct_maps(&views, &sources, params, progress, &mut |r, map| {
+    let geometric =
+        crate::reconstruct_maps(&views, &sources, params, false, progress, &mut |r, map| {
             write_maps(root, &views[r].name, "photometric", &map)
         })?;
-    // Fusion holds every geometric map and the growing cloud: the memory
-    // peak. It reads depths, normals and colours only, and no map's costs
-    // are written: the costs (4 bytes a pixel) and the grey images (4
-    // more) are let go first.
-    for map in geometric.iter_mut().flatten() {
-        map.cost = Vec::new();
-    }
+    // Fusion reads depths, normals and colours only: the grey images (4
+    // bytes a pixel) are let go first, as the maps' costs were.
     for view in &mut views {
         view.grey = GreyImage {
             width: 0,
