@@ -63,7 +63,7 @@ pub(crate) fn upsample(
             let cx = (x / 2).min(coarse.width - 1);
             let at = cy * coarse.width + cx;
             let parent = coarse.hyps[at];
-            if let (Some(out), Some(masks)) = (sources.as_mut(), coarse.sources.as_ref()) {
+            if let (Some(out), Some(masks)) = (&mut sources, &coarse.sources) {
                 out.push(masks[at]);
             }
             let n = parent.n;

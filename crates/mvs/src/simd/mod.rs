@@ -16,7 +16,7 @@
 //! - every tap index is clamped in-register to the image's bounds, so no
 //!   input (a wrong homography, NaN coordinates, padding lanes) can read
 //!   outside the slice, whatever the callers' invariants;
-//! - every vector load is from a bounds-checked fixed-size array;
+//! - every other vector load is from a bounds-checked fixed-size array;
 //! - no FMA: every lane does the scalar loop's operations in the same order,
 //!   so the sums are bit for bit the scalar ones (tested in `cost.rs`).
 //!
@@ -271,7 +271,7 @@ mod tests {
     fn wild_coordinates_read_inside_the_image() {
         // Origins and homographies no caller passes (the corner test
         // refuses them): NaN, infinities, far outside, negative. The
-        // clamped gathers read inside the 5x4 image whatever the lanes
+        // clamped tap reads stay inside the 5x4 image whatever the lanes
         // hold; the result is garbage but no read leaves `data`.
         let Some(avx2) = Avx2::detect() else {
             return;
