@@ -372,7 +372,7 @@ fn sums_full(
             width: src.width as usize,
         });
         if let Some([s1, s2, sr]) = lanes {
-            return Some((lane_total(s1), lane_total(s2), lane_total(sr)));
+            return Some((s1, s2, sr));
         }
     }
     let [a0, b0, c0] = origin;

@@ -83,11 +83,11 @@ impl Avx2 {
         None
     }
 
-    /// The per-lane sums (w s, w s^2, w r s) of `cost::sums_full`, the same
-    /// bits; `None` for shapes the vector code does not take (then the
-    /// caller runs the scalar loop).
+    /// The sums (w s, w s^2, w r s) of `cost::sums_full`, the same bits;
+    /// `None` for shapes the vector code does not take (then the caller
+    /// runs the scalar loop).
     #[allow(clippy::unused_self)] // `self` is the proof that AVX2 is there
-    pub(crate) fn sums_full(self, win: &FullWindow) -> Option<[[f32; CHUNK]; 3]> {
+    pub(crate) fn sums_full(self, win: &FullWindow) -> Option<[f32; 3]> {
         let lanes = win.w.len();
         let ok = CHUNK == 8
             && lanes.is_multiple_of(CHUNK)
@@ -119,12 +119,13 @@ mod x86 {
     use super::FullWindow;
     use crate::cost::{chunk, CHUNK};
     use std::arch::x86_64::{
-        __m256, __m256i, _mm256_add_epi32, _mm256_add_ps, _mm256_and_ps, _mm256_blendv_ps,
-        _mm256_castpd_ps, _mm256_castps_si256, _mm256_castsi256_ps, _mm256_cmp_ps,
-        _mm256_cmpgt_epi32, _mm256_div_ps, _mm256_loadu_ps, _mm256_max_epi32, _mm256_min_epi32,
-        _mm256_mul_ps, _mm256_mullo_epi32, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setr_epi32,
-        _mm256_setr_pd, _mm256_setzero_ps, _mm256_setzero_si256, _mm256_shuffle_ps,
-        _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_epi32, _mm256_sub_ps, _CMP_GT_OQ,
+        __m256, __m256i, _mm256_add_epi32, _mm256_add_ps, _mm256_and_ps, _mm256_castpd_ps,
+        _mm256_castps256_ps128, _mm256_castsi256_ps, _mm256_cmpgt_epi32, _mm256_cvttps_epi32,
+        _mm256_div_ps, _mm256_extractf128_ps, _mm256_floor_ps, _mm256_loadu_ps, _mm256_max_epi32,
+        _mm256_min_epi32, _mm256_mul_ps, _mm256_mullo_epi32, _mm256_set1_epi32, _mm256_set1_ps,
+        _mm256_setr_epi32, _mm256_setr_pd, _mm256_setzero_ps, _mm256_setzero_si256,
+        _mm256_shuffle_ps, _mm256_storeu_si256, _mm256_sub_ps, _mm_add_ps, _mm_add_ss,
+        _mm_cvtss_f32, _mm_movehl_ps, _mm_shuffle_ps,
     };
 
     /// Eight floats from a bounds-checked array.
@@ -135,37 +136,24 @@ mod x86 {
         unsafe { _mm256_loadu_ps(a.as_ptr()) }
     }
 
-    /// `floor_small` of every lane: (floor as float, floor as integer).
+    /// Floor of every lane, as floats and as integers. For `|x| < 2^22`,
+    /// the only coordinates the caller's corner test lets through, these
+    /// are the bits of the scalar loop's `floor_small`; other lanes (NaN,
+    /// huge) give some integer, which the caller clamps.
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn floor_small(x: __m256) -> (__m256, __m256i) {
-        const MAGIC: f32 = 12_582_912.0;
-        let magic = _mm256_set1_ps(MAGIC);
-        let t = _mm256_add_ps(x, magic);
-        let r = _mm256_sub_ps(t, magic);
-        // All ones (-1 as an integer) where rounding went up.
-        let up = _mm256_cmp_ps::<_CMP_GT_OQ>(r, x);
-        let bits = _mm256_sub_epi32(
-            _mm256_castps_si256(t),
-            _mm256_set1_epi32(MAGIC.to_bits() as i32),
-        );
-        let i = _mm256_add_epi32(bits, _mm256_castps_si256(up));
-        let f = _mm256_blendv_ps(r, _mm256_sub_ps(r, _mm256_set1_ps(1.0)), up);
-        (f, i)
+    fn floor(x: __m256) -> (__m256, __m256i) {
+        let f = _mm256_floor_ps(x);
+        (f, _mm256_cvttps_epi32(f))
     }
 
     /// See [`super::Avx2::sums_full`]; the caller checked the shapes.
     #[target_feature(enable = "avx2")]
-    pub(super) fn sums_full(win: &FullWindow) -> [[f32; CHUNK]; 3] {
+    pub(super) fn sums_full(win: &FullWindow) -> [f32; 3] {
         let h = win.h;
         let [a0, b0, c0] = win.origin;
         let sw = win.width;
         let data = win.data;
-        // Largest top-left index whose four taps (+0, +1, +sw, +sw + 1)
-        // stay inside `data`; the caller checked that it is >= 0 and that
-        // `data.len()` fits in an i32.
-        let last = _mm256_set1_epi32((data.len() - sw - 2) as i32);
-        let zero_i = _mm256_setzero_si256();
         let sw_i = _mm256_set1_epi32(sw as i32);
         let (hx0, hx1, hx3, hx4, hx6, hx7) = (
             _mm256_set1_ps(h[0]),
@@ -201,65 +189,107 @@ mod x86 {
                 _mm256_mul_ps(_mm256_add_ps(rb, _mm256_mul_ps(hx3, fi)), iz),
                 half,
             );
-            let (xf, x0) = floor_small(fx);
-            let (yf, y0) = floor_small(fy);
+            let (xf, x0) = floor(fx);
+            let (yf, y0) = floor(fy);
             let ax = _mm256_sub_ps(fx, xf);
             let ay = _mm256_sub_ps(fy, yf);
             let i0 = _mm256_add_epi32(_mm256_mullo_epi32(y0, sw_i), x0);
-            let i0 = _mm256_min_epi32(_mm256_max_epi32(i0, zero_i), last);
-            // The two taps of a cell row are adjacent: read them as one
-            // 64-bit pair per lane, lanes {0, 1, 4, 5} into one vector and
-            // {2, 3, 6, 7} into another, so that one in-lane shuffle per
-            // tap puts the eight lanes back in order. Two 64-bit loads per
-            // 128-bit half, not an AVX2 gather: 0.95 of the time on
-            // `paper_1024` (docs/performance.md, "Stop 56").
-            let mut idx = [0i32; CHUNK];
-            // SAFETY: `idx` is 8 writable i32s; the store is unaligned.
-            unsafe { _mm256_storeu_si256(idx.as_mut_ptr().cast(), i0) };
-            let p = data.as_ptr();
-            let four = |l: [usize; 4], off: usize| {
-                // SAFETY: every lane of `idx` is in [0, data.len() - sw - 2]
-                // (clamped just above) and `off` is 0 or sw, so the two
-                // floats at each idx + off lie in `data`; `read_unaligned`
-                // needs no alignment.
-                #[allow(clippy::cast_ptr_alignment)]
-                let pair = |i: usize| unsafe {
-                    p.add(idx[l[i]] as usize + off)
-                        .cast::<f64>()
-                        .read_unaligned()
-                };
-                _mm256_castpd_ps(_mm256_setr_pd(pair(0), pair(1), pair(2), pair(3)))
-            };
-            let (top_lo, top_hi, bot_lo, bot_hi) = (
-                four([0, 1, 4, 5], 0),
-                four([2, 3, 6, 7], 0),
-                four([0, 1, 4, 5], sw),
-                four([2, 3, 6, 7], sw),
-            );
-            let c00 = _mm256_shuffle_ps::<0b10_00_10_00>(top_lo, top_hi);
-            let c01 = _mm256_shuffle_ps::<0b11_01_11_01>(top_lo, top_hi);
-            let c10 = _mm256_shuffle_ps::<0b10_00_10_00>(bot_lo, bot_hi);
-            let c11 = _mm256_shuffle_ps::<0b11_01_11_01>(bot_lo, bot_hi);
+            let live = win.samples - first.min(win.samples);
+            let [c00, c01, c10, c11] = taps(data, sw, i0, live);
             let t = _mm256_add_ps(c00, _mm256_mul_ps(ax, _mm256_sub_ps(c01, c00)));
             let b = _mm256_add_ps(c10, _mm256_mul_ps(ax, _mm256_sub_ps(c11, c10)));
             let s = _mm256_add_ps(t, _mm256_mul_ps(ay, _mm256_sub_ps(b, t)));
-            // Padding lanes read clamped garbage: s = +0.
-            let live = _mm256_cmpgt_epi32(
-                _mm256_set1_epi32((win.samples - first.min(win.samples)) as i32),
-                lane_ids,
-            );
-            let s = _mm256_and_ps(s, _mm256_castsi256_ps(live));
+            // Padding lanes read clamped garbage or zeros: s = +0.
+            let s = if live < CHUNK {
+                let on = _mm256_cmpgt_epi32(_mm256_set1_epi32(live as i32), lane_ids);
+                _mm256_and_ps(s, _mm256_castsi256_ps(on))
+            } else {
+                s
+            };
             let ws = _mm256_mul_ps(w, s);
             s1 = _mm256_add_ps(s1, ws);
             s2 = _mm256_add_ps(s2, _mm256_mul_ps(ws, s));
             sr = _mm256_add_ps(sr, _mm256_mul_ps(wr, s));
         }
-        let mut out = [[0.0f32; CHUNK]; 3];
-        for (o, v) in out.iter_mut().zip([s1, s2, sr]) {
-            // SAFETY: `o` is 8 writable floats; the store is unaligned.
-            unsafe { _mm256_storeu_ps(o.as_mut_ptr(), v) };
-        }
-        out
+        [total(s1), total(s2), total(sr)]
+    }
+
+    /// The four bilinear taps (top left, top right, bottom left, bottom
+    /// right) of each lane's cell, whose top-left index in `data` (rows of
+    /// `sw`) is `i0`; lanes from `live` on may hold anything.
+    ///
+    /// The two taps of a cell row are adjacent: each is read as one 64-bit
+    /// pair per lane, lanes {0, 1, 4, 5} into one vector and {2, 3, 6, 7}
+    /// into another, so that one in-lane shuffle per tap puts the eight
+    /// lanes back in order. Two 64-bit loads per 128-bit half, not an AVX2
+    /// gather: 0.95 of the time on `paper_1024` (docs/performance.md,
+    /// "Stop 56"). A chunk with at most four live lanes (the 6 x 6 grid's
+    /// last: 36 = 4 x 8 + 4) reads lanes 0-3 only.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn taps(data: &[f32], sw: usize, i0: __m256i, live: usize) -> [__m256; 4] {
+        // Largest top-left index whose four taps (+0, +1, +sw, +sw + 1)
+        // stay inside `data`; the caller checked that it is >= 0 and that
+        // `data.len()` fits in an i32.
+        let last = _mm256_set1_epi32((data.len() - sw - 2) as i32);
+        let i0 = _mm256_min_epi32(_mm256_max_epi32(i0, _mm256_setzero_si256()), last);
+        let mut idx = [0i32; CHUNK];
+        // SAFETY: `idx` is 8 writable i32s; the store is unaligned.
+        unsafe { _mm256_storeu_si256(idx.as_mut_ptr().cast(), i0) };
+        let p = data.as_ptr();
+        // SAFETY: every lane of `idx` is in [0, data.len() - sw - 2]
+        // (clamped just above) and `off` is 0 or sw, so the two floats at
+        // each idx + off lie in `data`; `read_unaligned` needs no alignment.
+        #[allow(clippy::cast_ptr_alignment)]
+        let pair = |lane: usize, off: usize| unsafe {
+            p.add(idx[lane] as usize + off)
+                .cast::<f64>()
+                .read_unaligned()
+        };
+        let four = |l: [usize; 4], off: usize| {
+            _mm256_castpd_ps(_mm256_setr_pd(
+                pair(l[0], off),
+                pair(l[1], off),
+                pair(l[2], off),
+                pair(l[3], off),
+            ))
+        };
+        let four_low = |l: [usize; 2], off: usize| {
+            _mm256_castpd_ps(_mm256_setr_pd(pair(l[0], off), pair(l[1], off), 0.0, 0.0))
+        };
+        let (top_lo, top_hi, bot_lo, bot_hi) = if live <= CHUNK / 2 {
+            (
+                four_low([0, 1], 0),
+                four_low([2, 3], 0),
+                four_low([0, 1], sw),
+                four_low([2, 3], sw),
+            )
+        } else {
+            (
+                four([0, 1, 4, 5], 0),
+                four([2, 3, 6, 7], 0),
+                four([0, 1, 4, 5], sw),
+                four([2, 3, 6, 7], sw),
+            )
+        };
+        [
+            _mm256_shuffle_ps::<0b10_00_10_00>(top_lo, top_hi),
+            _mm256_shuffle_ps::<0b11_01_11_01>(top_lo, top_hi),
+            _mm256_shuffle_ps::<0b10_00_10_00>(bot_lo, bot_hi),
+            _mm256_shuffle_ps::<0b11_01_11_01>(bot_lo, bot_hi),
+        ]
+    }
+
+    /// `cost::lane_total` of the eight lanes, the same additions in the
+    /// same order, without leaving the registers.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn total(v: __m256) -> f32 {
+        // q = [a0 + a4, a1 + a5, a2 + a6, a3 + a7]
+        let q = _mm_add_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps::<1>(v));
+        // [q0 + q2, q1 + q3, ..]
+        let r = _mm_add_ps(q, _mm_movehl_ps(q, q));
+        _mm_cvtss_f32(_mm_add_ss(r, _mm_shuffle_ps::<0b01>(r, r)))
     }
 }
 
@@ -293,21 +323,28 @@ mod tests {
         for &a in &big {
             for &c in &big {
                 let h = [1.0, 0.0, a, 0.0, 1.0, -a, c, 0.0, 1.0];
-                let win = FullWindow {
-                    w: &w,
-                    wr: &w,
-                    lane_x: &lanes,
-                    lane_y: &zeros,
-                    samples: 2,
-                    origin: [a, c, 1.0],
-                    h: &h,
-                    data: &data,
-                    width: 5,
-                };
-                let sums = avx2.sums_full(&win).expect("a shape the AVX2 sums take");
-                // Padding lanes (2..8) stay zero whatever their taps read.
-                for s in sums {
-                    assert!(s[2..].iter().all(|&v| v.to_bits() == 0), "{s:?}");
+                for samples in [2, 6] {
+                    let sums = |lane_x: &[f32]| {
+                        let win = FullWindow {
+                            w: &w,
+                            wr: &w,
+                            lane_x,
+                            lane_y: &zeros,
+                            samples,
+                            origin: [a, c, 1.0],
+                            h: &h,
+                            data: &data,
+                            width: 5,
+                        };
+                        let s = avx2.sums_full(&win).expect("a shape the AVX2 sums take");
+                        s.map(f32::to_bits)
+                    };
+                    // Padding lanes whose offsets are as wild.
+                    let mut wild = lanes.clone();
+                    wild[samples..].fill(c);
+                    // Whatever the padding lanes (2..8 or 6..8) read, the
+                    // sums are those of the live lanes alone.
+                    assert_eq!(sums(&lanes), sums(&wild), "a {a}, c {c}, {samples} samples");
                 }
             }
         }
