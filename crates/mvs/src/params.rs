@@ -45,19 +45,27 @@ pub struct MvsParams {
     pub iterations: u32,
     /// Coarse-to-fine: number of half-resolution levels solved before the
     /// full resolution (0: none). A level is only added while its smaller
-    /// side keeps `coarse_min_size` pixels. 2: the coarsest level's
-    /// iterations cost a sixteenth of full resolution's instead of a
-    /// quarter (0.82 of the CPU of one level on Brighton at 2000 px, the
-    /// same share within 2 px on rendered 1280 x 960 pairs; guarded by
-    /// `two_coarse_levels_keep_the_quality_of_one`; docs/performance.md,
-    /// "Stop 53").
+    /// side keeps `coarse_min_size` pixels. The coarsest level starts from
+    /// random planes and scores every source for half its iterations:
+    /// about five times a finer level's work per pixel (136 source
+    /// scorings a pixel against 27 on Brighton), so each level that
+    /// shrinks it to a quarter pays. 2 (stop 53): 0.82 of the CPU of one
+    /// level on Brighton at 2000 px; 3 with `coarse_min_size` 128 (stop
+    /// 57, Brighton's 2000 x 1125 photos get a 250 x 140 coarsest level):
+    /// 0.89 of the time on its 18 photos, the same share within 1 % of
+    /// COLMAP's sparse points within 0.1 point (0.3 on 9 of them). Guarded
+    /// by `two_coarse_levels_keep_the_quality_of_one` and
+    /// `three_coarse_levels_keep_the_quality_of_two`; docs/performance.md,
+    /// "Stop 53" and "Stop 57".
     pub coarse_levels: u32,
     /// Coarse-to-fine: smallest side (pixels) a halved level may have.
-    /// 160: 640 x 480 images and 800 px photos get the coarse level too
-    /// (with 256 they ran single scale); on the peer's rendered pairs and
-    /// Motorcycle that was faster and no worse (docs/performance.md,
-    /// "Stop 53"). Above the 120 px coarse level the coarse-to-fine guard
-    /// checks (`coarse_to_fine_keeps_single_scale_quality`).
+    /// 160 (stop 53): 640 x 480 images and 800 px photos got the coarse
+    /// level (with 256 they ran single scale); 128 (stop 57, the one other
+    /// value tried): a third level for Brighton at 2000 px (above), and a
+    /// coarse level for the 387 x 288 real-photo test's images (median
+    /// error 0.068 % against 0.075 % single scale). Above the 120 px
+    /// coarse level the coarse-to-fine guard checks
+    /// (`coarse_to_fine_keeps_single_scale_quality`).
     pub coarse_min_size: u32,
     /// Coarse-to-fine: iterations of each level finer than the coarsest,
     /// which starts from the coarser level's planes.
@@ -160,8 +168,8 @@ impl Default for MvsParams {
             sigma_spatial: 5.0,
             sigma_color: 0.1,
             iterations: 6,
-            coarse_levels: 2,
-            coarse_min_size: 160,
+            coarse_levels: 3,
+            coarse_min_size: 128,
             fine_iterations: 2,
             seeded_random_candidates: false,
             settle_cost: 0.01,
