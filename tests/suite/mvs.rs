@@ -314,6 +314,14 @@ fn rock_and_ground_score(
     )
 }
 
+/// The guards' bar: a faster setting's (completeness, outliers) `new`
+/// keeps the quality of `old`: completeness within 1 point, outliers at
+/// most 0.2 points more.
+fn assert_keeps_quality(new: (f64, f64), old: (f64, f64)) {
+    assert!(new.0 >= old.0 - 0.01, "{new:?} vs {old:?}");
+    assert!(new.1 <= old.1 + 0.002, "{new:?} vs {old:?}");
+}
+
 /// The triplet the quality guards below compare settings on: 320x240, 26 m
 /// from the rock, 14 degrees.
 fn quality_triplet(site: &Site) -> (Vec<View>, Vec<Rendered>) {
@@ -378,8 +386,7 @@ fn two_coarse_levels_keep_the_quality_of_one() {
     let one = rock_and_ground_score(&site, &triplets, &levels(1));
     let two = rock_and_ground_score(&site, &triplets, &levels(2));
     eprintln!("one coarse level: {one:?}, two: {two:?} (completeness, outliers)");
-    assert!(two.0 >= one.0 - 0.01, "{two:?} vs {one:?}");
-    assert!(two.1 <= one.1 + 0.002, "{two:?} vs {one:?}");
+    assert_keeps_quality(two, one);
 }
 
 /// Three coarse levels keep the quality of two on rock and ground
@@ -400,8 +407,7 @@ fn three_coarse_levels_keep_the_quality_of_two() {
     let two = rock_and_ground_score(&site, &triplets, &levels(2));
     let three = rock_and_ground_score(&site, &triplets, &levels(3));
     eprintln!("two coarse levels: {two:?}, three: {three:?} (completeness, outliers)");
-    assert!(three.0 >= two.0 - 0.01, "{three:?} vs {two:?}");
-    assert!(three.1 <= two.1 + 0.002, "{three:?} vs {two:?}");
+    assert_keeps_quality(three, two);
     // Not vacuous: two levels reconstruct most of rock and ground.
     assert!(two.0 > 0.8, "{two:?}");
 }
@@ -423,8 +429,7 @@ fn a_window_without_corners_keeps_the_quality_of_the_whole_grid() {
     let without = rock_and_ground_score(&site, &triplets, &window(true));
     let whole = rock_and_ground_score(&site, &triplets, &window(false));
     eprintln!("without corners: {without:?}, whole grid: {whole:?} (completeness, outliers)");
-    assert!(without.0 >= whole.0 - 0.01, "{without:?} vs {whole:?}");
-    assert!(without.1 <= whole.1 + 0.002, "{without:?} vs {whole:?}");
+    assert_keeps_quality(without, whole);
 }
 
 /// Settling pixels whose cost and neighbours stopped changing by more than
@@ -444,8 +449,7 @@ fn settled_pixels_keep_the_quality_of_updating_every_changing_pixel() {
     let settled = rock_and_ground_score(&site, &triplets, &settle(default));
     let every = rock_and_ground_score(&site, &triplets, &settle(0.0));
     eprintln!("settle_cost {default}: {settled:?}, 0: {every:?} (completeness, outliers)");
-    assert!(settled.0 >= every.0 - 0.01, "{settled:?} vs {every:?}");
-    assert!(settled.1 <= every.1 + 0.002, "{settled:?} vs {every:?}");
+    assert_keeps_quality(settled, every);
 }
 
 /// The default geometric pass (`geom_iterations`, 1) keeps the quality of
@@ -465,8 +469,7 @@ fn default_geometric_iterations_keep_the_quality_of_six() {
         },
     );
     eprintln!("default: {default:?}, six: {six:?} (completeness, outliers)");
-    assert!(default.0 >= six.0 - 0.01, "{default:?} vs {six:?}");
-    assert!(default.1 <= six.1 + 0.002, "{default:?} vs {six:?}");
+    assert_keeps_quality(default, six);
 }
 
 /// Perturbation-only refinement in the passes that start from solved planes
@@ -495,14 +498,7 @@ fn perturbation_only_refinement_keeps_the_quality_of_random_candidates() {
         },
     );
     eprintln!("perturbation only: {perturbed:?}, with random candidates: {random:?} (completeness, outliers)");
-    assert!(
-        perturbed.0 >= random.0 - 0.01,
-        "{perturbed:?} vs {random:?}"
-    );
-    assert!(
-        perturbed.1 <= random.1 + 0.002,
-        "{perturbed:?} vs {random:?}"
-    );
+    assert_keeps_quality(perturbed, random);
 }
 
 /// The table behind the default `geom_iterations` (docs/performance.md):
@@ -535,8 +531,7 @@ fn seeded_source_subsets_keep_the_quality_of_every_source() {
     let subset = rock_and_ground_score(&site, &nine, &sources(4));
     let every = rock_and_ground_score(&site, &nine, &sources(0));
     eprintln!("best 4 sources: {subset:?}, every source: {every:?} (completeness, outliers)");
-    assert!(subset.0 >= every.0 - 0.01, "{subset:?} vs {every:?}");
-    assert!(subset.1 <= every.1 + 0.002, "{subset:?} vs {every:?}");
+    assert_keeps_quality(subset, every);
     // Not vacuous: the nine views agree on most of rock and ground.
     assert!(every.0 > 0.5, "{every:?}");
 }
