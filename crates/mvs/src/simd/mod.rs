@@ -147,7 +147,45 @@ mod x86 {
         (f, _mm256_cvttps_epi32(f))
     }
 
+    /// Chunks whose coordinates are computed before any of their taps is
+    /// read (the default window's 5 fit in one group).
+    const GROUP: usize = 8;
+
+    /// Every lane's top-left tap index, in range so that its four taps
+    /// (+0, +1, +sw, +sw + 1) lie inside the image: made only by
+    /// [`TapIndex::clamped`] and [`TapIndex::ZERO`], which is what makes
+    /// [`taps`]' reads safe.
+    #[derive(Clone, Copy)]
+    struct TapIndex([i32; CHUNK]);
+
+    impl TapIndex {
+        /// Index 0 in every lane: in range, since the caller checked that
+        /// `data` holds at least `sw + 2` floats.
+        const ZERO: Self = TapIndex([0; CHUNK]);
+
+        /// `i0` clamped to `[0, data.len() - sw - 2]`; the caller checked
+        /// that this range is not empty and that `data.len()` fits in an
+        /// i32.
+        #[inline]
+        #[target_feature(enable = "avx2")]
+        fn clamped(i0: __m256i, data: &[f32], sw: usize) -> Self {
+            let last = _mm256_set1_epi32((data.len() - sw - 2) as i32);
+            let i0 = _mm256_min_epi32(_mm256_max_epi32(i0, _mm256_setzero_si256()), last);
+            let mut idx = [0i32; CHUNK];
+            // SAFETY: `idx` is 8 writable i32s; the store is unaligned.
+            unsafe { _mm256_storeu_si256(idx.as_mut_ptr().cast(), i0) };
+            TapIndex(idx)
+        }
+    }
+
     /// See [`super::Avx2::sums_full`]; the caller checked the shapes.
+    ///
+    /// The chunks go in groups: first every chunk's coordinates, fractions
+    /// and tap indices, then every chunk's taps and sums, in the scalar
+    /// loop's order. Each chunk is one long chain (a division, the floor,
+    /// the index, the loads, the interpolation); computing the indices of
+    /// the whole group first lets the loads of one chunk overlap the
+    /// arithmetic of the next instead of waiting on it.
     #[target_feature(enable = "avx2")]
     pub(super) fn sums_full(win: &FullWindow) -> [f32; 3] {
         let h = win.h;
@@ -171,52 +209,65 @@ mod x86 {
             _mm256_setzero_ps(),
             _mm256_setzero_ps(),
         );
-        for first in (0..win.w.len()).step_by(CHUNK) {
-            let w = load(chunk(win.w, first));
-            let wr = load(chunk(win.wr, first));
-            let fi = load(chunk(win.lane_x, first));
-            let fj = load(chunk(win.lane_y, first));
-            // The scalar loop's (origin + h fj) + h fi, lane by lane.
-            let ra = _mm256_add_ps(a0, _mm256_mul_ps(hx1, fj));
-            let rb = _mm256_add_ps(b0, _mm256_mul_ps(hx4, fj));
-            let rc = _mm256_add_ps(c0, _mm256_mul_ps(hx7, fj));
-            let iz = _mm256_div_ps(one, _mm256_add_ps(rc, _mm256_mul_ps(hx6, fi)));
-            let fx = _mm256_sub_ps(
-                _mm256_mul_ps(_mm256_add_ps(ra, _mm256_mul_ps(hx0, fi)), iz),
-                half,
-            );
-            let fy = _mm256_sub_ps(
-                _mm256_mul_ps(_mm256_add_ps(rb, _mm256_mul_ps(hx3, fi)), iz),
-                half,
-            );
-            let (xf, x0) = floor(fx);
-            let (yf, y0) = floor(fy);
-            let ax = _mm256_sub_ps(fx, xf);
-            let ay = _mm256_sub_ps(fy, yf);
-            let i0 = _mm256_add_epi32(_mm256_mullo_epi32(y0, sw_i), x0);
-            let live = win.samples - first.min(win.samples);
-            let [c00, c01, c10, c11] = taps(data, sw, i0, live);
-            let t = _mm256_add_ps(c00, _mm256_mul_ps(ax, _mm256_sub_ps(c01, c00)));
-            let b = _mm256_add_ps(c10, _mm256_mul_ps(ax, _mm256_sub_ps(c11, c10)));
-            let s = _mm256_add_ps(t, _mm256_mul_ps(ay, _mm256_sub_ps(b, t)));
-            // Padding lanes read clamped garbage or zeros: s = +0.
-            let s = if live < CHUNK {
-                let on = _mm256_cmpgt_epi32(_mm256_set1_epi32(live as i32), lane_ids);
-                _mm256_and_ps(s, _mm256_castsi256_ps(on))
-            } else {
-                s
-            };
-            let ws = _mm256_mul_ps(w, s);
-            s1 = _mm256_add_ps(s1, ws);
-            s2 = _mm256_add_ps(s2, _mm256_mul_ps(ws, s));
-            sr = _mm256_add_ps(sr, _mm256_mul_ps(wr, s));
+        let lanes = win.w.len();
+        for group in (0..lanes).step_by(CHUNK * GROUP) {
+            let chunks = ((lanes - group) / CHUNK).min(GROUP);
+            let mut idx = [TapIndex::ZERO; GROUP];
+            let mut ax = [_mm256_setzero_ps(); GROUP];
+            let mut ay = [_mm256_setzero_ps(); GROUP];
+            for c in 0..chunks {
+                let first = group + c * CHUNK;
+                let fi = load(chunk(win.lane_x, first));
+                let fj = load(chunk(win.lane_y, first));
+                // The scalar loop's (origin + h fj) + h fi, lane by lane.
+                let ra = _mm256_add_ps(a0, _mm256_mul_ps(hx1, fj));
+                let rb = _mm256_add_ps(b0, _mm256_mul_ps(hx4, fj));
+                let rc = _mm256_add_ps(c0, _mm256_mul_ps(hx7, fj));
+                let iz = _mm256_div_ps(one, _mm256_add_ps(rc, _mm256_mul_ps(hx6, fi)));
+                let fx = _mm256_sub_ps(
+                    _mm256_mul_ps(_mm256_add_ps(ra, _mm256_mul_ps(hx0, fi)), iz),
+                    half,
+                );
+                let fy = _mm256_sub_ps(
+                    _mm256_mul_ps(_mm256_add_ps(rb, _mm256_mul_ps(hx3, fi)), iz),
+                    half,
+                );
+                let (xf, x0) = floor(fx);
+                let (yf, y0) = floor(fy);
+                ax[c] = _mm256_sub_ps(fx, xf);
+                ay[c] = _mm256_sub_ps(fy, yf);
+                let i0 = _mm256_add_epi32(_mm256_mullo_epi32(y0, sw_i), x0);
+                idx[c] = TapIndex::clamped(i0, data, sw);
+            }
+            for c in 0..chunks {
+                let first = group + c * CHUNK;
+                let w = load(chunk(win.w, first));
+                let wr = load(chunk(win.wr, first));
+                let live = win.samples - first.min(win.samples);
+                let [c00, c01, c10, c11] = taps(data, sw, &idx[c], live);
+                let (ax, ay) = (ax[c], ay[c]);
+                let t = _mm256_add_ps(c00, _mm256_mul_ps(ax, _mm256_sub_ps(c01, c00)));
+                let b = _mm256_add_ps(c10, _mm256_mul_ps(ax, _mm256_sub_ps(c11, c10)));
+                let s = _mm256_add_ps(t, _mm256_mul_ps(ay, _mm256_sub_ps(b, t)));
+                // Padding lanes read clamped garbage or zeros: s = +0.
+                let s = if live < CHUNK {
+                    let on = _mm256_cmpgt_epi32(_mm256_set1_epi32(live as i32), lane_ids);
+                    _mm256_and_ps(s, _mm256_castsi256_ps(on))
+                } else {
+                    s
+                };
+                let ws = _mm256_mul_ps(w, s);
+                s1 = _mm256_add_ps(s1, ws);
+                s2 = _mm256_add_ps(s2, _mm256_mul_ps(ws, s));
+                sr = _mm256_add_ps(sr, _mm256_mul_ps(wr, s));
+            }
         }
         [total(s1), total(s2), total(sr)]
     }
 
     /// The four bilinear taps (top left, top right, bottom left, bottom
     /// right) of each lane's cell, whose top-left index in `data` (rows of
-    /// `sw`) is `i0`; lanes from `live` on may hold anything.
+    /// `sw`) is `idx`; lanes from `live` on may hold anything.
     ///
     /// The two taps of a cell row are adjacent: each is read as one 64-bit
     /// pair per lane, lanes {0, 1, 4, 5} into one vector and {2, 3, 6, 7}
@@ -227,19 +278,13 @@ mod x86 {
     /// last: 36 = 4 x 8 + 4) reads lanes 0-3 only.
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn taps(data: &[f32], sw: usize, i0: __m256i, live: usize) -> [__m256; 4] {
-        // Largest top-left index whose four taps (+0, +1, +sw, +sw + 1)
-        // stay inside `data`; the caller checked that it is >= 0 and that
-        // `data.len()` fits in an i32.
-        let last = _mm256_set1_epi32((data.len() - sw - 2) as i32);
-        let i0 = _mm256_min_epi32(_mm256_max_epi32(i0, _mm256_setzero_si256()), last);
-        let mut idx = [0i32; CHUNK];
-        // SAFETY: `idx` is 8 writable i32s; the store is unaligned.
-        unsafe { _mm256_storeu_si256(idx.as_mut_ptr().cast(), i0) };
+    fn taps(data: &[f32], sw: usize, idx: &TapIndex, live: usize) -> [__m256; 4] {
+        let idx = &idx.0;
         let p = data.as_ptr();
         // SAFETY: every lane of `idx` is in [0, data.len() - sw - 2]
-        // (clamped just above) and `off` is 0 or sw, so the two floats at
-        // each idx + off lie in `data`; `read_unaligned` needs no alignment.
+        // (`TapIndex`'s two makers) and `off` is 0 or sw, so
+        // the two floats at each idx + off lie in `data`; `read_unaligned`
+        // needs no alignment.
         #[allow(clippy::cast_ptr_alignment)]
         let pair = |lane: usize, off: usize| unsafe {
             p.add(idx[lane] as usize + off)
