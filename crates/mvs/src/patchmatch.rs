@@ -331,6 +331,11 @@ impl Problem<'_> {
         let mut changed = vec![true; w * h];
         let random_candidates = init.is_none() || self.params.seeded_random_candidates;
         let choose_at = (init.is_none() && choosing && iterations >= 2).then_some(iterations / 2);
+        // The state and flags a half-iteration reads, copied from the last
+        // one's output into buffers kept for the whole pass (a fresh clone
+        // each half was a serial copy into newly faulted pages).
+        let mut prev = state.clone();
+        let mut seen = changed.clone();
         for it in 0..iterations {
             if choose_at == Some(it) {
                 // The current planes, on their best sources (their costs
@@ -339,8 +344,12 @@ impl Problem<'_> {
                 self.score_planes((&mut state, &mut sources), Some(keep), &current);
             }
             for colour in 0..2 {
-                let prev = state.clone();
-                let seen = (it > 0).then(|| changed.clone());
+                copy_rows(&mut prev, &state, w);
+                if it > 0 {
+                    copy_rows(&mut seen, &changed, w);
+                }
+                let seen = (it > 0).then_some(&seen[..]);
+                let prev = &prev[..];
                 let step = pass + 1 + 2 * u64::from(it) + colour as u64;
                 state
                     .par_chunks_mut(w)
@@ -352,7 +361,7 @@ impl Problem<'_> {
                         while x < w {
                             let old = row[x];
                             row[x] = self.update(
-                                (&prev, seen.as_deref(), &sources),
+                                (prev, seen, &sources),
                                 &mut patch,
                                 (x, y),
                                 (it, step, random_candidates),
@@ -489,6 +498,13 @@ impl Problem<'_> {
         consider(pert_d, pert_n, &mut best);
         best
     }
+}
+
+/// `dst = src`, rows of `w` copied in parallel.
+fn copy_rows<T: Copy + Send + Sync>(dst: &mut [T], src: &[T], w: usize) {
+    dst.par_chunks_mut(w)
+        .zip(src.par_chunks(w))
+        .for_each(|(d, s)| d.copy_from_slice(s));
 }
 
 /// Whether two hypotheses are the same bit for bit.

@@ -7,6 +7,8 @@
 //! search (random start to converged surfaces) is done cheaply; the full
 //! resolution then only refines, in fewer iterations.
 
+use rayon::prelude::*;
+
 use crate::patchmatch::{Hyp, RawState};
 use crate::view::{pixel_ray, GreyImage};
 
@@ -17,14 +19,16 @@ use crate::view::{pixel_ray, GreyImage};
 pub(crate) fn half(image: &GreyImage) -> GreyImage {
     let (w, h) = (image.width as usize, image.height as usize);
     let (hw, hh) = (w / 2, h / 2);
-    let mut data = Vec::with_capacity(hw * hh);
-    for y in 0..hh {
-        let top = &image.data[2 * y * w..][..2 * hw];
-        let bottom = &image.data[(2 * y + 1) * w..][..2 * hw];
-        for x in 0..hw {
-            let s = top[2 * x] + top[2 * x + 1] + bottom[2 * x] + bottom[2 * x + 1];
-            data.push(0.25 * s);
-        }
+    let mut data = vec![0.0; hw * hh];
+    if hw > 0 {
+        data.par_chunks_mut(hw).enumerate().for_each(|(y, row)| {
+            let top = &image.data[2 * y * w..][..2 * hw];
+            let bottom = &image.data[(2 * y + 1) * w..][..2 * hw];
+            for (x, out) in row.iter_mut().enumerate() {
+                let s = top[2 * x] + top[2 * x + 1] + bottom[2 * x] + bottom[2 * x + 1];
+                *out = 0.25 * s;
+            }
+        });
     }
     GreyImage {
         width: hw as u32,
@@ -51,40 +55,47 @@ pub(crate) fn upsample(
     k: &[f32; 4],
     worst: f32,
 ) -> RawState {
-    let mut hyps = Vec::with_capacity(width * height);
-    // Each pixel keeps its parent's choice of sources, too.
-    let mut sources = coarse
-        .sources
-        .as_ref()
-        .map(|_| Vec::with_capacity(width * height));
-    for y in 0..height {
-        let cy = (y / 2).min(coarse.height - 1);
-        for x in 0..width {
-            let cx = (x / 2).min(coarse.width - 1);
-            let at = cy * coarse.width + cx;
+    let parent_at = |x: usize, y: usize| {
+        let (cx, cy) = (
+            (x / 2).min(coarse.width - 1),
+            (y / 2).min(coarse.height - 1),
+        );
+        (cx, cy, cy * coarse.width + cx)
+    };
+    // Rows in parallel: a serial pass between two parallel ones.
+    let mut hyps = vec![
+        Hyp {
+            d: 0.0,
+            n: [0.0; 3],
+            cost: worst,
+            photo: worst,
+        };
+        width * height
+    ];
+    hyps.par_chunks_mut(width).enumerate().for_each(|(y, row)| {
+        for (x, hyp) in row.iter_mut().enumerate() {
+            let (cx, cy, at) = parent_at(x, y);
             let parent = coarse.hyps[at];
-            if let (Some(out), Some(masks)) = (&mut sources, &coarse.sources) {
-                out.push(masks[at]);
-            }
             let n = parent.n;
             let rc = pixel_ray(coarse_k, cx, cy);
             let rf = pixel_ray(k, x, y);
             let den = n[0] * rf[0] + n[1] * rf[1] + n[2] * rf[2];
             let num = parent.d * (n[0] * rc[0] + n[1] * rc[1] + n[2] * rc[2]);
             let d = num / den;
-            let d = if d.is_finite() && d > 0.0 {
+            hyp.d = if d.is_finite() && d > 0.0 {
                 d
             } else {
                 parent.d
             };
-            hyps.push(Hyp {
-                d,
-                n,
-                cost: worst,
-                photo: worst,
-            });
+            hyp.n = n;
         }
-    }
+    });
+    // Each pixel keeps its parent's choice of sources, too.
+    let sources = coarse.sources.as_ref().map(|masks| {
+        (0..width * height)
+            .map(|i| masks[parent_at(i % width, i / width).2])
+            .collect()
+    });
     RawState {
         width,
         height,
