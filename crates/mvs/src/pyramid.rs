@@ -20,8 +20,10 @@ pub(crate) fn half(image: &GreyImage) -> GreyImage {
     let (w, h) = (image.width as usize, image.height as usize);
     let (hw, hh) = (w / 2, h / 2);
     let mut data = vec![0.0; hw * hh];
-    if hw > 0 {
-        data.par_chunks_mut(hw).enumerate().for_each(|(y, row)| {
+    // (`max(1)`: an empty image has no rows, and no chunks of one.)
+    data.par_chunks_mut(hw.max(1))
+        .enumerate()
+        .for_each(|(y, row)| {
             let top = &image.data[2 * y * w..][..2 * hw];
             let bottom = &image.data[(2 * y + 1) * w..][..2 * hw];
             for (x, out) in row.iter_mut().enumerate() {
@@ -29,7 +31,6 @@ pub(crate) fn half(image: &GreyImage) -> GreyImage {
                 *out = 0.25 * s;
             }
         });
-    }
     GreyImage {
         width: hw as u32,
         height: hh as u32,
@@ -72,27 +73,30 @@ pub(crate) fn upsample(
         };
         width * height
     ];
-    hyps.par_chunks_mut(width).enumerate().for_each(|(y, row)| {
-        for (x, hyp) in row.iter_mut().enumerate() {
-            let (cx, cy, at) = parent_at(x, y);
-            let parent = coarse.hyps[at];
-            let n = parent.n;
-            let rc = pixel_ray(coarse_k, cx, cy);
-            let rf = pixel_ray(k, x, y);
-            let den = n[0] * rf[0] + n[1] * rf[1] + n[2] * rf[2];
-            let num = parent.d * (n[0] * rc[0] + n[1] * rc[1] + n[2] * rc[2]);
-            let d = num / den;
-            hyp.d = if d.is_finite() && d > 0.0 {
-                d
-            } else {
-                parent.d
-            };
-            hyp.n = n;
-        }
-    });
+    hyps.par_chunks_mut(width.max(1))
+        .enumerate()
+        .for_each(|(y, row)| {
+            for (x, hyp) in row.iter_mut().enumerate() {
+                let (cx, cy, at) = parent_at(x, y);
+                let parent = coarse.hyps[at];
+                let n = parent.n;
+                let rc = pixel_ray(coarse_k, cx, cy);
+                let rf = pixel_ray(k, x, y);
+                let den = n[0] * rf[0] + n[1] * rf[1] + n[2] * rf[2];
+                let num = parent.d * (n[0] * rc[0] + n[1] * rc[1] + n[2] * rc[2]);
+                let d = num / den;
+                hyp.d = if d.is_finite() && d > 0.0 {
+                    d
+                } else {
+                    parent.d
+                };
+                hyp.n = n;
+            }
+        });
     // Each pixel keeps its parent's choice of sources, too.
     let sources = coarse.sources.as_ref().map(|masks| {
         (0..width * height)
+            .into_par_iter()
             .map(|i| masks[parent_at(i % width, i / width).2])
             .collect()
     });
