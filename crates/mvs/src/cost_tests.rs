@@ -170,7 +170,9 @@ fn fast_full_window_sums_equal_the_reference_bit_for_bit() {
     let mut rng = crate::rng::PixelRng::new(7, 0, 0, 0);
     let (mut scored, mut refused) = (0, 0);
     // Last chunks with 4 live lanes (36 samples), 1 (361, 81), 5 (the 5 x 5
-    // grid without its corners, 21) and 8 (the 6 x 6 one, 32).
+    // grid without its corners, 21) and 8 (the 6 x 6 one, 32); 361 and 81
+    // samples also span several of the AVX2 kernel's groups of 8 chunks
+    // (46 chunks: 6 groups, the last of 6; 11 chunks: 2 groups).
     for (radius, step, drop) in [
         (5, 2, false),
         (9, 1, false),
