@@ -52,10 +52,10 @@ pub struct MvsParams {
     /// shrinks it to a quarter pays. 2 (stop 53): 0.82 of the CPU of one
     /// level on Brighton at 2000 px; 3 with `coarse_min_size` 128 (stop
     /// 57, Brighton's 2000 x 1125 photos get a 250 x 140 coarsest level):
-    /// 0.86 of the time on 9 of its photos, with the stop's faster window
-    /// kernel 0.84-0.96 (median about 0.92) on all 18, and 94.5 % of
-    /// COLMAP's sparse points within 1 % against 94.6 % (64.7 against
-    /// 65.0 % on the 9); at full resolution (4 photos) 0.87 of the time and
+    /// 0.86 of the time on 9 of its photos; with the stop's faster window
+    /// kernel, 0.859 of stop 56's time on all 18 (a clean build, measured
+    /// at stop 58), and 94.5 % of COLMAP's sparse points within 1 % against
+    /// 94.6 % (64.7 against 65.0 % on the 9); at full resolution (4 photos)
     /// 3.5 % fewer fused points. Guarded by
     /// `two_coarse_levels_keep_the_quality_of_one` and
     /// `three_coarse_levels_keep_the_quality_of_two`; docs/performance.md,

@@ -63,36 +63,31 @@ pub(crate) fn upsample(
         );
         (cx, cy, cy * coarse.width + cx)
     };
-    // Rows in parallel: a serial pass between two parallel ones.
-    let mut hyps = vec![
-        Hyp {
-            d: 0.0,
-            n: [0.0; 3],
-            cost: worst,
-            photo: worst,
-        };
-        width * height
-    ];
-    hyps.par_chunks_mut(width.max(1))
-        .enumerate()
-        .for_each(|(y, row)| {
-            for (x, hyp) in row.iter_mut().enumerate() {
-                let (cx, cy, at) = parent_at(x, y);
-                let parent = coarse.hyps[at];
-                let n = parent.n;
-                let rc = pixel_ray(coarse_k, cx, cy);
-                let rf = pixel_ray(k, x, y);
-                let den = n[0] * rf[0] + n[1] * rf[1] + n[2] * rf[2];
-                let num = parent.d * (n[0] * rc[0] + n[1] * rc[1] + n[2] * rc[2]);
-                let d = num / den;
-                hyp.d = if d.is_finite() && d > 0.0 {
+    // In parallel: a serial pass would sit between two parallel ones.
+    let hyps = (0..width * height)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = (i % width, i / width);
+            let (cx, cy, at) = parent_at(x, y);
+            let parent = coarse.hyps[at];
+            let n = parent.n;
+            let rc = pixel_ray(coarse_k, cx, cy);
+            let rf = pixel_ray(k, x, y);
+            let den = n[0] * rf[0] + n[1] * rf[1] + n[2] * rf[2];
+            let num = parent.d * (n[0] * rc[0] + n[1] * rc[1] + n[2] * rc[2]);
+            let d = num / den;
+            Hyp {
+                d: if d.is_finite() && d > 0.0 {
                     d
                 } else {
                     parent.d
-                };
-                hyp.n = n;
+                },
+                n,
+                cost: worst,
+                photo: worst,
             }
-        });
+        })
+        .collect();
     // Each pixel keeps its parent's choice of sources, too.
     let sources = coarse.sources.as_ref().map(|masks| {
         (0..width * height)
