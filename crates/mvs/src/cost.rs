@@ -137,8 +137,20 @@ pub(crate) struct RefPatch {
 }
 
 impl RefPatch {
-    /// Fills the patch of pixel (x, y) of `image`.
+    /// Fills the patch of pixel (x, y) of `image`: [`RefPatch::fill`],
+    /// compiled with AVX2 where the CPU has it (the same bits: the weights'
+    /// `exp` runs 8 lanes wide instead of 4, every operation the same).
     pub(crate) fn build(&mut self, image: &GreyImage, x: usize, y: usize, win: &Window) {
+        match win.avx2 {
+            Some(avx2) => avx2.build_patch(self, image, (x, y), win),
+            None => self.fill(image, x, y, win),
+        }
+    }
+
+    /// The body of [`RefPatch::build`], inlined into each SIMD level's copy.
+    #[allow(clippy::inline_always)] // inlined, it is compiled for each SIMD level
+    #[inline(always)]
+    pub(crate) fn fill(&mut self, image: &GreyImage, x: usize, y: usize, win: &Window) {
         self.dx.clear();
         self.dy.clear();
         self.w.clear();

@@ -149,7 +149,8 @@ fn fast_full_window_sums_equal_the_reference_bit_for_bit() {
     // normals, as PatchMatch draws them) at every 3rd pixel: the fast
     // sums must be the reference loop's bits, or PatchMatch would pick
     // other winners. Windows of one chunk a row (the default) and of
-    // several.
+    // several. The reference patches too: built by the AVX2 copy of
+    // `RefPatch::fill` and by the plain one, the same bits.
     let (w, h) = (96u32, 80u32);
     let img = texture(w, h);
     let src = GreyImage {
@@ -192,9 +193,26 @@ fn fast_full_window_sums_equal_the_reference_bit_for_bit() {
             ..win.clone()
         };
         let mut patch = RefPatch::default();
+        let mut scalar_patch = RefPatch::default();
         for y in (0..h as usize).step_by(3) {
             for x in (0..w as usize).step_by(3) {
                 patch.build(&img, x, y, &win);
+                // The patch built by the AVX2 copy and by the scalar one:
+                // the same bits, border patches included.
+                scalar_patch.build(&img, x, y, &scalar_win);
+                let fields = |p: &RefPatch| {
+                    let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+                    let sums = [p.sum_w.to_bits(), p.var.to_bits()];
+                    (
+                        bits(&p.dx),
+                        bits(&p.dy),
+                        bits(&p.w),
+                        bits(&p.wr),
+                        sums,
+                        p.full,
+                    )
+                };
+                assert_eq!(fields(&patch), fields(&scalar_patch), "patch at ({x}, {y})");
                 if !patch.full {
                     continue;
                 }
