@@ -412,6 +412,26 @@ fn three_coarse_levels_keep_the_quality_of_two() {
     assert!(two.0 > 0.8, "{two:?}");
 }
 
+/// Two propagation neighbours at the finer levels (`fine_neighbours`, the
+/// default) keep the quality of four on rock and ground (as above: 640 x 480,
+/// three coarse levels). Guards the default's speed-up ("Stop 59").
+#[test]
+fn two_fine_neighbours_keep_the_quality_of_four() {
+    let site = site();
+    let triplets = [quality_triplet_sized(&site, 640, 480)];
+    let neighbours = |fine_neighbours| MvsParams {
+        fine_neighbours,
+        coarse_min_size: 60,
+        ..MvsParams::default()
+    };
+    assert_eq!(MvsParams::default().fine_neighbours, 2);
+    let four = rock_and_ground_score(&site, &triplets, &neighbours(4));
+    let two = rock_and_ground_score(&site, &triplets, &neighbours(2));
+    eprintln!("four fine neighbours: {four:?}, two: {two:?} (completeness, outliers)");
+    assert_keeps_quality(two, four);
+    assert!(four.0 > 0.8, "{four:?}");
+}
+
 /// The window without its four corner samples (`window_drop_corners`: 32
 /// samples, four 8-lane chunks) keeps the quality of the whole 6 x 6 grid
 /// on rock and ground: completeness within 1 point, outliers at most 0.2

@@ -73,6 +73,20 @@ pub struct MvsParams {
     /// Coarse-to-fine: iterations of each level finer than the coarsest,
     /// which starts from the coarser level's planes.
     pub fine_iterations: u32,
+    /// Coarse-to-fine: propagation at each level finer than the coarsest.
+    /// A pixel is offered up to four neighbours' planes (one per direction);
+    /// it scores only the `fine_neighbours` of them whose neighbours have
+    /// the lowest cost (4: all). The planes come from the coarser solution
+    /// and neighbours mostly offer nearly the same plane; the lowest-cost
+    /// ones are the likeliest to win. 2, half, is the one value chosen
+    /// (docs/performance.md, "Stop 59"): `fast_256` CPU about 0.86, 9
+    /// Brighton photos about 0.88; the peer pairs' maps 0.05-0.2 points
+    /// lower (StereoSGBM's bar held as before), the real-photo test's
+    /// median error 0.067 % against 0.068 %. The geometric pass, which
+    /// repairs inconsistent pixels by propagation, keeps all four: two
+    /// there too cost the rendered pair's geometric map 0.7-0.8 points.
+    /// Guarded by `two_fine_neighbours_keep_the_quality_of_four`.
+    pub fine_neighbours: usize,
     /// Refinement in passes that start from solved planes (the finer
     /// pyramid levels and the geometric pass): `false` tries only the
     /// perturbation of the pixel's plane, `true` also a random depth and a
@@ -174,6 +188,7 @@ impl Default for MvsParams {
             coarse_levels: 3,
             coarse_min_size: 128,
             fine_iterations: 2,
+            fine_neighbours: 2,
             seeded_random_candidates: false,
             settle_cost: 0.01,
             top_k_sources: 3,
@@ -243,6 +258,12 @@ impl MvsParams {
                 "coarse_min_size = {} is smaller than the window (2 * window_radius + 1 = {})",
                 self.coarse_min_size,
                 2 * self.window_radius + 1
+            ));
+        }
+        if !(1..=4).contains(&self.fine_neighbours) {
+            return bad(format!(
+                "fine_neighbours = {} must be 1 to 4 (a pixel has four propagation neighbours)",
+                self.fine_neighbours
             ));
         }
         if self.top_k_sources == 0 || self.max_sources == 0 {
@@ -327,7 +348,7 @@ impl MvsParams {
     /// The defaults as TOML, each field preceded by its documentation.
     pub fn defaults_toml() -> String {
         let d = MvsParams::default();
-        let fields: [(&str, &str, String); 28] = [
+        let fields: [(&str, &str, String); 29] = [
             ("algorithm", "Dense matcher: \"patchmatch\" or \"sgm\" (semi-global matching, parameters in [sgm] below).", format!("\"{}\"", d.algorithm)),
             ("seed", "Seed of every random choice (same seed, same bytes for any thread count).", d.seed.to_string()),
             ("window_radius", "Half size of the matching window, pixels (5: an 11x11 window).", d.window_radius.to_string()),
@@ -339,6 +360,7 @@ impl MvsParams {
             ("coarse_levels", "Coarse-to-fine: half-resolution levels solved before the full resolution (0: none).", d.coarse_levels.to_string()),
             ("coarse_min_size", "Coarse-to-fine: smallest side (pixels) of a halved level; smaller images skip the level.", d.coarse_min_size.to_string()),
             ("fine_iterations", "Coarse-to-fine: iterations at each level finer than the coarsest (it starts from the coarser planes).", d.fine_iterations.to_string()),
+            ("fine_neighbours", "Coarse-to-fine: of a pixel's four propagation neighbours, the planes of this many with the lowest cost are scored at each finer level (4: all).", d.fine_neighbours.to_string()),
             ("seeded_random_candidates", "Passes that start from solved planes (finer levels, geometric pass) also try a random depth and normal, not only a perturbation.", d.seeded_random_candidates.to_string()),
             ("top_k_sources", "View selection: the best k source costs are averaged per hypothesis.", d.top_k_sources.to_string()),
             ("settle_cost", "Early stop per pixel: settled when neither it nor a neighbour lowered its cost by more than this at its last update (0: changed at all).", fmt_f(f64::from(d.settle_cost))),
@@ -394,6 +416,9 @@ mod tests {
         let e = MvsParams::from_toml("min_ncc = 3.0", std::path::Path::new("m.toml")).unwrap_err();
         assert!(e.to_string().starts_with("m.toml: "), "{e}");
         assert!(e.to_string().contains("min_ncc"), "{e}");
+        let e = MvsParams::from_toml("fine_neighbours = 0", std::path::Path::new("m.toml"))
+            .unwrap_err();
+        assert!(e.to_string().contains("fine_neighbours = 0"), "{e}");
         let e = MvsParams::from_toml("\nbogus = 1", std::path::Path::new("m.toml")).unwrap_err();
         let m = e.to_string();
         assert!(

@@ -105,7 +105,8 @@ type PlaneOf<'a> = &'a (dyn Fn(usize, &[f32; 3], &Hyp) -> (f32, [f32; 3]) + Sync
 /// `sources`.
 ///
 /// # Performance
-/// Per iteration each pixel scores up to 4 propagated and 3 refined
+/// Per iteration each pixel scores up to 4 propagated (`fine_neighbours`
+/// at the finer pyramid levels) and 3 refined
 /// hypotheses (1 refined in passes that start from solved planes, unless
 /// `seeded_random_candidates`), each against every source (in passes that
 /// start from solved planes, the pixel's best `seeded_sources`) over the
@@ -327,9 +328,16 @@ impl Problem<'_> {
         // between two updates of a pixel: one that did not change offers
         // the same candidate the pixel already scored, against a best
         // that is at most as costly now, so skipping it changes nothing
-        // (bit for bit, when any change counts: `settle_cost` 0; `update`).
+        // (bit for bit, when any change counts, `settle_cost` 0, and every
+        // neighbour's plane is scored, `fine_neighbours` 4; `update`).
         let mut changed = vec![true; w * h];
         let random_candidates = init.is_none() || self.params.seeded_random_candidates;
+        // Propagation candidates a pixel scores: fewer at the finer levels.
+        let neighbours = if init.is_some() && self.geom.is_none() {
+            self.params.fine_neighbours
+        } else {
+            NEIGHBOURS.len()
+        };
         let choose_at = (init.is_none() && choosing && iterations >= 2).then_some(iterations / 2);
         // The state and flags a half-iteration reads, copied from the last
         // one's output into buffers kept for the whole pass (a fresh clone
@@ -364,7 +372,7 @@ impl Problem<'_> {
                                 (prev, seen, &sources),
                                 &mut patch,
                                 (x, y),
-                                (it, step, random_candidates),
+                                (it, step, random_candidates, neighbours),
                             );
                             flags[x] = self.changed(&old, &row[x]);
                             x += 2;
@@ -402,14 +410,16 @@ impl Problem<'_> {
     /// propagation, then refinement. `changed` (None on a pixel's first
     /// update) says which pixels changed at their last update; a
     /// neighbour pair of which no pixel did is skipped (see `run`).
-    /// Without `random_candidates`, refinement tries only the perturbation.
+    /// Of the neighbours' planes, the `neighbours` from the neighbours with
+    /// the lowest cost are scored. Without `random_candidates`, refinement
+    /// tries only the perturbation.
     /// Every hypothesis is scored on the pixel's sources (bit masks).
     fn update(
         &self,
         (prev, changed, sources): (&[Hyp], Option<&[bool]>, &[u32]),
         patch: &mut RefPatch,
         (x, y): (usize, usize),
-        (it, step, random_candidates): (u32, u64, bool),
+        (it, step, random_candidates, neighbours): (u32, u64, bool, usize),
     ) -> Hyp {
         let w = self.image.width as usize;
         let h = self.image.height as usize;
@@ -443,7 +453,10 @@ impl Problem<'_> {
                 *best = Hyp { d, n, cost, photo };
             }
         };
-        // Propagation: the neighbour's plane, intersected with this pixel's ray.
+        // Propagation: the neighbour's plane, intersected with this pixel's
+        // ray; the planes offered, with their neighbour's cost.
+        let mut offered = [(0.0f32, 0.0f32, [0.0f32; 3]); NEIGHBOURS.len()];
+        let mut count = 0;
         for pair in NEIGHBOURS {
             let mut pick: Option<(usize, usize)> = None;
             let mut fresh = changed.is_none();
@@ -472,10 +485,24 @@ impl Problem<'_> {
             }
             let d = num / den;
             // Already this pixel's plane (common once converged): skip.
-            if d.to_bits() == best.d.to_bits() && n.map(f32::to_bits) == best.n.map(f32::to_bits) {
-                continue;
+            if !same_plane(d, &n, &best) {
+                offered[count] = (nb.cost, d, n);
+                count += 1;
             }
-            consider(d, n, &mut best);
+        }
+        // At the finer pyramid levels, only the planes of the
+        // `fine_neighbours` neighbours with the lowest cost (see
+        // `MvsParams::fine_neighbours`), best first; when no more are
+        // offered, all of them in the order above.
+        if count > neighbours {
+            offered[..count].sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+            count = neighbours;
+        }
+        for &(_, d, n) in &offered[..count] {
+            // An earlier candidate may have won with this very plane.
+            if !same_plane(d, &n, &best) {
+                consider(d, n, &mut best);
+            }
         }
         // Refinement: a random depth and a random normal (in passes from
         // random planes, or with `seeded_random_candidates`), and a
@@ -505,6 +532,11 @@ fn copy_rows<T: Copy + Send + Sync>(dst: &mut [T], src: &[T], w: usize) {
     dst.par_chunks_mut(w)
         .zip(src.par_chunks(w))
         .for_each(|(d, s)| d.copy_from_slice(s));
+}
+
+/// Whether plane (d, n) is `hyp`'s, bit for bit.
+fn same_plane(d: f32, n: &[f32; 3], hyp: &Hyp) -> bool {
+    d.to_bits() == hyp.d.to_bits() && n.map(f32::to_bits) == hyp.n.map(f32::to_bits)
 }
 
 /// Whether two hypotheses are the same bit for bit.

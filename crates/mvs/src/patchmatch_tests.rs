@@ -22,11 +22,14 @@ fn skipping_unchanged_neighbours_changes_no_bit() {
 fn skipping_changes_no_bit(n_views: usize, params: MvsParams) {
     let cams = cameras(n_views, 8.0, (96, 72));
     let (views, _) = views(&cams);
-    // Any change counts (with a threshold the skip is no longer exact).
+    // Any change counts, and every neighbour's plane is scored (with a
+    // threshold, or fewer `fine_neighbours`, an unchanged neighbour's plane
+    // may not have been scored before: the skip is no longer exact).
     let params = MvsParams {
         coarse_levels: 2,
         coarse_min_size: 32,
         settle_cost: 0.0,
+        fine_neighbours: 4,
         ..params
     };
     let bits = |r: &RawState| -> Vec<[u32; 6]> {
