@@ -274,7 +274,11 @@ fn patch_match_all(
                 views.len(),
                 views[r].name
             ));
-            let state = patchmatch::patch_match_raw(views, r, &usable, params, Some(&unfiltered))?;
+            let previous = patchmatch::Photometric {
+                maps: &unfiltered,
+                same_sources: usable.len() == src.len(),
+            };
+            let state = patchmatch::patch_match_raw(views, r, &usable, params, Some(previous))?;
             refined.push(Some(finish(state.to_map(params))));
         }
         if let Some(map) = unfiltered[r].as_mut() {

@@ -67,6 +67,11 @@ struct Problem<'a> {
     sources: Vec<Source<'a>>,
     /// The sources' photometric depths: set in the geometric pass.
     geom: Option<Vec<GeomSource<'a>>>,
+    /// The geometric pass's seed planes' photometric costs over every
+    /// source, averaged, when the photometric pass found them (see
+    /// [`Photometric::same_sources`]): the seed then adds the mean
+    /// geometric term to them instead of scoring the windows again.
+    seed_photo: Option<&'a [f32]>,
     range: (f32, f32),
     /// Cosine of the largest normal-to-view angle.
     min_cos: f32,
@@ -121,17 +126,29 @@ pub fn patch_match(
     Ok(patch_match_raw(views, reference, sources, params, None)?.to_map(params))
 }
 
+/// What the geometric pass starts from: the photometric pass's results.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Photometric<'a> {
+    /// Every view's unfiltered photometric map ([`RawState::unfiltered`]).
+    pub maps: &'a [Option<DepthNormalMap>],
+    /// Whether the reference's photometric pass scored exactly the sources
+    /// of the geometric pass. Then, when every source is averaged (at most
+    /// `top_k_sources` of them: a triplet's two), the reference map's costs
+    /// are its planes' photometric costs, and the geometric pass's seed
+    /// adds only the geometric term ([`Problem::seed_photo`]).
+    pub same_sources: bool,
+}
+
 /// PatchMatch, photometric (`previous` = `None`) or geometric: then every
-/// source's unfiltered photometric map ([`RawState::unfiltered`]) is in
-/// `previous`, the reference's starts from its own planes, and each
-/// source's cost gains
+/// source's unfiltered photometric map is in `previous`, the reference's
+/// starts from its own planes, and each source's cost gains
 /// `geom_regularizer * min(forward-backward reprojection error, geom_max_error_px)`.
 pub(crate) fn patch_match_raw(
     views: &[View],
     reference: usize,
     sources: &[usize],
     params: &MvsParams,
-    previous: Option<&[Option<DepthNormalMap>]>,
+    previous: Option<Photometric<'_>>,
 ) -> Result<RawState> {
     patch_match_raw_with(views, (reference, sources), params, previous, true)
 }
@@ -142,7 +159,7 @@ fn patch_match_raw_with(
     views: &[View],
     (reference, sources): (usize, &[usize]),
     params: &MvsParams,
-    previous: Option<&[Option<DepthNormalMap>]>,
+    previous: Option<Photometric<'_>>,
     skip_unchanged: bool,
 ) -> Result<RawState> {
     params.validate()?;
@@ -168,7 +185,7 @@ fn patch_match_raw_with(
         })?;
         let r = Relative::new(&view.camera, &src.camera);
         if let (Some(prev), Some(g)) = (previous, geom.as_mut()) {
-            let state = prev.get(s).and_then(Option::as_ref).ok_or_else(|| {
+            let state = prev.maps.get(s).and_then(Option::as_ref).ok_or_else(|| {
                 MvsError::InvalidArgument(format!(
                     "image '{}': source '{}' has no photometric depth map for the geometric pass",
                     view.name, src.name
@@ -183,11 +200,20 @@ fn patch_match_raw_with(
         }
         rel.push(Source::new(r, &k, &src.grey));
     }
+    let init = previous.and_then(|p| p.maps.get(reference)?.as_ref());
+    // The seed's photometric costs, when the photometric pass's are them
+    // (see `Photometric::same_sources`).
+    let n_sources = rel.len();
+    let seed_photo = init.zip(previous).and_then(|(init, p)| {
+        (p.same_sources && n_sources <= params.top_k_sources && init.cost.len() == init.depth.len())
+            .then_some(&init.cost[..])
+    });
     let problem = Problem {
         image: &view.grey,
         k,
         sources: rel,
         geom,
+        seed_photo,
         range: (view.depth_range.0 as f32, view.depth_range.1 as f32),
         min_cos: params.max_normal_view_angle_deg.to_radians().cos(),
         top_k: params.top_k_sources,
@@ -197,9 +223,6 @@ fn patch_match_raw_with(
         level: 0,
         skip_unchanged,
     };
-    let init = previous
-        .and_then(|p| p.get(reference))
-        .and_then(Option::as_ref);
     Ok(match init {
         Some(init) => problem.run(
             Some(&|i: usize| (init.depth[i], init.normal[i])),
@@ -262,6 +285,7 @@ impl Problem<'_> {
                 })
                 .collect(),
             geom: None,
+            seed_photo: None,
             range: self.range,
             min_cos: self.min_cos,
             top_k: self.top_k,

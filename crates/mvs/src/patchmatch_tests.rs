@@ -59,7 +59,17 @@ fn skipping_changes_no_bit(n_views: usize, params: MvsParams) {
         .collect();
     let geometric = |skip: bool| {
         let sources: Vec<usize> = (1..n_views).collect();
-        patch_match_raw_with(&views, (0, &sources), &params, Some(&maps), skip).unwrap()
+        patch_match_raw_with(
+            &views,
+            (0, &sources),
+            &params,
+            Some(Photometric {
+                maps: &maps,
+                same_sources: true,
+            }),
+            skip,
+        )
+        .unwrap()
     };
     assert!(bits(&geometric(true)) == bits(&geometric(false)));
     // The fixture is not trivial: most pixels hold a depth in range.
@@ -71,4 +81,55 @@ fn skipping_changes_no_bit(n_views: usize, params: MvsParams) {
         .filter(|h| h.cost < MAX_COST)
         .count();
     assert!(found > 96 * 72 / 2, "{found}");
+}
+
+/// The geometric pass's seed from the photometric pass's costs (a triplet:
+/// every source averaged) scores like the seed scored window by window:
+/// the same photometric costs bit for bit, ranking costs equal up to the
+/// order of the additions. `geom_iterations` 0 keeps the seed as it is.
+#[test]
+fn the_geometric_seed_from_photometric_costs_scores_like_the_windows() {
+    let cams = cameras(3, 8.0, (96, 72));
+    let (views, _) = views(&cams);
+    let params = MvsParams {
+        geom_iterations: 0,
+        ..MvsParams::default()
+    };
+    let maps: Vec<Option<DepthNormalMap>> = (0..3)
+        .map(|r| {
+            let sources: Vec<usize> = (0..3).filter(|&s| s != r).collect();
+            Some(
+                patch_match_raw(&views, r, &sources, &params, None)
+                    .unwrap()
+                    .unfiltered(),
+            )
+        })
+        .collect();
+    let seed = |same_sources| {
+        let previous = Photometric {
+            maps: &maps,
+            same_sources,
+        };
+        patch_match_raw(&views, 0, &[1, 2], &params, Some(previous)).unwrap()
+    };
+    let (known, scored) = (seed(true), seed(false));
+    let mut differ = 0;
+    for (a, b) in known.hyps.iter().zip(&scored.hyps) {
+        assert_eq!(a.photo.to_bits(), b.photo.to_bits());
+        assert!(
+            (a.cost - b.cost).abs() <= 1e-6 * b.cost.abs().max(1.0),
+            "{a:?} vs {b:?}"
+        );
+        differ += usize::from(a.cost.to_bits() != b.cost.to_bits());
+    }
+    // Most seeds have a geometric term to add.
+    let scorable = scored.hyps.iter().filter(|h| h.photo < 1.0).count();
+    assert!(
+        scorable > scored.hyps.len() / 2,
+        "{scorable} scorable seeds"
+    );
+    eprintln!(
+        "{differ} of {} ranking costs differ in their last bits",
+        known.hyps.len()
+    );
 }

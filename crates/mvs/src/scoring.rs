@@ -31,12 +31,16 @@ impl Problem<'_> {
                 for (x, (hyp, mask)) in row.iter_mut().zip(masks).enumerate() {
                     let ray = pixel_ray(&self.k, x, y);
                     let (d, n) = plane(y * w + x, &ray, hyp);
-                    patch.build(self.image, x, y, &self.win);
                     let (cost, photo) = if let Some(keep) = choose {
+                        patch.build(self.image, x, y, &self.win);
                         let (costs, kept) = self.seed_sources(&patch, (x, y), &ray, (d, &n), keep);
                         *mask = kept;
                         costs
+                    } else if let Some(known) = self.seed_photo {
+                        let photo = known[y * w + x];
+                        self.known_photo_cost(&mut patch, (x, y), &ray, (d, &n), photo)
                     } else {
+                        patch.build(self.image, x, y, &self.win);
                         self.cost(&patch, (x, y), &ray, d, &n, f32::INFINITY, *mask)
                     };
                     *hyp = Hyp { d, n, cost, photo };
@@ -74,12 +78,44 @@ impl Problem<'_> {
             let h = src.warp.homography(m);
             source_cost(patch, &self.win, u, v, &h, src.image)
         });
-        let geo = self.geom.as_ref().map_or(0.0, |g| {
+        (photo + self.geom_cost(k, (x, y), ray, d), photo)
+    }
+
+    /// The geometric term of source `k` at pixel (x, y) for depth `d` (0
+    /// in the photometric pass).
+    fn geom_cost(&self, k: usize, (x, y): (usize, usize), ray: &[f32; 3], d: f32) -> f32 {
+        self.geom.as_ref().map_or(0.0, |g| {
             let cap = self.params.geom_max_error_px;
-            let e = reprojection_error(&self.k, cap, &src.rel, &g[k], (x, y), ray, d);
+            let e = reprojection_error(&self.k, cap, &self.sources[k].rel, &g[k], (x, y), ray, d);
             self.params.geom_regularizer * e
-        });
-        (photo + geo, photo)
+        })
+    }
+
+    /// Costs (ranking, photometric) of the seed plane (d, n) whose
+    /// photometric cost over every source, `photo`, the photometric pass
+    /// found (`seed_photo`): every source is averaged, so the ranking cost
+    /// is `photo` plus the mean geometric term, with no window scored.
+    /// The same value as [`Problem::cost`]'s up to the order of the
+    /// additions. A plane whose photometric cost is below the worst was
+    /// scorable then, at this pixel with this patch, and is now: only the
+    /// others need the patch built (into `patch`) to tell.
+    fn known_photo_cost(
+        &self,
+        patch: &mut RefPatch,
+        xy: (usize, usize),
+        ray: &[f32; 3],
+        (d, n): (f32, &[f32; 3]),
+        photo: f32,
+    ) -> (f32, f32) {
+        if !(photo < MAX_COST) {
+            patch.build(self.image, xy.0, xy.1, &self.win);
+            if !self.scorable(patch, ray, d, n) {
+                return self.worst();
+            }
+        }
+        let m = self.sources.len();
+        let geo: f32 = (0..m).map(|k| self.geom_cost(k, xy, ray, d)).sum();
+        (photo + geo / m as f32, photo)
     }
 
     /// Costs (ranking, photometric) of plane (d, n) at pixel (x, y) over
