@@ -3,7 +3,21 @@
 //! carried into a source and back through that source's photometric
 //! depth, lands from where it started.
 
+use crate::maps::DepthNormalMap;
 use crate::view::Relative;
+
+/// What the geometric pass starts from: the photometric pass's results.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Photometric<'a> {
+    /// Every view's unfiltered photometric map (`RawState::unfiltered`).
+    pub maps: &'a [Option<DepthNormalMap>],
+    /// Whether the reference's photometric pass scored exactly the sources
+    /// of the geometric pass. Then, when every source is averaged (at most
+    /// `top_k_sources` of them: a triplet's two), the reference map's costs
+    /// are its planes' photometric costs, and the geometric pass's seed
+    /// adds only the geometric term (`Problem::seed_photo`, patchmatch.rs).
+    pub same_sources: bool,
+}
 
 /// A source's depth map from the photometric pass, for the geometric term.
 pub(crate) struct GeomSource<'a> {

@@ -274,7 +274,7 @@ fn patch_match_all(
                 views.len(),
                 views[r].name
             ));
-            let previous = patchmatch::Photometric {
+            let previous = geom_term::Photometric {
                 maps: &unfiltered,
                 same_sources: usable.len() == src.len(),
             };

@@ -6,7 +6,7 @@ use rayon::prelude::*;
 
 use crate::cost::{PairWarp, RefPatch, Window, MAX_COST};
 use crate::error::{MvsError, Result};
-use crate::geom_term::GeomSource;
+use crate::geom_term::{GeomSource, Photometric};
 pub use crate::maps::DepthNormalMap;
 use crate::params::MvsParams;
 use crate::pyramid::{half, half_k, upsample};
@@ -124,19 +124,6 @@ pub fn patch_match(
     params: &MvsParams,
 ) -> Result<DepthNormalMap> {
     Ok(patch_match_raw(views, reference, sources, params, None)?.to_map(params))
-}
-
-/// What the geometric pass starts from: the photometric pass's results.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Photometric<'a> {
-    /// Every view's unfiltered photometric map ([`RawState::unfiltered`]).
-    pub maps: &'a [Option<DepthNormalMap>],
-    /// Whether the reference's photometric pass scored exactly the sources
-    /// of the geometric pass. Then, when every source is averaged (at most
-    /// `top_k_sources` of them: a triplet's two), the reference map's costs
-    /// are its planes' photometric costs, and the geometric pass's seed
-    /// adds only the geometric term ([`Problem::seed_photo`]).
-    pub same_sources: bool,
 }
 
 /// PatchMatch, photometric (`previous` = `None`) or geometric: then every
