@@ -129,6 +129,11 @@ pub(crate) struct RefPatch {
     sum_w: f32,
     /// Sum of w * (intensity - mean)^2.
     var: f32,
+    /// 1 / `sum_w` and 1 / sqrt(`var`), once per patch, so that the NCC
+    /// of each source scored ([`source_cost`]) waits on one square root
+    /// and one division, not on two divisions and a square root.
+    inv_sum_w: f32,
+    inv_sd: f32,
     /// Whether every sample of the window lies inside the image: then the
     /// samples are the full grid in the [`Window`]'s packed layout, padded
     /// with zero weights, and a source is scored by the chunked fast path
@@ -157,6 +162,8 @@ impl RefPatch {
         self.wr.clear();
         self.sum_w = 0.0;
         self.var = 0.0;
+        self.inv_sum_w = 0.0;
+        self.inv_sd = 0.0;
         let (xi, yi) = (x as i32, y as i32);
         let Some(centre) = image.at(xi, yi) else {
             self.full = false;
@@ -199,21 +206,32 @@ impl RefPatch {
                 self.wr.push(v);
             }
         }
-        // `wr` holds the intensities until the mean is known.
-        let (mut sw, mut swv) = (0.0f32, 0.0f32);
-        for (&wt, &v) in self.w.iter().zip(&self.wr) {
-            sw += wt;
-            swv += wt * v;
+        // `wr` holds the intensities until the mean is known. One partial
+        // sum per lane, added up as the window sums are ([`lane_total`]):
+        // one running sum made each add wait on the one before (40 in a
+        // row, twice), and the lane loops vectorise. The order is the
+        // same at every SIMD level.
+        let (mut sw, mut swv) = ([0.0f32; CHUNK], [0.0f32; CHUNK]);
+        for (cw, cv) in self.w.chunks(CHUNK).zip(self.wr.chunks(CHUNK)) {
+            for (l, (&wt, &v)) in cw.iter().zip(cv).enumerate() {
+                sw[l] += wt;
+                swv[l] += wt * v;
+            }
         }
-        let mean = swv / sw;
-        let mut var = 0.0;
-        for (wr, &wt) in self.wr.iter_mut().zip(&self.w) {
-            let r = *wr - mean;
-            var += wt * r * r;
-            *wr = wt * r;
+        let sw = lane_total(sw);
+        let mean = lane_total(swv) / sw;
+        let mut var = [0.0f32; CHUNK];
+        for (cr, cw) in self.wr.chunks_mut(CHUNK).zip(self.w.chunks(CHUNK)) {
+            for (l, (wr, &wt)) in cr.iter_mut().zip(cw).enumerate() {
+                let r = *wr - mean;
+                var[l] += wt * r * r;
+                *wr = wt * r;
+            }
         }
         self.sum_w = sw;
-        self.var = var;
+        self.var = lane_total(var);
+        self.inv_sum_w = 1.0 / sw;
+        self.inv_sd = 1.0 / self.var.sqrt();
     }
 
     /// Whether the patch has texture enough to score anything.
@@ -318,11 +336,11 @@ pub(crate) fn source_cost(
     let Some((s1, s2, sr)) = sums else {
         return MAX_COST;
     };
-    let var_s = s2 - s1 * s1 / patch.sum_w;
+    let var_s = s2 - s1 * s1 * patch.inv_sum_w;
     if !(var_s > MIN_VARIANCE * patch.sum_w) {
         return MAX_COST;
     }
-    let ncc = sr / (patch.var * var_s).sqrt();
+    let ncc = sr * patch.inv_sd / var_s.sqrt();
     (1.0 - ncc).clamp(0.0, MAX_COST)
 }
 
@@ -344,13 +362,16 @@ fn warped_origin(win: &Window, u: f32, v: f32, h: &[f32; 9], src: &GreyImage) ->
     // that they are computed as one vector of four.
     let (cx, cy) = ([0.0, span, 0.0, span], [0.0, 0.0, span, span]);
     let mut inside = [false; 4];
+    // x = X / z lies in [lo, x_max) where X lies in [lo z, x_max z), for
+    // z > 0: the test needs no division. Rounding may move a corner within
+    // EDGE_MARGIN of the border to either side; the sums clamp every tap
+    // into the image, so none reads outside it either way.
+    let lo = 0.5 + EDGE_MARGIN;
     for i in 0..4 {
         let z = c0 + h[6] * cx[i] + h[7] * cy[i];
-        let iz = 1.0 / z;
-        let x = (a0 + h[0] * cx[i] + h[1] * cy[i]) * iz;
-        let y = (b0 + h[3] * cx[i] + h[4] * cy[i]) * iz;
-        inside[i] =
-            z > 0.0 && x >= 0.5 + EDGE_MARGIN && y >= 0.5 + EDGE_MARGIN && x < x_max && y < y_max;
+        let x = a0 + h[0] * cx[i] + h[1] * cy[i];
+        let y = b0 + h[3] * cx[i] + h[4] * cy[i];
+        inside[i] = z > 0.0 && x >= lo * z && y >= lo * z && x < x_max * z && y < y_max * z;
     }
     (inside[0] & inside[1] & inside[2] & inside[3]).then_some([a0, b0, c0])
 }

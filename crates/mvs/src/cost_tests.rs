@@ -202,7 +202,7 @@ fn fast_full_window_sums_equal_the_reference_bit_for_bit() {
                 scalar_patch.build(&img, x, y, &scalar_win);
                 let fields = |p: &RefPatch| {
                     let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
-                    let sums = [p.sum_w.to_bits(), p.var.to_bits()];
+                    let sums = [p.sum_w, p.var, p.inv_sum_w, p.inv_sd].map(f32::to_bits);
                     (
                         bits(&p.dx),
                         bits(&p.dy),
@@ -270,6 +270,8 @@ fn patch_clone_partial(full: &RefPatch, win: &Window, out: &mut RefPatch) {
     out.wr.extend_from_slice(&full.wr[..win.samples()]);
     out.sum_w = full.sum_w;
     out.var = full.var;
+    out.inv_sum_w = full.inv_sum_w;
+    out.inv_sd = full.inv_sd;
     out.full = false;
 }
 
