@@ -2,6 +2,8 @@
 //! against the per-sample path and the reference loop, and the lower bound.
 
 use super::*;
+use crate::view::Relative;
+use crate::warp::{plane_row, PairWarp};
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion};
 use vp_scene::{Camera, Intrinsics};
 

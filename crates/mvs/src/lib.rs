@@ -48,6 +48,7 @@ pub mod sgm;
 mod simd;
 mod sources;
 pub mod view;
+mod warp;
 pub mod workspace;
 
 pub use error::{MvsError, Result};

@@ -4,7 +4,7 @@
 
 use rayon::prelude::*;
 
-use crate::cost::{PairWarp, RefPatch, Window, MAX_COST};
+use crate::cost::{RefPatch, Window, MAX_COST};
 use crate::error::{MvsError, Result};
 use crate::geom_term::{GeomSource, Photometric};
 pub use crate::maps::DepthNormalMap;
@@ -12,6 +12,7 @@ use crate::params::MvsParams;
 use crate::pyramid::{half, half_k, upsample};
 use crate::rng::PixelRng;
 use crate::view::{k_of, pixel_ray, GreyImage, Relative, View};
+use crate::warp::PairWarp;
 
 /// Most sources scored per hypothesis (a stack array holds their costs).
 pub const MAX_SOURCES: usize = 32;

@@ -6,9 +6,10 @@
 use rayon::prelude::*;
 
 use super::{Hyp, PlaneOf, Problem, MAX_SOURCES};
-use crate::cost::{aggregate, aggregate_lower_bound, plane_row, source_cost, RefPatch, MAX_COST};
+use crate::cost::{aggregate, aggregate_lower_bound, source_cost, RefPatch, MAX_COST};
 use crate::geom_term::reprojection_error;
 use crate::view::pixel_ray;
+use crate::warp::plane_row;
 
 impl Problem<'_> {
     /// Sets every pixel's hypothesis to the plane `plane(pixel index, its
