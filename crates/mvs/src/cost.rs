@@ -378,8 +378,13 @@ fn sums_full(
         // Padding lanes keep s = 0 (and have weight 0).
         let mut sv = [0.0f32; CHUNK];
         for i in 0..CHUNK.min(win.samples() - first) {
-            // In range by the corner test: the casts are exact.
-            let i0 = y0[i] as usize * sw + x0[i] as usize;
+            // In range by the corner test, up to rounding at the border:
+            // clamped as the AVX2 taps are, so no rounding reads outside.
+            let i0 = tap_index(
+                i64::from(y0[i]) * sw as i64 + i64::from(x0[i]),
+                data.len(),
+                sw,
+            );
             let cell = &data[i0..i0 + sw + 2];
             let t = cell[0] + ax[i] * (cell[1] - cell[0]);
             let b = cell[sw] + ax[i] * (cell[sw + 1] - cell[sw]);
@@ -417,6 +422,17 @@ fn floor_small(x: f32) -> (f32, i32) {
     let up = r > x;
     let i = (t.to_bits() as i32).wrapping_sub(MAGIC.to_bits() as i32) - i32::from(up);
     (if up { r - 1.0 } else { r }, i)
+}
+
+/// A bilinear cell's first index `i0` clamped to `[0, len - sw - 2]`, so
+/// that its four taps (`i0`, `i0 + 1`, `i0 + sw`, `i0 + sw + 1`) lie in an
+/// image of `len` pixels and row stride `sw`: what `TapIndex::clamped` does
+/// for the AVX2 sums (simd/mod.rs), for the scalar ones. The corner test
+/// keeps every cell inside but for rounding within `EDGE_MARGIN` of the
+/// border, and there a clamped tap is the nearest pixel, not a panic.
+#[inline]
+fn tap_index(i0: i64, len: usize, sw: usize) -> usize {
+    i0.clamp(0, len.saturating_sub(sw + 2) as i64) as usize
 }
 
 /// Sum of the lanes, in the order every full-window sum uses.
@@ -491,10 +507,11 @@ fn sums_full_reference(
             let iz = 1.0 / ((c0 + h[7] * fj) + h[6] * fi);
             let fx = ((a0 + h[1] * fj) + h[0] * fi) * iz - 0.5;
             let fy = ((b0 + h[4] * fj) + h[3] * fi) * iz - 0.5;
-            // In range by the corner test: the casts cannot saturate.
+            // In range by the corner test, up to rounding at the border
+            // (clamped there, as the fast path's taps are).
             let (x0, y0) = (fx as usize, fy as usize);
             let (ax, ay) = (fx - x0 as f32, fy - y0 as f32);
-            let i0 = y0 * sw + x0;
+            let i0 = tap_index((y0 * sw + x0) as i64, data.len(), sw);
             let top = &data[i0..i0 + 2];
             let bottom = &data[i0 + sw..i0 + sw + 2];
             let t = top[0] + ax * (top[1] - top[0]);
