@@ -3,6 +3,7 @@
 
 mod labels;
 mod mvs;
+mod mvs_guards;
 mod mvs_real;
 mod mvs_workspace;
 mod scene;

@@ -170,6 +170,19 @@ pub struct MvsParams {
     /// Cap of the reprojection error in the geometric pass, pixels (COLMAP's
     /// `geom_consistency_max_cost`).
     pub geom_max_error_px: f32,
+    /// Geometric pass: a pixel whose photometric plane already reprojects
+    /// within this many pixels through the sources' depth maps (the mean
+    /// over the sources its cost averages: `cost - photo` of its seed over
+    /// `geom_regularizer`) keeps that plane and is not updated; 0 updates
+    /// every pixel, as COLMAP does. The pass exists to repair pixels the
+    /// sources disagree with, by propagating consistent neighbours' planes
+    /// into them; a consistent pixel's update is most of the pass's work
+    /// (about 3 pixels in 4 on `paper_1024`) and mostly changes nothing.
+    /// Its inconsistent neighbours are still offered its plane. 1 pixel is
+    /// the geometric filter's own bound (`max_reproj_error_px`), chosen by
+    /// that rule and not by a measurement (docs/performance.md, "Stop 61").
+    /// Guarded by `settled_geometric_pixels_keep_the_quality_of_all`.
+    pub geom_settled_px: f32,
     /// Parameters of the semi-global matcher (the `[sgm]` table).
     pub sgm: SgmParams,
 }
@@ -206,6 +219,7 @@ impl Default for MvsParams {
             geom_iterations: 1,
             geom_regularizer: 0.3,
             geom_max_error_px: 3.0,
+            geom_settled_px: 1.0,
             sgm: SgmParams::default(),
         }
     }
@@ -308,6 +322,12 @@ impl MvsParams {
                 self.geom_regularizer, self.geom_max_error_px
             ));
         }
+        if !(self.geom_settled_px >= 0.0 && self.geom_settled_px.is_finite()) {
+            return bad(format!(
+                "geom_settled_px = {} must be >= 0 (0: every pixel is updated)",
+                self.geom_settled_px
+            ));
+        }
         self.sgm.validate()
     }
 
@@ -348,7 +368,7 @@ impl MvsParams {
     /// The defaults as TOML, each field preceded by its documentation.
     pub fn defaults_toml() -> String {
         let d = MvsParams::default();
-        let fields: [(&str, &str, String); 29] = [
+        let fields: [(&str, &str, String); 30] = [
             ("algorithm", "Dense matcher: \"patchmatch\" or \"sgm\" (semi-global matching, parameters in [sgm] below).", format!("\"{}\"", d.algorithm)),
             ("seed", "Seed of every random choice (same seed, same bytes for any thread count).", d.seed.to_string()),
             ("window_radius", "Half size of the matching window, pixels (5: an 11x11 window).", d.window_radius.to_string()),
@@ -378,6 +398,7 @@ impl MvsParams {
             ("geom_iterations", "Geometric pass: PatchMatch iterations, starting from the photometric planes.", d.geom_iterations.to_string()),
             ("geom_regularizer", "Geometric pass: weight of the reprojection error (pixels) in the cost.", fmt_f(f64::from(d.geom_regularizer))),
             ("geom_max_error_px", "Geometric pass: cap of the reprojection error, pixels.", fmt_f(f64::from(d.geom_max_error_px))),
+            ("geom_settled_px", "Geometric pass: a pixel whose photometric plane reprojects within this many pixels (mean over its sources) keeps it (0: every pixel is updated).", fmt_f(f64::from(d.geom_settled_px))),
         ];
         let mut s = String::from(
             "# vp-mvs parameters (vpctl mvs run --config FILE); every field is optional.\n",

@@ -343,6 +343,7 @@ impl Problem<'_> {
         // (bit for bit, when any change counts, `settle_cost` 0, and every
         // neighbour's plane is scored, `fine_neighbours` 4; `update`).
         let mut changed = vec![true; w * h];
+        let settled = self.settled_seeds(&state);
         let random_candidates = init.is_none() || self.params.seeded_random_candidates;
         // Propagation candidates a pixel scores: fewer at the finer levels.
         let neighbours = if init.is_some() && self.geom.is_none() {
@@ -379,6 +380,12 @@ impl Problem<'_> {
                         let mut patch = RefPatch::default();
                         let mut x = (y + colour) % 2;
                         while x < w {
+                            // Kept as seeded (`geom_settled_px`).
+                            if it == 0 && settled.as_ref().is_some_and(|s| s[y * w + x]) {
+                                flags[x] = false;
+                                x += 2;
+                                continue;
+                            }
                             let old = row[x];
                             row[x] = self.update(
                                 (prev, seen, &sources),
@@ -399,6 +406,33 @@ impl Problem<'_> {
             hyps: state,
             sources: chose.then_some(sources),
         }
+    }
+
+    /// In the geometric pass (with `geom_settled_px` above 0), the pixels
+    /// left as seeded: those whose seed plane the sources already agree
+    /// with, and whose propagation neighbours' planes they agree with too.
+    /// Agreement is a mean geometric term of the cost, `cost - photo`, of a
+    /// reprojection error of at most `geom_settled_px` pixels. This is the
+    /// settle rule of `update` with "disagrees" for "changed": a pixel next
+    /// to one to be repaired is still updated, and may take a better plane
+    /// from it. The first iteration does not update settled pixels, and
+    /// marks them unchanged for the next ones. A pixel whose plane could
+    /// not be scored never agrees, nor any without a geometric term
+    /// (`geom_regularizer` 0).
+    fn settled_seeds(&self, seeds: &[Hyp]) -> Option<Vec<bool>> {
+        let px = self.params.geom_settled_px;
+        let on = self.geom.is_some() && px > 0.0 && self.params.geom_regularizer > 0.0;
+        on.then(|| {
+            let bound = self.params.geom_regularizer * px;
+            let agrees: Vec<bool> = seeds
+                .iter()
+                .map(|h| h.photo < MAX_COST && h.cost - h.photo <= bound)
+                .collect();
+            let w = self.image.width as usize;
+            (0..seeds.len())
+                .map(|i| agrees[i] && !any_neighbour(&agrees, w, (i % w, i / w), |a| !a))
+                .collect()
+        })
     }
 
     /// Whether an update changed a pixel: its hypothesis changed at all
@@ -438,17 +472,7 @@ impl Problem<'_> {
         let idx = y * w + x;
         // Settled: neither this pixel nor a neighbour it propagates from
         // changed at its last update (see `settle_cost`).
-        if changed.is_some_and(|c| {
-            !c[idx]
-                && NEIGHBOURS.iter().flatten().all(|&(ox, oy)| {
-                    let (nx, ny) = (x as i32 + ox, y as i32 + oy);
-                    nx < 0
-                        || ny < 0
-                        || nx as usize >= w
-                        || ny as usize >= h
-                        || !c[ny as usize * w + nx as usize]
-                })
-        }) {
+        if changed.is_some_and(|c| !c[idx] && !any_neighbour(c, w, (x, y), |&c| c)) {
             return prev[idx];
         }
         // Which candidates were scored before (see `run`).
@@ -537,6 +561,25 @@ impl Problem<'_> {
         consider(pert_d, pert_n, &mut best);
         best
     }
+}
+
+/// Whether `test` holds for the flag of any propagation neighbour of pixel
+/// (x, y) inside the image (rows of `w` flags).
+fn any_neighbour(
+    flags: &[bool],
+    w: usize,
+    (x, y): (usize, usize),
+    test: impl Fn(&bool) -> bool,
+) -> bool {
+    let h = flags.len() / w;
+    NEIGHBOURS.iter().flatten().any(|&(ox, oy)| {
+        let (nx, ny) = (x as i32 + ox, y as i32 + oy);
+        nx >= 0
+            && ny >= 0
+            && (nx as usize) < w
+            && (ny as usize) < h
+            && test(&flags[ny as usize * w + nx as usize])
+    })
 }
 
 /// `dst = src`, rows of `w` copied in parallel.
