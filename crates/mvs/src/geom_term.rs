@@ -36,28 +36,61 @@ pub(crate) fn reprojection_error(
     cap: f32,
     rel: &Relative,
     g: &GeomSource,
-    (x, y): (usize, usize),
+    xy: (usize, usize),
     ray: &[f32; 3],
     d: f32,
 ) -> f32 {
+    reprojection(k, rel, g, xy, ray, d).map_or(cap, |(e, _)| e.min(cap))
+}
+
+/// Whether source `g`'s depth agrees with depth `d` at pixel (x, y) as the
+/// geometric filter requires (`geometric::consistent_pixel`, in f32):
+/// the forward-backward reprojection error is at most `max_px` pixels and
+/// the depth carried back differs from `d` by at most `max_diff` of it.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn agrees(
+    k: &[f32; 4],
+    (max_px, max_diff): (f32, f32),
+    rel: &Relative,
+    g: &GeomSource,
+    xy: (usize, usize),
+    ray: &[f32; 3],
+    d: f32,
+) -> bool {
+    reprojection(k, rel, g, xy, ray, d)
+        .is_some_and(|(e, back)| e <= max_px && (back - d).abs() <= max_diff * d)
+}
+
+/// The forward-backward reprojection error (pixels) of depth `d` at pixel
+/// (x, y) through source `g`, and the depth carried back into the
+/// reference; `None` where the point or its return leaves a camera's front
+/// or the source's map, or the source has no depth there.
+fn reprojection(
+    k: &[f32; 4],
+    rel: &Relative,
+    g: &GeomSource,
+    (x, y): (usize, usize),
+    ray: &[f32; 3],
+    d: f32,
+) -> Option<(f32, f32)> {
     let p = [ray[0] * d, ray[1] * d, d];
     let r = &rel.rot;
     let t = &rel.trans;
     let xs: [f32; 3] =
         std::array::from_fn(|i| r[i][0] * p[0] + r[i][1] * p[1] + r[i][2] * p[2] + t[i]);
     if !(xs[2] > 0.0) {
-        return cap;
+        return None;
     }
     let ks = &rel.k;
     let u = ks[0] * xs[0] / xs[2] + ks[2];
     let v = ks[1] * xs[1] / xs[2] + ks[3];
     if !(u >= 0.0 && v >= 0.0) || u as usize >= g.width || v as usize >= g.height {
-        return cap;
+        return None;
     }
     let (qx, qy) = (u as usize, v as usize);
     let ds = g.depth[qy * g.width + qx];
     if !(ds > 0.0) {
-        return cap;
+        return None;
     }
     let q = [
         (qx as f32 + 0.5 - ks[2]) / ks[0] * ds - t[0],
@@ -67,9 +100,9 @@ pub(crate) fn reprojection_error(
     let b = &g.rot_back;
     let xr: [f32; 3] = std::array::from_fn(|i| b[i][0] * q[0] + b[i][1] * q[1] + b[i][2] * q[2]);
     if !(xr[2] > 0.0) {
-        return cap;
+        return None;
     }
     let du = k[0] * xr[0] / xr[2] + k[2] - (x as f32 + 0.5);
     let dv = k[1] * xr[1] / xr[2] + k[3] - (y as f32 + 0.5);
-    (du * du + dv * dv).sqrt().min(cap)
+    Some(((du * du + dv * dv).sqrt(), xr[2]))
 }

@@ -170,18 +170,19 @@ pub struct MvsParams {
     /// Cap of the reprojection error in the geometric pass, pixels (COLMAP's
     /// `geom_consistency_max_cost`).
     pub geom_max_error_px: f32,
-    /// Geometric pass: a pixel whose photometric plane already reprojects
-    /// within this many pixels through the sources' depth maps (the mean
-    /// over the sources its cost averages: `cost - photo` of its seed over
-    /// `geom_regularizer`) keeps that plane and is not updated; 0 updates
-    /// every pixel, as COLMAP does. The pass exists to repair pixels the
-    /// sources disagree with, by propagating consistent neighbours' planes
-    /// into them; a consistent pixel's update is most of the pass's work
-    /// (about 3 pixels in 4 on `paper_1024`) and mostly changes nothing.
-    /// Its inconsistent neighbours are still offered its plane. 1 pixel is
-    /// the geometric filter's own bound (`max_reproj_error_px`), chosen by
-    /// that rule and not by a measurement (docs/performance.md, "Stop 61").
-    /// Guarded by `settled_geometric_pixels_keep_the_quality_of_all`.
+    /// Geometric pass: a pixel whose photometric plane every source it
+    /// scores already agrees with as the geometric filter asks (the
+    /// forward-backward reprojection error within this many pixels, the
+    /// depths within `max_depth_diff`), and whose propagation neighbours
+    /// are in the same case, keeps that plane and is not updated; 0
+    /// updates every pixel, as COLMAP does. The pass exists to repair
+    /// pixels the sources disagree with, by propagating consistent
+    /// neighbours' planes into them; a consistent pixel's update is most of
+    /// the pass's work and seldom changes whether the filter keeps it.
+    /// 1 pixel is the geometric filter's own bound (`max_reproj_error_px`),
+    /// chosen by that rule and not by a measurement (docs/performance.md,
+    /// "Stop 61"). Guarded by
+    /// `settled_geometric_pixels_keep_the_quality_of_all`.
     pub geom_settled_px: f32,
     /// Parameters of the semi-global matcher (the `[sgm]` table).
     pub sgm: SgmParams,
@@ -398,7 +399,7 @@ impl MvsParams {
             ("geom_iterations", "Geometric pass: PatchMatch iterations, starting from the photometric planes.", d.geom_iterations.to_string()),
             ("geom_regularizer", "Geometric pass: weight of the reprojection error (pixels) in the cost.", fmt_f(f64::from(d.geom_regularizer))),
             ("geom_max_error_px", "Geometric pass: cap of the reprojection error, pixels.", fmt_f(f64::from(d.geom_max_error_px))),
-            ("geom_settled_px", "Geometric pass: a pixel whose photometric plane reprojects within this many pixels (mean over its sources) keeps it (0: every pixel is updated).", fmt_f(f64::from(d.geom_settled_px))),
+            ("geom_settled_px", "Geometric pass: a pixel whose photometric plane its sources agree with within this many pixels (and max_depth_diff), as its neighbours' do, keeps it (0: every pixel is updated).", fmt_f(f64::from(d.geom_settled_px))),
         ];
         let mut s = String::from(
             "# vp-mvs parameters (vpctl mvs run --config FILE); every field is optional.\n",

@@ -6,7 +6,7 @@ use rayon::prelude::*;
 
 use crate::cost::{RefPatch, Window, MAX_COST};
 use crate::error::{MvsError, Result};
-use crate::geom_term::{GeomSource, Photometric};
+use crate::geom_term::{agrees, GeomSource, Photometric};
 pub use crate::maps::DepthNormalMap;
 use crate::params::MvsParams;
 use crate::pyramid::{half, half_k, upsample};
@@ -343,7 +343,7 @@ impl Problem<'_> {
         // (bit for bit, when any change counts, `settle_cost` 0, and every
         // neighbour's plane is scored, `fine_neighbours` 4; `update`).
         let mut changed = vec![true; w * h];
-        let settled = self.settled_seeds(&state);
+        let settled = self.settled_seeds(&state, &sources);
         let random_candidates = init.is_none() || self.params.seeded_random_candidates;
         // Propagation candidates a pixel scores: fewer at the finer levels.
         let neighbours = if init.is_some() && self.geom.is_none() {
@@ -409,30 +409,52 @@ impl Problem<'_> {
     }
 
     /// In the geometric pass (with `geom_settled_px` above 0), the pixels
-    /// left as seeded: those whose seed plane the sources already agree
-    /// with, and whose propagation neighbours' planes they agree with too.
-    /// Agreement is a mean geometric term of the cost, `cost - photo`, of a
-    /// reprojection error of at most `geom_settled_px` pixels. This is the
+    /// left as seeded: those whose seed plane every source they score
+    /// (`sources`) already agrees with as the geometric filter asks
+    /// ([`agrees`]: within `geom_settled_px` pixels and `max_depth_diff`),
+    /// and whose propagation neighbours are in the same case. This is the
     /// settle rule of `update` with "disagrees" for "changed": a pixel next
     /// to one to be repaired is still updated, and may take a better plane
     /// from it. The first iteration does not update settled pixels, and
     /// marks them unchanged for the next ones. A pixel whose plane could
     /// not be scored never agrees, nor any without a geometric term
     /// (`geom_regularizer` 0).
-    fn settled_seeds(&self, seeds: &[Hyp]) -> Option<Vec<bool>> {
+    fn settled_seeds(&self, seeds: &[Hyp], sources: &[u32]) -> Option<Vec<bool>> {
         let px = self.params.geom_settled_px;
-        let on = self.geom.is_some() && px > 0.0 && self.params.geom_regularizer > 0.0;
-        on.then(|| {
-            let bound = self.params.geom_regularizer * px;
-            let agrees: Vec<bool> = seeds
-                .iter()
-                .map(|h| h.photo < MAX_COST && h.cost - h.photo <= bound)
-                .collect();
-            let w = self.image.width as usize;
+        let geom = self
+            .geom
+            .as_ref()
+            .filter(|_| px > 0.0 && self.params.geom_regularizer > 0.0)?;
+        let bounds = (px, self.params.max_depth_diff);
+        let w = self.image.width as usize;
+        let agrees: Vec<bool> = (seeds, sources)
+            .into_par_iter()
+            .enumerate()
+            .map(|(i, (h, &mask))| {
+                let (x, y) = (i % w, i / w);
+                let ray = pixel_ray(&self.k, x, y);
+                h.photo < MAX_COST
+                    && (0..self.sources.len())
+                        .filter(|k| mask & (1 << k) != 0)
+                        .all(|k| {
+                            agrees(
+                                &self.k,
+                                bounds,
+                                &self.sources[k].rel,
+                                &geom[k],
+                                (x, y),
+                                &ray,
+                                h.d,
+                            )
+                        })
+            })
+            .collect();
+        Some(
             (0..seeds.len())
+                .into_par_iter()
                 .map(|i| agrees[i] && !any_neighbour(&agrees, w, (i % w, i / w), |a| !a))
-                .collect()
-        })
+                .collect(),
+        )
     }
 
     /// Whether an update changed a pixel: its hypothesis changed at all
