@@ -133,3 +133,54 @@ fn the_geometric_seed_from_photometric_costs_scores_like_the_windows() {
         known.hyps.len()
     );
 }
+
+/// The geometric pass settles a pixel by the geometric filter's own test
+/// (`geom_settled_px`): `agrees`, in f32 on the pass's relative poses,
+/// decides as `geometric::consistent_pixel`, in f64 on the cameras, on every
+/// pixel of a triplet's photometric map against both sources, up to
+/// rounding at the bounds; and both answers are common.
+#[test]
+fn settling_agrees_with_the_geometric_filter() {
+    use crate::geom_term::agrees;
+    use crate::geometric::consistent_pixel;
+    use crate::view::pixel_ray;
+    let cams = cameras(3, 8.0, (96, 72));
+    let (views, _) = views(&cams);
+    let params = MvsParams::default();
+    let maps: Vec<DepthNormalMap> = (0..3)
+        .map(|r| {
+            let sources: Vec<usize> = (0..3).filter(|&s| s != r).collect();
+            patch_match_raw(&views, r, &sources, &params, None)
+                .unwrap()
+                .unfiltered()
+        })
+        .collect();
+    let k = k_of(&views[0].camera);
+    let bounds = (params.max_reproj_error_px, params.max_depth_diff);
+    let (mut yes, mut no, mut differ) = (0, 0, 0);
+    for s in [1, 2] {
+        let rel = Relative::new(&views[0].camera, &views[s].camera);
+        let g = GeomSource {
+            depth: &maps[s].depth,
+            width: maps[s].width as usize,
+            height: maps[s].height as usize,
+            rot_back: std::array::from_fn(|i| std::array::from_fn(|j| rel.rot[j][i])),
+        };
+        for (i, &d) in maps[0].depth.iter().enumerate() {
+            let (x, y) = (i % 96, i / 96);
+            let ray = pixel_ray(&k, x, y);
+            let ours = agrees(&k, bounds, &rel, &g, (x, y), &ray, d);
+            let filter = consistent_pixel(&views[0], &views[s], &maps[s], x, y, d, &params);
+            differ += usize::from(ours != filter.is_some());
+            if ours {
+                yes += 1;
+            } else {
+                no += 1;
+            }
+        }
+    }
+    let n = 2 * 96 * 72;
+    assert!(differ * 200 <= n, "{differ} of {n} decisions differ");
+    assert!(yes * 10 >= n && no * 20 >= n, "{yes} agree, {no} do not");
+    eprintln!("{differ} of {n} decisions differ; {yes} agree, {no} do not");
+}
