@@ -170,8 +170,9 @@ pub struct MvsParams {
     /// Cap of the reprojection error in the geometric pass, pixels (COLMAP's
     /// `geom_consistency_max_cost`).
     pub geom_max_error_px: f32,
-    /// Geometric pass: a pixel whose photometric plane every source it
-    /// scores already agrees with as the geometric filter asks (the
+    /// Geometric pass: a pixel whose photometric plane as many of the
+    /// sources it scores as its cost averages (`top_k_sources`) already
+    /// agree with as the geometric filter asks (the
     /// forward-backward reprojection error within this many pixels, the
     /// depths within `max_depth_diff`), and whose propagation neighbours
     /// are in the same case, keeps that plane and is not updated; 0

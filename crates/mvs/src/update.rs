@@ -11,16 +11,17 @@ use crate::view::pixel_ray;
 
 impl Problem<'_> {
     /// In the geometric pass (with `geom_settled_px` above 0), the pixels
-    /// left as seeded: those whose seed plane every source they score
-    /// (`sources`) already agrees with as the geometric filter asks
-    /// ([`agrees`]: within `geom_settled_px` pixels and `max_depth_diff`),
-    /// and whose propagation neighbours are in the same case. This is the
-    /// settle rule of `update` with "disagrees" for "changed": a pixel next
-    /// to one to be repaired is still updated, and may take a better plane
-    /// from it. The first iteration does not update settled pixels, and
-    /// marks them unchanged for the next ones. A pixel whose plane could
-    /// not be scored never agrees, nor any without a geometric term
-    /// (`geom_regularizer` 0).
+    /// left as seeded: those whose seed plane as many of the sources they
+    /// score (`sources`) as their cost averages (`top_k_sources`, or all of
+    /// them where there are fewer) already agree with as the geometric
+    /// filter asks ([`agrees`]: within `geom_settled_px` pixels and
+    /// `max_depth_diff`), and whose propagation neighbours are in the same
+    /// case. This is the settle rule of `update` with "disagrees" for
+    /// "changed": a pixel next to one to be repaired is still updated, and
+    /// may take a better plane from it. The first iteration does not update
+    /// settled pixels, and marks them unchanged for the next ones. A pixel
+    /// whose plane could not be scored never agrees, nor any without a
+    /// geometric term (`geom_regularizer` 0).
     pub(super) fn settled_seeds(&self, seeds: &[Hyp], sources: &[u32]) -> Option<Vec<bool>> {
         let px = self.params.geom_settled_px;
         let geom = self
@@ -35,20 +36,15 @@ impl Problem<'_> {
             .map(|(i, (h, &mask))| {
                 let (x, y) = (i % w, i / w);
                 let ray = pixel_ray(&self.k, x, y);
-                h.photo < MAX_COST
-                    && (0..self.sources.len())
-                        .filter(|k| mask & (1 << k) != 0)
-                        .all(|k| {
-                            agrees(
-                                &self.k,
-                                bounds,
-                                &self.sources[k].rel,
-                                &geom[k],
-                                (x, y),
-                                &ray,
-                                h.d,
-                            )
-                        })
+                let averaged = (mask.count_ones() as usize).min(self.top_k);
+                let agreeing = (0..self.sources.len())
+                    .filter(|k| mask & (1 << k) != 0)
+                    .filter(|&k| {
+                        let rel = &self.sources[k].rel;
+                        agrees(&self.k, bounds, rel, &geom[k], (x, y), &ray, h.d)
+                    })
+                    .count();
+                h.photo < MAX_COST && agreeing >= averaged
             })
             .collect();
         Some(
