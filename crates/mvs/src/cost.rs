@@ -2,7 +2,6 @@
 //! into each source through the plane-induced homography, aggregated over
 //! the sources with a best-k view selection.
 
-use crate::fast_exp;
 use crate::params::MvsParams;
 use crate::simd::{Avx2, FullWindow};
 use crate::view::GreyImage;
@@ -112,133 +111,9 @@ impl Window {
     }
 }
 
-/// The reference side of the NCC at one pixel: the window samples that fall
-/// inside the image, their bilateral weights and their weighted-mean-free
-/// intensities (times the weight). Built once per pixel and iteration,
-/// shared by every hypothesis and source scored there; the vectors are
-/// reused from pixel to pixel, so the hot loop allocates nothing.
-#[derive(Debug, Default)]
-pub(crate) struct RefPatch {
-    /// Sample offsets; filled only for a window cut by the image border.
-    dx: Vec<f32>,
-    dy: Vec<f32>,
-    /// Bilateral weight of each sample.
-    w: Vec<f32>,
-    /// Weight times (intensity minus the weighted mean).
-    wr: Vec<f32>,
-    sum_w: f32,
-    /// Sum of w * (intensity - mean)^2.
-    var: f32,
-    /// 1 / `sum_w` and 1 / sqrt(`var`), once per patch, so that the NCC
-    /// of each source scored ([`source_cost`]) waits on one square root
-    /// and one division, not on two divisions and a square root.
-    inv_sum_w: f32,
-    inv_sd: f32,
-    /// Whether every sample of the window lies inside the image: then the
-    /// samples are the full grid in the [`Window`]'s packed layout, padded
-    /// with zero weights, and a source is scored by the chunked fast path
-    /// ([`source_cost`]).
-    full: bool,
-}
-
-impl RefPatch {
-    /// Fills the patch of pixel (x, y) of `image`: [`RefPatch::fill`],
-    /// compiled with AVX2 where the CPU has it (the same bits: the weights'
-    /// `exp` runs 8 lanes wide instead of 4, every operation the same).
-    pub(crate) fn build(&mut self, image: &GreyImage, x: usize, y: usize, win: &Window) {
-        match win.avx2 {
-            Some(avx2) => avx2.build_patch(self, image, (x, y), win),
-            None => self.fill(image, x, y, win),
-        }
-    }
-
-    /// The body of [`RefPatch::build`], inlined into each SIMD level's copy.
-    #[allow(clippy::inline_always)] // inlined, it is compiled for each SIMD level
-    #[inline(always)]
-    pub(crate) fn fill(&mut self, image: &GreyImage, x: usize, y: usize, win: &Window) {
-        self.dx.clear();
-        self.dy.clear();
-        self.w.clear();
-        self.wr.clear();
-        self.sum_w = 0.0;
-        self.var = 0.0;
-        self.inv_sum_w = 0.0;
-        self.inv_sd = 0.0;
-        let (xi, yi) = (x as i32, y as i32);
-        let Some(centre) = image.at(xi, yi) else {
-            self.full = false;
-            return;
-        };
-        let (iw, ih) = (image.width as i32, image.height as i32);
-        self.full = xi + win.first() >= 0
-            && yi + win.first() >= 0
-            && xi + win.last() < iw
-            && yi + win.last() < ih;
-        if self.full {
-            // Intensities in the packed layout (the padding stays 0), then
-            // every weight in one loop that vectorises ([`fast_exp`]);
-            // padding lanes get weight 0 from their zero spatial weight.
-            let w = image.width as usize;
-            self.wr.resize(win.lanes(), 0.0);
-            for (v, &(ox, oy)) in self.wr.iter_mut().zip(&win.grid) {
-                *v = image.data[(yi + oy) as usize * w + (xi + ox) as usize];
-            }
-            // A plain loop over slices, not `extend` of a mapped iterator:
-            // that left `Iterator::fold` as a function of its own, which
-            // the AVX2 copy of this body did not inline, so the `exp` ran
-            // on SSE (5 % of `paper_1024`'s profile, beside the patch
-            // build's 8 %).
-            self.w.resize(win.lanes(), 0.0);
-            for ((wt, &v), &s) in self.w.iter_mut().zip(&self.wr).zip(&win.spatial) {
-                let dc = v - centre;
-                *wt = s * fast_exp::exp(-dc * dc * win.inv_color);
-            }
-        } else {
-            for (&(ox, oy), &s) in win.grid.iter().zip(&win.spatial) {
-                let Some(v) = image.at(xi + ox, yi + oy) else {
-                    continue;
-                };
-                let dc = v - centre;
-                let wt = s * fast_exp::exp(-dc * dc * win.inv_color);
-                self.dx.push(ox as f32);
-                self.dy.push(oy as f32);
-                self.w.push(wt);
-                self.wr.push(v);
-            }
-        }
-        // `wr` holds the intensities until the mean is known. One partial
-        // sum per lane, added up as the window sums are ([`lane_total`]):
-        // one running sum made each add wait on the one before (40 in a
-        // row, twice), and the lane loops vectorise. The order is the
-        // same at every SIMD level.
-        let (mut sw, mut swv) = ([0.0f32; CHUNK], [0.0f32; CHUNK]);
-        for (cw, cv) in self.w.chunks(CHUNK).zip(self.wr.chunks(CHUNK)) {
-            for (l, (&wt, &v)) in cw.iter().zip(cv).enumerate() {
-                sw[l] += wt;
-                swv[l] += wt * v;
-            }
-        }
-        let sw = lane_total(sw);
-        let mean = lane_total(swv) / sw;
-        let mut var = [0.0f32; CHUNK];
-        for (cr, cw) in self.wr.chunks_mut(CHUNK).zip(self.w.chunks(CHUNK)) {
-            for (l, (wr, &wt)) in cr.iter_mut().zip(cw).enumerate() {
-                let r = *wr - mean;
-                var[l] += wt * r * r;
-                *wr = wt * r;
-            }
-        }
-        self.sum_w = sw;
-        self.var = lane_total(var);
-        self.inv_sum_w = 1.0 / sw;
-        self.inv_sd = 1.0 / self.var.sqrt();
-    }
-
-    /// Whether the patch has texture enough to score anything.
-    pub(crate) fn textured(&self) -> bool {
-        self.var > MIN_VARIANCE * self.sum_w
-    }
-}
+#[path = "ref_patch.rs"]
+mod ref_patch;
+pub(crate) use ref_patch::RefPatch;
 
 /// 1 - weighted NCC between the reference patch at continuous pixel
 /// (u, v) and the source image warped by `h`; [`MAX_COST`] when a sample

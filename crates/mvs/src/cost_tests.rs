@@ -292,3 +292,85 @@ fn lower_bound_never_exceeds_the_aggregate() {
         }
     }
 }
+
+/// The reference patch of pixel (x, y) by the plainest loop: each lane's
+/// intensity (0 on padding; a cut window packs the samples inside the
+/// image), weight and mean-free value, each lane's sums over the chunks
+/// in order, added up as [`lane_total`] does. Returns (w, wr, sum_w, var).
+fn plain_patch(
+    img: &GreyImage,
+    (x, y): (i32, i32),
+    win: &Window,
+) -> (Vec<f32>, Vec<f32>, f32, f32) {
+    let centre = img.at(x, y).expect("a pixel of the image");
+    // (intensity, spatial weight) of each sample inside the image.
+    let mut lanes: Vec<(f32, f32)> = win
+        .grid
+        .iter()
+        .zip(&win.spatial)
+        .filter_map(|(&(ox, oy), &s)| img.at(x + ox, y + oy).map(|v| (v, s)))
+        .collect();
+    if lanes.len() == win.samples() {
+        lanes.resize(win.lanes(), (0.0, 0.0));
+    }
+    let w: Vec<f32> = lanes
+        .iter()
+        .map(|&(v, s)| {
+            let dc = v - centre;
+            s * crate::fast_exp::exp(-dc * dc * win.inv_color)
+        })
+        .collect();
+    let by_lane = |f: &dyn Fn(usize) -> f32| {
+        let mut a = [0.0f32; CHUNK];
+        for k in 0..w.len() {
+            a[k % CHUNK] += f(k);
+        }
+        lane_total(a)
+    };
+    let sw = by_lane(&|k| w[k]);
+    let mean = by_lane(&|k| w[k] * lanes[k].0) / sw;
+    let var = by_lane(&|k| {
+        let r = lanes[k].0 - mean;
+        w[k] * r * r
+    });
+    let wr = (0..w.len()).map(|k| w[k] * (lanes[k].0 - mean)).collect();
+    (w, wr, sw, var)
+}
+
+#[test]
+fn fill_matches_the_plain_loop_bit_for_bit() {
+    // Every pixel of a small image, border ones included, with windows of
+    // one, several and partly filled chunks; one patch reused throughout,
+    // as the passes reuse theirs, and images of two widths, so that its
+    // kept tap offsets must follow the image.
+    let mut full = 0;
+    for (radius, step, drop) in [(5, 2, false), (4, 1, false), (5, 2, true), (9, 1, false)] {
+        let win = Window::new(&MvsParams {
+            window_radius: radius,
+            window_step: step,
+            window_drop_corners: drop,
+            ..MvsParams::default()
+        });
+        let mut patch = RefPatch::default();
+        for (w, h) in [(40u32, 30u32), (33, 36)] {
+            let img = texture(w, h);
+            for y in 0..h as i32 {
+                for x in 0..w as i32 {
+                    patch.build(&img, x as usize, y as usize, &win);
+                    let (pw, pwr, sw, var) = plain_patch(&img, (x, y), &win);
+                    let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+                    let at = format!("({x}, {y}) of {w}x{h}, window {radius}/{step}/{drop}");
+                    assert_eq!(bits(&patch.w), bits(&pw), "weights at {at}");
+                    assert_eq!(bits(&patch.wr), bits(&pwr), "values at {at}");
+                    assert_eq!(
+                        [patch.sum_w, patch.var].map(f32::to_bits),
+                        [sw, var].map(f32::to_bits),
+                        "moments at {at}"
+                    );
+                    full += usize::from(patch.full);
+                }
+            }
+        }
+    }
+    assert!(full > 1000, "{full} full windows");
+}
