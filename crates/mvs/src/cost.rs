@@ -113,7 +113,7 @@ impl Window {
 
 #[path = "ref_patch.rs"]
 mod ref_patch;
-pub(crate) use ref_patch::RefPatch;
+pub(crate) use ref_patch::{PatchKernels, RefPatch, Scalar};
 
 /// 1 - weighted NCC between the reference patch at continuous pixel
 /// (u, v) and the source image warped by `h`; [`MAX_COST`] when a sample
@@ -157,6 +157,7 @@ pub(crate) fn source_cost(
 /// homography being projective and the window convex, every sample does);
 /// `None` if a corner falls outside or behind the source camera.
 #[inline]
+#[allow(clippy::needless_bitwise_bool)] // see the corner loop
 fn warped_origin(win: &Window, u: f32, v: f32, h: &[f32; 9], src: &GreyImage) -> Option<[f32; 3]> {
     let o0 = win.first() as f32;
     let (u0, v0) = (u + o0, v + o0);
@@ -179,7 +180,9 @@ fn warped_origin(win: &Window, u: f32, v: f32, h: &[f32; 9], src: &GreyImage) ->
         let z = c0 + h[6] * cx[i] + h[7] * cy[i];
         let x = a0 + h[0] * cx[i] + h[1] * cy[i];
         let y = b0 + h[3] * cx[i] + h[4] * cy[i];
-        inside[i] = z > 0.0 && x >= lo * z && y >= lo * z && x < x_max * z && y < y_max * z;
+        // `&`, not `&&`: no branch per test, so the four corners stay one
+        // vector (a tenth of this function's instructions).
+        inside[i] = (z > 0.0) & (x >= lo * z) & (y >= lo * z) & (x < x_max * z) & (y < y_max * z);
     }
     (inside[0] & inside[1] & inside[2] & inside[3]).then_some([a0, b0, c0])
 }

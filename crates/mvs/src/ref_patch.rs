@@ -1,7 +1,7 @@
 //! The reference side of the NCC (`RefPatch`): built once per pixel and
 //! update, shared by every hypothesis and source scored there.
 
-use super::{chunk, lane_total, Window, CHUNK, MIN_VARIANCE};
+use super::{lane_total, Window, CHUNK, MIN_VARIANCE};
 use crate::fast_exp;
 use crate::view::GreyImage;
 
@@ -33,9 +33,9 @@ pub(crate) struct RefPatch {
     /// ([`source_cost`]).
     pub(super) full: bool,
     /// Each window sample's offset in the image data from the window's
-    /// first sample, for images `taps_width` wide (kept from pixel to
-    /// pixel; see [`RefPatch::fill`]).
-    taps: Vec<usize>,
+    /// first sample, for images `taps_width` wide, padded with 0 to whole
+    /// chunks (kept from pixel to pixel; see [`RefPatch::fill`]).
+    taps: Vec<i32>,
     taps_width: usize,
 }
 
@@ -46,7 +46,7 @@ impl RefPatch {
     pub(crate) fn build(&mut self, image: &GreyImage, x: usize, y: usize, win: &Window) {
         match win.avx2 {
             Some(avx2) => avx2.build_patch(self, image, (x, y), win),
-            None => self.fill(image, x, y, win),
+            None => self.fill(image, x, y, win, &Scalar),
         }
     }
 
@@ -58,10 +58,19 @@ impl RefPatch {
     /// loop, `fill_matches_the_plain_loop_bit_for_bit`). For a full window
     /// the loops walk whole chunks of [`CHUNK`] fixed-size arrays, so that
     /// they vectorise with no bounds test per lane, and read the image
-    /// through [`RefPatch::taps`], offsets computed once per row task.
+    /// through [`RefPatch::taps`], offsets computed once per row task;
+    /// `kernels` read the samples and take the moments ([`Scalar`], or
+    /// AVX2's: the same bits).
     #[allow(clippy::inline_always)] // inlined, it is compiled for each SIMD level
     #[inline(always)]
-    pub(crate) fn fill(&mut self, image: &GreyImage, x: usize, y: usize, win: &Window) {
+    pub(crate) fn fill(
+        &mut self,
+        image: &GreyImage,
+        x: usize,
+        y: usize,
+        win: &Window,
+        kernels: &impl PatchKernels,
+    ) {
         self.dx.clear();
         self.dy.clear();
         self.sum_w = 0.0;
@@ -81,7 +90,7 @@ impl RefPatch {
             && xi + win.last() < iw
             && yi + win.last() < ih;
         if self.full {
-            self.fill_full(image, (x, y), centre, win);
+            self.fill_full(image, (x, y), centre, win, kernels);
             return;
         }
         self.w.clear();
@@ -124,16 +133,28 @@ impl RefPatch {
     /// spatial weight), then the moments, a chunk at a time.
     #[allow(clippy::inline_always)] // inlined into `fill`'s SIMD copies
     #[inline(always)]
-    fn fill_full(&mut self, image: &GreyImage, (x, y): (usize, usize), centre: f32, win: &Window) {
+    fn fill_full(
+        &mut self,
+        image: &GreyImage,
+        (x, y): (usize, usize),
+        centre: f32,
+        win: &Window,
+        kernels: &impl PatchKernels,
+    ) {
         let lanes = win.lanes();
         let w = image.width as usize;
-        if self.taps_width != w || self.taps.len() != win.samples() {
-            // Each sample's offset from the window's first, in this image.
-            let first = win.first();
-            self.taps = win
-                .grid
-                .iter()
-                .map(|&(ox, oy)| (oy - first) as usize * w + (ox - first) as usize)
+        if self.taps_width != w || self.taps.len() != lanes {
+            // Each sample's offset from the window's first, in this image,
+            // 0 on padding; -1 (read as 0) if it does not fit an i32,
+            // which only an image over 100 M pixels wide would need.
+            let first = i64::from(win.first());
+            self.taps = (0..lanes)
+                .map(|k| {
+                    win.grid.get(k).map_or(0, |&(ox, oy)| {
+                        let o = (i64::from(oy) - first) * w as i64 + (i64::from(ox) - first);
+                        i32::try_from(o).unwrap_or(-1)
+                    })
+                })
                 .collect();
             self.taps_width = w;
         }
@@ -144,9 +165,11 @@ impl RefPatch {
         let region = &image.data[top_left..=top_left + span * w + span];
         self.wr.resize(lanes, 0.0);
         self.w.resize(lanes, 0.0);
-        for (v, &o) in self.wr.iter_mut().zip(&self.taps) {
-            *v = region[o];
-        }
+        kernels.gather(
+            region,
+            self.taps.as_chunks::<CHUNK>().0,
+            self.wr.as_chunks_mut::<CHUNK>().0,
+        );
         self.wr[win.samples()..].fill(0.0);
         // A plain loop over slices, not `extend` of a mapped iterator:
         // that left `Iterator::fold` as a function of its own, which the
@@ -155,29 +178,11 @@ impl RefPatch {
             let dc = v - centre;
             *wt = s * fast_exp::exp(-dc * dc * win.inv_color);
         }
-        // Each chunk copied into registers first: then the compiler knows
-        // that the stores into `wr` do not change `w`, and keeps the lanes
-        // in one vector instead of going lane by lane.
-        let (mut sw, mut swv) = ([0.0f32; CHUNK], [0.0f32; CHUNK]);
-        for first in (0..lanes).step_by(CHUNK) {
-            let (cw, cv) = (*chunk(&self.w, first), *chunk(&self.wr, first));
-            for l in 0..CHUNK {
-                sw[l] += cw[l];
-                swv[l] += cw[l] * cv[l];
-            }
-        }
-        let (sw, mean) = (lane_total(sw), lane_total(swv) / lane_total(sw));
-        let mut var = [0.0f32; CHUNK];
-        for first in (0..lanes).step_by(CHUNK) {
-            let (cw, mut cr) = (*chunk(&self.w, first), *chunk(&self.wr, first));
-            for l in 0..CHUNK {
-                let r = cr[l] - mean;
-                var[l] += cw[l] * r * r;
-                cr[l] = cw[l] * r;
-            }
-            self.wr[first..first + CHUNK].copy_from_slice(&cr);
-        }
-        self.set_moments(sw, lane_total(var));
+        let (sw, var) = kernels.moments(
+            self.w.as_chunks::<CHUNK>().0,
+            self.wr.as_chunks_mut::<CHUNK>().0,
+        );
+        self.set_moments(sw, var);
     }
 
     /// The weight sum and the weighted variance, and their inverses.
@@ -192,5 +197,61 @@ impl RefPatch {
     /// Whether the patch has texture enough to score anything.
     pub(crate) fn textured(&self) -> bool {
         self.var > MIN_VARIANCE * self.sum_w
+    }
+}
+
+/// The two loops of a full window's patch build that the compiler does
+/// not turn into good vector code by itself: [`Scalar`]'s, and AVX2's
+/// (`simd::Avx2`), which must give the same bits.
+pub(crate) trait PatchKernels {
+    /// `out[k] = region[taps[k]]` for every lane; a tap outside `region`
+    /// reads 0 (none is: the window lies inside the image).
+    fn gather(&self, region: &[f32], taps: &[[i32; CHUNK]], out: &mut [[f32; CHUNK]]);
+
+    /// With the weights `w` and the intensities `wr` of a window's lanes:
+    /// the weight sum and the weighted variance, each summed per lane over
+    /// the chunks in order and added up as [`lane_total`] does, and `wr`
+    /// replaced by the weight times the intensity minus the weighted mean.
+    fn moments(&self, w: &[[f32; CHUNK]], wr: &mut [[f32; CHUNK]]) -> (f32, f32);
+}
+
+/// The kernels in plain Rust: the reference, and the path on CPUs
+/// without AVX2.
+pub(crate) struct Scalar;
+
+impl PatchKernels for Scalar {
+    #[allow(clippy::inline_always)] // inlined into `fill`'s SIMD copies
+    #[inline(always)]
+    fn gather(&self, region: &[f32], taps: &[[i32; CHUNK]], out: &mut [[f32; CHUNK]]) {
+        for (t, o) in taps.iter().flatten().zip(out.iter_mut().flatten()) {
+            *o = usize::try_from(*t)
+                .ok()
+                .and_then(|t| region.get(t))
+                .copied()
+                .unwrap_or(0.0);
+        }
+    }
+
+    #[allow(clippy::inline_always)] // inlined into `fill`'s SIMD copies
+    #[inline(always)]
+    fn moments(&self, w: &[[f32; CHUNK]], wr: &mut [[f32; CHUNK]]) -> (f32, f32) {
+        let (mut sw, mut swv) = ([0.0f32; CHUNK], [0.0f32; CHUNK]);
+        for (cw, cv) in w.iter().zip(wr.iter()) {
+            for l in 0..CHUNK {
+                sw[l] += cw[l];
+                swv[l] += cw[l] * cv[l];
+            }
+        }
+        let (sw, mean) = (lane_total(sw), lane_total(swv) / lane_total(sw));
+        let mut var = [0.0f32; CHUNK];
+        for (cw, cr) in w.iter().zip(wr.iter_mut()) {
+            for l in 0..CHUNK {
+                let r = cr[l] - mean;
+                let t = cw[l] * r;
+                var[l] += t * r;
+                cr[l] = t;
+            }
+        }
+        (sw, lane_total(var))
     }
 }

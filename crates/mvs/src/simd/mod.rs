@@ -140,26 +140,57 @@ impl Avx2 {
         #[cfg(not(target_arch = "x86_64"))]
         {
             let _ = self;
-            patch.fill(image, x, y, win);
+            patch.fill(image, x, y, win, &crate::cost::Scalar);
         }
+    }
+}
+
+/// The patch build's gather and moments on AVX2: the same values as
+/// `cost::Scalar`'s (tested in `cost.rs`).
+impl crate::cost::PatchKernels for Avx2 {
+    #[allow(clippy::inline_always)] // inlined into the AVX2 patch build
+    #[inline(always)]
+    fn gather(&self, region: &[f32], taps: &[[i32; CHUNK]], out: &mut [[f32; CHUNK]]) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: `self` exists only if `detect` found AVX2 on this CPU,
+            // the one feature `x86::gather` is compiled for.
+            unsafe { x86::gather(region, taps, out) }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        crate::cost::PatchKernels::gather(&crate::cost::Scalar, region, taps, out);
+    }
+
+    #[allow(clippy::inline_always)] // inlined into the AVX2 patch build
+    #[inline(always)]
+    fn moments(&self, w: &[[f32; CHUNK]], wr: &mut [[f32; CHUNK]]) -> (f32, f32) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: as in `gather`, for `x86::moments`.
+            unsafe { x86::moments(w, wr) }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        crate::cost::PatchKernels::moments(&crate::cost::Scalar, w, wr)
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
     use super::FullWindow;
-    use crate::cost::{chunk, CHUNK};
+    use crate::cost::CHUNK;
     use std::arch::x86_64::{
-        __m256, __m256i, _mm256_add_epi32, _mm256_add_ps, _mm256_and_ps, _mm256_castpd_ps,
-        _mm256_castps256_ps128, _mm256_castsi256_ps, _mm256_cmpgt_epi32, _mm256_cvttps_epi32,
-        _mm256_div_ps, _mm256_extractf128_ps, _mm256_floor_ps, _mm256_loadu_ps, _mm256_max_epi32,
+        __m256, __m256i, _mm256_add_epi32, _mm256_add_ps, _mm256_and_ps, _mm256_andnot_si256,
+        _mm256_castpd_ps, _mm256_castps256_ps128, _mm256_castsi256_ps, _mm256_cmpgt_epi32,
+        _mm256_cvttps_epi32, _mm256_div_ps, _mm256_extractf128_ps, _mm256_floor_ps,
+        _mm256_loadu_ps, _mm256_loadu_si256, _mm256_mask_i32gather_ps, _mm256_max_epi32,
         _mm256_min_epi32, _mm256_mul_ps, _mm256_mullo_epi32, _mm256_set1_epi32, _mm256_set1_ps,
         _mm256_setr_epi32, _mm256_setr_pd, _mm256_setzero_ps, _mm256_setzero_si256,
-        _mm256_shuffle_ps, _mm256_storeu_si256, _mm256_sub_ps, _mm_add_ps, _mm_add_ss,
-        _mm_cvtss_f32, _mm_movehl_ps, _mm_shuffle_ps,
+        _mm256_shuffle_ps, _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_ps, _mm_add_ps,
+        _mm_add_ss, _mm_cvtss_f32, _mm_movehl_ps, _mm_shuffle_ps,
     };
 
-    /// See [`super::Avx2::build_patch`]: safe code, compiled for AVX2.
+    /// See [`super::Avx2::build_patch`]: safe code compiled for AVX2, with
+    /// AVX2's gather and moments ([`gather`], [`moments`]).
     #[target_feature(enable = "avx2")]
     pub(super) fn build_patch(
         patch: &mut crate::cost::RefPatch,
@@ -167,7 +198,66 @@ mod x86 {
         (x, y): (usize, usize),
         win: &crate::cost::Window,
     ) {
-        patch.fill(image, x, y, win);
+        patch.fill(image, x, y, win, &super::Avx2 { _private: () });
+    }
+
+    /// `cost::Scalar::gather` with one AVX2 gather per chunk: the same
+    /// values (a tap outside `region` reads 0), about a tenth of the
+    /// instructions of a bounds-checked load per sample (those were a
+    /// third of the patch build's).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(super) fn gather(region: &[f32], taps: &[[i32; CHUNK]], out: &mut [[f32; CHUNK]]) {
+        let Ok(len) = i32::try_from(region.len()) else {
+            crate::cost::PatchKernels::gather(&crate::cost::Scalar, region, taps, out);
+            return;
+        };
+        let len = _mm256_set1_epi32(len);
+        let zero = _mm256_setzero_si256();
+        for (t, o) in taps.iter().zip(out) {
+            // SAFETY: `t` is 8 readable i32s; the load is unaligned.
+            let t = unsafe { _mm256_loadu_si256(t.as_ptr().cast()) };
+            // Lanes in [0, len): the others keep 0 and read nothing.
+            let inside =
+                _mm256_andnot_si256(_mm256_cmpgt_epi32(zero, t), _mm256_cmpgt_epi32(len, t));
+            // SAFETY: the gather reads `region` only at the lanes whose
+            // mask bit is set, each an index in [0, region.len()).
+            let v = unsafe {
+                _mm256_mask_i32gather_ps::<4>(
+                    _mm256_setzero_ps(),
+                    region.as_ptr(),
+                    t,
+                    _mm256_castsi256_ps(inside),
+                )
+            };
+            // SAFETY: `o` is 8 writable floats; the store is unaligned.
+            unsafe { _mm256_storeu_ps(o.as_mut_ptr(), v) };
+        }
+    }
+
+    /// `cost::Scalar::moments` on whole vectors: every lane the same
+    /// operations in the same order, the lanes added up by [`total`]
+    /// (`cost::lane_total`'s order), so the same bits.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(super) fn moments(w: &[[f32; CHUNK]], wr: &mut [[f32; CHUNK]]) -> (f32, f32) {
+        let (mut sw, mut swv) = (_mm256_setzero_ps(), _mm256_setzero_ps());
+        for (cw, cv) in w.iter().zip(wr.iter()) {
+            let cw = load(cw);
+            sw = _mm256_add_ps(sw, cw);
+            swv = _mm256_add_ps(swv, _mm256_mul_ps(cw, load(cv)));
+        }
+        let sw = total(sw);
+        let mean = _mm256_set1_ps(total(swv) / sw);
+        let mut var = _mm256_setzero_ps();
+        for (cw, cr) in w.iter().zip(wr.iter_mut()) {
+            let r = _mm256_sub_ps(load(cr), mean);
+            let t = _mm256_mul_ps(load(cw), r);
+            var = _mm256_add_ps(var, _mm256_mul_ps(t, r));
+            // SAFETY: `cr` is 8 writable floats; the store is unaligned.
+            unsafe { _mm256_storeu_ps(cr.as_mut_ptr(), t) };
+        }
+        (sw, total(var))
     }
 
     /// Eight floats from a bounds-checked array.
@@ -189,22 +279,13 @@ mod x86 {
         (f, _mm256_cvttps_epi32(f))
     }
 
-    /// Chunks whose coordinates are computed before any of their taps is
-    /// read (the default window's 5 fit in one group).
-    const GROUP: usize = 8;
-
     /// Every lane's top-left tap index, in range so that its four taps
     /// (+0, +1, +sw, +sw + 1) lie inside the image: made only by
-    /// [`TapIndex::clamped`] and [`TapIndex::ZERO`], which is what makes
-    /// [`taps`]' reads safe.
+    /// [`TapIndex::clamped`], which is what makes [`taps`]' reads safe.
     #[derive(Clone, Copy)]
-    struct TapIndex([i32; CHUNK]);
+    struct TapIndex([u32; CHUNK]);
 
     impl TapIndex {
-        /// Index 0 in every lane: in range, since the caller checked that
-        /// `data` holds at least `sw + 2` floats.
-        const ZERO: Self = TapIndex([0; CHUNK]);
-
         /// `i0` clamped to `[0, data.len() - sw - 2]`; the caller checked
         /// that this range is not empty and that `data.len()` fits in an
         /// i32.
@@ -213,8 +294,9 @@ mod x86 {
         fn clamped(i0: __m256i, data: &[f32], sw: usize) -> Self {
             let last = _mm256_set1_epi32((data.len() - sw - 2) as i32);
             let i0 = _mm256_min_epi32(_mm256_max_epi32(i0, _mm256_setzero_si256()), last);
-            let mut idx = [0i32; CHUNK];
-            // SAFETY: `idx` is 8 writable i32s; the store is unaligned.
+            let mut idx = [0u32; CHUNK];
+            // SAFETY: `idx` is 8 writable u32s (the lanes are in [0, i32::MAX]
+            // after the clamp, so the same values); the store is unaligned.
             unsafe { _mm256_storeu_si256(idx.as_mut_ptr().cast(), i0) };
             TapIndex(idx)
         }
@@ -222,12 +304,15 @@ mod x86 {
 
     /// See [`super::Avx2::sums_full`]; the caller checked the shapes.
     ///
-    /// The chunks go in groups: first every chunk's coordinates, fractions
-    /// and tap indices, then every chunk's taps and sums, in the scalar
-    /// loop's order. Each chunk is one long chain (a division, the floor,
-    /// the index, the loads, the interpolation); computing the indices of
-    /// the whole group first lets the loads of one chunk overlap the
-    /// arithmetic of the next instead of waiting on it.
+    /// Each chunk is one long chain (a division, the floor, the index, the
+    /// loads, the interpolation). The loop is software-pipelined: the next
+    /// chunk's coordinates, fractions and tap indices are computed before
+    /// this chunk's taps are read, so that the loads of one chunk overlap
+    /// the arithmetic of the next instead of waiting on it, with no arrays
+    /// of them to fill (an earlier version computed a group of 8 chunks'
+    /// first, and zeroed those arrays, 24 vectors, on every call: a tenth
+    /// of the kernel's instructions). The sums are taken chunk after chunk
+    /// as in the scalar loop.
     #[target_feature(enable = "avx2")]
     pub(super) fn sums_full(win: &FullWindow) -> [f32; 3] {
         let h = win.h;
@@ -246,63 +331,65 @@ mod x86 {
         let (a0, b0, c0) = (_mm256_set1_ps(a0), _mm256_set1_ps(b0), _mm256_set1_ps(c0));
         let (one, half) = (_mm256_set1_ps(1.0), _mm256_set1_ps(0.5));
         let lane_ids = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+        // The window in whole chunks (the caller checked that every array
+        // has the same multiple of CHUNK lanes).
+        let (w, _) = win.w.as_chunks::<CHUNK>();
+        let (wr, _) = win.wr.as_chunks::<CHUNK>();
+        let (lane_x, _) = win.lane_x.as_chunks::<CHUNK>();
+        let (lane_y, _) = win.lane_y.as_chunks::<CHUNK>();
+        let chunks = w.len().min(wr.len()).min(lane_x.len()).min(lane_y.len());
+        // Chunk c's tap indices and fractions along x and y.
+        let cell = |c: usize| -> (TapIndex, __m256, __m256) {
+            let fi = load(&lane_x[c]);
+            let fj = load(&lane_y[c]);
+            // The scalar loop's (origin + h fj) + h fi, lane by lane.
+            let ra = _mm256_add_ps(a0, _mm256_mul_ps(hx1, fj));
+            let rb = _mm256_add_ps(b0, _mm256_mul_ps(hx4, fj));
+            let rc = _mm256_add_ps(c0, _mm256_mul_ps(hx7, fj));
+            let iz = _mm256_div_ps(one, _mm256_add_ps(rc, _mm256_mul_ps(hx6, fi)));
+            let fx = _mm256_sub_ps(
+                _mm256_mul_ps(_mm256_add_ps(ra, _mm256_mul_ps(hx0, fi)), iz),
+                half,
+            );
+            let fy = _mm256_sub_ps(
+                _mm256_mul_ps(_mm256_add_ps(rb, _mm256_mul_ps(hx3, fi)), iz),
+                half,
+            );
+            let (xf, x0) = floor(fx);
+            let (yf, y0) = floor(fy);
+            let i0 = _mm256_add_epi32(_mm256_mullo_epi32(y0, sw_i), x0);
+            (
+                TapIndex::clamped(i0, data, sw),
+                _mm256_sub_ps(fx, xf),
+                _mm256_sub_ps(fy, yf),
+            )
+        };
         let (mut s1, mut s2, mut sr) = (
             _mm256_setzero_ps(),
             _mm256_setzero_ps(),
             _mm256_setzero_ps(),
         );
-        let lanes = win.w.len();
-        for group in (0..lanes).step_by(CHUNK * GROUP) {
-            let chunks = ((lanes - group) / CHUNK).min(GROUP);
-            let mut idx = [TapIndex::ZERO; GROUP];
-            let mut ax = [_mm256_setzero_ps(); GROUP];
-            let mut ay = [_mm256_setzero_ps(); GROUP];
-            for c in 0..chunks {
-                let first = group + c * CHUNK;
-                let fi = load(chunk(win.lane_x, first));
-                let fj = load(chunk(win.lane_y, first));
-                // The scalar loop's (origin + h fj) + h fi, lane by lane.
-                let ra = _mm256_add_ps(a0, _mm256_mul_ps(hx1, fj));
-                let rb = _mm256_add_ps(b0, _mm256_mul_ps(hx4, fj));
-                let rc = _mm256_add_ps(c0, _mm256_mul_ps(hx7, fj));
-                let iz = _mm256_div_ps(one, _mm256_add_ps(rc, _mm256_mul_ps(hx6, fi)));
-                let fx = _mm256_sub_ps(
-                    _mm256_mul_ps(_mm256_add_ps(ra, _mm256_mul_ps(hx0, fi)), iz),
-                    half,
-                );
-                let fy = _mm256_sub_ps(
-                    _mm256_mul_ps(_mm256_add_ps(rb, _mm256_mul_ps(hx3, fi)), iz),
-                    half,
-                );
-                let (xf, x0) = floor(fx);
-                let (yf, y0) = floor(fy);
-                ax[c] = _mm256_sub_ps(fx, xf);
-                ay[c] = _mm256_sub_ps(fy, yf);
-                let i0 = _mm256_add_epi32(_mm256_mullo_epi32(y0, sw_i), x0);
-                idx[c] = TapIndex::clamped(i0, data, sw);
-            }
-            for c in 0..chunks {
-                let first = group + c * CHUNK;
-                let w = load(chunk(win.w, first));
-                let wr = load(chunk(win.wr, first));
-                let live = win.samples - first.min(win.samples);
-                let [c00, c01, c10, c11] = taps(data, sw, &idx[c], live);
-                let (ax, ay) = (ax[c], ay[c]);
-                let t = _mm256_add_ps(c00, _mm256_mul_ps(ax, _mm256_sub_ps(c01, c00)));
-                let b = _mm256_add_ps(c10, _mm256_mul_ps(ax, _mm256_sub_ps(c11, c10)));
-                let s = _mm256_add_ps(t, _mm256_mul_ps(ay, _mm256_sub_ps(b, t)));
-                // Padding lanes read clamped garbage or zeros: s = +0.
-                let s = if live < CHUNK {
-                    let on = _mm256_cmpgt_epi32(_mm256_set1_epi32(live as i32), lane_ids);
-                    _mm256_and_ps(s, _mm256_castsi256_ps(on))
-                } else {
-                    s
-                };
-                let ws = _mm256_mul_ps(w, s);
-                s1 = _mm256_add_ps(s1, ws);
-                s2 = _mm256_add_ps(s2, _mm256_mul_ps(ws, s));
-                sr = _mm256_add_ps(sr, _mm256_mul_ps(wr, s));
-            }
+        let mut next = (chunks > 0).then(|| cell(0));
+        for c in 0..chunks {
+            let Some((idx, ax, ay)) = next else { break };
+            next = (c + 1 < chunks).then(|| cell(c + 1));
+            let first = c * CHUNK;
+            let live = win.samples - first.min(win.samples);
+            let [c00, c01, c10, c11] = taps(data, sw, &idx, live);
+            let t = _mm256_add_ps(c00, _mm256_mul_ps(ax, _mm256_sub_ps(c01, c00)));
+            let b = _mm256_add_ps(c10, _mm256_mul_ps(ax, _mm256_sub_ps(c11, c10)));
+            let s = _mm256_add_ps(t, _mm256_mul_ps(ay, _mm256_sub_ps(b, t)));
+            // Padding lanes read clamped garbage or zeros: s = +0.
+            let s = if live < CHUNK {
+                let on = _mm256_cmpgt_epi32(_mm256_set1_epi32(live as i32), lane_ids);
+                _mm256_and_ps(s, _mm256_castsi256_ps(on))
+            } else {
+                s
+            };
+            let ws = _mm256_mul_ps(load(&w[c]), s);
+            s1 = _mm256_add_ps(s1, ws);
+            s2 = _mm256_add_ps(s2, _mm256_mul_ps(ws, s));
+            sr = _mm256_add_ps(sr, _mm256_mul_ps(load(&wr[c]), s));
         }
         [total(s1), total(s2), total(sr)]
     }
@@ -324,7 +411,7 @@ mod x86 {
         let idx = &idx.0;
         let p = data.as_ptr();
         // SAFETY: every lane of `idx` is in [0, data.len() - sw - 2]
-        // (`TapIndex`'s two makers) and `off` is 0 or sw, so
+        // (`TapIndex::clamped`, its one maker) and `off` is 0 or sw, so
         // the two floats at each idx + off lie in `data`; `read_unaligned`
         // needs no alignment.
         #[allow(clippy::cast_ptr_alignment)]
