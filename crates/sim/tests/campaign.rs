@@ -135,11 +135,12 @@ fn two_matchers_on_the_same_site(pm_cfg: &CampaignConfig, pm: &CampaignReport) {
     // plans narrower triangulation angles with SGM than with PatchMatch
     // (8 of 8 sites). H4's second half (F's lead over NP larger with SGM)
     // held as a mean over the 8 sites (+4.4 points, interval +1.1 .. +8.0)
-    // but site by site on 6 of 8, so one site cannot check it: it is
-    // asserted at 30 % vegetation, where it held on 8 of 8 (below). H1,
-    // H4's first half, H5 and H6 did not hold and are not asserted; H2
-    // needs the leave-one-site-out folds (`sim evaluate --versus`, tested
-    // in the CLI's tests).
+    // but site by site on 6 of 8, so one site cannot check it (flown
+    // again with stop 61's PatchMatch it no longer holds over the 8 sites
+    // either; at 30 % vegetation, below, it holds over the 8 but not site
+    // by site). H1, H4's first half, H5 and H6 did not hold and are not
+    // asserted; H2 needs the leave-one-site-out folds (`sim evaluate
+    // --versus`, tested in the CLI's tests).
     let (sgm_angle, pm_angle) = c.angle[0];
     assert!(sgm_angle < pm_angle, "H3: {sgm_angle} vs {pm_angle}");
 }
@@ -155,28 +156,22 @@ fn with_sgm(pm_cfg: &CampaignConfig) -> CampaignConfig {
     cfg
 }
 
-/// H3 (F plans narrower angles with SGM than with PatchMatch) and H4's
-/// second half (F's lead over NP larger with SGM) on the one site of `c`.
-fn assert_h3_and_h4_between_matchers(c: &two_matchers::Comparison) {
-    let (sgm_angle, pm_angle) = c.angle[0];
-    assert!(sgm_angle < pm_angle, "H3: {sgm_angle} vs {pm_angle}");
-    let [(sf, sn), (pf, pn)] = c.f[0];
-    assert!(
-        sf - sn > pf - pn,
-        "H4, between matchers: SGM {sf} - {sn}, PatchMatch {pf} - {pn}"
-    );
-}
-
 /// Issue 35's vegetation sweep on one site: the findings campaign with the
 /// sweep's 30 % level (`meadow = 0.3` and one tree at the rock, on the
 /// flown and the training sites; docs/campaign-findings.md, "The
 /// vegetation sweep"), flown with each matcher and its own forest, trained
-/// on the demo's two sites where the sweep's used eight. At that
-/// level H4 held on 8 of 8 sites in both halves and H3 held; H5 and H6 did
-/// not and are not asserted.
+/// on the demo's two sites where the sweep's used eight. Only what held on
+/// every site of the full run is asserted: H3, F plans narrower angles with
+/// SGM than with PatchMatch (8 of 8 sites at 8f7f258 and again with stop
+/// 61's PatchMatch). H4 held on 8 of 8 sites in both halves at 8f7f258;
+/// flown again with stop 61's PatchMatch (docs/campaign-findings.md,
+/// "Flown again with stop 61's PatchMatch") it still holds over the 8
+/// sites, but SGM's F ahead of NP on 7 of 8 and the difference of the gaps
+/// above 0 on 6 of 8, so one site can no longer check it, as on bare
+/// ground. H5 and H6 did not hold and are not asserted.
 #[test]
 #[ignore = "long: minutes; run by scripts/test.sh"]
-fn at_thirty_percent_vegetation_sgm_gains_more_from_the_forest() {
+fn at_thirty_percent_vegetation_f_plans_narrower_with_sgm() {
     let mut pm_cfg = findings_config();
     for site in [&mut pm_cfg.site, &mut pm_cfg.training.site] {
         site.meadow = 0.3;
@@ -190,9 +185,8 @@ fn at_thirty_percent_vegetation_sgm_gains_more_from_the_forest() {
     });
     let c = two_matchers::compare(&flown[1], &flown[0], ("F5x4", "NP5x4"), 0).unwrap();
     println!("{}", c.markdown());
-    assert_h3_and_h4_between_matchers(&c);
-    let (sf, sn) = c.f[0][0];
-    assert!(sf > sn, "H4, SGM: F5x4 {sf} vs NP5x4 {sn}");
+    let (sgm_angle, pm_angle) = c.angle[0];
+    assert!(sgm_angle < pm_angle, "H3: {sgm_angle} vs {pm_angle}");
 }
 
 #[test]
