@@ -3,7 +3,7 @@
 //! the sources with a best-k view selection.
 
 use crate::params::MvsParams;
-use crate::simd::{Avx2, FullWindow};
+use crate::simd::{Avx2, CutWindow, FullWindow};
 use crate::view::GreyImage;
 
 /// Cost of a hypothesis that cannot be scored (out of the source image,
@@ -139,7 +139,7 @@ pub(crate) fn source_cost(
     let sums = if patch.full {
         sums_full(patch, win, u, v, h, src)
     } else {
-        sums_partial(patch, u, v, h, src)
+        sums_partial(patch, win, u, v, h, src)
     };
     let Some((s1, s2, sr)) = sums else {
         return MAX_COST;
@@ -322,8 +322,11 @@ fn lane_total(a: [f32; CHUNK]) -> f32 {
 
 /// Weighted sums over the samples of a window cut by the reference image's
 /// border, each tested against the source image.
+///
+/// With AVX2, eight samples at a time (`simd::CutWindow`): the same bits.
 fn sums_partial(
     patch: &RefPatch,
+    win: &Window,
     u: f32,
     v: f32,
     h: &[f32; 9],
@@ -334,6 +337,33 @@ fn sums_partial(
         h[3] * u + h[4] * v + h[5],
         h[6] * u + h[7] * v + h[8],
     ];
+    if let Some(avx2) = win.avx2 {
+        let cut = CutWindow {
+            dx: &patch.dx,
+            dy: &patch.dy,
+            w: &patch.w,
+            wr: &patch.wr,
+            hp,
+            h,
+            data: &src.data,
+            width: src.width as usize,
+            height: src.height as usize,
+        };
+        if let Some(sums) = avx2.sums_partial(&cut) {
+            return sums.map(|[s1, s2, sr]| (s1, s2, sr));
+        }
+    }
+    sums_partial_scalar(patch, hp, h, src)
+}
+
+/// [`sums_partial`] one sample at a time: the reference, and the path on
+/// CPUs without AVX2.
+fn sums_partial_scalar(
+    patch: &RefPatch,
+    hp: [f32; 3],
+    h: &[f32; 9],
+    src: &GreyImage,
+) -> Option<(f32, f32, f32)> {
     let (mut s1, mut s2, mut sr) = (0.0f32, 0.0f32, 0.0f32);
     for i in 0..patch.w.len() {
         let (dx, dy) = (patch.dx[i], patch.dy[i]);

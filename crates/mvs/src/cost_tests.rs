@@ -374,3 +374,89 @@ fn fill_matches_the_plain_loop_bit_for_bit() {
     }
     assert!(full > 1000, "{full} full windows");
 }
+
+#[test]
+fn cut_window_sums_equal_the_scalar_loop_bit_for_bit() {
+    // Every window cut by the border of a small image, against planes of a
+    // real camera pair (some leave the source: both must refuse them) and
+    // against the identity and half-pixel shifts, whose samples land on the
+    // source's last row and column exactly (the next one weighted 0).
+    let (w, h) = (41u32, 29u32);
+    let img = texture(w, h);
+    let src = GreyImage {
+        data: img.data.iter().map(|v| 0.8 * v + 0.1).collect(),
+        ..img.clone()
+    };
+    let k = Intrinsics {
+        width: w,
+        height: h,
+        fx: 40.0,
+        fy: 40.0,
+        cx: 20.5,
+        cy: 14.5,
+    };
+    let (reference, source) = pair(k, [0.6, -0.1, 0.05], [0.03, -0.05, 0.02]);
+    let rel = Relative::new(&reference, &source);
+    let kr = crate::view::k_of(&reference);
+    let mut rng = crate::rng::PixelRng::new(11, 0, 0, 0);
+    let (mut scored, mut refused, mut compared_avx2) = (0, 0, 0);
+    for (radius, step) in [(5, 2), (4, 1), (9, 1)] {
+        let win = Window::new(&MvsParams {
+            window_radius: radius,
+            window_step: step,
+            ..MvsParams::default()
+        });
+        let mut patch = RefPatch::default();
+        for y in 0..h as usize {
+            for x in 0..w as usize {
+                patch.build(&img, x, y, &win);
+                if patch.full || patch.w.is_empty() {
+                    continue;
+                }
+                let ray = crate::view::pixel_ray(&kr, x, y);
+                let d = 3.0 + 30.0 * rng.next_f32();
+                let n = [0.5 * rng.symmetric(), 0.5 * rng.symmetric(), -1.0];
+                let shift = 0.5 * rng.symmetric();
+                let mut hs = vec![
+                    [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
+                    [1.0, 0.0, shift, 0.0, 1.0, -shift, 0.0, 0.0, 1.0],
+                ];
+                if let Some(m) = plane_row(&kr, d, &n, &ray) {
+                    hs.push(PairWarp::new(&rel, &kr).homography(&m));
+                }
+                let (u, v) = (x as f32 + 0.5, y as f32 + 0.5);
+                for hm in hs {
+                    let hp = [
+                        hm[0] * u + hm[1] * v + hm[2],
+                        hm[3] * u + hm[4] * v + hm[5],
+                        hm[6] * u + hm[7] * v + hm[8],
+                    ];
+                    let fast = sums_partial(&patch, &win, u, v, &hm, &src);
+                    let scalar = sums_partial_scalar(&patch, hp, &hm, &src);
+                    let bits = |s: Option<(f32, f32, f32)>| {
+                        s.map(|(a, b, c)| [a.to_bits(), b.to_bits(), c.to_bits()])
+                    };
+                    assert_eq!(
+                        bits(fast),
+                        bits(scalar),
+                        "pixel ({x}, {y}), window {radius}/{step}"
+                    );
+                    compared_avx2 += usize::from(win.avx2.is_some());
+                    if fast.is_some() {
+                        scored += 1;
+                    } else {
+                        refused += 1;
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        scored > 500 && refused > 50,
+        "{scored} scored, {refused} refused"
+    );
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        assert!(compared_avx2 > 0);
+    }
+}

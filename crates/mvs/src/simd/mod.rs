@@ -51,9 +51,11 @@
 
 use crate::cost::CHUNK;
 
+mod partial;
 mod sgm;
 #[cfg(target_arch = "x86_64")]
 mod sgm_kernels;
+pub(crate) use partial::CutWindow;
 pub(crate) use sgm::SgmSimd;
 
 /// Proof that the running CPU has AVX2 (only [`Avx2::detect`] makes one).
