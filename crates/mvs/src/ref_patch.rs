@@ -106,25 +106,9 @@ impl RefPatch {
             self.w.push(wt);
             self.wr.push(v);
         }
-        // `wr` holds the intensities until the mean is known. One partial
-        // sum per lane, added up as the window sums are ([`lane_total`]).
-        let (mut sw, mut swv) = ([0.0f32; CHUNK], [0.0f32; CHUNK]);
-        for (cw, cv) in self.w.chunks(CHUNK).zip(self.wr.chunks(CHUNK)) {
-            for (l, (&wt, &v)) in cw.iter().zip(cv).enumerate() {
-                sw[l] += wt;
-                swv[l] += wt * v;
-            }
-        }
-        let (sw, mean) = (lane_total(sw), lane_total(swv) / lane_total(sw));
-        let mut var = [0.0f32; CHUNK];
-        for (cr, cw) in self.wr.chunks_mut(CHUNK).zip(self.w.chunks(CHUNK)) {
-            for (l, (wr, &wt)) in cr.iter_mut().zip(cw).enumerate() {
-                let r = *wr - mean;
-                var[l] += wt * r * r;
-                *wr = wt * r;
-            }
-        }
-        self.set_moments(sw, lane_total(var));
+        // `wr` holds the intensities until the mean is known.
+        let (sw, var) = lane_moments(&self.w, &mut self.wr);
+        self.set_moments(sw, var);
     }
 
     /// [`RefPatch::fill`] for a window inside the image: the intensities in
@@ -235,23 +219,32 @@ impl PatchKernels for Scalar {
     #[allow(clippy::inline_always)] // inlined into `fill`'s SIMD copies
     #[inline(always)]
     fn moments(&self, w: &[[f32; CHUNK]], wr: &mut [[f32; CHUNK]]) -> (f32, f32) {
-        let (mut sw, mut swv) = ([0.0f32; CHUNK], [0.0f32; CHUNK]);
-        for (cw, cv) in w.iter().zip(wr.iter()) {
-            for l in 0..CHUNK {
-                sw[l] += cw[l];
-                swv[l] += cw[l] * cv[l];
-            }
-        }
-        let (sw, mean) = (lane_total(sw), lane_total(swv) / lane_total(sw));
-        let mut var = [0.0f32; CHUNK];
-        for (cw, cr) in w.iter().zip(wr.iter_mut()) {
-            for l in 0..CHUNK {
-                let r = cr[l] - mean;
-                let t = cw[l] * r;
-                var[l] += t * r;
-                cr[l] = t;
-            }
-        }
-        (sw, lane_total(var))
+        lane_moments(w.as_flattened(), wr.as_flattened_mut())
     }
+}
+
+/// [`PatchKernels::moments`] over any number of lanes (a cut window's
+/// samples, packed): one partial sum per lane of a chunk, each over the
+/// chunks in order, added up as [`lane_total`] does, as the window sums
+/// are (one running sum made each add wait on the one before).
+#[allow(clippy::inline_always)] // inlined into `fill`'s SIMD copies
+#[inline(always)]
+fn lane_moments(w: &[f32], wr: &mut [f32]) -> (f32, f32) {
+    let (mut sw, mut swv) = ([0.0f32; CHUNK], [0.0f32; CHUNK]);
+    for (cw, cv) in w.chunks(CHUNK).zip(wr.chunks(CHUNK)) {
+        for (l, (&wt, &v)) in cw.iter().zip(cv).enumerate() {
+            sw[l] += wt;
+            swv[l] += wt * v;
+        }
+    }
+    let (sw, mean) = (lane_total(sw), lane_total(swv) / lane_total(sw));
+    let mut var = [0.0f32; CHUNK];
+    for (cr, cw) in wr.chunks_mut(CHUNK).zip(w.chunks(CHUNK)) {
+        for (l, (wr, &wt)) in cr.iter_mut().zip(cw).enumerate() {
+            let r = *wr - mean;
+            var[l] += wt * r * r;
+            *wr = wt * r;
+        }
+    }
+    (sw, lane_total(var))
 }
