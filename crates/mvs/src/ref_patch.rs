@@ -23,14 +23,15 @@ pub(crate) struct RefPatch {
     /// Sum of w * (intensity - mean)^2.
     pub(super) var: f32,
     /// 1 / `sum_w` and 1 / sqrt(`var`), once per patch, so that the NCC
-    /// of each source scored ([`source_cost`]) waits on one square root
-    /// and one division, not on two divisions and a square root.
+    /// of each source scored ([`source_cost`](super::source_cost)) waits
+    /// on one square root and one division, not on two divisions and a
+    /// square root.
     pub(super) inv_sum_w: f32,
     pub(super) inv_sd: f32,
     /// Whether every sample of the window lies inside the image: then the
     /// samples are the full grid in the [`Window`]'s packed layout, padded
     /// with zero weights, and a source is scored by the chunked fast path
-    /// ([`source_cost`]).
+    /// ([`source_cost`](super::source_cost)).
     pub(super) full: bool,
     /// Each window sample's offset in the image data from the window's
     /// first sample, for images `taps_width` wide, padded with 0 to whole

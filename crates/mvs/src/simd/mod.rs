@@ -45,6 +45,11 @@
 //! as a second token, [`sgm::Avx512`]) live in `simd/sgm.rs`, the
 //! matcher's intrinsics kernels in `simd/sgm_kernels.rs`, under the same
 //! rules; [`SgmSimd`] picks the widest level the CPU has.
+//!
+//! The sums of a window cut by the image border (`cost::sums_partial`,
+//! eight samples' coordinates, range tests and bilinear taps at once, the
+//! taps by clamped gathers) live in `simd/partial.rs`, under the same
+//! rules and the same token.
 #![allow(unsafe_code)]
 // Off x86-64 the token is never made and the window's fields never read.
 #![cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
