@@ -141,6 +141,26 @@ fn check_triplet_outcomes(out: &Path, strategies: &[&str]) {
     assert!(html.contains("id=\"depth-error-rock\""));
 }
 
+/// The report in `out` names the forest it flew, saved to `model`: the
+/// file's checksum, as the save message (in `stderr`), `report.json` and
+/// `table.md` say it.
+fn assert_the_report_names_the_forest(out: &Path, model: &Path, stderr: &str) {
+    let forest = Forest::load(model).expect("the saved forest loads");
+    let fingerprint = format!("{:016x}", forest.fingerprint());
+    let file = std::fs::read(model).unwrap();
+    let tail = file.last_chunk::<8>().unwrap();
+    assert_eq!(fingerprint, format!("{:016x}", u64::from_le_bytes(*tail)));
+    assert!(
+        stderr.contains(&format!("(fingerprint {fingerprint})")),
+        "{stderr}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(json["forest_fingerprint"], fingerprint.as_str());
+    let md = std::fs::read_to_string(out.join("table.md")).unwrap();
+    assert!(md.contains(&format!("fingerprint {fingerprint}")), "{md}");
+}
+
 /// The demo wrote plans but not what they were planned from: nobody could
 /// run `vpctl plan` on an iteration by hand.
 #[test]
@@ -163,7 +183,7 @@ fn quick_demo_prints_the_table_and_writes_the_report() {
     let saved = stderr.find("forest saved to").expect("saved, said");
     let flying = stderr.find("held-out site").expect("a held-out site");
     assert!(saved < flying, "{stderr}");
-    assert!(Forest::load(&model).is_ok());
+    assert_the_report_names_the_forest(&out, &model, &stderr);
     let stdout = text(&o.stdout);
     // One held-out site: no std column ("± 0.0" said nothing).
     assert!(!stdout.contains('±'), "{stdout}");

@@ -69,6 +69,20 @@ impl Forest {
         Ok(write_file_atomic(path, &self.to_bytes())?)
     }
 
+    /// The model's fingerprint: the FNV-1a 64 checksum its file ends with
+    /// (the last 8 bytes of [`Forest::to_bytes`], little-endian), so a
+    /// forest in memory, in a file and in a campaign report can be told
+    /// apart or matched. Two campaigns fly the same forest exactly when
+    /// they show the same fingerprint (up to FNV's rare collisions): a
+    /// forest trained on other labels, even one pixel's, is another model
+    /// and plans other flights (docs/campaign-findings.md, "Why SGM's
+    /// F5x4 moved").
+    pub fn fingerprint(&self) -> u64 {
+        self.to_bytes()
+            .last_chunk::<8>()
+            .map_or(0, |b| u64::from_le_bytes(*b))
+    }
+
     /// Reads a model file.
     pub fn load(path: &Path) -> Result<Forest> {
         Self::from_bytes(&read_file(path)?, path)

@@ -9,6 +9,11 @@ use vp_scene::binfile::fnv1a64;
 use vp_scene::raster::Label;
 
 fn model_bytes() -> Vec<u8> {
+    model(1).to_bytes()
+}
+
+/// A small forest trained with `seed`.
+fn model(seed: u64) -> Forest {
     let img = texture_image(48, 48, 16, 4);
     let labels = label_image(&img, 2, 50.0, 4, |noisy, _| {
         if noisy {
@@ -28,7 +33,7 @@ fn model_bytes() -> Vec<u8> {
         n_node_samples: 100,
         ..TrainParams::default()
     };
-    train(&set, &params, 1).unwrap().to_bytes()
+    train(&set, &params, seed).unwrap()
 }
 
 fn error_of(bytes: &[u8]) -> String {
@@ -49,6 +54,28 @@ fn reseal(mut bytes: Vec<u8>) -> Vec<u8> {
     let sum = fnv1a64(&bytes[..body]);
     bytes[body..].copy_from_slice(&sum.to_le_bytes());
     bytes
+}
+
+/// The fingerprint campaign reports record is the checksum the model's
+/// file ends with: the same after a save and a load, another for a forest
+/// trained with another seed.
+#[test]
+fn the_fingerprint_is_the_files_checksum_and_tells_models_apart() {
+    let forest = model(1);
+    let bytes = forest.to_bytes();
+    let body = bytes.len() - 8;
+    assert_eq!(forest.fingerprint(), fnv1a64(&bytes[..body]));
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("m.vpforest");
+    forest.save(&path).unwrap();
+    let file = std::fs::read(&path).unwrap();
+    assert_eq!(file[body..], forest.fingerprint().to_le_bytes());
+    assert_eq!(
+        Forest::load(&path).unwrap().fingerprint(),
+        forest.fingerprint()
+    );
+    assert_eq!(model(1).fingerprint(), forest.fingerprint());
+    assert_ne!(model(2).fingerprint(), forest.fingerprint());
 }
 
 #[test]

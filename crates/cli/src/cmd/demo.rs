@@ -76,7 +76,11 @@ pub fn run_config(
         forest
             .save(p)
             .with_context(|| format!("saving the forest to {}", p.display()))?;
-        say(&format!("forest saved to {}", p.display()));
+        say(&format!(
+            "forest saved to {} (fingerprint {:016x})",
+            p.display(),
+            forest.fingerprint()
+        ));
     }
     let mut report = run_campaign_with_forest(cfg, &forest, &mut say)?;
     report.training = training;

@@ -413,6 +413,7 @@ fn fly_held_out(
         material_ranking_random: super::curves::material_ranking_random(&curves),
         curves,
         training: None,
+        forest_fingerprint: format!("{:016x}", forest.fingerprint()),
         config: cfg.clone(),
         artifacts,
     })

@@ -51,7 +51,12 @@ pub(super) fn train(config: &Path, path: &Path, force: bool, out: &mut dyn Write
     forest
         .save(path)
         .with_context(|| format!("saving the forest to {}", path.display()))?;
-    writeln!(out, "wrote {}", path.display())?;
+    writeln!(
+        out,
+        "wrote {} (forest fingerprint {:016x})",
+        path.display(),
+        forest.fingerprint()
+    )?;
     writeln!(
         out,
         "training: {} sites, {} triplets ({} with output), {} positive and {} negative \

@@ -37,6 +37,7 @@ pub fn report_html(report: &CampaignReport, figures: &[Figure], fig6: &[Figure])
         escape(report.table_caption())
     );
     table(&mut h, report);
+    let _ = writeln!(h, "<p id=\"forest\">{}</p>", escape(&report.forest_line()));
     glossary(&mut h);
     if let Some(p) = f_vs_np::paragraph(report) {
         let _ = writeln!(
@@ -344,6 +345,7 @@ mod tests {
             material_ranking: Vec::new(),
             material_ranking_random: Vec::new(),
             training: None,
+            forest_fingerprint: "0123456789abcdef".into(),
             config: CampaignConfig::quick(),
             artifacts: None,
         }
@@ -363,6 +365,10 @@ mod tests {
             html.contains("<svg") && html.contains("rock (spearman +1.00 flown, +0.00 random)")
         );
         assert!(html.contains("src=\"data:image/png;base64,iVBORw==\""));
+        // Which forest flew: its fingerprint, as the file's checksum.
+        assert!(html.contains(
+            "<p id=\"forest\">The F strategies flew the forest with fingerprint 0123456789abcdef"
+        ));
         // Self-contained: nothing to fetch (the SVG namespace is a name, not a load).
         let no_ns = html.replace("xmlns=\"http://www.w3.org/2000/svg\"", "");
         assert!(!no_ns.contains("http") && !no_ns.contains("<script"));

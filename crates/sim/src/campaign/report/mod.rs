@@ -99,6 +99,7 @@ fn fill(report: &CampaignReport, dir: &Path) -> Result<()> {
         report.table_caption()
     );
     md.push_str(&report.table_markdown());
+    let _ = writeln!(md, "\n{}", report.forest_line());
     if let Some(p) = f_vs_np::paragraph(report) {
         md.push_str("\n## F against NP on this run\n\n");
         md.push_str(&p);

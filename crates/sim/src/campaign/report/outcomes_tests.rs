@@ -80,6 +80,7 @@ fn report(with_triplets: bool) -> CampaignReport {
         material_ranking: Vec::new(),
         material_ranking_random: Vec::new(),
         training: None,
+        forest_fingerprint: "0123456789abcdef".into(),
         config: CampaignConfig::quick(),
         artifacts: None,
     }

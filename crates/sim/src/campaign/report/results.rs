@@ -117,6 +117,10 @@ pub struct CampaignReport {
     pub material_ranking_random: Vec<(f64, f64)>,
     /// What training did (None when the forest was loaded).
     pub training: Option<TrainingStats>,
+    /// The flown forest's fingerprint ([`vp_forest::Forest::fingerprint`],
+    /// 16 hex digits): two reports flew the same forest exactly when they
+    /// show the same one.
+    pub forest_fingerprint: String,
     /// The configuration that produced it.
     pub config: CampaignConfig,
     /// Plot and mission data of the first held-out site.
@@ -270,6 +274,18 @@ impl CampaignReport {
         } else {
             "Mean ± standard deviation over them"
         }
+    }
+
+    /// Which forest the F strategies flew with, and what its fingerprint
+    /// is for.
+    pub fn forest_line(&self) -> String {
+        format!(
+            "The F strategies flew the forest with fingerprint {} (the checksum its `.vpforest` \
+             file ends with, as `--save-forest` writes it): reports with the same fingerprint flew \
+             the same forest. A forest trained again on other labels, even a few pixels' \
+             difference, is another model and plans other triplets.",
+            self.forest_fingerprint
+        )
     }
 
     /// The table as CSV (one column per mean and per standard deviation).

@@ -56,6 +56,10 @@ pub struct MatcherCampaign {
     pub matcher: String,
     /// In the report's order.
     pub sites: Vec<SiteFigures>,
+    /// The fingerprint of the forest its F strategies flew
+    /// ([`vp_forest::Forest::fingerprint`]); `None` for a report written
+    /// before reports recorded it.
+    pub forest: Option<String>,
 }
 
 impl MatcherCampaign {
@@ -92,6 +96,7 @@ impl MatcherCampaign {
         MatcherCampaign {
             matcher: format!("{:?}", r.config.mvs).to_lowercase(),
             sites,
+            forest: Some(r.forest_fingerprint.clone()),
         }
     }
 }
@@ -123,6 +128,7 @@ pub fn read_campaign(dir: &Path) -> Result<MatcherCampaign> {
     let mut out = MatcherCampaign {
         matcher,
         sites: Vec::new(),
+        forest: json["forest_fingerprint"].as_str().map(str::to_string),
     };
     for site in sites {
         let seed = site["seed"]
@@ -188,6 +194,8 @@ pub struct Comparison {
     pub angle: Vec<(f64, f64)>,
     /// H3-H6 in order (H6 once per matcher).
     pub verdicts: Vec<Verdict>,
+    /// The forests flown with SGM and with PatchMatch (fingerprints).
+    pub forests: (Option<String>, Option<String>),
 }
 
 /// Sites needed of `n` for "k of 8", rounded up.
@@ -294,6 +302,7 @@ pub fn compare(
         f,
         angle,
         verdicts,
+        forests: (sgm.forest.clone(), pm.forest.clone()),
     })
 }
 
@@ -401,7 +410,10 @@ fn read_batches<P: AsRef<Path>>(dirs: &[P], matcher: &str) -> Result<MatcherCamp
     let mut all = MatcherCampaign {
         matcher: matcher.into(),
         sites: Vec::new(),
+        forest: None,
     };
+    // The folder each forest fingerprint was first read from.
+    let mut forest_from: Option<(String, &Path)> = None;
     let mut from: BTreeMap<u64, &Path> = BTreeMap::new();
     for dir in dirs {
         let dir = dir.as_ref();
@@ -412,6 +424,22 @@ fn read_batches<P: AsRef<Path>>(dirs: &[P], matcher: &str) -> Result<MatcherCamp
                 dir.display(),
                 c.matcher
             )));
+        }
+        if let Some(f) = &c.forest {
+            match &forest_from {
+                Some((first, first_dir)) if first != f => {
+                    return Err(SimError::InvalidArgument(format!(
+                        "{} flew the forest {first} and {} the forest {f}: batches of one \
+                         matcher's campaign must fly one forest (`sim run --forest`); compare \
+                         each forest's flights on their own",
+                        first_dir.display(),
+                        dir.display()
+                    )));
+                }
+                Some(_) => {}
+                None => forest_from = Some((f.clone(), dir)),
+            }
+            all.forest = Some(f.clone());
         }
         for site in c.sites {
             if let Some(first) = from.insert(site.seed, dir) {
@@ -450,6 +478,15 @@ impl Comparison {
             );
         }
         s.push('\n');
+        let name = |f: &Option<String>| f.clone().unwrap_or_else(|| "not recorded".into());
+        let _ = writeln!(
+            s,
+            "Forests flown ({fname}; fingerprints): SGM {}, PatchMatch {}. Another forest \
+             trained on the same sites (another draw, or labels a few pixels apart) flies other \
+             triplets: per-site figures carry the forest's training draw.\n",
+            name(&self.forests.0),
+            name(&self.forests.1)
+        );
         for v in &self.verdicts {
             let _ = writeln!(
                 s,

@@ -35,6 +35,7 @@ fn campaign(matcher: &str, sites: Vec<SiteFigures>) -> MatcherCampaign {
     MatcherCampaign {
         matcher: matcher.into(),
         sites,
+        forest: None,
     }
 }
 
@@ -166,8 +167,13 @@ fn coverage_success_and_site_rules() {
 }
 
 /// A `report.json` as `sim run` writes it (the fields compare reads) for
-/// `matcher` and the sites `seeds`, in `dir`.
+/// `matcher` and the sites `seeds`, in `dir`, flown with `forest` (a
+/// fingerprint; `None`: a report from before they were recorded).
 fn write_report_json(dir: &Path, matcher: &str, seeds: &[u64]) {
+    write_report_json_with(dir, matcher, seeds, None);
+}
+
+fn write_report_json_with(dir: &Path, matcher: &str, seeds: &[u64], forest: Option<&str>) {
     let score = |cov: f64, f: f64, images: f64| {
         serde_json::json!({"coverage": cov, "f": f, "triplet_success": 100.0, "n_images": images,
             "f_res": 0.0, "f_unc": 0.0, "rock_coverage": 0.0, "min_clearance_m": null, "safety_violations": 0})
@@ -184,7 +190,10 @@ fn write_report_json(dir: &Path, matcher: &str, seeds: &[u64]) {
         })
         .collect();
     std::fs::create_dir_all(dir).unwrap();
-    let json = serde_json::json!({"config": {"mvs": matcher}, "sites": sites});
+    let mut json = serde_json::json!({"config": {"mvs": matcher}, "sites": sites});
+    if let Some(f) = forest {
+        json["forest_fingerprint"] = f.into();
+    }
     std::fs::write(dir.join("report.json"), json.to_string()).unwrap();
 }
 
@@ -224,4 +233,28 @@ fn compare_dirs_merges_batches_of_sites() {
     assert!(e.to_string().contains("report.json"), "{e}");
     let e = compare_dirs((&[d("sgm-b")][..], &[d("pm")][..]), "NP5x4", 0).unwrap_err();
     assert!(e.to_string().contains("not an F strategy"), "{e}");
+}
+
+/// The comparison names the forest each matcher flew; batches of one
+/// matcher that flew different forests (two training draws) are refused,
+/// naming both folders, since their sites would mix two forests' flights.
+#[test]
+fn compare_dirs_names_the_forests_and_refuses_batches_of_two() {
+    let t = tempfile::tempdir().unwrap();
+    let d = |n: &str| t.path().join(n);
+    write_report_json_with(&d("sgm-a"), "sgm", &[1], Some("00000000000000aa"));
+    write_report_json_with(&d("sgm-b"), "sgm", &[2], Some("00000000000000aa"));
+    write_report_json(&d("pm"), "patchmatch", &[1, 2]);
+    let md = compare_dirs((&[d("sgm-a"), d("sgm-b")][..], &[d("pm")][..]), "F5x4", 0).unwrap();
+    assert!(
+        md.contains("SGM 00000000000000aa, PatchMatch not recorded"),
+        "{md}"
+    );
+    write_report_json_with(&d("sgm-c"), "sgm", &[2], Some("00000000000000bb"));
+    let e = compare_dirs((&[d("sgm-a"), d("sgm-c")][..], &[d("pm")][..]), "F5x4", 0).unwrap_err();
+    let e = e.to_string();
+    assert!(
+        e.contains("sgm-a") && e.contains("sgm-c") && e.contains("00000000000000bb"),
+        "{e}"
+    );
 }
