@@ -439,7 +439,6 @@ fn read_batches<P: AsRef<Path>>(dirs: &[P], matcher: &str) -> Result<MatcherCamp
                 Some(_) => {}
                 None => forest_from = Some((f.clone(), dir)),
             }
-            all.forest = Some(f.clone());
         }
         for site in c.sites {
             if let Some(first) = from.insert(site.seed, dir) {
@@ -454,6 +453,7 @@ fn read_batches<P: AsRef<Path>>(dirs: &[P], matcher: &str) -> Result<MatcherCamp
         }
     }
     all.sites.sort_by_key(|s| s.seed);
+    all.forest = forest_from.map(|(f, _)| f);
     Ok(all)
 }
 
