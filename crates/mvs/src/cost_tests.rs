@@ -81,6 +81,36 @@ fn texture(w: u32, h: u32) -> GreyImage {
     }
 }
 
+/// The two window-sum tests' scene: a textured reference image of `w` x
+/// `h` pixels, its source (the same texture, scaled by `gain` and shifted
+/// by `offset`: another exposure), and a camera pair with focal length
+/// `f` and the principal point at the centre whose source is moved by `t`
+/// and turned by `r`: the pair's relative pose and the reference's
+/// intrinsics.
+fn textured_pair(
+    (w, h): (u32, u32),
+    f: f64,
+    (gain, offset): (f32, f32),
+    (t, r): ([f64; 3], [f64; 3]),
+) -> (GreyImage, GreyImage, Relative, [f32; 4]) {
+    let img = texture(w, h);
+    let src = GreyImage {
+        data: img.data.iter().map(|v| gain * v + offset).collect(),
+        ..img.clone()
+    };
+    let k = Intrinsics {
+        width: w,
+        height: h,
+        fx: f,
+        fy: f,
+        cx: f64::from(w) / 2.0,
+        cy: f64::from(h) / 2.0,
+    };
+    let (reference, source) = pair(k, t, r);
+    let rel = Relative::new(&reference, &source);
+    (img, src, rel, crate::view::k_of(&reference))
+}
+
 #[test]
 fn fast_path_scores_like_the_per_sample_path() {
     // Same window, one scored by the corner test + chunked homography,
@@ -154,22 +184,12 @@ fn fast_full_window_sums_equal_the_reference_bit_for_bit() {
     // several. The reference patches too: built by the AVX2 copy of
     // `RefPatch::fill` and by the plain one, the same bits.
     let (w, h) = (96u32, 80u32);
-    let img = texture(w, h);
-    let src = GreyImage {
-        data: img.data.iter().map(|v| 0.9 * v + 0.05).collect(),
-        ..img.clone()
-    };
-    let k = Intrinsics {
-        width: w,
-        height: h,
-        fx: 80.0,
-        fy: 80.0,
-        cx: 48.0,
-        cy: 40.0,
-    };
-    let (reference, source) = pair(k, [0.8, -0.2, 0.1], [0.02, -0.06, 0.01]);
-    let rel = Relative::new(&reference, &source);
-    let kr = crate::view::k_of(&reference);
+    let (img, src, rel, kr) = textured_pair(
+        (w, h),
+        80.0,
+        (0.9, 0.05),
+        ([0.8, -0.2, 0.1], [0.02, -0.06, 0.01]),
+    );
     let mut rng = crate::rng::PixelRng::new(7, 0, 0, 0);
     let (mut scored, mut refused) = (0, 0);
     // Last chunks with 4 live lanes (36 samples), 1 (361, 81), 5 (the 5 x 5
@@ -382,22 +402,12 @@ fn cut_window_sums_equal_the_scalar_loop_bit_for_bit() {
     // against the identity and half-pixel shifts, whose samples land on the
     // source's last row and column exactly (the next one weighted 0).
     let (w, h) = (41u32, 29u32);
-    let img = texture(w, h);
-    let src = GreyImage {
-        data: img.data.iter().map(|v| 0.8 * v + 0.1).collect(),
-        ..img.clone()
-    };
-    let k = Intrinsics {
-        width: w,
-        height: h,
-        fx: 40.0,
-        fy: 40.0,
-        cx: 20.5,
-        cy: 14.5,
-    };
-    let (reference, source) = pair(k, [0.6, -0.1, 0.05], [0.03, -0.05, 0.02]);
-    let rel = Relative::new(&reference, &source);
-    let kr = crate::view::k_of(&reference);
+    let (img, src, rel, kr) = textured_pair(
+        (w, h),
+        40.0,
+        (0.8, 0.1),
+        ([0.6, -0.1, 0.05], [0.03, -0.05, 0.02]),
+    );
     let mut rng = crate::rng::PixelRng::new(11, 0, 0, 0);
     let (mut scored, mut refused, mut compared_avx2) = (0, 0, 0);
     for (radius, step) in [(5, 2), (4, 1), (9, 1)] {
