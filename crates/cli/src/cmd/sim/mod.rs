@@ -117,17 +117,25 @@ pub enum SimCommand {
     /// The two-matcher experiment's hypotheses H3-H6 (issue 35) from two
     /// `sim run` report folders of the same held-out sites, one flown with
     /// `mvs = "sgm"`, one with `mvs = "patchmatch"`: prints a per-site
-    /// table and each hypothesis as holding or not, with its figures.
-    #[command(after_help = "Example: vpctl sim compare --sgm camp-sgm --patchmatch camp-pm")]
+    /// table and each hypothesis as holding or not, with its figures. With
+    /// several forest draws per matcher (the flag once per draw), prints
+    /// H3 and H4 over the draws, the bootstrap resampling sites and draws.
+    #[command(
+        after_help = "Examples:\n  vpctl sim compare --sgm camp-sgm --patchmatch camp-pm\n  \
+                            vpctl sim compare --sgm fly-sgm-s2 --sgm fly-sgm-s3 \
+                            --patchmatch fly-pm-s2 --patchmatch fly-pm-s3"
+    )]
     Compare {
-        /// Report folder of the SGM campaign; several, comma-separated, for
+        /// Report folder of an SGM campaign; several, comma-separated, for
         /// batches of held-out sites flown with one saved forest (`sim
-        /// train`, then `sim run --forest` per batch).
-        #[arg(long, required = true, value_delimiter = ',')]
-        sgm: Vec<PathBuf>,
-        /// Report folder(s) of the PatchMatch campaign, as --sgm.
-        #[arg(long, required = true, value_delimiter = ',')]
-        patchmatch: Vec<PathBuf>,
+        /// train`, then `sim run --forest` per batch). Repeat the flag for
+        /// each forest draw (another training of the same sites, flown on
+        /// the same held-out sites).
+        #[arg(long, required = true)]
+        sgm: Vec<String>,
+        /// Report folder(s) of a PatchMatch campaign, as --sgm.
+        #[arg(long, required = true)]
+        patchmatch: Vec<String>,
         /// The F strategy compared with its NP twin.
         #[arg(long, default_value = "F5x4")]
         strategy: String,
@@ -224,8 +232,15 @@ pub fn run(cmd: SimCommand, out: &mut dyn Write) -> Result<()> {
             strategy,
             seed,
         } => {
+            // One flag per draw; a draw's batches comma-separated.
+            let draws = |flags: &[String]| -> Vec<Vec<PathBuf>> {
+                flags
+                    .iter()
+                    .map(|f| f.split(',').map(PathBuf::from).collect())
+                    .collect()
+            };
             let text = vp_sim::campaign::report::two_matchers::compare_dirs(
-                (&sgm[..], &patchmatch[..]),
+                (&draws(&sgm)[..], &draws(&patchmatch)[..]),
                 &strategy,
                 seed,
             )?;

@@ -376,14 +376,16 @@ fn h6(c: &MatcherCampaign, f_name: &str) -> Result<Verdict> {
     })
 }
 
-/// `vpctl sim compare`: reads the report folders of each matcher (one
-/// campaign, or batches of held-out sites flown with one saved forest:
-/// `sim train`, then `sim run --forest` per batch), checks each holds the
-/// matcher its flag says and no site twice, and compares `f_name` (an F
-/// strategy) with its NP twin over the sites in seed order: the markdown
-/// of [`Comparison::markdown`].
+/// `vpctl sim compare`: reads each matcher's draws (a draw: the report
+/// folders of one campaign, or of batches of held-out sites flown with one
+/// saved forest: `sim train`, then `sim run --forest` per batch), checks
+/// each folder holds the matcher its flag says, no site twice in a draw, one
+/// forest per draw and no forest in two draws (where reports record their
+/// forest). With one draw per matcher, compares `f_name` (an F strategy)
+/// with its NP twin over the sites in seed order ([`Comparison::markdown`]);
+/// with more, reads H3 and H4 over the draws ([`over_draws`]).
 pub fn compare_dirs<P: AsRef<Path>>(
-    (sgm, pm): (&[P], &[P]),
+    (sgm, pm): (&[Vec<P>], &[Vec<P>]),
     f_name: &str,
     seed: u64,
 ) -> Result<String> {
@@ -395,23 +397,41 @@ pub fn compare_dirs<P: AsRef<Path>>(
                 "--strategy {f_name}: not an F strategy (e.g. F5x4)"
             ))
         })?;
-    let c = compare(
-        &read_batches(sgm, "sgm")?,
-        &read_batches(pm, "patchmatch")?,
-        (f_name, &np_name),
-        seed,
-    )?;
-    Ok(c.markdown())
+    let (sgm, pm) = (read_draws(sgm, "sgm")?, read_draws(pm, "patchmatch")?);
+    if let ([s], [p]) = (&sgm[..], &pm[..]) {
+        let c = compare(&s.campaign, &p.campaign, (f_name, &np_name), seed)?;
+        return Ok(c.markdown());
+    }
+    Ok(over_draws::compare(&sgm, &pm, (f_name, &np_name), seed)?.markdown())
 }
 
-/// The sites of every report folder in `dirs`, all flown with `matcher`,
-/// in seed order; a site in two folders is refused.
-fn read_batches<P: AsRef<Path>>(dirs: &[P], matcher: &str) -> Result<MatcherCampaign> {
-    let mut all = MatcherCampaign {
-        matcher: matcher.into(),
-        sites: Vec::new(),
-        forest: None,
-    };
+/// Each draw of `draws` (its report folders), all flown with `matcher`;
+/// two draws that flew one forest are refused: it would count twice.
+fn read_draws<P: AsRef<Path>>(draws: &[Vec<P>], matcher: &str) -> Result<Vec<Draw>> {
+    let mut out: Vec<Draw> = Vec::with_capacity(draws.len());
+    for dirs in draws {
+        let draw = read_draw(dirs, matcher)?;
+        let same = out
+            .iter()
+            .find(|d| draw.campaign.forest.is_some() && d.campaign.forest == draw.campaign.forest);
+        if let (Some(first), Some(forest)) = (same, &draw.campaign.forest) {
+            return Err(SimError::InvalidArgument(format!(
+                "{} and {} flew the same forest {forest} and were given as two draws: give \
+                 batches of one draw comma-separated after one flag",
+                first.folders[0].display(),
+                draw.folders[0].display()
+            )));
+        }
+        out.push(draw);
+    }
+    Ok(out)
+}
+
+/// The sites of every report folder in `dirs`, all flown with `matcher`
+/// and one forest, in seed order; a site in two folders is refused.
+fn read_draw<P: AsRef<Path>>(dirs: &[P], matcher: &str) -> Result<Draw> {
+    let mut all = Draw::default();
+    all.campaign.matcher = matcher.into();
     // The folder each forest fingerprint was first read from.
     let mut forest_from: Option<(String, &Path)> = None;
     let mut from: BTreeMap<u64, &Path> = BTreeMap::new();
@@ -430,8 +450,8 @@ fn read_batches<P: AsRef<Path>>(dirs: &[P], matcher: &str) -> Result<MatcherCamp
                 Some((first, first_dir)) if first != f => {
                     return Err(SimError::InvalidArgument(format!(
                         "{} flew the forest {first} and {} the forest {f}: batches of one \
-                         matcher's campaign must fly one forest (`sim run --forest`); compare \
-                         each forest's flights on their own",
+                         draw must fly one forest (`sim run --forest`); give another \
+                         forest's flights as another draw (the flag again)",
                         first_dir.display(),
                         dir.display()
                     )));
@@ -449,11 +469,12 @@ fn read_batches<P: AsRef<Path>>(dirs: &[P], matcher: &str) -> Result<MatcherCamp
                     dir.display()
                 )));
             }
-            all.sites.push(site);
+            all.campaign.sites.push(site);
         }
+        all.folders.push(dir.to_path_buf());
     }
-    all.sites.sort_by_key(|s| s.seed);
-    all.forest = forest_from.map(|(f, _)| f);
+    all.campaign.sites.sort_by_key(|s| s.seed);
+    all.campaign.forest = forest_from.map(|(f, _)| f);
     Ok(all)
 }
 
@@ -499,6 +520,10 @@ impl Comparison {
         s
     }
 }
+
+#[path = "over_draws.rs"]
+pub mod over_draws;
+use over_draws::Draw;
 
 #[cfg(test)]
 #[path = "two_matchers_tests.rs"]

@@ -174,6 +174,17 @@ fn write_report_json(dir: &Path, matcher: &str, seeds: &[u64]) {
 }
 
 fn write_report_json_with(dir: &Path, matcher: &str, seeds: &[u64], forest: Option<&str>) {
+    write_report_json_f(dir, (matcher, forest), seeds, |s| 40.0 + s as f64);
+}
+
+/// As [`write_report_json_with`], F5x4's f on site `s` being `f_of(s)`
+/// (NP5x4's is 40).
+fn write_report_json_f(
+    dir: &Path,
+    (matcher, forest): (&str, Option<&str>),
+    seeds: &[u64],
+    f_of: impl Fn(u64) -> f64,
+) {
     let score = |cov: f64, f: f64, images: f64| {
         serde_json::json!({"coverage": cov, "f": f, "triplet_success": 100.0, "n_images": images,
             "f_res": 0.0, "f_unc": 0.0, "rock_coverage": 0.0, "min_clearance_m": null, "safety_violations": 0})
@@ -184,7 +195,7 @@ fn write_report_json_with(dir: &Path, matcher: &str, seeds: &[u64], forest: Opti
             serde_json::json!({
                 "seed": s,
                 "scores": [["Grid", score(80.0, 20.0, 36.0)], ["Oblique", score(85.0, 20.0, 60.0)],
-                           ["F5x4", score(90.0, 40.0 + s as f64, 60.0)], ["NP5x4", score(88.0, 40.0, 60.0)]],
+                           ["F5x4", score(90.0, f_of(s), 60.0)], ["NP5x4", score(88.0, 40.0, 60.0)]],
                 "triplets": [{"strategy": "F5x4", "planned_angle_deg": 12.5}, {"strategy": "F5x4", "planned_angle_deg": null}],
             })
         })
@@ -207,7 +218,12 @@ fn compare_dirs_merges_batches_of_sites() {
     write_report_json(&d("sgm-a"), "sgm", &[3]);
     write_report_json(&d("sgm-b"), "sgm", &[1, 2]);
     write_report_json(&d("pm"), "patchmatch", &[2, 1, 3]);
-    let md = compare_dirs((&[d("sgm-a"), d("sgm-b")][..], &[d("pm")][..]), "F5x4", 0).unwrap();
+    let md = compare_dirs(
+        (&[vec![d("sgm-a"), d("sgm-b")]][..], &[vec![d("pm")]][..]),
+        "F5x4",
+        0,
+    )
+    .unwrap();
     let rows: Vec<&str> = md
         .lines()
         .filter(|l| l.starts_with("| ") && !l.starts_with("| site"))
@@ -222,39 +238,124 @@ fn compare_dirs_merges_batches_of_sites() {
     );
 
     write_report_json(&d("sgm-c"), "sgm", &[2]);
-    let e = compare_dirs((&[d("sgm-b"), d("sgm-c")][..], &[d("pm")][..]), "F5x4", 0).unwrap_err();
+    let e = compare_dirs(
+        (&[vec![d("sgm-b"), d("sgm-c")]][..], &[vec![d("pm")]][..]),
+        "F5x4",
+        0,
+    )
+    .unwrap_err();
     assert!(
         e.to_string().contains("held-out site 2 is in") && e.to_string().contains("sgm-c"),
         "{e}"
     );
-    let e = compare_dirs((&[d("pm")][..], &[d("pm")][..]), "F5x4", 0).unwrap_err();
+    let e = compare_dirs((&[vec![d("pm")]][..], &[vec![d("pm")]][..]), "F5x4", 0).unwrap_err();
     assert!(e.to_string().contains("not \"sgm\""), "{e}");
-    let e = compare_dirs((&[d("nothing")][..], &[d("pm")][..]), "F5x4", 0).unwrap_err();
+    let e = compare_dirs((&[vec![d("nothing")]][..], &[vec![d("pm")]][..]), "F5x4", 0).unwrap_err();
     assert!(e.to_string().contains("report.json"), "{e}");
-    let e = compare_dirs((&[d("sgm-b")][..], &[d("pm")][..]), "NP5x4", 0).unwrap_err();
+    let e = compare_dirs((&[vec![d("sgm-b")]][..], &[vec![d("pm")]][..]), "NP5x4", 0).unwrap_err();
     assert!(e.to_string().contains("not an F strategy"), "{e}");
 }
 
-/// The comparison names the forest each matcher flew; batches of one
-/// matcher that flew different forests (two training draws) are refused,
-/// naming both folders, since their sites would mix two forests' flights.
+/// The comparison names the forest each matcher flew. Batches of one
+/// draw that flew two forests are refused, naming both folders; so are
+/// two draws that flew one forest (it would count twice), and draws of
+/// other sites.
 #[test]
-fn compare_dirs_names_the_forests_and_refuses_batches_of_two() {
+fn compare_dirs_names_the_forests_and_checks_the_draws() {
     let t = tempfile::tempdir().unwrap();
     let d = |n: &str| t.path().join(n);
     write_report_json_with(&d("sgm-a"), "sgm", &[1], Some("00000000000000aa"));
     write_report_json_with(&d("sgm-b"), "sgm", &[2], Some("00000000000000aa"));
     write_report_json(&d("pm"), "patchmatch", &[1, 2]);
-    let md = compare_dirs((&[d("sgm-a"), d("sgm-b")][..], &[d("pm")][..]), "F5x4", 0).unwrap();
+    let pm = [vec![d("pm")]];
+    let md = compare_dirs((&[vec![d("sgm-a"), d("sgm-b")]][..], &pm[..]), "F5x4", 0).unwrap();
     assert!(
         md.contains("SGM 00000000000000aa, PatchMatch not recorded"),
         "{md}"
     );
     write_report_json_with(&d("sgm-c"), "sgm", &[2], Some("00000000000000bb"));
-    let e = compare_dirs((&[d("sgm-a"), d("sgm-c")][..], &[d("pm")][..]), "F5x4", 0).unwrap_err();
-    let e = e.to_string();
+    let e = compare_dirs((&[vec![d("sgm-a"), d("sgm-c")]][..], &pm[..]), "F5x4", 0);
+    let e = e.unwrap_err().to_string();
     assert!(
         e.contains("sgm-a") && e.contains("sgm-c") && e.contains("00000000000000bb"),
         "{e}"
+    );
+    let e = compare_dirs(
+        (&[vec![d("sgm-a")], vec![d("sgm-b")]][..], &pm[..]),
+        "F5x4",
+        0,
+    );
+    let e = e.unwrap_err().to_string();
+    assert!(e.contains("the same forest 00000000000000aa"), "{e}");
+    let e = compare_dirs(
+        (&[vec![d("sgm-a")], vec![d("sgm-c")]][..], &pm[..]),
+        "F5x4",
+        0,
+    );
+    let e = e.unwrap_err().to_string();
+    assert!(
+        e.contains("sgm-c") && e.contains("00000000000000bb") && e.contains("same held-out sites"),
+        "{e}"
+    );
+}
+
+/// Over forest draws, H4 reads each site's mean over a matcher's draws:
+/// two SGM draws each ahead on 5 of 8 sites, on different sites, are
+/// ahead on 8 of 8 together. And its interval resamples the draws: SGM
+/// draws at +3 and -2 points on every site give a mean of +0.5 on every
+/// site, which a bootstrap over sites alone would put at +0.5 .. +0.5;
+/// over draws too it spans the two draws, -2 .. +3, and H4 does not hold.
+#[test]
+fn h4_over_draws_reads_draw_means_and_resamples_the_draws() {
+    let t = tempfile::tempdir().unwrap();
+    let d = |n: &str| t.path().join(n);
+    let seeds: Vec<u64> = (1..=8).collect();
+    let pm = |name: &str, forest: &str| {
+        write_report_json_f(&d(name), ("patchmatch", Some(forest)), &seeds, |_| 40.0);
+    };
+    pm("pm-1", "00000000000000c1");
+    pm("pm-2", "00000000000000c2");
+    let sgm = |name: &str, forest: &str, f_of: fn(u64) -> f64| {
+        write_report_json_f(&d(name), ("sgm", Some(forest)), &seeds, f_of);
+    };
+    sgm("sgm-1", "00000000000000a1", |s| {
+        if s <= 5 {
+            44.0
+        } else {
+            39.0
+        }
+    });
+    sgm("sgm-2", "00000000000000a2", |s| {
+        if s >= 4 {
+            44.0
+        } else {
+            39.0
+        }
+    });
+    let pms = [vec![d("pm-1")], vec![d("pm-2")]];
+    let sgms = [vec![d("sgm-1")], vec![d("sgm-2")]];
+    let md = compare_dirs((&sgms[..], &pms[..]), "F5x4", 0).unwrap();
+    assert!(
+        md.contains("| SGM | 1 | 00000000000000a1 |") && md.contains("| 5 of 8 |"),
+        "{md}"
+    );
+    assert!(
+        md.contains("| 1 | +1.5 | +0.0 | +1.5 |"),
+        "site 1: (4 - 1) / 2: {md}"
+    );
+    assert!(
+        md.contains("**H4 over draws: holds.**") && md.contains("on 8 of 8 sites"),
+        "{md}"
+    );
+
+    sgm("sgm-up", "00000000000000b1", |_| 43.0);
+    sgm("sgm-down", "00000000000000b2", |_| 38.0);
+    let sgms = [vec![d("sgm-up")], vec![d("sgm-down")]];
+    let md = compare_dirs((&sgms[..], &pms[..]), "F5x4", 0).unwrap();
+    assert!(
+        md.contains("**H4 over draws: does not hold.**")
+            && md.contains("on 8 of 8 sites")
+            && md.contains("PatchMatch's +0.5 points (95 % bootstrap interval over sites and draws -2.0 .. +3.0"),
+        "{md}"
     );
 }
