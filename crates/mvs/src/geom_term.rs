@@ -3,6 +3,8 @@
 //! carried into a source and back through that source's photometric
 //! depth, lands from where it started.
 
+use nalgebra::RealField;
+
 use crate::maps::DepthNormalMap;
 use crate::view::Relative;
 
@@ -22,6 +24,8 @@ pub(crate) struct Photometric<'a> {
 /// A source's depth map from the photometric pass, for the geometric term.
 pub(crate) struct GeomSource<'a> {
     pub depth: &'a [f32],
+    /// Its normals (source camera frame), for [`surface_depth`].
+    pub normal: &'a [[f32; 3]],
     pub width: usize,
     pub height: usize,
     /// Rotation from the source back to the reference frame (R^T).
@@ -88,15 +92,23 @@ fn reprojection(
         return None;
     }
     let (qx, qy) = (u as usize, v as usize);
-    let ds = g.depth[qy * g.width + qx];
+    let at = qy * g.width + qx;
+    let ds = g.depth[at];
     if !(ds > 0.0) {
         return None;
     }
-    let q = [
-        (qx as f32 + 0.5 - ks[2]) / ks[0] * ds - t[0],
-        (qy as f32 + 0.5 - ks[3]) / ks[1] * ds - t[1],
-        ds - t[2],
+    // The source's surface point on the ray through (u, v) itself.
+    let centre = [
+        (qx as f32 + 0.5 - ks[2]) / ks[0],
+        (qy as f32 + 0.5 - ks[3]) / ks[1],
     ];
+    let exact = [(u - ks[2]) / ks[0], (v - ks[3]) / ks[1]];
+    let ([sx, sy], sd) = g
+        .normal
+        .get(at)
+        .and_then(|&n| surface_depth(n, ds, centre, exact))
+        .map_or((centre, ds), |dq| (exact, dq));
+    let q = [sx * sd - t[0], sy * sd - t[1], sd - t[2]];
     let b = &g.rot_back;
     let xr: [f32; 3] = std::array::from_fn(|i| b[i][0] * q[0] + b[i][1] * q[1] + b[i][2] * q[2]);
     if !(xr[2] > 0.0) {
@@ -105,4 +117,25 @@ fn reprojection(
     let du = k[0] * xr[0] / xr[2] + k[2] - (x as f32 + 0.5);
     let dv = k[1] * xr[1] / xr[2] + k[3] - (y as f32 + 0.5);
     Some(((du * du + dv * dv).sqrt(), xr[2]))
+}
+
+/// The depth, on the ray (x, y, 1) of camera coordinates `exact`, of the
+/// plane of a depth map's pixel: depth `d` on the ray through the pixel's
+/// centre `centre`, normal `n`. The forward-backward check reads a
+/// source's depth map at the pixel its point falls in; taking that
+/// pixel's centre instead of the point's own ray moves the point up to
+/// half a pixel sideways and, on a slanted surface, along the depth too,
+/// so that two depths that agree could read up to 0.7 px and more than
+/// the depth bound apart. `None` where the plane does not cross the ray
+/// in front of the camera (a zero normal: no plane). In f32 here, in f64
+/// in the geometric filter (`geometric::consistent_pixel`).
+pub(crate) fn surface_depth<T: RealField + Copy>(
+    n: [T; 3],
+    d: T,
+    centre: [T; 2],
+    exact: [T; 2],
+) -> Option<T> {
+    let num = d * (n[0] * centre[0] + n[1] * centre[1] + n[2]);
+    let dq = num / (n[0] * exact[0] + n[1] * exact[1] + n[2]);
+    (dq.is_finite() && dq > T::zero()).then_some(dq)
 }

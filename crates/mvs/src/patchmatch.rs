@@ -181,6 +181,7 @@ fn patch_match_raw_with(
             })?;
             g.push(GeomSource {
                 depth: &state.depth,
+                normal: &state.normal,
                 width: state.width as usize,
                 height: state.height as usize,
                 rot_back: std::array::from_fn(|i| std::array::from_fn(|j| r.rot[j][i])),

@@ -162,6 +162,7 @@ fn settling_agrees_with_the_geometric_filter() {
         let rel = Relative::new(&views[0].camera, &views[s].camera);
         let g = GeomSource {
             depth: &maps[s].depth,
+            normal: &maps[s].normal,
             width: maps[s].width as usize,
             height: maps[s].height as usize,
             rot_back: std::array::from_fn(|i| std::array::from_fn(|j| rel.rot[j][i])),
