@@ -261,13 +261,7 @@ impl DrawComparison {
         }
         s.push('\n');
         for v in &self.verdicts {
-            let _ = writeln!(
-                s,
-                "- **{}: {}.** {}",
-                v.name,
-                if v.holds { "holds" } else { "does not hold" },
-                v.figures
-            );
+            let _ = writeln!(s, "{}", v.markdown());
         }
         s
     }

@@ -509,15 +509,17 @@ impl Comparison {
             name(&self.forests.1)
         );
         for v in &self.verdicts {
-            let _ = writeln!(
-                s,
-                "- **{}: {}.** {}",
-                v.name,
-                if v.holds { "holds" } else { "does not hold" },
-                v.figures
-            );
+            let _ = writeln!(s, "{}", v.markdown());
         }
         s
+    }
+}
+
+impl Verdict {
+    /// One markdown list item: the name, holds or not, the figures.
+    pub fn markdown(&self) -> String {
+        let holds = if self.holds { "holds" } else { "does not hold" };
+        format!("- **{}: {holds}.** {}", self.name, self.figures)
     }
 }
 
