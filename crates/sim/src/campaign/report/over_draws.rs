@@ -100,12 +100,7 @@ fn rows(
         let mut angle = Vec::with_capacity(seeds.len());
         for s in &d.campaign.sites {
             gaps.push(figures(s, f_name)?.f - figures(s, np_name)?.f);
-            angle.push(
-                s.planned_angles
-                    .get(f_name)
-                    .filter(|v| !v.is_empty())
-                    .map_or(f64::NAN, |v| mean(v)),
-            );
+            angle.push(s.mean_planned_angle(f_name));
         }
         out.push(DrawRow {
             forest,

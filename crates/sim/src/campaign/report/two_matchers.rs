@@ -49,6 +49,17 @@ pub struct SiteFigures {
     pub planned_angles: BTreeMap<String, Vec<f64>>,
 }
 
+impl SiteFigures {
+    /// The mean planned angle (degrees) of `strategy`'s flown triplets;
+    /// NaN where it flew none with a planned angle: never "narrower".
+    pub fn mean_planned_angle(&self, strategy: &str) -> f64 {
+        self.planned_angles
+            .get(strategy)
+            .filter(|v| !v.is_empty())
+            .map_or(f64::NAN, |v| mean(v))
+    }
+}
+
 /// One campaign: its matcher (`mvs` of its config) and its sites.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct MatcherCampaign {
@@ -250,14 +261,7 @@ pub fn compare(
             Ok((figures(s, f_name)?.f, figures(s, np_name)?.f))
         };
         f.push([pair(a)?, pair(b)?]);
-        // NaN where F flew no triplet with a planned angle: never "narrower".
-        let mean_angle = |s: &SiteFigures| {
-            s.planned_angles
-                .get(f_name)
-                .filter(|v| !v.is_empty())
-                .map_or(f64::NAN, |v| mean(v))
-        };
-        angle.push((mean_angle(a), mean_angle(b)));
+        angle.push((a.mean_planned_angle(f_name), b.mean_planned_angle(f_name)));
     }
     let mut verdicts = Vec::new();
 
