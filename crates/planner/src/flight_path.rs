@@ -197,8 +197,14 @@ impl PathContext<'_> {
         None
     }
 
-    /// Orders `views` greedily from `start`, inserts bridging views, then
-    /// makes every segment safe.
+    /// Orders `views` greedily from where the mission begins, inserts
+    /// bridging views, then makes every segment safe.
+    ///
+    /// With a home the mission begins there: the vehicle landed after the
+    /// flight that took the acquired images and takes off again, so the
+    /// views are ordered from home and the way out to the first is a way
+    /// from home ([`crate::home_way`]). Without one, the mission begins at
+    /// `start`, the last acquired camera, the only position known.
     pub fn build(&self, start: &Camera, captured: &[Camera], views: Vec<PlannedView>) -> Path {
         self.build_from(start, None, captured, views)
     }
@@ -231,7 +237,9 @@ impl PathContext<'_> {
         // Per ordered view: could it not be bridged to o_min overlap?
         let mut unbridged: Vec<bool> = Vec::new();
         let mut unbridged_next = false;
-        let mut here = start.center();
+        // With a home, a new mission leaves from home, not from `start`.
+        let from_home = self.home.filter(|_| after.is_none());
+        let mut here = from_home.unwrap_or_else(|| start.center());
         while !remaining.is_empty() {
             let next = remaining
                 .iter()
@@ -271,8 +279,9 @@ impl PathContext<'_> {
             ordered.push(view);
             unbridged.push(std::mem::take(&mut unbridged_next));
         }
-        let (waypoints, unbridged, dropped) =
-            self.route_dropping((&start.center(), after), ordered, unbridged);
+        let vehicle = start.center();
+        let route_start = from_home.is_none().then_some((&vehicle, after));
+        let (waypoints, unbridged, dropped) = self.route_dropping(route_start, ordered, unbridged);
         let dropped_reasons = dropped
             .iter()
             .map(|d| self.describe(d, &waypoints))
@@ -332,8 +341,10 @@ impl PathContext<'_> {
         }
     }
 
-    /// Routes `views` safely from `start` (where the vehicle is), leaving
-    /// out what a blocked segment leads to, and what ends the path where
+    /// Routes `views` safely from `start` (where the vehicle is; `None`
+    /// when the mission leaves from home, whose way out is checked
+    /// instead), leaving out what a blocked segment leads to, and what
+    /// ends the path where
     /// no way from home reaches it ([`Self::reachable_from_home`]):
     /// its whole triplet (two images of it are of no use), or the one
     /// bridging view. Returns the routed waypoints, the routed indices of the
@@ -342,14 +353,14 @@ impl PathContext<'_> {
     /// every round removes a view.
     fn route_dropping(
         &self,
-        start: Start<'_>,
+        start: Option<Start<'_>>,
         mut views: Vec<PlannedView>,
         mut unbridged: Vec<bool>,
     ) -> (Vec<PlannedView>, Vec<usize>, Vec<Dropped>) {
         let mut dropped = Vec::new();
         loop {
             let routed = self
-                .route(Some(start), &views)
+                .route(start, &views)
                 .and_then(|r| self.reachable_from_home(start, &views, r));
             match routed {
                 Ok((safe, at)) => {
@@ -386,12 +397,12 @@ impl PathContext<'_> {
 
     /// `routed` (the route of `views` from `start`), or the end of it that
     /// no way from home reaches: its first waypoint when the path starts
-    /// the mission (at the vehicle's position, not after a path already
-    /// built), and its last. Any other waypoint may end a flight only
-    /// where a way is clear ([`crate::flights`] cuts there).
+    /// the mission (not after a path already built), and its last. Any
+    /// other waypoint may end a flight only where a way is clear
+    /// ([`crate::flights`] cuts there).
     fn reachable_from_home(
         &self,
-        start: Start<'_>,
+        start: Option<Start<'_>>,
         views: &[PlannedView],
         routed: (Vec<PlannedView>, Vec<usize>),
     ) -> std::result::Result<(Vec<PlannedView>, Vec<usize>), Box<Blocked>> {
@@ -402,7 +413,8 @@ impl PathContext<'_> {
         let ways = HomeWays::new(self.safety, home);
         // A detour before the first view belongs to the segment to it:
         // the first view goes with it.
-        let first = start.1.is_none().then_some((0, first));
+        let starts_mission = start.is_none_or(|(_, after)| after.is_none());
+        let first = starts_mission.then_some((0, first));
         for (to, w) in first.into_iter().chain([(views.len() - 1, last)]) {
             if let Some(problem) = ways.blocked(&Point3::from(w.position)) {
                 return Err(Box::new(Blocked {

@@ -248,7 +248,8 @@ fn with_free_space(safety: Safety, inputs: &PlanInputs, caster: &RayCaster) -> R
     Ok(safety.with_free_space(fs))
 }
 
-/// Validates the inputs; returns the last acquired view (where the path starts).
+/// Validates the inputs; returns the last acquired view (where the path
+/// starts without a home).
 fn checked_start<'a>(inputs: &PlanInputs<'a>) -> Result<&'a AcquiredView> {
     inputs.config.validate()?;
     if inputs.mesh.n_faces() == 0 {

@@ -144,7 +144,7 @@ pub(crate) struct Flown {
 pub(crate) struct Rounds<'a> {
     /// The path builder.
     pub(crate) ctx: &'a PathContext<'a>,
-    /// Where the path starts (the last acquired camera).
+    /// The last acquired camera: where the path starts without a home.
     pub(crate) start: &'a Camera,
     /// The acquired cameras (overlap for bridging).
     pub(crate) captured: &'a [Camera],

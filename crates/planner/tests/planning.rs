@@ -206,8 +206,9 @@ fn early_stop_gap_against_exhaustive_search() {
     );
 }
 
-/// A home in a walled pit that no way out of clears under the ceiling:
-/// every triplet chosen is dropped for its way from home, and the plan is
+/// A home in a walled pit too narrow to fly in, that no way out of clears
+/// under the ceiling: every triplet chosen is dropped for its way from
+/// home, and the plan is
 /// refused, naming home, the first blocked way and what to change (it was
 /// returned empty, after four rounds of replacements). Without the pit the
 /// same home flies a plan.
@@ -235,9 +236,11 @@ fn a_home_no_way_leaves_refuses_the_plan_naming_home() {
     };
     let open = plan(&s.mesh).expect("a plan from the open home");
     assert!(!open.plan.waypoints.is_empty());
-    // Four walls 6 m from home, far above the ceiling.
+    // Four walls 4 m from home, far above the ceiling: no point inside
+    // keeps the safety distance, so no view can be flown in the pit either.
     let mut pit = s.mesh.clone();
-    let (r, t, top) = (6.0, 1.0, ceiling + 50.0);
+    let (r, t, top) = (4.0, 1.0, ceiling + 50.0);
+    assert!(cfg.safety_distance_m > r);
     for (dx0, dy0, dx1, dy1) in [
         (-r - t, -r - t, r + t, -r),
         (-r - t, r, r + t, r + t),
@@ -259,4 +262,58 @@ fn a_home_no_way_leaves_refuses_the_plan_naming_home() {
             && m.contains("`--home`"),
         "{m}"
     );
+}
+
+/// With a home, the mission leaves from home, not from the last acquired
+/// image: the vehicle landed after the first flight. A box that the new
+/// mesh puts 1.5 m beside the last acquired camera (inside the safety
+/// distance, so that no leg out of that camera is clear) drops nothing,
+/// the ways from home are clear, and the first waypoint is the one nearest
+/// home. Routed from the last acquired image, every triplet was dropped
+/// and the plan refused.
+#[test]
+fn with_a_home_the_mission_leaves_from_home_not_from_the_last_image() {
+    use nalgebra::Point3;
+    use vp_scene::procedural::shapes;
+    let s = site(5, 20_000);
+    let cfg = test_config(&s);
+    let v = s.flight_volume;
+    let ceiling = cfg.altitude_limits.map_or(v.max.z, |a| a.max_m);
+    let half = 0.15 * (v.max.x - v.min.x).min(v.max.y - v.min.y);
+    let home = common::open_home(&s.mesh, 5, half, ceiling).expect("an open spot on the ground");
+    let acquired = initial_views(&s);
+    let c = acquired.last().unwrap().camera.center();
+    assert!(cfg.safety_distance_m > 1.5);
+    let mut mesh = s.mesh.clone();
+    mesh.append(&shapes::box_mesh(
+        Point3::new(c.x + 1.5, c.y - 0.5, c.z - 0.5),
+        Point3::new(c.x + 2.5, c.y + 0.5, c.z + 0.5),
+    ));
+    let result = vp_planner::plan(&PlanInputs {
+        mesh: &mesh,
+        acquired: &acquired,
+        roi: RoiSpec::Region(Roi::from_aabb(&s.rock_bounds)),
+        config: &cfg,
+        origin: Some(s.origin),
+        observations: None,
+        home: Some(home),
+    })
+    .unwrap_or_else(|e| panic!("{e}"));
+    let plan = &result.plan;
+    assert!(
+        plan.dropped_triplets.is_empty(),
+        "{:?}",
+        plan.dropped_triplets
+    );
+    assert!(!plan.waypoints.is_empty());
+    common::assert_safe(plan, &mesh, &cfg, None);
+    common::assert_home_ways(plan, &mesh, &cfg, &home);
+    let from_home = |w: &vp_scene::plan::PlannedView| (Point3::from(w.position) - home).norm();
+    let first = from_home(&plan.waypoints[0]);
+    for (i, w) in plan.waypoints.iter().enumerate() {
+        assert!(
+            first <= from_home(w),
+            "waypoint {i} is nearer home than the first"
+        );
+    }
 }
