@@ -206,35 +206,61 @@ fn early_stop_gap_against_exhaustive_search() {
     );
 }
 
+/// The rock fixture flown from an open spot on its ground: the two tests
+/// of where a mission leaves from.
+struct HomeCase {
+    site: vp_scene::procedural::Site,
+    cfg: PlannerConfig,
+    home: nalgebra::Point3<f64>,
+    ceiling: f64,
+    acquired: Vec<vp_planner::AcquiredView>,
+}
+
+impl HomeCase {
+    fn new() -> Self {
+        let site = site(5, 20_000);
+        let cfg = test_config(&site);
+        let v = site.flight_volume;
+        let ceiling = cfg.altitude_limits.map_or(v.max.z, |a| a.max_m);
+        let half = 0.15 * (v.max.x - v.min.x).min(v.max.y - v.min.y);
+        let home = common::open_home(&site.mesh, 5, half, ceiling).expect("an open spot");
+        let acquired = initial_views(&site);
+        HomeCase {
+            site,
+            cfg,
+            home,
+            ceiling,
+            acquired,
+        }
+    }
+
+    /// The plan on `mesh` (the site's, or one with something added) from home.
+    fn plan(&self, mesh: &vp_scene::Mesh) -> vp_planner::Result<vp_planner::PlanResult> {
+        vp_planner::plan(&PlanInputs {
+            mesh,
+            acquired: &self.acquired,
+            roi: RoiSpec::Region(Roi::from_aabb(&self.site.rock_bounds)),
+            config: &self.cfg,
+            origin: Some(self.site.origin),
+            observations: None,
+            home: Some(self.home),
+        })
+    }
+}
+
 /// A home in a walled pit too narrow to fly in, that no way out of clears
 /// under the ceiling: every triplet chosen is dropped for its way from
-/// home, and the plan is
-/// refused, naming home, the first blocked way and what to change (it was
+/// home, and the plan is refused, naming home, the first blocked way and
+/// what to change (it was
 /// returned empty, after four rounds of replacements). Without the pit the
 /// same home flies a plan.
 #[test]
 fn a_home_no_way_leaves_refuses_the_plan_naming_home() {
     use nalgebra::Point3;
     use vp_scene::procedural::shapes;
-    let s = site(5, 20_000);
-    let cfg = test_config(&s);
-    let v = s.flight_volume;
-    let ceiling = cfg.altitude_limits.map_or(v.max.z, |a| a.max_m);
-    let half = 0.15 * (v.max.x - v.min.x).min(v.max.y - v.min.y);
-    let home = common::open_home(&s.mesh, 5, half, ceiling).expect("an open spot on the ground");
-    let acquired = initial_views(&s);
-    let plan = |mesh: &vp_scene::Mesh| {
-        vp_planner::plan(&PlanInputs {
-            mesh,
-            acquired: &acquired,
-            roi: RoiSpec::Region(Roi::from_aabb(&s.rock_bounds)),
-            config: &cfg,
-            origin: Some(s.origin),
-            observations: None,
-            home: Some(home),
-        })
-    };
-    let open = plan(&s.mesh).expect("a plan from the open home");
+    let case = HomeCase::new();
+    let (s, cfg, home, ceiling) = (&case.site, &case.cfg, case.home, case.ceiling);
+    let open = case.plan(&s.mesh).expect("a plan from the open home");
     assert!(!open.plan.waypoints.is_empty());
     // Four walls 4 m from home, far above the ceiling: no point inside
     // keeps the safety distance, so no view can be flown in the pit either.
@@ -252,7 +278,7 @@ fn a_home_no_way_leaves_refuses_the_plan_naming_home() {
             Point3::new(home.x + dx1, home.y + dy1, top),
         ));
     }
-    let e = plan(&pit).unwrap_err();
+    let e = case.plan(&pit).unwrap_err();
     let m = e.to_string();
     let at = format!("from home at ({:.2}, {:.2}, {:.2})", home.x, home.y, home.z);
     assert!(
@@ -275,30 +301,16 @@ fn a_home_no_way_leaves_refuses_the_plan_naming_home() {
 fn with_a_home_the_mission_leaves_from_home_not_from_the_last_image() {
     use nalgebra::Point3;
     use vp_scene::procedural::shapes;
-    let s = site(5, 20_000);
-    let cfg = test_config(&s);
-    let v = s.flight_volume;
-    let ceiling = cfg.altitude_limits.map_or(v.max.z, |a| a.max_m);
-    let half = 0.15 * (v.max.x - v.min.x).min(v.max.y - v.min.y);
-    let home = common::open_home(&s.mesh, 5, half, ceiling).expect("an open spot on the ground");
-    let acquired = initial_views(&s);
-    let c = acquired.last().unwrap().camera.center();
+    let case = HomeCase::new();
+    let (cfg, home) = (&case.cfg, case.home);
+    let c = case.acquired.last().unwrap().camera.center();
     assert!(cfg.safety_distance_m > 1.5);
-    let mut mesh = s.mesh.clone();
+    let mut mesh = case.site.mesh.clone();
     mesh.append(&shapes::box_mesh(
         Point3::new(c.x + 1.5, c.y - 0.5, c.z - 0.5),
         Point3::new(c.x + 2.5, c.y + 0.5, c.z + 0.5),
     ));
-    let result = vp_planner::plan(&PlanInputs {
-        mesh: &mesh,
-        acquired: &acquired,
-        roi: RoiSpec::Region(Roi::from_aabb(&s.rock_bounds)),
-        config: &cfg,
-        origin: Some(s.origin),
-        observations: None,
-        home: Some(home),
-    })
-    .unwrap_or_else(|e| panic!("{e}"));
+    let result = case.plan(&mesh).unwrap_or_else(|e| panic!("{e}"));
     let plan = &result.plan;
     assert!(
         plan.dropped_triplets.is_empty(),
@@ -306,8 +318,8 @@ fn with_a_home_the_mission_leaves_from_home_not_from_the_last_image() {
         plan.dropped_triplets
     );
     assert!(!plan.waypoints.is_empty());
-    common::assert_safe(plan, &mesh, &cfg, None);
-    common::assert_home_ways(plan, &mesh, &cfg, &home);
+    common::assert_safe(plan, &mesh, cfg, None);
+    common::assert_home_ways(plan, &mesh, cfg, &home);
     let from_home = |w: &vp_scene::plan::PlannedView| (Point3::from(w.position) - home).norm();
     let first = from_home(&plan.waypoints[0]);
     for (i, w) in plan.waypoints.iter().enumerate() {
