@@ -344,10 +344,9 @@ impl PathContext<'_> {
     /// Routes `views` safely from `start` (where the vehicle is; `None`
     /// when the mission leaves from home, whose way out is checked
     /// instead), leaving out what a blocked segment leads to, and what
-    /// ends the path where
-    /// no way from home reaches it ([`Self::reachable_from_home`]):
-    /// its whole triplet (two images of it are of no use), or the one
-    /// bridging view. Returns the routed waypoints, the routed indices of the
+    /// ends the path where no way from home reaches it
+    /// ([`Self::reachable_from_home`]): its whole triplet (two images of
+    /// it are of no use), or the one bridging view. Returns the routed waypoints, the routed indices of the
     /// views flagged in `unbridged`, and the dropped triplets with the
     /// reason each was dropped. Terminates:
     /// every round removes a view.
