@@ -273,9 +273,9 @@ fn a_triplet_behind_an_unclimbable_wall_is_dropped_not_the_plan() {
 
 /// The path's first triplet (the nearest home, where the mission begins)
 /// stands behind a wall from home that no climb under the ceiling clears:
-/// the mission could not fly out to it. It is
-/// dropped like a triplet behind a wall on the path (the plan was
-/// refused), and the flight from home to the rest keeps every rule.
+/// the mission could not fly out to it. It is dropped like a triplet
+/// behind a wall on the path (the plan was refused), and the flight from
+/// home to the rest keeps every rule.
 #[test]
 fn a_first_triplet_unreachable_from_home_is_dropped_not_the_plan() {
     let (_, cfg) = wall_under_low_ceiling();
