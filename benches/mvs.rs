@@ -10,6 +10,11 @@
 //! fast tier once (set VPCTL_BENCH_FULL=1 to include the paper tiers); a
 //! plain `cargo bench --bench mvs` runs all.
 //!
+//! `VPCTL_BENCH_MVS_CONFIG=<file.toml>` times the paper tiers with the
+//! parameters of that file (what `vpctl mvs run --config`
+//! reads, e.g. `fine_iterations = 1`) instead of the defaults, so that
+//! a schedule can be timed in turn with the default on one binary.
+//!
 //! Lives in the workspace's benches (not `crates/mvs/benches`) because the
 //! textured images come from vp-sim's renderer, which vp-mvs must not
 //! depend on.
@@ -178,7 +183,7 @@ fn mvs(c: &mut Criterion) {
     tier(c, &site, &caster, "fast_256", 256, &fast);
     let test_mode = std::env::args().any(|a| a == "--test");
     if !test_mode || std::env::var_os("VPCTL_BENCH_FULL").is_some() {
-        let params = MvsParams::default();
+        let params = paper_params();
         let multi = tier(c, &site, &caster, "paper_1024", 1024, &params);
         let single = MvsParams {
             coarse_levels: 0,
@@ -190,6 +195,25 @@ fn mvs(c: &mut Criterion) {
             one / multi
         );
     }
+}
+
+/// The paper tiers' parameters: the defaults, or those of the file named
+/// by `VPCTL_BENCH_MVS_CONFIG` (see the module docs).
+fn paper_params() -> MvsParams {
+    let Some(path) = std::env::var_os("VPCTL_BENCH_MVS_CONFIG") else {
+        return MvsParams::default();
+    };
+    let path = std::path::Path::new(&path);
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| {
+        panic!(
+            "VPCTL_BENCH_MVS_CONFIG: cannot read {}: {e}",
+            path.display()
+        )
+    });
+    let params =
+        MvsParams::from_toml(&text, path).unwrap_or_else(|e| panic!("VPCTL_BENCH_MVS_CONFIG: {e}"));
+    eprintln!("mvs: paper tiers with the parameters of {}", path.display());
+    params
 }
 
 criterion_group!(benches, mvs);
