@@ -10,11 +10,17 @@ use vp_scene::clearance::Clearance;
 use vp_scene::procedural::{generate_site, Site};
 use vp_scene::raster::ConfidenceImage;
 use vp_scene::raycast::RayCaster;
-use vp_scene::{Aabb, Camera, Intrinsics, Mesh};
+use vp_scene::{Aabb, Camera, Intrinsics, Material, Mesh};
 
 use crate::config::CampaignConfig;
 use crate::error::Result;
 use crate::sfm::{FeatureMask, SparseCandidates};
+
+/// [`World::home`]'s `source` for an open spot and for the fallback.
+const OPEN_SPOT: &str =
+    "the simulated take-off point, on open ground at the edge of the region of interest";
+const BELOW_ORIGIN: &str = "the simulated take-off point, on the ground below the site's origin \
+     (no open ground at the edge of the region of interest)";
 
 /// A held-out site with its ray caster and region of interest.
 pub struct World {
@@ -68,24 +74,60 @@ impl World {
         }
     }
 
-    /// Where the simulated vehicle takes off: the ground straight below the
-    /// site's origin (the generator puts the origin on the terrain, so this
-    /// is the origin up to the terrain's height there).
+    /// Where the simulated vehicle takes off: the first of the spots
+    /// [`World::takeoff_spot`] tries that an operator could stand on, or,
+    /// on a site with none, the ground straight below the site's origin.
     pub fn home(&self) -> vp_scene::plan::Home {
-        let ground_z = self
-            .caster
-            .closest_hit(
-                &Point3::new(0.0, 0.0, self.site.mesh.bounds().max.z + 1.0),
-                &-nalgebra::Vector3::z(),
-                f64::INFINITY,
-            )
-            .map_or(0.0, |h| h.point.z);
+        let (enu, source) = self.takeoff_spot().map_or_else(
+            || {
+                let below = self.ground_below(0.0, 0.0);
+                (below.map_or(Point3::origin(), |(p, _)| p), BELOW_ORIGIN)
+            },
+            |spot| (spot, OPEN_SPOT),
+        );
         let frame = vp_scene::geodesy::LocalFrame::new(self.site.origin);
-        let position = frame.map_or(self.site.origin, |f| f.to_geodetic([0.0, 0.0, ground_z]));
+        let position = frame.map_or(self.site.origin, |f| f.to_geodetic([enu.x, enu.y, enu.z]));
         vp_scene::plan::Home {
             position,
-            source: "the simulated take-off point, on the ground below the site's origin".into(),
+            source: source.into(),
         }
+    }
+
+    /// An open take-off spot, as an operator chooses one: on bare ground or
+    /// grass (not on the rock, under a tree or on a marker's post), with
+    /// nothing overhanging it (the planner's take-off column, from
+    /// `COLUMN_CHECK_FROM_M` up to above the site, keeps twice
+    /// `TAKEOFF_CLEARANCE_M` from the mesh, as `vpctl plan` checks it with
+    /// half that), close to the rock: on the region of interest's edge (the rock's footprint grown by `roi_margin_m`), the
+    /// middle of each side, then each corner, south side first. The ground
+    /// straight below the origin, the spot before, lay on the rock's top
+    /// on most sites (the rock stands at the origin).
+    pub fn takeoff_spot(&self) -> Option<Point3<f64>> {
+        use vp_planner::home_way::{COLUMN_CHECK_FROM_M, TAKEOFF_CLEARANCE_M};
+        let (lo, hi) = (self.roi.min, self.roi.max);
+        let mid = nalgebra::center(&lo, &hi);
+        let sides = [(mid.x, lo.y), (hi.x, mid.y), (mid.x, hi.y), (lo.x, mid.y)];
+        let corners = [(lo.x, lo.y), (hi.x, lo.y), (hi.x, hi.y), (lo.x, hi.y)];
+        let top = self.site.mesh.bounds().max.z + 1.0;
+        sides.into_iter().chain(corners).find_map(|(x, y)| {
+            let (ground, material) = self.ground_below(x, y)?;
+            let open = matches!(material, Some(Material::Ground | Material::Grass));
+            let base = ground + nalgebra::Vector3::z() * COLUMN_CHECK_FROM_M;
+            let column = Point3::new(x, y, top.max(base.z));
+            let clear =
+                self.clearance.segment_distance(&base, &column) >= 2.0 * TAKEOFF_CLEARANCE_M;
+            (open && clear).then_some(ground)
+        })
+    }
+
+    /// The first surface straight below (x, y) and its material.
+    fn ground_below(&self, x: f64, y: f64) -> Option<(Point3<f64>, Option<Material>)> {
+        let hit = self.caster.closest_hit(
+            &Point3::new(x, y, self.site.mesh.bounds().max.z + 1.0),
+            &-nalgebra::Vector3::z(),
+            f64::INFINITY,
+        )?;
+        Some((hit.point, self.site.mesh.material(hit.face as usize)))
     }
 
     /// Lowest ground point of the site (flight heights refer to it).
