@@ -59,23 +59,29 @@ pub fn fuse(
     params: &MvsParams,
 ) -> Vec<FusedPoint> {
     let mut fusion = Fusion::new(maps);
+    let mut points = Vec::new();
     for r in 0..maps.len() {
-        fusion.view(views, maps, sources, params, r);
+        fusion.view(views, maps, sources, params, r, &mut |p| points.push(p));
     }
-    fusion.points
+    points
 }
 
-/// [`fuse`], handing each map to `done` (view index, map) as soon as no
-/// later view reads it, as its reference or as a source: the maps let go
-/// while the cloud grows, so that the two are not held whole together
-/// (the memory peak of a workspace run). The same points as [`fuse`].
+/// [`fuse`], handing each point to `emit` as it is made, in [`fuse`]'s
+/// order, and each map to `done` (view index, map) as soon as no later
+/// view reads it, as its reference or as a source: the maps let go while
+/// the cloud grows, and the cloud is whatever `emit` keeps of it (a
+/// workspace run keeps the 27 bytes a point of `fused.ply`,
+/// [`FusedPly`], not the 100-odd of a [`FusedPoint`] with its views), so
+/// that the two are not held whole together (the memory peak of a
+/// workspace run). The same points as [`fuse`].
 pub fn fuse_releasing(
     views: &[View],
     mut maps: Vec<Option<DepthNormalMap>>,
     sources: &[Vec<usize>],
     params: &MvsParams,
     done: &mut dyn FnMut(usize, DepthNormalMap) -> Result<()>,
-) -> Result<Vec<FusedPoint>> {
+    emit: &mut dyn FnMut(FusedPoint),
+) -> Result<()> {
     // The last view (in fusion's order) that reads each map.
     let mut last: Vec<usize> = (0..maps.len()).collect();
     for (r, src) in sources.iter().enumerate() {
@@ -87,7 +93,7 @@ pub fn fuse_releasing(
     }
     let mut fusion = Fusion::new(&maps);
     for r in 0..maps.len() {
-        fusion.view(views, &maps, sources, params, r);
+        fusion.view(views, &maps, sources, params, r, emit);
         for (m, _) in last.iter().enumerate().filter(|&(_, &l)| l == r) {
             fusion.used[m] = Vec::new();
             if let Some(map) = maps[m].take() {
@@ -95,13 +101,12 @@ pub fn fuse_releasing(
             }
         }
     }
-    Ok(fusion.points)
+    Ok(())
 }
 
-/// Fusion's state: which pixels of each map are used, and the points.
+/// Fusion's state: which pixels of each map are used.
 struct Fusion {
     used: Vec<Vec<bool>>,
-    points: Vec<FusedPoint>,
 }
 
 impl Fusion {
@@ -113,13 +118,11 @@ impl Fusion {
                     .map_or_else(Vec::new, |m| vec![false; m.depth.len()])
             })
             .collect();
-        Fusion {
-            used,
-            points: Vec::new(),
-        }
+        Fusion { used }
     }
 
-    /// The points that start at view `r`'s pixels (see [`fuse`]).
+    /// The points that start at view `r`'s pixels (see [`fuse`]), each
+    /// handed to `emit`.
     fn view(
         &mut self,
         views: &[View],
@@ -127,6 +130,7 @@ impl Fusion {
         sources: &[Vec<usize>],
         params: &MvsParams,
         r: usize,
+        emit: &mut dyn FnMut(FusedPoint),
     ) {
         let Some(map) = &maps[r] else { return };
         let view = &views[r];
@@ -180,7 +184,7 @@ impl Fusion {
                 if members.len() < params.min_fused_pixels {
                     continue;
                 }
-                self.points.push(fused_point(views, maps, &members));
+                emit(fused_point(views, maps, &members));
                 for &(v, j) in &members {
                     self.used[v][j] = true;
                 }
@@ -222,35 +226,59 @@ fn fused_point(
     }
 }
 
-/// Writes `points` as a binary little-endian PLY (x y z nx ny nz as float,
-/// red green blue as uchar: the layout of COLMAP's `fused.ply`),
-/// atomically.
-pub fn write_fused_ply(path: &Path, points: &[FusedPoint]) -> Result<()> {
-    vp_scene::fsio::write_atomic(path, |w| {
-        write!(
-            w,
-            "ply\nformat binary_little_endian 1.0\ncomment written by vp-mvs\nelement vertex {}\n\
-             property float x\nproperty float y\nproperty float z\n\
-             property float nx\nproperty float ny\nproperty float nz\n\
-             property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n",
-            points.len()
-        )?;
-        for p in points {
-            for v in [
-                p.position.x,
-                p.position.y,
-                p.position.z,
-                p.normal.x,
-                p.normal.y,
-                p.normal.z,
-            ] {
-                w.write_all(&(v as f32).to_le_bytes())?;
-            }
-            w.write_all(&p.color)?;
+/// The records of a `fused.ply` (see [`FusedPly::write`]), 27 bytes a
+/// point: the cloud of a workspace run held as the file will hold it.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct FusedPly {
+    records: Vec<u8>,
+}
+
+impl FusedPly {
+    /// Bytes of one point: x y z nx ny nz as float, red green blue.
+    const RECORD: usize = 6 * 4 + 3;
+
+    /// Appends `p`'s record.
+    pub fn push(&mut self, p: &FusedPoint) {
+        for v in [
+            p.position.x,
+            p.position.y,
+            p.position.z,
+            p.normal.x,
+            p.normal.y,
+            p.normal.z,
+        ] {
+            self.records.extend_from_slice(&(v as f32).to_le_bytes());
         }
+        self.records.extend_from_slice(&p.color);
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.records.len() / Self::RECORD
+    }
+
+    /// Whether there is no point.
+    pub fn is_empty(&self) -> bool {
+        self.records.is_empty()
+    }
+
+    /// Writes the points as a binary little-endian PLY (x y z nx ny nz as
+    /// float, red green blue as uchar: the layout of COLMAP's
+    /// `fused.ply`), atomically.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        vp_scene::fsio::write_atomic(path, |w| {
+            write!(
+                w,
+                "ply\nformat binary_little_endian 1.0\ncomment written by vp-mvs\nelement vertex {}\n\
+                 property float x\nproperty float y\nproperty float z\n\
+                 property float nx\nproperty float ny\nproperty float nz\n\
+                 property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n",
+                self.len()
+            )?;
+            w.write_all(&self.records)
+        })?;
         Ok(())
-    })?;
-    Ok(())
+    }
 }
 
 #[cfg(test)]

@@ -52,7 +52,7 @@ mod warp;
 pub mod workspace;
 
 pub use error::{MvsError, Result};
-pub use fusion::{fuse, fuse_releasing, write_fused_ply, FusedPoint};
+pub use fusion::{fuse, fuse_releasing, FusedPly, FusedPoint};
 pub use geometric::{apply_keep, geometric_filter, geometric_keep};
 pub use job::{
     reconstruct_image_sets, reconstruct_workspace, ImageSet, ImageSetsRequest, SetShares,

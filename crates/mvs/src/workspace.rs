@@ -430,12 +430,20 @@ pub fn run_workspace(
     // Each geometric map is written and let go once fusion is done with
     // it.
     let mut shares: Vec<(usize, f64)> = Vec::new();
-    let fused = crate::fuse_releasing(&views, geometric, &sources, params, &mut |r, g| {
-        write_maps(root, &views[r].name, "geometric", &g)?;
-        let valid = g.depth.iter().filter(|&&d| d > 0.0).count();
-        shares.push((r, valid as f64 / g.depth.len() as f64));
-        Ok(())
-    })?;
+    let mut fused = crate::FusedPly::default();
+    crate::fuse_releasing(
+        &views,
+        geometric,
+        &sources,
+        params,
+        &mut |r, g| {
+            write_maps(root, &views[r].name, "geometric", &g)?;
+            let valid = g.depth.iter().filter(|&&d| d > 0.0).count();
+            shares.push((r, valid as f64 / g.depth.len() as f64));
+            Ok(())
+        },
+        &mut |p| fused.push(&p),
+    )?;
     shares.sort_by_key(|&(r, _)| r);
     let summary = RunSummary {
         reconstructed: shares.iter().map(|&(r, _)| views[r].name.clone()).collect(),
@@ -443,7 +451,7 @@ pub fn run_workspace(
         fused_points: fused.len(),
         fused_path: root.join("fused.ply"),
     };
-    crate::fusion::write_fused_ply(&summary.fused_path, &fused)?;
+    fused.write(&summary.fused_path)?;
     Ok(summary)
 }
 
