@@ -70,10 +70,9 @@ pub fn fuse(
 /// order, and each map to `done` (view index, map) as soon as no later
 /// view reads it, as its reference or as a source: the maps let go while
 /// the cloud grows, and the cloud is whatever `emit` keeps of it (a
-/// workspace run keeps the 27 bytes a point of `fused.ply`,
-/// [`FusedPly`], not the 100-odd of a [`FusedPoint`] with its views), so
-/// that the two are not held whole together (the memory peak of a
-/// workspace run). The same points as [`fuse`].
+/// workspace run keeps the 27 bytes a point of `fused.ply`, [`FusedPly`],
+/// not the 130-180 of a [`FusedPoint`] with its views), so that fusion's
+/// memory stays below the matching's. The same points as [`fuse`].
 pub fn fuse_releasing(
     views: &[View],
     mut maps: Vec<Option<DepthNormalMap>>,

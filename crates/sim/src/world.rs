@@ -80,7 +80,7 @@ impl World {
     pub fn home(&self) -> vp_scene::plan::Home {
         let (enu, source) = self.takeoff_spot().map_or_else(
             || {
-                let below = self.ground_below(0.0, 0.0);
+                let below = self.ground_below(0.0, 0.0, self.above_site());
                 (below.map_or(Point3::origin(), |(p, _)| p), BELOW_ORIGIN)
             },
             |spot| (spot, OPEN_SPOT),
@@ -98,19 +98,20 @@ impl World {
     /// nothing overhanging it (the planner's take-off column, from
     /// `COLUMN_CHECK_FROM_M` up to above the site, keeps twice
     /// `TAKEOFF_CLEARANCE_M` from the mesh, as `vpctl plan` checks it with
-    /// half that), close to the rock: on the region of interest's edge (the rock's footprint grown by `roi_margin_m`), the
-    /// middle of each side, then each corner, south side first. The ground
-    /// straight below the origin, the spot before, lay on the rock's top
-    /// on most sites (the rock stands at the origin).
+    /// half that), close to the rock: on the region of interest's edge
+    /// (the rock's footprint grown by `roi_margin_m`), the middle of each
+    /// side, then each corner, south side first. The ground straight below
+    /// the origin, the spot before, lay on the rock's top on most sites
+    /// (the rock stands at the origin).
     pub fn takeoff_spot(&self) -> Option<Point3<f64>> {
         use vp_planner::home_way::{COLUMN_CHECK_FROM_M, TAKEOFF_CLEARANCE_M};
         let (lo, hi) = (self.roi.min, self.roi.max);
         let mid = nalgebra::center(&lo, &hi);
         let sides = [(mid.x, lo.y), (hi.x, mid.y), (mid.x, hi.y), (lo.x, mid.y)];
         let corners = [(lo.x, lo.y), (hi.x, lo.y), (hi.x, hi.y), (lo.x, hi.y)];
-        let top = self.site.mesh.bounds().max.z + 1.0;
+        let top = self.above_site();
         sides.into_iter().chain(corners).find_map(|(x, y)| {
-            let (ground, material) = self.ground_below(x, y)?;
+            let (ground, material) = self.ground_below(x, y, top)?;
             let open = matches!(material, Some(Material::Ground | Material::Grass));
             let base = ground + nalgebra::Vector3::z() * COLUMN_CHECK_FROM_M;
             let column = Point3::new(x, y, top.max(base.z));
@@ -120,10 +121,17 @@ impl World {
         })
     }
 
-    /// The first surface straight below (x, y) and its material.
-    fn ground_below(&self, x: f64, y: f64) -> Option<(Point3<f64>, Option<Material>)> {
+    /// A height above every face of the site (the mesh's bounds are a
+    /// pass over its vertices: taken once per query, not per ray).
+    fn above_site(&self) -> f64 {
+        self.site.mesh.bounds().max.z + 1.0
+    }
+
+    /// The first surface straight below (x, y), looking down from height
+    /// `from` (above the site), and its material.
+    fn ground_below(&self, x: f64, y: f64, from: f64) -> Option<(Point3<f64>, Option<Material>)> {
         let hit = self.caster.closest_hit(
-            &Point3::new(x, y, self.site.mesh.bounds().max.z + 1.0),
+            &Point3::new(x, y, from),
             &-nalgebra::Vector3::z(),
             f64::INFINITY,
         )?;
